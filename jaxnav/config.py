@@ -1,0 +1,348 @@
+"""Training configuration: typed dataclasses with the paper's defaults.
+
+A config is data. It is filled once, at the edge, from a YAML file and dotted
+``key=value`` overrides (``dqn.gamma=0.99``), and validated field by field: an
+unknown key or a value of the wrong type is a :class:`ConfigError` whose one-line
+message names the field. Nothing deeper in jaxnav reads files.
+
+``preset`` (``paper`` or ``robotis``) sets the defaults of every other field; the
+YAML file and then the overrides are applied on top of it.
+
+Replay capacity: ``dqn.buffer_size`` (10^6 as in the paper) is capped at the largest
+number of transitions the run can produce (``episodes * env.max_steps`` or
+``total_steps``), since a bigger buffer never fills; the cap changes no result.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import types
+import typing
+from dataclasses import dataclass, field
+from typing import Any
+
+import yaml
+
+STRATEGIES = ("ebe", "epsilon_greedy")
+
+
+class ConfigError(ValueError):
+    """A config problem; the message is one line and names the field."""
+
+
+@dataclass(frozen=True)
+class EnvConfig:
+    maze: str = "square4"  # built-in maze name or a maze YAML file
+    n_beams: int = 24
+    max_steps: int = 500  # an episode is truncated after this many steps
+    lidar_noise_std: float = 0.0  # m; 0.01 reproduces Gazebo's range noise
+    # Reward constants; null takes them from the preset (spec.md).
+    R_plus: float | None = None
+    R_minus: float | None = None
+    reward_span: float | None = None
+    reward_distance_exp: bool | None = None
+    obstacle_obs: bool | None = None  # null: on for mazes with obstacles
+
+
+@dataclass(frozen=True)
+class DQNConfig:
+    gamma: float = 0.9
+    lr: float = 0.00025
+    rms_decay: float = 0.9  # RMSprop rho
+    rms_eps: float = 1e-6
+    batch_size: int = 64
+    buffer_size: int = 1_000_000  # capped at the run's largest possible step count
+    learning_starts: int = 64  # stored transitions before the first gradient step
+    hidden: tuple[int, ...] = (64, 64)
+    dropout: float = 0.2
+    # "periodic": hard copy every target_update_every env steps (paper).
+    # "episode_end": online net gives the targets for the first target_update_every
+    # steps, then the target net is synced at every episode end (ROBOTIS code).
+    target_update: str = "periodic"
+    target_update_every: int = 2000
+
+
+@dataclass(frozen=True)
+class ExplorationConfig:
+    ebe_temperature: float = 1.0  # softmax temperature of EBE; 1 in the paper
+    eps_start: float = 1.0
+    eps_decay: float = 0.99  # per episode
+    eps_min: float = 0.05
+
+
+@dataclass(frozen=True)
+class RunConfig:
+    chunk_steps: int = 10_000  # env steps per jitted chunk (progress, checkpoint)
+    test_mazes: tuple[str, ...] = ("square4", "square8", "square2", "triangle", "pentagon")
+    test_episodes: int = 10
+
+
+@dataclass(frozen=True)
+class Config:
+    preset: str = "paper"
+    seed: int = 0  # first seed; a run uses seed, seed + 1, ..., seed + seeds - 1
+    seeds: int = 8  # seeds per strategy
+    strategies: tuple[str, ...] = STRATEGIES
+    episodes: int | None = 500  # per seed (null: only total_steps limits the run)
+    total_steps: int | None = None  # env steps per seed (null: only episodes limits)
+    env: EnvConfig = field(default_factory=EnvConfig)
+    dqn: DQNConfig = field(default_factory=DQNConfig)
+    exploration: ExplorationConfig = field(default_factory=ExplorationConfig)
+    run: RunConfig = field(default_factory=RunConfig)
+
+    @property
+    def n_runs(self) -> int:
+        return self.seeds * len(self.strategies)
+
+    @property
+    def max_total_steps(self) -> int:
+        """Most env steps one seed can take in this run."""
+        limits = []
+        if self.episodes is not None:
+            limits.append(self.episodes * self.env.max_steps)
+        if self.total_steps is not None:
+            limits.append(self.total_steps)
+        return min(limits)
+
+    @property
+    def buffer_capacity(self) -> int:
+        return min(self.dqn.buffer_size, self.max_total_steps)
+
+
+PRESETS: dict[str, dict[str, Any]] = {
+    "paper": {},
+    "robotis": {
+        "episodes": 3000,
+        "dqn.gamma": 0.99,
+        "dqn.target_update": "episode_end",
+    },
+}
+
+
+# ----------------------------------------------------------------------------
+# Loading and validation
+# ----------------------------------------------------------------------------
+
+
+def _flatten(d: dict, prefix: str = "") -> dict[str, Any]:
+    out = {}
+    for k, v in d.items():
+        if not isinstance(k, str):
+            raise ConfigError(f"config: key {k!r} must be a string")
+        name = f"{prefix}{k}"
+        if isinstance(v, dict):
+            out.update(_flatten(v, name + "."))
+        else:
+            out[name] = v
+    return out
+
+
+def _field_types(cls, prefix: str = "") -> dict[str, Any]:
+    hints = typing.get_type_hints(cls)
+    out = {}
+    for f in dataclasses.fields(cls):
+        t = hints[f.name]
+        if dataclasses.is_dataclass(t):
+            out.update(_field_types(t, f"{prefix}{f.name}."))
+        else:
+            out[f"{prefix}{f.name}"] = t
+    return out
+
+
+FIELD_TYPES = _field_types(Config)
+SECTIONS = {k.split(".")[0] for k in FIELD_TYPES if "." in k}
+
+
+def _type_name(t) -> str:
+    args = typing.get_args(t)
+    origin = typing.get_origin(t)
+    if origin in (types.UnionType, typing.Union):
+        inner = [a for a in args if a is not type(None)]
+        return _type_name(inner[0]) + " or null"
+    if origin is tuple:
+        return f"list of {_type_name(args[0])}"
+    return {int: "an integer", float: "a number", bool: "true or false", str: "a string"}[t]
+
+
+def _coerce(name: str, value: Any, t) -> Any:
+    """Check ``value`` against type ``t``; return it in canonical form."""
+    origin = typing.get_origin(t)
+    args = typing.get_args(t)
+    bad = ConfigError(f"config: {name} must be {_type_name(t)}, got {value!r}")
+    if origin in (types.UnionType, typing.Union):
+        if value is None:
+            return None
+        inner = [a for a in args if a is not type(None)][0]
+        return _coerce(name, value, inner)
+    if origin is tuple:
+        if isinstance(value, str) or not isinstance(value, (list, tuple)):
+            raise bad
+        return tuple(_coerce(name, v, args[0]) for v in value)
+    if t is bool:
+        if not isinstance(value, bool):
+            raise bad
+        return value
+    if t is int:
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise bad
+        return value
+    if t is float:
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise bad
+        if not math.isfinite(value):
+            raise bad
+        return float(value)
+    if t is str:
+        if not isinstance(value, str):
+            raise bad
+        return value
+    raise bad
+
+
+def _parse_override(item: str) -> tuple[str, Any]:
+    if "=" not in item:
+        raise ConfigError(f"config: override '{item}' must look like key=value")
+    key, raw = item.split("=", 1)
+    key = key.strip()
+    try:
+        value = yaml.safe_load(raw) if raw.strip() else None
+    except yaml.YAMLError:
+        value = raw
+    return key, value
+
+
+def _check(cfg: Config) -> Config:
+    """Value checks that types alone do not catch."""
+
+    def fail(name, msg):
+        raise ConfigError(f"config: {name} {msg}")
+
+    if cfg.preset not in PRESETS:
+        fail("preset", f"must be one of {', '.join(PRESETS)}, got {cfg.preset!r}")
+    if cfg.seeds < 1:
+        fail("seeds", "must be at least 1")
+    if cfg.seed < 0:
+        fail("seed", "must be non-negative")
+    if not cfg.strategies:
+        fail("strategies", "must name at least one strategy")
+    for s in cfg.strategies:
+        if s not in STRATEGIES:
+            fail("strategies", f"has unknown strategy {s!r} (choose from {', '.join(STRATEGIES)})")
+    if len(set(cfg.strategies)) != len(cfg.strategies):
+        fail("strategies", "lists a strategy twice")
+    if cfg.episodes is None and cfg.total_steps is None:
+        fail("episodes", "and total_steps cannot both be null")
+    if cfg.episodes is not None and cfg.episodes < 1:
+        fail("episodes", "must be at least 1")
+    if cfg.total_steps is not None and cfg.total_steps < 1:
+        fail("total_steps", "must be at least 1")
+    e, d, x, r = cfg.env, cfg.dqn, cfg.exploration, cfg.run
+    if e.n_beams < 1:
+        fail("env.n_beams", "must be at least 1")
+    if e.max_steps < 1:
+        fail("env.max_steps", "must be at least 1")
+    if e.lidar_noise_std < 0:
+        fail("env.lidar_noise_std", "must be non-negative")
+    if not 0.0 <= d.gamma <= 1.0:
+        fail("dqn.gamma", "must be in [0, 1]")
+    if d.lr <= 0:
+        fail("dqn.lr", "must be positive")
+    if not 0.0 <= d.rms_decay < 1.0:
+        fail("dqn.rms_decay", "must be in [0, 1)")
+    if d.rms_eps <= 0:
+        fail("dqn.rms_eps", "must be positive")
+    if d.batch_size < 1:
+        fail("dqn.batch_size", "must be at least 1")
+    if d.buffer_size < 1:
+        fail("dqn.buffer_size", "must be at least 1")
+    if d.learning_starts < 1:
+        fail("dqn.learning_starts", "must be at least 1")
+    if not d.hidden or any(h < 1 for h in d.hidden):
+        fail("dqn.hidden", "must be a non-empty list of positive layer widths")
+    if not 0.0 <= d.dropout < 1.0:
+        fail("dqn.dropout", "must be in [0, 1)")
+    if d.target_update not in ("periodic", "episode_end"):
+        fail("dqn.target_update", f"must be periodic or episode_end, got {d.target_update!r}")
+    if d.target_update_every < 1:
+        fail("dqn.target_update_every", "must be at least 1")
+    if x.ebe_temperature <= 0:
+        fail("exploration.ebe_temperature", "must be positive")
+    for name in ("eps_start", "eps_decay", "eps_min"):
+        if not 0.0 <= getattr(x, name) <= 1.0:
+            fail(f"exploration.{name}", "must be in [0, 1]")
+    if r.chunk_steps < 1:
+        fail("run.chunk_steps", "must be at least 1")
+    if r.test_episodes < 1:
+        fail("run.test_episodes", "must be at least 1")
+    return cfg
+
+
+def build_config(values: dict[str, Any]) -> Config:
+    """A validated Config from flat dotted ``{"dqn.gamma": 0.9, ...}`` values."""
+    preset = values.get("preset", "paper")
+    merged: dict[str, Any] = {}
+    if isinstance(preset, str) and preset in PRESETS:
+        merged.update(PRESETS[preset])
+    merged.update(values)
+    for name in merged:
+        if name not in FIELD_TYPES:
+            if name in SECTIONS:
+                raise ConfigError(f"config: {name} must be a mapping of its fields")
+            raise ConfigError(f"config: unknown key '{name}'")
+    typed = {name: _coerce(name, v, FIELD_TYPES[name]) for name, v in merged.items()}
+    sections: dict[str, dict[str, Any]] = {}
+    top: dict[str, Any] = {}
+    for name, v in typed.items():
+        if "." in name:
+            sec, key = name.split(".", 1)
+            sections.setdefault(sec, {})[key] = v
+        else:
+            top[name] = v
+    hints = typing.get_type_hints(Config)
+    for sec, kv in sections.items():
+        top[sec] = hints[sec](**kv)
+    return _check(Config(**top))
+
+
+def load_config(path: str | None, overrides: list[str] = ()) -> Config:
+    """Config from a YAML file (or the defaults if None) plus ``key=value`` overrides."""
+    values: dict[str, Any] = {}
+    if path is not None:
+        try:
+            with open(path) as f:
+                doc = yaml.safe_load(f)
+        except FileNotFoundError:
+            raise ConfigError(f"config: no such file {path}") from None
+        except IsADirectoryError:
+            raise ConfigError(f"config: {path} is a directory, not a YAML file") from None
+        except yaml.YAMLError as e:
+            mark = getattr(e, "problem_mark", None)
+            at = f" at line {mark.line + 1}" if mark is not None else ""
+            raise ConfigError(f"config: {path} is not valid YAML{at}") from None
+        if doc is None:
+            doc = {}
+        if not isinstance(doc, dict):
+            raise ConfigError(f"config: {path} must hold a mapping of keys")
+        values.update(_flatten(doc))
+    for item in overrides:
+        key, value = _parse_override(item)
+        values[key] = value
+    return build_config(values)
+
+
+def config_to_dict(cfg: Config) -> dict[str, Any]:
+    """Nested plain dict (lists, not tuples) for writing YAML."""
+
+    def conv(x):
+        if dataclasses.is_dataclass(x):
+            return {f.name: conv(getattr(x, f.name)) for f in dataclasses.fields(x)}
+        if isinstance(x, tuple):
+            return [conv(v) for v in x]
+        return x
+
+    return conv(cfg)
+
+
+def dump_config(cfg: Config) -> str:
+    return yaml.safe_dump(config_to_dict(cfg), sort_keys=False)

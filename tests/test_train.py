@@ -1,0 +1,167 @@
+"""The training command end to end: learning, determinism, resume, bad input."""
+
+import csv
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from jaxnav.config import load_config
+from jaxnav.dqn import make_env, make_train, run_keys
+from jaxnav.train import main, train_from_config
+
+ROOT = Path(__file__).resolve().parent.parent
+TINY = ["seeds=2", "episodes=8", "env.max_steps=100", "run.chunk_steps=100", "dqn.batch_size=16"]
+
+
+def _metrics(run_dir):
+    with open(run_dir / "metrics.csv") as f:
+        return list(csv.DictReader(f))
+
+
+def _params(run_dir):
+    with np.load(run_dir / "params.npz") as d:
+        return {k: d[k] for k in d.files}
+
+
+def _random_policy_return(cfg, episodes=64):
+    """Mean episode return of uniformly random actions in the config's environment."""
+    env, params = make_env(cfg)
+
+    def episode(key):
+        k0, key = jax.random.split(key)
+        obs, st = env.reset(k0, params)
+
+        def body(carry, _):
+            st, key, ret, alive = carry
+            key, ka, ks = jax.random.split(key, 3)
+            a = jax.random.randint(ka, (), 0, env.num_actions)
+            _, st, r, term, trunc, _ = env.step(ks, st, a, params)
+            ret = ret + jnp.where(alive, r, 0.0)
+            return (st, key, ret, alive & ~(term | trunc)), None
+
+        (_, _, ret, _), _ = jax.lax.scan(body, (st, key, 0.0, True), None, cfg.env.max_steps)
+        return ret
+
+    keys = jax.random.split(jax.random.PRNGKey(123), episodes)
+    return float(jnp.mean(jax.jit(jax.vmap(episode))(keys)))
+
+
+@pytest.fixture(scope="module")
+def smoke_run(tmp_path_factory):
+    cfg = load_config(str(ROOT / "configs" / "smoke.yaml"))
+    out = tmp_path_factory.mktemp("smoke") / "run"
+    train_from_config(cfg, out, quiet=True)
+    return cfg, out
+
+
+def test_smoke_run_writes_the_run_directory(smoke_run):
+    cfg, out = smoke_run
+    for name in ("config.yaml", "metrics.csv", "explore.csv", "params.npz", "summary.json"):
+        assert (out / name).is_file(), name
+    assert (out / "checkpoints" / "last.npz").is_file()
+    rows = _metrics(out)
+    assert list(rows[0]) == ["strategy", "seed", "episode", "return", "length", "goals", "collided", "explore"]
+    assert len(rows) == cfg.n_runs * cfg.episodes
+    assert {(r["strategy"], r["seed"]) for r in rows} == {
+        (s, str(k)) for s in cfg.strategies for k in range(cfg.seeds)
+    }
+    assert set(_params(out)) >= {f"ebe/seed1/params/Dense_2/kernel", "epsilon_greedy/seed0/params/Dense_0/bias"}
+    assert load_config(str(out / "config.yaml")) == cfg  # the snapshot resolves to the same config
+
+
+def test_smoke_run_beats_a_random_policy(smoke_run):
+    cfg, out = smoke_run
+    rows = _metrics(out)
+    random_return = _random_policy_return(cfg)
+    for strategy in cfg.strategies:
+        last = [float(r["return"]) for r in rows if r["strategy"] == strategy and int(r["episode"]) >= cfg.episodes - 10]
+        assert np.mean(last) > random_return + 100, (strategy, np.mean(last), random_return)
+
+
+def test_same_seed_same_numbers_and_seeds_differ(smoke_run, tmp_path):
+    cfg, out = smoke_run
+    train_from_config(cfg, tmp_path / "again", quiet=True)
+    assert (tmp_path / "again" / "metrics.csv").read_bytes() == (out / "metrics.csv").read_bytes()
+    a, b = _params(out), _params(tmp_path / "again")
+    assert all(np.array_equal(a[k], b[k]) for k in a)
+    # vmapped seeds are really different runs
+    assert not np.array_equal(a["ebe/seed0/params/Dense_0/kernel"], a["ebe/seed1/params/Dense_0/kernel"])
+    rows = _metrics(out)
+    r0 = [r["return"] for r in rows if r["strategy"] == "ebe" and r["seed"] == "0"]
+    r1 = [r["return"] for r in rows if r["strategy"] == "ebe" and r["seed"] == "1"]
+    assert r0 != r1
+
+
+def test_compiled_train_function_matches_the_host_loop(tmp_path):
+    cfg = load_config(None, TINY)
+    train_from_config(cfg, tmp_path / "run", quiet=True)
+    final = jax.jit(jax.vmap(make_train(cfg)))(*run_keys(cfg))
+    assert np.all(np.asarray(final.episode) == cfg.episodes)
+    p = _params(tmp_path / "run")
+    k = np.asarray(final.params["params"]["Dense_2"]["kernel"])
+    np.testing.assert_array_equal(k[0], p["ebe/seed0/params/Dense_2/kernel"])
+    np.testing.assert_array_equal(k[3], p["epsilon_greedy/seed1/params/Dense_2/kernel"])
+
+
+def test_resume_after_sigkill_gives_identical_results(tmp_path):
+    ref, killed = tmp_path / "ref", tmp_path / "killed"
+    cmd = [sys.executable, "-m", "jaxnav.train", *TINY, "--quiet"]
+    subprocess.run(cmd + ["--out", str(ref)], check=True, cwd=ROOT)
+    proc = subprocess.Popen(cmd + ["--out", str(killed)], cwd=ROOT)
+    ckpt = killed / "checkpoints" / "last.npz"
+    deadline = time.time() + 120
+    while not ckpt.exists() and time.time() < deadline and proc.poll() is None:
+        time.sleep(0.01)
+    proc.send_signal(signal.SIGKILL)
+    proc.wait()
+    assert not (killed / "params.npz").exists(), "the run finished before it could be killed"
+    subprocess.run([sys.executable, "-m", "jaxnav.train", "--resume", str(killed), "--quiet"], check=True, cwd=ROOT)
+    assert (killed / "metrics.csv").read_bytes() == (ref / "metrics.csv").read_bytes()
+    assert (killed / "explore.csv").read_bytes() == (ref / "explore.csv").read_bytes()
+    a, b = _params(ref), _params(killed)
+    assert a.keys() == b.keys() and all(np.array_equal(a[k], b[k]) for k in a)
+
+
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (["dqn.gama=0.5"], "unknown key 'dqn.gama'"),
+        (["dqn.gamma=high"], "dqn.gamma must be a number"),
+        (["seeds=2.5"], "seeds must be an integer"),
+        (["strategies=[ebe, boltzmann]"], "unknown strategy 'boltzmann'"),
+        (["env.maze=nowhere"], "unknown maze 'nowhere'"),
+        (["--resume", "/nonexistent/run"], "does not exist"),
+        (["/nonexistent/config.yaml"], "no such file"),
+    ],
+)
+def test_bad_input_is_one_line_and_exit_2(argv, message, capsys, tmp_path):
+    if argv[0] != "--resume":
+        argv = argv + ["--out", str(tmp_path / "run")]
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip()
+    assert message in err and "\n" not in err and "Traceback" not in err
+    assert not (tmp_path / "run").exists()
+
+
+def test_broken_maze_file_is_rejected_before_anything_is_written(tmp_path, capsys):
+    maze = tmp_path / "bad.yaml"
+    maze.write_text("outline: [[0, 0], [1, 0], [1, 1]]\n")  # not closed
+    assert main([f"env.maze={maze}", "--out", str(tmp_path / "run")]) == 2
+    err = capsys.readouterr().err
+    assert "not closed" in err and not (tmp_path / "run").exists()
+
+
+def test_existing_run_directory_is_not_overwritten(smoke_run, capsys):
+    _, out = smoke_run
+    before = (out / "metrics.csv").read_bytes()
+    assert main(["configs/smoke.yaml", "--out", str(out)]) == 2
+    assert "already exists" in capsys.readouterr().err
+    assert (out / "metrics.csv").read_bytes() == before
