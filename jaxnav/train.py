@@ -37,6 +37,7 @@ import numpy as np
 from jaxnav.config import STRATEGIES, Config, ConfigError, dump_config, load_config
 from jaxnav.dqn import TrainState, buffer_bytes, make_trainer, run_keys
 from jaxnav.maps import MazeError
+from jaxnav.sharding import RunSharding, initialize, is_writer
 
 METRIC_COLUMNS = ("strategy", "seed", "episode", "return", "length", "goals", "collided", "explore")
 EXPLORE_BLOCK = 100  # env steps averaged per row of explore.csv
@@ -53,6 +54,9 @@ class RunError(Exception):
 
 
 def atomic_write_bytes(path: Path, data: bytes) -> None:
+    """Write a whole file or nothing (temp file, fsync, rename); process 0 only."""
+    if not is_writer():
+        return
     tmp = path.with_name(f".{path.name}.tmp")
     with open(tmp, "wb") as f:
         f.write(data)
@@ -96,7 +100,7 @@ def _leaf_names(tree) -> list[str]:
 
 
 def save_checkpoint(path: Path, ts: TrainState, host: dict[str, np.ndarray]) -> None:
-    """Training state (buffers trimmed to their filled rows) plus host tables."""
+    """Training state as host arrays (buffers trimmed to their filled rows) plus host tables."""
     size = int(np.max(np.asarray(ts.buffer.size)))
     arrays: dict[str, np.ndarray] = {}
     for name, leaf in zip(_leaf_names(ts), jax.tree.leaves(ts)):
@@ -130,7 +134,7 @@ def load_checkpoint(path: Path, template: TrainState) -> tuple[TrainState, dict[
                 a = full
             else:
                 raise RunError(f"checkpoint {path} does not match the run's config ({name})")
-        leaves.append(jnp.asarray(a, leaf.dtype))
+        leaves.append(np.asarray(a, leaf.dtype))
     ts = jax.tree.unflatten(jax.tree.structure(template), leaves)
     host = {k[5:]: v for k, v in arrays.items() if k.startswith("host.")}
     return ts, host
@@ -187,12 +191,15 @@ def load_params(path: str | Path, strategy: str, seed: int):
 class Run:
     """Host loop around the compiled chunk: progress, metrics, checkpoints."""
 
-    def __init__(self, cfg: Config, out: Path, quiet: bool = False):
+    def __init__(self, cfg: Config, out: Path | None, quiet: bool = False):
         self.cfg, self.out, self.quiet = cfg, out, quiet
         self.trainer = make_trainer(cfg)
         self.labels = run_labels(cfg)
-        self.init = jax.jit(jax.vmap(self.trainer.init))
-        self.chunk = jax.jit(jax.vmap(self.trainer.chunk), donate_argnums=0)
+        # The run axis of every array is laid over all devices.
+        self.shard = RunSharding(cfg.n_runs)
+        out = self.shard.sharding
+        self.init = jax.jit(jax.vmap(self.trainer.init), out_shardings=out)
+        self.chunk = jax.jit(jax.vmap(self.trainer.chunk), donate_argnums=0, out_shardings=out)
         self.rows: list[tuple] = []
         self.explore_rows: list[tuple] = []
         self.logged = np.zeros(cfg.n_runs, np.int64)  # episodes written per run
@@ -201,8 +208,15 @@ class Run:
     # -- state ---------------------------------------------------------------
 
     def fresh_state(self) -> TrainState:
-        keys, strat = run_keys(self.cfg)
+        keys, strat = self.shard.put(jax.tree.map(np.asarray, run_keys(self.cfg)))
         return self.init(keys, strat)
+
+    def active(self, ts: TrainState) -> np.ndarray:
+        """Which real runs still train (host side)."""
+        episode, step = self.shard.get((ts.episode, ts.step))
+        limit_e = self.cfg.episodes if self.cfg.episodes is not None else np.inf
+        limit_s = self.cfg.total_steps if self.cfg.total_steps is not None else np.inf
+        return (episode < limit_e) & (step < limit_s)
 
     def host_tables(self) -> dict[str, np.ndarray]:
         rows = np.asarray(self.rows, np.float64).reshape(-1, len(METRIC_COLUMNS))
@@ -218,8 +232,7 @@ class Run:
     # -- per chunk -----------------------------------------------------------
 
     def collect(self, ts: TrainState, explore: np.ndarray, step_before: np.ndarray) -> None:
-        m = jax.tree.map(np.asarray, ts.metrics)
-        episodes = np.asarray(ts.episode)
+        m, episodes = self.shard.get((ts.metrics, ts.episode))
         slots = self.trainer.metric_slots
         for r in range(self.cfg.n_runs):
             s_idx = STRATEGIES.index(self.labels[r][0])
@@ -293,31 +306,31 @@ class Run:
         ckpt.parent.mkdir(parents=True, exist_ok=True)
         if cfg.episodes is not None:
             total, unit = cfg.n_runs * cfg.episodes, "ep"
-            done_now = lambda t: int(np.minimum(np.asarray(t.episode), cfg.episodes).sum())  # noqa: E731
+            done_now = lambda t: int(np.minimum(self.shard.get(t.episode), cfg.episodes).sum())  # noqa: E731
         else:
             total, unit = cfg.n_runs * cfg.total_steps, "step"
-            done_now = lambda t: int(np.asarray(t.step).sum())  # noqa: E731
+            done_now = lambda t: int(self.shard.get(t.step).sum())  # noqa: E731
         bar = tqdm(
             total=total,
             initial=done_now(ts),
             unit=unit,
-            disable=self.quiet,
+            disable=self.quiet or not is_writer(),
             dynamic_ncols=True,
             file=sys.stderr,
         )
         try:
-            while bool(np.any(np.asarray(jax.vmap(self.trainer.active)(ts)))):
+            while self.active(ts).any():
                 before = done_now(ts)
-                step_before = np.asarray(ts.step).copy()
+                step_before = self.shard.get(ts.step).copy()
                 t0 = time.perf_counter()
                 ts, explore = self.chunk(ts)
-                explore = np.asarray(explore)  # waits for the chunk
+                explore = self.shard.get(explore)  # waits for the chunk
                 dt = time.perf_counter() - t0
                 self.wall += dt
-                steps = int((np.asarray(ts.step) - step_before).sum())
+                steps = int((self.shard.get(ts.step) - step_before).sum())
                 self.collect(ts, explore, step_before)
                 self.write_tables()
-                save_checkpoint(ckpt, ts, self.host_tables())
+                save_checkpoint(ckpt, self.shard.get(ts), self.host_tables())
                 bar.set_postfix_str(self.progress_text(steps / max(dt, 1e-9)), refresh=False)
                 bar.update(done_now(ts) - before)
         finally:
@@ -325,8 +338,8 @@ class Run:
         return ts
 
     def finish(self, ts: TrainState) -> dict[str, Any]:
-        save_params(self.out / "params.npz", self.cfg, ts.params)
-        steps = int(np.asarray(ts.step).sum())
+        save_params(self.out / "params.npz", self.cfg, self.shard.get(ts.params))
+        steps = int(self.shard.get(ts.step).sum())
         summary: dict[str, Any] = {
             "wall_clock_s": round(self.wall, 2),
             "env_steps": steps,
@@ -337,6 +350,8 @@ class Run:
             ),
             "machine": f"{platform.machine()} {os.cpu_count()} cores, jax {jax.__version__} "
             f"on {jax.default_backend()}",
+            "devices": self.shard.n_devices,
+            "processes": jax.process_count(),
             "last50": {},
         }
         rows = np.asarray(self.rows, np.float64).reshape(-1, len(METRIC_COLUMNS))
@@ -364,10 +379,11 @@ def default_out(config_path: str | None) -> Path:
 
 def train_from_config(cfg: Config, out: Path, quiet: bool = False) -> dict[str, Any]:
     """Start a new run in ``out`` (must not exist or be empty) and train it to the end."""
-    if out.exists() and any(out.iterdir()):
+    if out.exists() and any(out.iterdir()) and is_writer():
         raise RunError(f"run directory {out} already exists and is not empty (use --resume {out})")
     run = Run(cfg, out, quiet)  # builds the env first: a bad maze leaves no directory
-    out.mkdir(parents=True, exist_ok=True)
+    if is_writer():
+        out.mkdir(parents=True, exist_ok=True)
     atomic_write_text(out / "config.yaml", dump_config(cfg))
     ts = run.train(run.fresh_state())
     return run.finish(ts)
@@ -385,8 +401,9 @@ def resume(out: Path, quiet: bool = False) -> dict[str, Any]:
     ckpt = out / "checkpoints" / "last.npz"
     if ckpt.is_file():
         template = jax.eval_shape(run.fresh_state)
-        template = jax.tree.map(lambda s: np.zeros(s.shape, s.dtype), template)
+        template = jax.tree.map(lambda s: np.zeros((cfg.n_runs, *s.shape[1:]), s.dtype), template)
         ts, host = load_checkpoint(ckpt, template)
+        ts = run.shard.put(ts)
         run.restore_host(host)
     else:
         ts = run.fresh_state()
@@ -418,6 +435,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--resume", metavar="RUN_DIR", help="continue a killed run from its last checkpoint")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     args = p.parse_args(argv)
+    initialize()  # multi-host, when jax.distributed's variables are set
     try:
         if args.resume:
             if args.items or args.out:
@@ -438,7 +456,8 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("\njaxnav.train: interrupted; continue with --resume", file=sys.stderr)
         return 130
-    _print_summary(out, summary)
+    if is_writer():
+        _print_summary(out, summary)
     return 0
 
 

@@ -1,0 +1,132 @@
+"""Training throughput: transitions per second with learning, and peak memory.
+
+Every transition is one environment step plus one gradient step on a batch of 64
+(the paper config). Each (seeds, beams) case runs in its own subprocess so that its
+peak RSS is its own; the time of a chunk of ``--steps`` scan steps is measured
+after compilation, median of ``--reps`` repetitions.
+
+    python bench/train_throughput.py                # 1, 8, 32 seeds x 24, 360 beams
+    python bench/train_throughput.py --quick        # fewer steps, small buffer
+    python bench/train_throughput.py --seeds 8 --beams 24
+    python bench/train_throughput.py --seeds 32 --beams 24 --devices 1 2 4   # sharding
+
+``--devices`` forces that many CPU devices (XLA_FLAGS) and lays the seeds over them
+with jaxnav's run sharding, to show its overhead; on one machine the devices share
+its cores, so more devices cannot be faster.
+
+The replay buffer has the capacity of a full paper run (500 episodes x 500 steps)
+unless --capacity says otherwise, so the memory column is that of a real run.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import resource
+import statistics
+import subprocess
+import sys
+import time
+
+
+def run_case(seeds: int, beams: int, steps: int, reps: int, capacity: int) -> dict:
+    import jax
+    import numpy as np
+
+    from jaxnav.config import load_config
+    from jaxnav.dqn import buffer_bytes, make_trainer, run_keys
+    from jaxnav.sharding import RunSharding
+
+    cfg = load_config(
+        None,
+        [
+            f"seeds={seeds}",
+            "strategies=[ebe]",
+            f"env.n_beams={beams}",
+            f"run.chunk_steps={steps}",
+            f"dqn.buffer_size={capacity}",
+        ],
+    )
+    tr = make_trainer(cfg)
+    shard = RunSharding(cfg.n_runs)
+    init = jax.jit(jax.vmap(tr.init), out_shardings=shard.sharding)
+    chunk = jax.jit(jax.vmap(tr.chunk), donate_argnums=0, out_shardings=shard.sharding)
+    ts = init(*shard.put(jax.tree.map(np.asarray, run_keys(cfg))))
+    t0 = time.perf_counter()
+    ts, _ = chunk(ts)
+    jax.block_until_ready(ts)
+    compile_s = time.perf_counter() - t0
+    times = []
+    for _ in range(reps):
+        t0 = time.perf_counter()
+        ts, _ = chunk(ts)
+        jax.block_until_ready(ts)
+        times.append(time.perf_counter() - t0)
+    med = statistics.median(times)
+    return {
+        "seeds": seeds,
+        "beams": beams,
+        "transitions_per_s": seeds * steps / med,
+        "median_chunk_s": med,
+        "compile_s": compile_s,
+        "buffer_capacity": cfg.buffer_capacity,
+        "buffer_mb_per_seed": buffer_bytes(cfg.buffer_capacity, tr.env.obs_size, 500) / 2**20,
+        "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
+        "devices": shard.n_devices,
+    }
+
+
+def main() -> None:
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--seeds", type=int, nargs="+", default=[1, 8, 32])
+    p.add_argument("--beams", type=int, nargs="+", default=[24, 360])
+    p.add_argument("--steps", type=int, default=2000, help="scan steps per timed chunk")
+    p.add_argument("--reps", type=int, default=3)
+    p.add_argument("--capacity", type=int, default=250_000, help="replay capacity per seed")
+    p.add_argument("--quick", action="store_true", help="500 steps, 2 reps, 20k capacity")
+    p.add_argument("--devices", type=int, nargs="+", default=[1], help="forced CPU device counts")
+    p.add_argument("--json", help="also write the results here")
+    p.add_argument("--case", help=argparse.SUPPRESS)
+    args = p.parse_args()
+    if args.quick:
+        args.steps, args.reps, args.capacity = 500, 2, 20_000
+    if args.case:  # child process: one case, JSON on stdout
+        seeds, beams = map(int, args.case.split(","))
+        print(json.dumps(run_case(seeds, beams, args.steps, args.reps, args.capacity)))
+        return
+
+    import jax
+
+    print(f"# train throughput: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
+          f"jax {jax.__version__} ({jax.default_backend()})")
+    print(f"# {args.steps} steps per chunk, median of {args.reps}, replay capacity {args.capacity}/seed")
+    print("| devices | seeds | beams | transitions/s | per seed | compile s | buffer MB/seed | peak RSS MB |")
+    print("|" + "---|" * 8)
+    results = []
+    cases = [(d, b, s) for d in args.devices for b in args.beams for s in args.seeds]
+    for devices, beams, seeds in cases:
+        env = dict(os.environ)
+        if devices > 1:
+            env["XLA_FLAGS"] = f"--xla_force_host_platform_device_count={devices}"
+        cmd = [sys.executable, __file__, "--case", f"{seeds},{beams}", "--steps", str(args.steps),
+               "--reps", str(args.reps), "--capacity", str(args.capacity)]
+        out = subprocess.run(cmd, capture_output=True, text=True, env=env)
+        if out.returncode != 0:
+            print(f"| {devices} | {seeds} | {beams} | failed: {out.stderr.strip().splitlines()[-1]} |")
+            continue
+        r = json.loads(out.stdout.strip().splitlines()[-1])
+        results.append(r)
+        print(
+            f"| {devices} | {seeds} | {beams} | {r['transitions_per_s']:,.0f} | {r['transitions_per_s'] / seeds:,.0f} "
+            f"| {r['compile_s']:.1f} | {r['buffer_mb_per_seed']:.1f} | {r['peak_rss_mb']:,.0f} |",
+            flush=True,
+        )
+    if args.json:
+        with open(args.json, "w") as f:
+            json.dump(results, f, indent=2)
+
+
+if __name__ == "__main__":
+    main()
