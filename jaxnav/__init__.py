@@ -1,18 +1,29 @@
-"""jaxnav: TurtleBot3 maze navigation and DQN with entropy-based exploration, in JAX."""
+"""jaxnav: TurtleBot3 maze navigation and DQN with entropy-based exploration, in JAX.
 
-from jaxnav.env import EnvParams, EnvState, NavEnv, lidar_scan, make
-from jaxnav.maps import Maze, MazeError, make_maze, stack_mazes
+Names are imported lazily, so ``jaxnav.deploy`` (NumPy only) loads on a robot's
+computer without JAX.
+"""
+
+import importlib
 
 __version__ = "0.1.0"
 
-__all__ = [
-    "EnvParams",
-    "EnvState",
-    "NavEnv",
-    "Maze",
-    "MazeError",
-    "lidar_scan",
-    "make",
-    "make_maze",
-    "stack_mazes",
-]
+_EXPORTS = {
+    "EnvParams": "jaxnav.env",
+    "EnvState": "jaxnav.env",
+    "NavEnv": "jaxnav.env",
+    "lidar_scan": "jaxnav.env",
+    "make": "jaxnav.env",
+    "Maze": "jaxnav.maps",
+    "MazeError": "jaxnav.maps",
+    "make_maze": "jaxnav.maps",
+    "stack_mazes": "jaxnav.maps",
+}
+
+__all__ = sorted(_EXPORTS)
+
+
+def __getattr__(name):
+    if name in _EXPORTS:
+        return getattr(importlib.import_module(_EXPORTS[name]), name)
+    raise AttributeError(f"module 'jaxnav' has no attribute {name!r}")

@@ -1,0 +1,454 @@
+"""Run a trained policy on a real TurtleBot3: export it, then act with NumPy alone.
+
+``python -m jaxnav.deploy export RUN_DIR [--strategy ebe] [--seed K] [--out policy.npz]``
+writes one trained Q-network of a run to a portable ``.npz`` (plain arrays, no
+pickle), together with everything needed to feed it:
+
+    meta            JSON text: observation layout (n_beams, obstacle_obs, min_range,
+                    max_range), preset, action angular velocities, linear velocity,
+                    dt, goal radius, training maze, strategy, seed, the run's config
+    Dense_<i>/kernel, Dense_<i>/bias   the network's layers (f32), in order
+    maze/walls, maze/obstacles, maze/start   the training maze's geometry
+
+``python -m jaxnav.deploy info POLICY.npz`` prints the metadata.
+
+On the robot, :class:`Policy` needs only NumPy (this file imports JAX only inside
+:func:`export_policy`, so it can be copied alone next to a ROS node)::
+
+    policy = Policy.load("policy.npz")
+    linear, angular = policy.command(scan.ranges, scan.angle_min, scan.angle_increment,
+                                     (x, y, yaw), (goal_x, goal_y))
+
+How a raw LaserScan becomes the trained observation (:meth:`Policy.observe`):
+
+* Beam reduction: trained beam k looks at 2 pi k / n_beams (robot frame, counter-
+  clockwise from straight ahead), and the environment casts one exact ray there. The
+  adapter does the same with the scan: it reads the single scan ray whose angle
+  ``angle_min + i * angle_increment`` is nearest (circularly) to that direction;
+  ties go to the lower ray index. Any start angle, any increment (negative for a
+  clockwise scanner) works; with the LDS-01's 360 rays at 1 degree from 0 these are
+  rays 0, 15, 30, ... exactly. Taking one ray, not a minimum over a sector, keeps
+  the real input the same kind of reading the network was trained on. A scan that
+  leaves a trained direction uncovered (no ray within one increment) is an error.
+* Readings (REP 117 and the LDS-01 driver): ``+inf`` (no return) becomes max_range,
+  as Gazebo's +inf became 3.5 in training; ``-inf`` (too close to measure) becomes
+  min_range; invalid readings ``0``, ``nan`` and negative values become max_range
+  too (:data:`INVALID_READING`), because the LDS-01 reports "no return" as 0 (spec:
+  "inf or 0 for no return") and ROBOTIS' own collision test (``min_range > r > 0``)
+  likewise ignores zero readings. Mapping them to min_range instead would put a
+  phantom wall closer than the 0.13 m collision radius, a state the policy never
+  saw (training episodes end there). Then everything is clipped to [min_range,
+  max_range], as the environment does.
+* Goal: heading = atan2(goal - position) - yaw wrapped to [-pi, pi), distance =
+  |goal - position|, from the odometry pose (x, y, yaw) and the goal (x, y) in the
+  same frame. With ``obstacle_obs`` the smallest range and its beam index follow.
+
+The network runs in float64 (exact ReLU MLP; dropout is off at inference).
+"""
+
+from __future__ import annotations
+
+import argparse
+import io
+import json
+import math
+import os
+import sys
+from pathlib import Path
+from typing import Any, Sequence
+
+import numpy as np
+
+FORMAT = "jaxnav-policy"
+FORMAT_VERSION = 1
+# Value given to invalid readings (0, nan, negative): the sensor's "no return".
+INVALID_READING = "max_range"
+
+
+class PolicyError(ValueError):
+    """A policy file or an export request that cannot be used; one-line message."""
+
+
+# ----------------------------------------------------------------------------
+# Scan and pose -> observation (NumPy only)
+# ----------------------------------------------------------------------------
+
+
+def _wrap(a):
+    """Wrap angles to [-pi, pi), as jaxnav.env.wrap_angle."""
+    return (np.asarray(a, np.float64) + math.pi) % (2 * math.pi) - math.pi
+
+
+def beam_angles(n_beams: int) -> np.ndarray:
+    """f64[n_beams]: trained beam k looks at 2 pi k / n_beams in the robot frame."""
+    return np.arange(n_beams, dtype=np.float64) * (2 * math.pi / n_beams)
+
+
+def nearest_rays(n_rays: int, angle_min: float, angle_increment: float, n_beams: int) -> np.ndarray:
+    """i64[n_beams]: index of the scan ray nearest each trained beam direction.
+
+    Ray i of the scan points at ``angle_min + i * angle_increment`` (robot frame,
+    counter-clockwise). Distances between angles are circular; ties go to the lower
+    index. Raises ValueError if a beam has no ray within one increment (the scan
+    does not cover that direction).
+    """
+    angle_min, inc = float(angle_min), float(angle_increment)
+    if n_rays < 1:
+        raise ValueError("the scan has no rays")
+    if not (math.isfinite(angle_min) and math.isfinite(inc)) or (n_rays > 1 and inc == 0.0):
+        raise ValueError(f"bad scan angles (angle_min {angle_min}, angle_increment {inc})")
+    rays = angle_min + inc * np.arange(n_rays, dtype=np.float64)
+    gap = np.abs(_wrap(rays[None, :] - beam_angles(n_beams)[:, None]))  # [n_beams, n_rays]
+    idx = np.argmin(gap, axis=1)
+    worst = gap[np.arange(n_beams), idx]
+    tol = abs(inc) * (1 + 1e-6) if n_rays > 1 else 1e-6
+    bad = np.flatnonzero(worst > tol)
+    if bad.size:
+        k = int(bad[0])
+        beam_deg, off_deg = math.degrees(beam_angles(n_beams)[k]), math.degrees(worst[k])
+        raise ValueError(
+            f"the scan does not cover trained beam {k} at {beam_deg:.1f} deg (nearest ray "
+            f"{off_deg:.1f} deg away); the policy needs a 360-degree scan"
+        )
+    return idx
+
+
+def clean_ranges(
+    ranges: np.ndarray, min_range: float, max_range: float, invalid: float | None = None
+) -> np.ndarray:
+    """f64 ranges as the trained LiDAR gives them: no-return and invalid readings
+    replaced, then clipped to [min_range, max_range].
+
+    +inf -> max_range; -inf -> min_range; 0, nan, negative -> ``invalid``
+    (default max_range, see the module docstring).
+    """
+    r = np.asarray(ranges, np.float64)
+    invalid = max_range if invalid is None else float(invalid)
+    out = np.where(np.isposinf(r), max_range, r)
+    out = np.where(np.isneginf(r), min_range, out)
+    out = np.where(np.isnan(r) | (np.isfinite(r) & (r <= 0.0)), invalid, out)
+    return np.clip(out, min_range, max_range)
+
+
+def goal_heading_distance(pose: Sequence[float], goal: Sequence[float]) -> tuple[float, float]:
+    """Heading to the goal relative to yaw, in [-pi, pi), and distance to it."""
+    x, y, yaw = (float(v) for v in pose)
+    gx, gy = (float(v) for v in goal)
+    if not all(math.isfinite(v) for v in (x, y, yaw, gx, gy)):
+        raise ValueError(f"pose {tuple(pose)} and goal {tuple(goal)} must be finite")
+    heading = float(_wrap(math.atan2(gy - y, gx - x) - yaw))
+    return heading, math.hypot(gx - x, gy - y)
+
+
+def yaw_from_quaternion(x: float, y: float, z: float, w: float) -> float:
+    """Yaw (rotation about z, counter-clockwise) of a unit quaternion, as odometry sends it."""
+    return math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
+
+
+# ----------------------------------------------------------------------------
+# The policy
+# ----------------------------------------------------------------------------
+
+
+class Policy:
+    """A trained Q-network plus its observation layout and action velocities.
+
+    Attributes:
+      meta: the exported metadata (dict).
+      n_beams, obstacle_obs, min_range, max_range: observation layout.
+      omegas: f64[A] angular velocity of each action (rad/s, + counter-clockwise).
+      linear_velocity: constant forward speed (m/s).
+      dt: control period (s); goal_radius: the goal counts as reached within it (m).
+    """
+
+    def __init__(self, layers: Sequence[tuple[np.ndarray, np.ndarray]], meta: dict[str, Any]):
+        try:
+            self.n_beams = int(meta["n_beams"])
+            self.obstacle_obs = bool(meta["obstacle_obs"])
+            self.min_range = float(meta["min_range"])
+            self.max_range = float(meta["max_range"])
+            self.omegas = np.asarray(meta["omegas"], np.float64)
+            self.linear_velocity = float(meta["linear_velocity"])
+            self.dt = float(meta.get("dt", 0.2))
+            self.goal_radius = float(meta.get("goal_radius", 0.2))
+        except (KeyError, TypeError, ValueError) as e:
+            raise PolicyError(f"policy metadata is incomplete or wrong ({e})") from None
+        self.meta = dict(meta)
+        self.layers = [(np.asarray(k, np.float64), np.asarray(b, np.float64)) for k, b in layers]
+        width = self.obs_size
+        for i, (k, b) in enumerate(self.layers):
+            if k.ndim != 2 or k.shape[0] != width or b.shape != (k.shape[1],):
+                raise PolicyError(
+                    f"policy layer {i} has shape {k.shape}/{b.shape}, expected ({width}, n)"
+                )
+            width = k.shape[1]
+        if not self.layers or width != len(self.omegas):
+            raise PolicyError(f"policy network has {width} outputs for {len(self.omegas)} actions")
+
+    @property
+    def obs_size(self) -> int:
+        return self.n_beams + 2 + (2 if self.obstacle_obs else 0)
+
+    # -- files ---------------------------------------------------------------
+
+    @classmethod
+    def from_arrays(cls, arrays: dict[str, np.ndarray]) -> "Policy":
+        """A policy from the arrays of an exported file (see :func:`export_policy`)."""
+        if "meta" not in arrays:
+            raise PolicyError("not a jaxnav policy (no 'meta' entry)")
+        try:
+            meta = json.loads(str(arrays["meta"]))
+        except json.JSONDecodeError:
+            raise PolicyError("policy metadata is not valid JSON") from None
+        if meta.get("format") != FORMAT:
+            raise PolicyError("not a jaxnav policy (wrong 'format' in its metadata)")
+        if meta.get("version") != FORMAT_VERSION:
+            raise PolicyError(
+                f"policy format version {meta.get('version')} is not {FORMAT_VERSION}"
+            )
+        try:
+            layers = [(arrays[f"{n}/kernel"], arrays[f"{n}/bias"]) for n in meta["layers"]]
+        except KeyError as e:
+            raise PolicyError(f"policy file lacks array {e}") from None
+        return cls(layers, meta)
+
+    @classmethod
+    def load(cls, path: str | os.PathLike) -> "Policy":
+        """Read a policy written by ``python -m jaxnav.deploy export``."""
+        try:
+            with np.load(path, allow_pickle=False) as data:
+                arrays = {k: data[k] for k in data.files}
+        except FileNotFoundError:
+            raise PolicyError(f"no such policy file {path}") from None
+        except Exception as e:  # not a zip, truncated, object arrays
+            raise PolicyError(f"policy file {path} cannot be read ({type(e).__name__})") from None
+        return cls.from_arrays(arrays)
+
+    # -- inference -----------------------------------------------------------
+
+    def q_values(self, obs: np.ndarray) -> np.ndarray:
+        """f64[..., A] Q-values of observations f[..., obs_size] (ReLU MLP, no dropout)."""
+        x = np.asarray(obs, np.float64)
+        if x.shape[-1:] != (self.obs_size,):
+            raise ValueError(f"observation has shape {x.shape}, expected (..., {self.obs_size})")
+        for i, (k, b) in enumerate(self.layers):
+            x = x @ k + b
+            if i < len(self.layers) - 1:
+                x = np.maximum(x, 0.0)
+        return x
+
+    def act(self, obs: np.ndarray):
+        """Greedy action(s): argmax of the Q-values (first of equal maxima)."""
+        a = np.argmax(self.q_values(obs), axis=-1)
+        return int(a) if a.ndim == 0 else a
+
+    def scan_to_ranges(
+        self, ranges: Sequence[float], angle_min: float, angle_increment: float,
+        invalid: float | None = None,
+    ) -> np.ndarray:
+        """f32[n_beams]: a raw LaserScan reduced to the trained beams (module docstring)."""
+        r = np.asarray(ranges, np.float64).reshape(-1)
+        idx = nearest_rays(len(r), angle_min, angle_increment, self.n_beams)
+        return clean_ranges(r[idx], self.min_range, self.max_range, invalid).astype(np.float32)
+
+    def observe(
+        self, ranges: Sequence[float], angle_min: float, angle_increment: float,
+        pose: Sequence[float], goal: Sequence[float], invalid: float | None = None,
+    ) -> np.ndarray:
+        """f32[obs_size]: [ranges, heading, distance(, min range, its beam index)]."""
+        beams = self.scan_to_ranges(ranges, angle_min, angle_increment, invalid)
+        heading, distance = goal_heading_distance(pose, goal)
+        parts = [beams, np.asarray([heading, distance], np.float32)]
+        if self.obstacle_obs:
+            parts.append(np.asarray([beams.min(), np.argmin(beams)], np.float32))
+        return np.concatenate(parts).astype(np.float32)
+
+    def command(
+        self, ranges: Sequence[float], angle_min: float, angle_increment: float,
+        pose: Sequence[float], goal: Sequence[float], invalid: float | None = None,
+    ) -> tuple[float, float]:
+        """(linear m/s, angular rad/s) of the greedy action for a raw scan and a pose.
+
+        Args:
+          ranges: the LaserScan's ranges in metres (inf: no return; 0/nan: invalid).
+          angle_min, angle_increment: the LaserScan's angles (rad, robot frame, CCW).
+          pose: odometry (x, y, yaw); goal: (x, y) in the same frame.
+          invalid: value for invalid readings (default max_range).
+        """
+        a = self.act(self.observe(ranges, angle_min, angle_increment, pose, goal, invalid))
+        return self.linear_velocity, float(self.omegas[a])
+
+
+# ----------------------------------------------------------------------------
+# Export (imports JAX; the training side)
+# ----------------------------------------------------------------------------
+
+
+def _runs_in(params_path: Path) -> dict[str, list[int]]:
+    """{strategy: [seeds]} stored in a params.npz."""
+    try:
+        with np.load(params_path, allow_pickle=False) as data:
+            names = list(data.files)
+    except Exception as e:
+        raise PolicyError(f"{params_path} cannot be read ({type(e).__name__})") from None
+    runs: dict[str, set[int]] = {}
+    for name in names:
+        parts = name.split("/")
+        if len(parts) > 2 and parts[1].startswith("seed") and parts[1][4:].isdigit():
+            runs.setdefault(parts[0], set()).add(int(parts[1][4:]))
+    return {s: sorted(v) for s, v in runs.items()}
+
+
+def export_policy(
+    run_dir: str | os.PathLike, strategy: str = "ebe", seed: int | None = None
+) -> dict[str, np.ndarray]:
+    """The arrays of a policy file for one trained (strategy, seed) of a run.
+
+    ``seed`` defaults to the run's first seed. Raises PolicyError (one line) for a
+    missing run directory, a run without params.npz, or an unknown strategy/seed.
+    """
+    run_dir = Path(run_dir)
+    if not run_dir.is_dir():
+        raise PolicyError(f"run directory {run_dir} does not exist")
+    cfg_path, params_path = run_dir / "config.yaml", run_dir / "params.npz"
+    if not cfg_path.is_file():
+        raise PolicyError(f"{run_dir} is not a run directory (no config.yaml)")
+    if not params_path.is_file():
+        raise PolicyError(f"{run_dir} has no params.npz (has training finished?)")
+
+    # The training side: JAX comes in here (and with the jaxnav package).
+    from jaxnav import __version__
+    from jaxnav.config import STRATEGIES, ConfigError, dump_config, load_config
+    from jaxnav.dqn import make_env
+    from jaxnav.maps import MazeError
+    from jaxnav.train import RunError, load_params
+
+    if strategy not in STRATEGIES:
+        raise PolicyError(f"unknown strategy '{strategy}' (choose from {', '.join(STRATEGIES)})")
+    runs = _runs_in(params_path)
+    try:
+        cfg = load_config(str(cfg_path))
+        seed = cfg.seed if seed is None else int(seed)
+        if seed not in runs.get(strategy, []):
+            have = "; ".join(f"{s} seeds {', '.join(map(str, v))}" for s, v in runs.items())
+            raise PolicyError(
+                f"{params_path} has no parameters for {strategy} seed {seed} "
+                f"(it has {have or 'none'})"
+            )
+        env, params = make_env(cfg)
+        net = load_params(params_path, strategy, seed).get("params", {})
+    except (ConfigError, MazeError, RunError) as e:
+        raise PolicyError(str(e)) from None
+    names = sorted((n for n in net if n.startswith("Dense_")), key=lambda n: int(n.split("_")[1]))
+    num_actions = len(np.asarray(params.omegas))
+    width = env.obs_size
+    for n in names:
+        k = np.asarray(net[n].get("kernel"))
+        if k.ndim != 2 or k.shape[0] != width:
+            raise PolicyError(f"{params_path}: layer {n} does not fit the run's observation layout")
+        width = k.shape[1]
+    if not names or width != num_actions:
+        raise PolicyError(f"{params_path}: the network does not end in {num_actions} action values")
+
+    maze = params.maze
+    fields = [f"range_{k}" for k in range(env.n_beams)] + ["heading", "distance"]
+    if env.obstacle_obs:
+        fields += ["min_range", "min_range_beam"]
+    meta = {
+        "format": FORMAT,
+        "version": FORMAT_VERSION,
+        "strategy": strategy,
+        "seed": seed,
+        "preset": cfg.preset,
+        "maze": cfg.env.maze,
+        "n_beams": env.n_beams,
+        "obstacle_obs": bool(env.obstacle_obs),
+        "min_range": float(params.min_range),
+        "max_range": float(params.max_range),
+        "beam_angles": "beam k at 2*pi*k/n_beams rad, robot frame, counter-clockwise from ahead",
+        "observation": fields,
+        "omegas": [float(w) for w in np.asarray(params.omegas)],
+        "linear_velocity": float(params.v),
+        "dt": float(params.dt),
+        "goal_radius": float(params.goal_radius),
+        "robot_radius": float(params.robot_radius),
+        "layers": names,
+        "activation": "relu",
+        "invalid_reading": INVALID_READING,
+        "run_dir": str(run_dir.resolve()),
+        "jaxnav_version": __version__,
+        "config": dump_config(cfg),
+    }
+    arrays: dict[str, np.ndarray] = {"meta": np.asarray(json.dumps(meta, indent=1))}
+    for n in names:
+        arrays[f"{n}/kernel"] = np.asarray(net[n]["kernel"], np.float32)
+        arrays[f"{n}/bias"] = np.asarray(net[n]["bias"], np.float32)
+    arrays["maze/walls"] = np.asarray(maze.walls(), np.float32)
+    arrays["maze/obstacles"] = np.asarray(maze.obstacles(), np.float32)
+    arrays["maze/start"] = np.asarray(maze.start, np.float32)
+    return arrays
+
+
+def save_policy(arrays: dict[str, np.ndarray], out: str | os.PathLike) -> None:
+    """Write a policy file atomically (a reader sees the old file or the whole new one)."""
+    out = Path(out)
+    if not out.parent.is_dir():
+        raise PolicyError(f"cannot write {out}: directory {out.parent} does not exist")
+    buf = io.BytesIO()
+    np.savez(buf, **arrays)
+    tmp = out.with_name(f".{out.name}.tmp{os.getpid()}")
+    try:
+        with open(tmp, "wb") as f:
+            f.write(buf.getvalue())
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, out)
+    except OSError as e:
+        tmp.unlink(missing_ok=True)
+        raise PolicyError(f"cannot write {out} ({e.strerror or type(e).__name__})") from None
+
+
+# ----------------------------------------------------------------------------
+# Command line
+# ----------------------------------------------------------------------------
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message):  # one line, not usage + message
+        self.exit(2, f"jaxnav.deploy: error: {message}\n")
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = _Parser(prog="python -m jaxnav.deploy",
+                description="Export a trained policy for a real robot, or show an exported one.")
+    sub = p.add_subparsers(dest="cmd", required=True, parser_class=_Parser)
+    ex = sub.add_parser("export", help="write one trained policy to a portable .npz")
+    ex.add_argument("run_dir", metavar="RUN_DIR")
+    ex.add_argument("--strategy", default="ebe", help="ebe (default) or epsilon_greedy")
+    ex.add_argument("--seed", type=int, default=None, help="which seed (default: the run's first)")
+    ex.add_argument("--out", default=None,
+                    help="output file (default policy-<strategy>-seed<k>.npz)")
+    info = sub.add_parser("info", help="print an exported policy's metadata")
+    info.add_argument("policy", metavar="POLICY")
+    args = p.parse_args(argv)
+    try:
+        if args.cmd == "info":
+            pol = Policy.load(args.policy)
+            for k, v in pol.meta.items():
+                if k not in ("config", "observation", "format", "version"):
+                    print(f"{k}: {v}")
+            return 0
+        arrays = export_policy(args.run_dir, args.strategy, args.seed)
+        meta = json.loads(str(arrays["meta"]))
+        out = Path(args.out or f"policy-{meta['strategy']}-seed{meta['seed']}.npz")
+        save_policy(arrays, out)
+    except PolicyError as e:
+        print(f"jaxnav.deploy: error: {e}", file=sys.stderr)
+        return 2
+    print(f"wrote {out} ({meta['strategy']} seed {meta['seed']}, {meta['n_beams']} beams"
+          f"{', obstacle features' if meta['obstacle_obs'] else ''}, maze {meta['maze']})")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

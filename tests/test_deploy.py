@@ -1,0 +1,381 @@
+"""The real-robot adapter: a raw LaserScan and odometry give the trained observation."""
+
+from __future__ import annotations
+
+import json
+import math
+import py_compile
+import subprocess
+import sys
+from pathlib import Path
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from jaxnav import deploy
+from jaxnav.config import dump_config, load_config
+from jaxnav.deploy import Policy, nearest_rays
+from jaxnav.dqn import QNetwork, make_env
+from jaxnav.env import beam_angles, ray_distances
+from jaxnav.maps import ROBOT_RADIUS, clearance
+from jaxnav.train import atomic_write_text, load_params, save_params
+
+ROOT = Path(__file__).resolve().parent.parent
+N_STATES = 150
+LDS01 = (0.0, 2 * math.pi / 360)  # angle_min, angle_increment of the TurtleBot3's LDS-01
+
+
+def _fake_run(root: Path, maze: str) -> Path:
+    """A run directory whose params.npz holds an initialised (untrained) network.
+
+    The adapter only has to reproduce the network's input and output, so training is
+    not needed; the weights are scaled up so the greedy action varies with the input.
+    """
+    cfg = load_config(None, ["seeds=1", "strategies=[ebe]", f"env.maze={maze}"])
+    env, _ = make_env(cfg)
+    net = QNetwork(env.num_actions, cfg.dqn.hidden, cfg.dqn.dropout)
+    params = net.init(jax.random.key(7), jnp.zeros(env.obs_size))
+    params = jax.tree.map(lambda x: x[None], params)  # leading axis: one run
+    out = root / maze
+    out.mkdir()
+    atomic_write_text(out / "config.yaml", dump_config(cfg))
+    save_params(out / "params.npz", cfg, params)
+    return out
+
+
+@pytest.fixture(scope="module")
+def runs(tmp_path_factory):
+    root = tmp_path_factory.mktemp("deploy")
+    return {m: _fake_run(root, m) for m in ("square4", "square4_obstacles")}
+
+
+class Setup:
+    """The environment, flax network and exported policy of a fake run."""
+
+    def __init__(self, run: Path):
+        self.cfg = load_config(str(run / "config.yaml"))
+        self.env, self.params = make_env(self.cfg)
+        self.net = QNetwork(self.env.num_actions, self.cfg.dqn.hidden, self.cfg.dqn.dropout)
+        self.net_params = load_params(run / "params.npz", "ebe", 0)
+        self.policy = Policy.from_arrays(deploy.export_policy(run, "ebe", 0))
+
+    def flax_q(self, obs):
+        return np.asarray(self.net.apply(self.net_params, jnp.asarray(obs)))
+
+
+@pytest.fixture(scope="module")
+def setups(runs):
+    return {m: Setup(r) for m, r in runs.items()}
+
+
+def _random_states(maze, n, seed):
+    """Poses in free space (clear of every surface by the robot radius) and goals."""
+    rng = np.random.default_rng(seed)
+    walls, circles = maze.walls(), maze.obstacles()
+    lo, hi = np.asarray(maze.bounds[:2]), np.asarray(maze.bounds[2:])
+    pts = rng.uniform(lo, hi, size=(8 * n, 2))
+    pts = pts[clearance(pts, walls, circles) >= ROBOT_RADIUS][:n]
+    assert len(pts) == n
+    yaw = rng.uniform(-math.pi, math.pi, n)
+    goal_pool = np.asarray(maze.goal_points)[: int(maze.n_goal_points)]
+    goals = goal_pool[rng.integers(0, len(goal_pool), n)]
+    return pts.astype(np.float32), yaw.astype(np.float32), goals.astype(np.float32)
+
+
+def _env_obs(env, params, pos, yaw, goal):
+    key = jax.random.key(0)
+    f = jax.jit(jax.vmap(lambda p, y, g: env.observe(key, p, y, g, params)))
+    return np.asarray(f(pos, yaw, goal))
+
+
+def _scan_angles(angle_min, increment, n_rays, n_beams=24):
+    """f32 robot-frame angle of each scan ray.
+
+    A ray that points along a trained beam gets exactly the environment's float32
+    beam angle: two roundings of one angle (15 degrees as 0 + 15 * 1 degree, or as
+    1 * 2 pi / 24; or 195 degrees as -165) differ by an ulp, which moves a ray that
+    grazes a wall by more than 1e-5 m.
+    """
+    rel = angle_min + increment * np.arange(n_rays)
+    out = rel.astype(np.float32)
+    beams = np.asarray(beam_angles(n_beams))
+    k = np.round((rel % (2 * np.pi)) / (2 * np.pi / n_beams)).astype(int) % n_beams
+    on_beam = np.abs(((rel - beams[k] + np.pi) % (2 * np.pi)) - np.pi) < 1e-6
+    out[on_beam] = beams[k[on_beam]]
+    return out
+
+
+def _scans(maze, pos, yaw, angle_min, increment, n_rays):
+    """Exact synthetic LaserScans: ray i at yaw + angle_min + i * increment (inf: no hit)."""
+    rel = jnp.asarray(_scan_angles(angle_min, increment, n_rays))
+    f = jax.jit(jax.vmap(lambda p, y: ray_distances(maze, p, y + rel)))
+    return np.asarray(f(pos, yaw))
+
+
+def _compare(setup, maze, angle_min, increment, n_rays, seed):
+    """Adapter observations and actions vs the environment's own, state by state."""
+    pos, yaw, goal = _random_states(maze, N_STATES, seed)
+    params = setup.params.replace(maze=maze)
+    want = _env_obs(setup.env, params, pos, yaw, goal)
+    scans = _scans(maze, pos, yaw, angle_min, increment, n_rays)
+    got = np.stack([
+        setup.policy.observe(s, angle_min, increment, (p[0], p[1], y), g)
+        for s, p, y, g in zip(scans, pos, yaw, goal)
+    ])
+    nb = setup.env.n_beams
+    heading_err = np.abs((got[:, nb] - want[:, nb] + math.pi) % (2 * math.pi) - math.pi)
+    assert heading_err.max() < 1e-5
+    others = np.delete(np.arange(got.shape[1]), nb)
+    np.testing.assert_allclose(got[:, others], want[:, others], atol=1e-5, rtol=0)
+    want_actions = np.argmax(setup.flax_q(want), axis=-1)
+    got_actions = setup.policy.act(got)
+    np.testing.assert_array_equal(got_actions, want_actions)
+    return scans, got, want_actions
+
+
+# ----------------------------------------------------------------------------
+# Inference
+# ----------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("maze", ["square4", "square4_obstacles"])
+def test_numpy_inference_equals_the_flax_network(setups, maze):
+    s = setups[maze]
+    rng = np.random.default_rng(1)
+    n, nb = 512, s.env.n_beams
+    parts = [
+        rng.uniform(0.12, 3.5, (n, nb)),  # ranges
+        rng.uniform(-math.pi, math.pi, (n, 1)),  # heading
+        rng.uniform(0.0, 5.0, (n, 1)),  # distance
+    ]
+    if s.env.obstacle_obs:
+        parts += [rng.uniform(0.12, 3.5, (n, 1)), rng.integers(0, nb, (n, 1))]
+    obs = np.concatenate(parts, axis=1).astype(np.float32)
+    want = s.flax_q(obs)
+    np.testing.assert_allclose(s.policy.q_values(obs), want, rtol=1e-5, atol=1e-5)
+    np.testing.assert_array_equal(s.policy.act(obs), np.argmax(want, axis=-1))
+    assert isinstance(s.policy.act(obs[0]), int)
+
+
+# ----------------------------------------------------------------------------
+# LaserScan -> observation
+# ----------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("angle_min", [0.0, -math.pi], ids=["from_ahead", "from_behind"])
+@pytest.mark.parametrize("maze", ["square4", "square4_obstacles"])
+def test_scan_through_adapter_gives_the_env_observation_and_action(setups, maze, angle_min):
+    s = setups[maze]
+    increment = 2 * math.pi / 360  # 360 rays include every trained beam angle
+    rays = _scan_angles(angle_min, increment, 360)
+    assert np.isin(np.asarray(beam_angles(24)), rays).all()
+    scans, obs, actions = _compare(s, s.params.maze, angle_min, increment, 360, seed=2)
+    assert len(set(actions.tolist())) > 1  # the check is not vacuous
+    # command() is the greedy action's velocities.
+    p0 = (0.0, 0.0, 0.0)
+    lin, ang = s.policy.command(scans[0], angle_min, increment, p0, (1.0, 1.0))
+    a = s.policy.act(s.policy.observe(scans[0], angle_min, increment, p0, (1.0, 1.0)))
+    assert (lin, ang) == (0.15, [-1.5, -0.75, 0.0, 0.75, 1.5][a])
+
+
+def test_rays_with_no_return_become_max_range_as_in_the_env(setups):
+    """Two walls removed: many rays hit nothing (inf), both paths read 3.5 m there."""
+    s = setups["square4"]
+    maze = s.params.maze
+    mask = np.asarray(maze.segment_mask).copy()
+    mask[:2] = False
+    open_maze = maze.replace(segment_mask=jnp.asarray(mask))
+    scans, obs, _ = _compare(s, open_maze, 0.0, 2 * math.pi / 360, 360, seed=3)
+    assert np.isinf(scans).mean() > 0.2
+    assert (obs[:, :24] == 3.5).mean() > 0.2
+
+
+def test_nearest_ray_when_the_increment_does_not_divide_the_beam_spacing(setups):
+    s = setups["square4_obstacles"]
+    maze = s.params.maze
+    pos, yaw, goal = _random_states(maze, 40, seed=4)
+    for angle_min, increment in [(0.3, 2 * math.pi / 400), (0.3, -2 * math.pi / 400)]:
+        n = 400  # 0.9 degree rays, 15 degree beams: 16.67 rays per beam
+        # Direct: the ray index nearest beam k is round((theta_k - angle_min) / inc) mod n.
+        theta = 2 * math.pi * np.arange(24) / 24
+        frac = ((theta - angle_min) / increment) % n
+        assert np.all(np.abs(frac % 1 - 0.5) > 1e-3)  # no ties in this layout
+        idx = np.round(frac).astype(int) % n
+        np.testing.assert_array_equal(nearest_rays(n, angle_min, increment, 24), idx)
+        scans = _scans(maze, pos, yaw, angle_min, increment, n)
+        for sc, p, y, g in zip(scans, pos, yaw, goal):
+            obs = s.policy.observe(sc, angle_min, increment, (p[0], p[1], y), g)
+            rel = jnp.asarray(_scan_angles(angle_min, increment, n)[idx])
+            direct = np.clip(np.asarray(ray_distances(maze, jnp.asarray(p), y + rel)), 0.12, 3.5)
+            np.testing.assert_allclose(obs[:24], direct, atol=1e-5, rtol=0)
+            assert obs[24 + 2] == pytest.approx(direct.min(), abs=1e-6)
+            assert obs[24 + 3] == np.argmin(direct)
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    n_rays=st.integers(24, 1500),
+    angle_min=st.floats(-2 * math.pi, 2 * math.pi),
+    clockwise=st.booleans(),
+    n_beams=st.sampled_from([24, 360, 7]),
+)
+def test_every_beam_reads_a_ray_within_half_an_increment(n_rays, angle_min, clockwise, n_beams):
+    inc = (-1 if clockwise else 1) * 2 * math.pi / n_rays
+    idx = nearest_rays(n_rays, angle_min, inc, n_beams)
+    ray = angle_min + inc * idx
+    beam = 2 * math.pi * np.arange(n_beams) / n_beams
+    gap = np.abs((ray - beam + math.pi) % (2 * math.pi) - math.pi)
+    assert np.all(gap <= abs(inc) / 2 + 1e-9)
+    assert np.all((0 <= idx) & (idx < n_rays))
+
+
+def test_a_scan_that_does_not_cover_every_beam_is_an_error(setups):
+    policy = setups["square4"].policy
+    half = np.full(180, 2.0)  # 180 degrees in front only
+    with pytest.raises(ValueError, match="does not cover"):
+        policy.observe(half, -math.pi / 2, math.pi / 180, (0, 0, 0), (1, 0))
+
+
+def test_invalid_readings_are_handled_as_documented(setups):
+    policy = setups["square4_obstacles"].policy
+    ranges = np.full(360, 2.0)
+    # Trained beams 0..6 read rays 0, 15, ..., 90 of the LDS-01 layout.
+    ranges[[0, 15, 30, 45, 60, 75, 90]] = [np.inf, 0.0, np.nan, -1.0, -np.inf, 0.05, 10.0]
+    obs = policy.observe(ranges, *LDS01, (0, 0, 0), (1, 0))
+    np.testing.assert_allclose(obs[:7], [3.5, 3.5, 3.5, 3.5, 0.12, 0.12, 3.5], atol=1e-6)
+    assert np.all(obs[7:24] == 2.0)
+    assert obs[26] == pytest.approx(0.12) and obs[27] == 4.0  # -inf: too close to measure
+    # Invalid readings never look like a near obstacle (they are the LDS-01's no-return).
+    ranges = np.full(360, 2.0)
+    ranges[[15, 30, 45]] = [0.0, np.nan, -0.5]
+    obs = policy.observe(ranges, *LDS01, (0, 0, 0), (1, 0))
+    assert obs[26] == 2.0 and obs[27] == 0.0
+    # ...unless the caller asks for another value.
+    obs = policy.observe(ranges, *LDS01, (0, 0, 0), (1, 0), invalid=0.0)
+    np.testing.assert_allclose(obs[1:4], [0.12, 0.12, 0.12], atol=1e-6)
+    # A reading between the rays the beams use changes nothing.
+    ranges = np.full(360, 2.0)
+    ranges[7] = np.nan
+    assert np.all(policy.observe(ranges, *LDS01, (0, 0, 0), (1, 0))[:24] == 2.0)
+
+
+def test_heading_and_distance_come_from_odometry_and_goal(setups):
+    policy = setups["square4"].policy
+    scan = np.full(360, 1.0)
+    obs = policy.observe(scan, *LDS01, (1.0, 1.0, math.pi / 2), (0.0, 1.0))  # goal to the left
+    assert obs[24] == pytest.approx(math.pi / 2) and obs[25] == pytest.approx(1.0)
+    obs = policy.observe(scan, *LDS01, (0.0, 0.0, 0.0), (0.0, -2.0))  # goal to the right
+    assert obs[24] == pytest.approx(-math.pi / 2) and obs[25] == pytest.approx(2.0)
+    with pytest.raises(ValueError, match="finite"):
+        policy.command(scan, *LDS01, (np.nan, 0.0, 0.0), (1.0, 0.0))
+
+
+def test_yaw_from_an_odometry_quaternion():
+    for yaw in np.linspace(-3.1, 3.1, 13):
+        q = (0.0, 0.0, math.sin(yaw / 2), math.cos(yaw / 2))
+        assert deploy.yaw_from_quaternion(*q) == pytest.approx(yaw)
+
+
+# ----------------------------------------------------------------------------
+# Export and files
+# ----------------------------------------------------------------------------
+
+
+def test_export_writes_a_file_that_policy_load_reads(runs, tmp_path):
+    out = tmp_path / "policy.npz"
+    assert deploy.main(["export", str(runs["square4_obstacles"]), "--strategy", "ebe",
+                        "--seed", "0", "--out", str(out)]) == 0
+    with np.load(out, allow_pickle=False) as data:  # plain arrays only, no pickle
+        arrays = {k: data[k] for k in data.files}
+    assert all(a.dtype != object for a in arrays.values())
+    policy = Policy.load(out)
+    meta = policy.meta
+    assert (meta["strategy"], meta["seed"], meta["maze"], meta["preset"]) == (
+        "ebe", 0, "square4_obstacles", "paper")
+    assert (policy.n_beams, policy.obstacle_obs, policy.min_range, policy.max_range) == (
+        24, True, 0.12, 3.5)
+    assert policy.omegas.tolist() == [-1.5, -0.75, 0.0, 0.75, 1.5]
+    assert policy.linear_velocity == 0.15 and policy.obs_size == 28
+    assert arrays["maze/obstacles"].shape == (4, 3) and arrays["maze/walls"].shape == (4, 4)
+    trained = load_params(runs["square4_obstacles"] / "params.npz", "ebe", 0)["params"]
+    for i, (k, b) in enumerate(policy.layers):
+        np.testing.assert_array_equal(k, trained[f"Dense_{i}"]["kernel"])
+        np.testing.assert_array_equal(b, trained[f"Dense_{i}"]["bias"])
+    assert [p.name for p in tmp_path.iterdir()] == ["policy.npz"]  # no temporary left
+
+
+@pytest.mark.parametrize("case", ["missing_dir", "no_params", "strategy", "seed", "out_dir"])
+def test_export_with_bad_input_fails_with_exit_2_and_one_line(runs, tmp_path, capsys, case):
+    run = runs["square4"]
+    out = tmp_path / "policy.npz"
+    out.write_bytes(b"old")
+    argv = {
+        "missing_dir": [str(tmp_path / "nope")],
+        "no_params": [str(tmp_path)],
+        "strategy": [str(run), "--strategy", "greedy"],
+        "seed": [str(run), "--seed", "5"],
+        "out_dir": [str(run), "--out", str(tmp_path / "no" / "p.npz")],
+    }[case]
+    if case == "no_params":
+        (tmp_path / "config.yaml").write_text((run / "config.yaml").read_text())
+    if case != "out_dir":
+        argv += ["--out", str(out)]
+    assert deploy.main(["export"] + argv) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("jaxnav.deploy: error: ")
+    assert out.read_bytes() == b"old"  # the old file is untouched
+
+
+def test_command_line_error_is_one_line_without_traceback(tmp_path):
+    r = subprocess.run(
+        [sys.executable, "-m", "jaxnav.deploy", "export", str(tmp_path / "missing")],
+        capture_output=True, text=True, cwd=tmp_path, timeout=120,
+    )
+    assert r.returncode == 2
+    assert r.stderr.count("\n") == 1 and "Traceback" not in r.stderr
+    assert "does not exist" in r.stderr
+
+
+def test_policy_inference_needs_only_numpy(runs, tmp_path):
+    """deploy.py copied alone onto a robot without JAX loads a policy and acts."""
+    out = tmp_path / "p.npz"
+    deploy.save_policy(deploy.export_policy(runs["square4"]), out)
+    code = (
+        "import importlib.util, math, sys\n"
+        "sys.modules['jax'] = None  # any 'import jax' now fails\n"
+        f"path = {str(ROOT / 'jaxnav' / 'deploy.py')!r}\n"
+        "spec = importlib.util.spec_from_file_location('deploy', path)\n"
+        "m = importlib.util.module_from_spec(spec); spec.loader.exec_module(m)\n"
+        f"p = m.Policy.load({str(out)!r})\n"
+        "print(p.command([1.0] * 360, 0.0, 2 * math.pi / 360, (0, 0, 0), (1, 1)))\n"
+    )
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.startswith("(0.15, ")
+
+
+def test_load_rejects_a_file_that_is_not_a_policy(tmp_path):
+    bad = tmp_path / "x.npz"
+    np.savez(bad, a=np.zeros(3))
+    with pytest.raises(deploy.PolicyError, match="not a jaxnav policy"):
+        Policy.load(bad)
+    bad.write_bytes(b"garbage")
+    with pytest.raises(deploy.PolicyError, match="cannot be read"):
+        Policy.load(bad)
+
+
+def test_info_prints_the_metadata(runs, tmp_path, capsys):
+    out = tmp_path / "p.npz"
+    deploy.save_policy(deploy.export_policy(runs["square4"]), out)
+    assert deploy.main(["info", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "n_beams: 24" in text and "strategy: ebe" in text
+    assert json.loads(str(np.load(out)["meta"]))["format"] == "jaxnav-policy"
+
+
+def test_ros2_node_example_compiles():
+    py_compile.compile(str(ROOT / "examples" / "ros2_policy_node.py"), doraise=True)
