@@ -70,7 +70,8 @@ def normalised_entropy(q: chex.Array, temperature: float = 1.0) -> chex.Array:
     return jnp.clip(h, 0.0, 1.0)
 
 
-def _explore_or_greedy(key, q, prob):
+def explore_or_greedy(key: chex.PRNGKey, q: chex.Array, prob: chex.Array) -> chex.Array:
+    """A uniformly random action with probability ``prob``, else argmax Q."""
     k_coin, k_act = jax.random.split(key)
     explore = jax.random.uniform(k_coin) < prob
     random_action = jax.random.randint(k_act, (), 0, q.shape[-1])
@@ -83,12 +84,12 @@ def ebe(key: chex.PRNGKey, q: chex.Array, temperature: float = 1.0):
     Returns (action i32[], H f32[]).
     """
     h = normalised_entropy(q, temperature)
-    return _explore_or_greedy(key, q, h), h
+    return explore_or_greedy(key, q, h), h
 
 
 def epsilon_greedy(key: chex.PRNGKey, q: chex.Array, eps: chex.Array):
     """Random action with probability eps, else greedy. Returns (action, eps)."""
-    return _explore_or_greedy(key, q, eps), jnp.asarray(eps, jnp.float32)
+    return explore_or_greedy(key, q, eps), jnp.asarray(eps, jnp.float32)
 
 
 def epsilon_schedule(episode: chex.Array, start=1.0, decay=0.99, minimum=0.05) -> chex.Array:
@@ -355,14 +356,13 @@ def make_trainer(config: Config) -> Trainer:
         run = active(ts)
         key, k_act, k_env, k_sample, k_drop = jax.random.split(ts.key, 5)
 
-        # ACT: both rules are cheap; the strategy index picks one.
+        # ACT: ebe and epsilon_greedy differ only in the exploration probability
+        # (H(s) or eps_i); the strategy index picks it, one draw serves both.
         q = network.apply(ts.params, ts.obs)
-        a_ebe, h = ebe(k_act, q, x.ebe_temperature)
+        h = normalised_entropy(q, x.ebe_temperature)
         eps = epsilon_schedule(ts.episode, x.eps_start, x.eps_decay, x.eps_min)
-        a_eps, _ = epsilon_greedy(k_act, q, eps)
-        is_ebe = ts.strategy == STRATEGIES.index("ebe")
-        action = jnp.where(is_ebe, a_ebe, a_eps)
-        explore = jnp.where(is_ebe, h, eps)
+        explore = jnp.where(ts.strategy == STRATEGIES.index("ebe"), h, eps)
+        action = explore_or_greedy(k_act, q, explore)
 
         # STEP ENV (auto-resets to the start pose after a collision or truncation).
         obs, env_state, reward, terminated, truncated, info = env.step(
