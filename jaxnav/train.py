@@ -166,7 +166,13 @@ def save_params(path: Path, cfg: Config, params) -> None:
 def load_params(path: str | Path, strategy: str, seed: int):
     """Flax params of one run from a ``params.npz`` (NumPy arrays)."""
     prefix = f"{strategy}/seed{seed}/"
-    with np.load(path, allow_pickle=False) as data:
+    try:
+        data = np.load(path, allow_pickle=False)
+    except FileNotFoundError:
+        raise RunError(f"{path} does not exist") from None
+    except Exception as e:  # not an npz, truncated, ...
+        raise RunError(f"{path} cannot be read ({type(e).__name__})") from None
+    with data:
         tree: dict[str, Any] = {}
         found = False
         for k in data.files:

@@ -1,0 +1,677 @@
+"""``python -m jaxnav.evaluate RUN_DIR [--mazes M ...] [--episodes N] [--out DIR]``
+
+The paper's test protocol (Sec. 6, Tables 3 and 4): every trained policy runs N
+consecutive greedy test episodes on each test maze and the tables report the mean
+± std of the episode return.
+
+* Greedy: dropout off, no exploration, action = argmax Q.
+* Consecutive: the episodes follow one another in one environment; after a
+  collision or truncation the robot restarts at the start pose and keeps its goal
+  (the env's auto-reset), as in the paper's Gazebo runs.
+* The training environment's settings (preset, n_beams, max_steps, reward
+  constants, LiDAR noise, observation layout): only the maze changes. The network's
+  input size depends on the layout, so a policy trained with the obstacle
+  observation (min range, its beam) keeps it on every test maze.
+* Every strategy and seed runs in one jitted, vmapped ``lax.scan`` per maze; all
+  test mazes are padded to one shape (:func:`padded_mazes`), so the scan compiles
+  once. Both strategies of a seed use the same test key.
+
+Defaults are the run's ``run.test_mazes`` and ``run.test_episodes``; ``--mazes``
+replaces the maze list (built-in names or maze YAML paths). Writes, atomically::
+
+    RUN_DIR/eval/results.csv        strategy, seed, maze, episode, return, goals, collided, length
+    RUN_DIR/eval/tables.md          paper-form tables, across-seed statistics, the paper's numbers
+    RUN_DIR/eval/trajectories.npz   the first test episode of the config's seed, per strategy
+                                    and maze, step by step (for jaxnav.plots)
+
+The tables are a pure function of results.csv (:func:`tables_markdown`).
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import functools
+import io
+import sys
+import zipfile
+from pathlib import Path
+from typing import Any, NamedTuple, Sequence
+
+import chex
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from jaxnav import stats
+from jaxnav.config import STRATEGIES, Config, ConfigError, load_config
+from jaxnav.dqn import QNetwork, make_env
+from jaxnav.env import EnvParams, NavEnv
+from jaxnav.maps import MAX_GOAL_POINTS, Maze, MazeError, make_maze, pad_maze
+from jaxnav.train import (
+    RunError,
+    _csv_text,
+    atomic_write_bytes,
+    atomic_write_text,
+    load_params,
+    run_labels,
+)
+
+RESULT_COLUMNS = ("strategy", "seed", "maze", "episode", "return", "goals", "collided", "length")
+EVAL_SALT = 0x7E57  # folded into a seed's key: test goals differ from training's
+STRATEGY_NAMES = {"ebe": "EBE", "epsilon_greedy": "epsilon-greedy"}
+
+# Paper Tables 3 and 4 (mean ± std over 10 consecutive test episodes), keyed by the
+# training maze, then our test maze -> (paper's row name, {strategy: (mean, std)}).
+PAPER_TABLES: dict[str, tuple[str, dict[str, tuple[str, dict[str, tuple[float, float]]]]]] = {
+    "square4": (
+        "Table 3 (trained on the 4x4 square maze, no obstacles)",
+        {
+            "square4": (
+                "4x4 Square",
+                {"ebe": (3731.92, 368.35), "epsilon_greedy": (2202.93, 425.89)},
+            ),
+            "square8": (
+                "8x8 Square",
+                {"ebe": (2638.52, 319.07), "epsilon_greedy": (1662.57, 402.94)},
+            ),
+            "square2": (
+                "2x2 Square",
+                {"ebe": (4369.64, 935.56), "epsilon_greedy": (5556.55, 377.02)},
+            ),
+            "triangle": (
+                "Triangle",
+                {"ebe": (3655.37, 915.96), "epsilon_greedy": (1678.71, 1257.50)},
+            ),
+            "pentagon": (
+                "Pentagon",
+                {"ebe": (2794.04, 544.07), "epsilon_greedy": (2065.00, 882.77)},
+            ),
+        },
+    ),
+    "square4_obstacles": (
+        "Table 4 (trained on the 4x4 square maze with obstacles)",
+        {
+            "square4_obstacles": (
+                "4x4 Square",
+                {"ebe": (1125.45, 775.82), "epsilon_greedy": (450.19, 760.14)},
+            ),
+            "pentagon_obstacles": (
+                "Pentagon",
+                {"ebe": (890.99, 641.19), "epsilon_greedy": (432.28, 210.37)},
+            ),
+        },
+    ),
+}
+
+
+class EvalError(Exception):
+    """A problem with the run or the request; the message is one line."""
+
+
+# ----------------------------------------------------------------------------
+# Rollout (pure, jitted)
+# ----------------------------------------------------------------------------
+
+
+class Trajectory(NamedTuple):
+    """Per-step record of a rollout; the pose is the one *before* the step.
+
+    Leading axes [..., T] (T = n_episodes * max_steps); steps after the last test
+    episode have ``episode == n_episodes`` and are not part of the test.
+    """
+
+    pos: chex.Array  # f32[..., T, 2]
+    yaw: chex.Array  # f32[..., T]
+    goal: chex.Array  # f32[..., T, 2]
+    ranges: chex.Array  # f32[..., T, n_beams] the scan the policy saw
+    action: chex.Array  # i32[..., T]
+    reward: chex.Array  # f32[..., T]
+    reached: chex.Array  # bool[..., T] the goal was reached in this step
+    collided: chex.Array  # bool[..., T] the robot collided in this step
+    episode: chex.Array  # i32[..., T] test episode of this step
+
+
+class Rollout(NamedTuple):
+    """Per-episode test results [..., n_episodes] and, optionally, the trajectory."""
+
+    ret: chex.Array  # f32[..., E]
+    goals: chex.Array  # i32[..., E]
+    collided: chex.Array  # bool[..., E]
+    length: chex.Array  # i32[..., E]
+    trajectory: Trajectory | None
+
+
+def make_rollout(
+    env: NavEnv, network: QNetwork, n_episodes: int, max_steps: int, record: bool = False
+):
+    """A pure ``rollout(params, key, env_params) -> Rollout`` of one greedy policy.
+
+    Plays ``n_episodes`` consecutive episodes in one environment with auto-reset.
+    Each episode lasts at most ``max_steps`` steps, so a scan of
+    ``n_episodes * max_steps`` steps always completes them; later steps are ignored.
+    """
+    n_steps = n_episodes * max_steps
+    E = n_episodes
+
+    def rollout(params, key: chex.PRNGKey, env_params: EnvParams) -> Rollout:
+        k_reset, key = jax.random.split(key)
+        obs, state = env.reset(k_reset, env_params)
+        zeros_f = jnp.zeros(E, jnp.float32)
+        zeros_i = jnp.zeros(E, jnp.int32)
+        carry0 = (
+            obs,
+            state,
+            key,
+            jnp.zeros((), jnp.int32),  # episode being played
+            jnp.zeros((), jnp.float32),  # its return so far
+            jnp.zeros((), jnp.int32),  # its goals so far
+            (zeros_f, zeros_i, jnp.zeros(E, bool), zeros_i),
+        )
+
+        def body(carry, _):
+            obs, state, key, ep, cur_ret, cur_goals, (rets, goals, coll, lens) = carry
+            key, k_step = jax.random.split(key)
+            # ACT: greedy, dropout off (Keras predict).
+            q = network.apply(params, obs)
+            action = jnp.argmax(q, axis=-1).astype(jnp.int32)
+            # STEP ENV (auto-reset keeps the goal, restarts at the start pose).
+            obs2, state2, reward, terminated, truncated, info = env.step(
+                k_step, state, action, env_params
+            )
+            done = terminated | truncated
+            cur_ret = cur_ret + reward
+            cur_goals = cur_goals + info["goal_reached"].astype(jnp.int32)
+            # RECORD the finished episode (index E: dropped, the test is over).
+            i = jnp.where(done & (ep < E), ep, E)
+            rets = rets.at[i].set(cur_ret, mode="drop")
+            goals = goals.at[i].set(cur_goals, mode="drop")
+            coll = coll.at[i].set(terminated, mode="drop")
+            lens = lens.at[i].set(state.t + 1, mode="drop")
+            out = None
+            if record:
+                out = Trajectory(
+                    pos=state.pos,
+                    yaw=state.yaw,
+                    goal=state.goal,
+                    ranges=obs[: env.n_beams],
+                    action=action,
+                    reward=reward,
+                    reached=info["goal_reached"],
+                    collided=terminated,
+                    episode=ep,
+                )
+            carry = (
+                obs2,
+                state2,
+                key,
+                ep + done.astype(jnp.int32),
+                jnp.where(done, 0.0, cur_ret),
+                jnp.where(done, 0, cur_goals),
+                (rets, goals, coll, lens),
+            )
+            return carry, out
+
+        carry, traj = jax.lax.scan(body, carry0, None, length=n_steps)
+        rets, goals, coll, lens = carry[-1]
+        return Rollout(rets, goals, coll, lens, traj)
+
+    return rollout
+
+
+# ----------------------------------------------------------------------------
+# Loading a run
+# ----------------------------------------------------------------------------
+
+
+class LoadedRun(NamedTuple):
+    config: Config
+    labels: list[tuple[str, int]]  # (strategy, seed) per run, the params' leading axis
+    params: Any  # flax params, every leaf with a leading run axis
+    env: NavEnv  # the training env (static settings)
+    env_params: EnvParams  # the training env's params
+    network: QNetwork
+
+
+def load_run(run_dir: str | Path) -> LoadedRun:
+    """Config and parameters of a finished training run (raises EvalError)."""
+    run_dir = Path(run_dir)
+    if not run_dir.is_dir():
+        raise EvalError(f"run directory {run_dir} does not exist")
+    cfg_path, params_path = run_dir / "config.yaml", run_dir / "params.npz"
+    if not cfg_path.is_file():
+        raise EvalError(f"{run_dir} is not a run directory (no config.yaml)")
+    if not params_path.is_file():
+        raise EvalError(f"{run_dir} has no params.npz (training has not finished; resume it first)")
+    cfg = load_config(str(cfg_path))
+    env, env_params = make_env(cfg)
+    network = QNetwork(env.num_actions, tuple(cfg.dqn.hidden), cfg.dqn.dropout)
+    template = network.init(jax.random.PRNGKey(0), jnp.zeros(env.obs_size))
+    labels = run_labels(cfg)
+    trees = []
+    for strategy, seed in labels:
+        try:
+            tree = load_params(params_path, strategy, seed)
+        except (OSError, ValueError, zipfile.BadZipFile, EOFError):
+            raise EvalError(f"{params_path} cannot be read") from None
+        except RunError as e:
+            raise EvalError(str(e)) from None
+        try:
+            shapes_ok = jax.tree.structure(tree) == jax.tree.structure(template) and all(
+                np.shape(a) == np.shape(b)
+                for a, b in zip(jax.tree.leaves(tree), jax.tree.leaves(template))
+            )
+        except Exception:
+            shapes_ok = False
+        if not shapes_ok:
+            raise EvalError(
+                f"{params_path} does not match the network of {cfg_path} ({strategy} seed {seed})"
+            )
+        trees.append(tree)
+    params = jax.tree.map(lambda *xs: jnp.asarray(np.stack(xs), jnp.float32), *trees)
+    return LoadedRun(cfg, labels, params, env, env_params, network)
+
+
+def padded_mazes(names: Sequence[str]) -> list[Maze]:
+    """Mazes by name or YAML path, padded to one shape so one compile serves all.
+
+    Goal points are padded to MAX_GOAL_POINTS (they are only indexed, so this costs
+    nothing) and the shape then depends only on the largest wall and obstacle
+    counts: most maze sets share a compiled rollout.
+    """
+    mazes = [make_maze(n) for n in names]
+    s = max(m.segments.shape[0] for m in mazes)
+    c = max(m.circles.shape[0] for m in mazes)
+    g = max([MAX_GOAL_POINTS] + [m.goal_points.shape[0] for m in mazes])
+    return [pad_maze(m, s, c, g) for m in mazes]
+
+
+def eval_keys(labels: Sequence[tuple[str, int]]) -> chex.Array:
+    """Test key per run: a seed's key with EVAL_SALT folded in (shared by strategies)."""
+    return jnp.stack(
+        [jax.random.fold_in(jax.random.PRNGKey(seed), EVAL_SALT) for _, seed in labels]
+    )
+
+
+@functools.lru_cache(maxsize=16)
+def _compiled_rollout(
+    env: NavEnv, network: QNetwork, n_episodes: int, max_steps: int, record: bool
+):
+    """jit(vmap(rollout)) over runs, one per setting: equal shapes never recompile."""
+    rollout = make_rollout(env, network, n_episodes, max_steps, record)
+    return jax.jit(jax.vmap(rollout, in_axes=(0, 0, None)))
+
+
+def run_tests(
+    run: LoadedRun,
+    mazes: Sequence[Maze],
+    n_episodes: int,
+    select: Sequence[int] | None = None,
+    record: bool = False,
+) -> list[Rollout]:
+    """One vmapped rollout of every (selected) run per maze; NumPy results."""
+    idx = np.arange(len(run.labels)) if select is None else np.asarray(select)
+    params = jax.tree.map(lambda x: x[idx], run.params)
+    keys = eval_keys([run.labels[i] for i in idx])
+    fn = _compiled_rollout(run.env, run.network, n_episodes, int(run.env_params.max_steps), record)
+    out = []
+    for maze in mazes:
+        res = fn(params, keys, run.env_params.replace(maze=maze))
+        out.append(jax.tree.map(np.asarray, res))
+    return out
+
+
+def first_episode(res: Rollout, r: int) -> dict[str, Any]:
+    """The first test episode of run r of a recorded Rollout, cut to its length."""
+    n = int(res.length[r, 0])
+    tr = res.trajectory
+    return {
+        "pos": tr.pos[r, :n],
+        "yaw": tr.yaw[r, :n],
+        "goal": tr.goal[r, :n],
+        "ranges": tr.ranges[r, :n],
+        "reward": tr.reward[r, :n],
+        "reached": tr.reached[r, :n],
+        "collided": bool(res.collided[r, 0]),
+        "return": float(res.ret[r, 0]),
+        "goals": int(res.goals[r, 0]),
+        "length": n,
+    }
+
+
+Episodes = dict[str, dict[str, dict[str, Any]]]  # maze -> strategy -> first_episode()
+
+
+def episodes_npz(episodes: Episodes, goal_radius: float) -> bytes:
+    """trajectories.npz bytes: "<maze index>/<strategy>/<field>", the maze names and
+    the goal radius (what a plot needs besides the maze)."""
+    arrays: dict[str, np.ndarray] = {
+        "mazes": np.asarray(list(episodes), dtype=str),
+        "goal_radius": np.asarray(goal_radius, np.float64),
+    }
+    for i, per_strategy in enumerate(episodes.values()):
+        for s, ep in per_strategy.items():
+            for k, v in ep.items():
+                arrays[f"{i}/{s}/{k}"] = np.asarray(v)
+    buf = io.BytesIO()
+    np.savez_compressed(buf, **arrays)
+    return buf.getvalue()
+
+
+def read_episodes_npz(path: str | Path) -> tuple[Episodes, float]:
+    """Inverse of :func:`episodes_npz`: (episodes, goal radius)."""
+    with np.load(path, allow_pickle=False) as data:
+        names = [str(m) for m in data["mazes"]]
+        goal_radius = float(data["goal_radius"])
+        out: Episodes = {m: {} for m in names}
+        for key in data.files:
+            if key in ("mazes", "goal_radius"):
+                continue
+            i, s, k = key.split("/")
+            v = data[key]
+            out[names[int(i)]].setdefault(s, {})[k] = v if v.ndim else v.item()
+    return out, goal_radius
+
+
+def evaluate(
+    run_dir: str | Path, maze_names: Sequence[str] | None = None, n_episodes: int | None = None
+) -> tuple[LoadedRun, list[str], str, Episodes]:
+    """Test every run of ``run_dir``.
+
+    Returns (run, maze names, results.csv text, the first test episode of the
+    config's seed per maze and strategy).
+    """
+    run = load_run(run_dir)
+    names = list(maze_names) if maze_names else list(run.config.run.test_mazes)
+    if len(set(names)) != len(names):
+        raise EvalError("a maze is listed twice")
+    n_episodes = run.config.run.test_episodes if n_episodes is None else n_episodes
+    if n_episodes < 1:
+        raise EvalError("--episodes must be at least 1")
+    mazes = padded_mazes(names)
+    results = run_tests(run, mazes, n_episodes, record=True)
+    first = [i for i, (_, seed) in enumerate(run.labels) if seed == run.config.seed]
+    episodes = {
+        name: {run.labels[i][0]: first_episode(res, i) for i in first}
+        for name, res in zip(names, results)
+    }
+    rows = []
+    for name, res in zip(names, results):
+        for r, (strategy, seed) in enumerate(run.labels):
+            for e in range(n_episodes):
+                rows.append(
+                    (
+                        strategy,
+                        seed,
+                        name,
+                        e,
+                        f"{float(res.ret[r, e]):.4f}",
+                        int(res.goals[r, e]),
+                        int(res.collided[r, e]),
+                        int(res.length[r, e]),
+                    )
+                )
+    return run, names, _csv_text(RESULT_COLUMNS, rows), episodes
+
+
+# ----------------------------------------------------------------------------
+# Tables (pure functions of results.csv)
+# ----------------------------------------------------------------------------
+
+
+def read_results(text: str) -> dict[tuple[str, str, int], dict[str, np.ndarray]]:
+    """results.csv text -> {(maze, strategy, seed): {column: per-episode array}}."""
+    out: dict[tuple[str, str, int], dict[str, list]] = {}
+    for row in csv.DictReader(io.StringIO(text)):
+        key = (row["maze"], row["strategy"], int(row["seed"]))
+        d = out.setdefault(
+            key, {"episode": [], "return": [], "goals": [], "collided": [], "length": []}
+        )
+        for c in d:
+            d[c].append(float(row[c]))
+    res = {}
+    for key, d in out.items():
+        order = np.argsort(d["episode"])
+        res[key] = {c: np.asarray(v)[order] for c, v in d.items()}
+    return res
+
+
+def _ordered_unique(xs):
+    seen = []
+    for x in xs:
+        if x not in seen:
+            seen.append(x)
+    return seen
+
+
+def _pm(mean: float, std: float) -> str:
+    return f"{mean:.2f} ± {std:.2f}"
+
+
+def _ci(iv: stats.Interval, digits: int = 1) -> str:
+    if np.isnan(iv.low):
+        return f"{iv.value:.{digits}f} [n/a]"
+    return f"{iv.value:.{digits}f} [{iv.low:.{digits}f}, {iv.high:.{digits}f}]"
+
+
+def _table(header: Sequence[str], rows: Sequence[Sequence[str]]) -> list[str]:
+    lines = ["| " + " | ".join(header) + " |", "|" + "|".join("---" for _ in header) + "|"]
+    lines += ["| " + " | ".join(str(c) for c in r) + " |" for r in rows]
+    return lines
+
+
+def per_seed_scores(
+    results, maze: str, strategy: str, seeds: Sequence[int], column: str = "return"
+) -> np.ndarray:
+    """Per-seed mean of a column over the test episodes -> f[len(seeds)]."""
+    return np.asarray([results[(maze, strategy, s)][column].mean() for s in seeds])
+
+
+def tables_markdown(
+    results_csv: str, train_maze: str, first_seed: int, title: str = "Test results"
+) -> str:
+    """The report's tables from results.csv text.
+
+    Args:
+      results_csv: the text of results.csv.
+      train_maze: the training maze (picks the paper's Table 3 or 4).
+      first_seed: the config's seed: the single-seed table uses it, as the paper
+        shows one run.
+    """
+    results = read_results(results_csv)
+    if not results:
+        raise EvalError("results.csv has no rows")
+    mazes = _ordered_unique(k[0] for k in results)
+    strategies = [s for s in STRATEGIES if any(k[1] == s for k in results)]
+    seeds = sorted({k[2] for k in results})
+    n_eps = {len(v["return"]) for v in results.values()}
+    names = [STRATEGY_NAMES[s] for s in strategies]
+    seed0 = first_seed if first_seed in seeds else seeds[0]
+    L: list[str] = [f"# {title}", ""]
+    L += [
+        f"Trained on `{train_maze}`; {len(seeds)} seed(s) per strategy; "
+        f"{'/'.join(map(str, sorted(n_eps)))} consecutive greedy test episodes per seed and maze "
+        "(dropout off, argmax Q, the training environment's settings).",
+        "",
+        f"## Paper form: mean ± std (ddof 0) of the episode return over the test episodes, seed {seed0}",
+        "",
+    ]
+    L += _table(
+        ["maze"] + names,
+        [
+            [m] + [_pm(*stats.mean_std(results[(m, s, seed0)]["return"])) for s in strategies]
+            for m in mazes
+        ],
+    )
+    L += ["", "## Paper form, every seed", ""]
+    L += _table(
+        ["maze", "seed"] + names,
+        [
+            [m, str(k)] + [_pm(*stats.mean_std(results[(m, s, k)]["return"])) for s in strategies]
+            for m in mazes
+            for k in seeds
+        ],
+    )
+
+    L += [
+        "",
+        "## Across seeds",
+        "",
+        "A seed's score is its mean return over the test episodes. Mean and IQM "
+        "(interquartile mean, scipy `trim_mean(x, 0.25)`) of the per-seed scores, with "
+        f"{int(stats.CONFIDENCE * 100)}% percentile-bootstrap confidence intervals over seeds "
+        f"({stats.N_RESAMPLES} resamples; n/a with one seed; with a handful of seeds the interval "
+        "is little more than the range of the per-seed scores). Goals per episode and the "
+        "collision rate (share of test episodes that ended in a collision) pool all seeds.",
+        "",
+    ]
+    rows = []
+    for m in mazes:
+        for s in strategies:
+            x = per_seed_scores(results, m, s, seeds)
+            goals = np.concatenate([results[(m, s, k)]["goals"] for k in seeds])
+            coll = np.concatenate([results[(m, s, k)]["collided"] for k in seeds])
+            rows.append(
+                [
+                    m,
+                    STRATEGY_NAMES[s],
+                    _ci(stats.mean_ci(x)),
+                    _ci(stats.iqm_ci(x)),
+                    f"{goals.mean():.2f}",
+                    f"{coll.mean():.2f}",
+                ]
+            )
+    L += _table(
+        ["maze", "strategy", "mean [95% CI]", "IQM [95% CI]", "goals / episode", "collision rate"],
+        rows,
+    )
+
+    if set(strategies) == set(STRATEGIES):
+        L += [
+            "",
+            "## Probability of improvement",
+            "",
+            "P(EBE > epsilon-greedy) as rliable defines it: the chance that a seed of EBE "
+            "scores more than a seed of epsilon-greedy, ties counting half "
+            "(P(X > Y) + 0.5 P(X = Y) over all pairs of per-seed scores), with a stratified "
+            "bootstrap CI (the seeds of each strategy resampled independently within each "
+            "maze). 0.5: no difference. The last row averages over the mazes.",
+            "",
+        ]
+        prow = []
+        xs, ys = [], []
+        for m in mazes:
+            x = per_seed_scores(results, m, "ebe", seeds)
+            y = per_seed_scores(results, m, "epsilon_greedy", seeds)
+            xs.append(x)
+            ys.append(y)
+            prow.append([m, _ci(stats.probability_of_improvement_ci(x, y), 2)])
+        if len(mazes) > 1:
+            prow.append(
+                [
+                    "all mazes",
+                    _ci(stats.probability_of_improvement_ci(np.stack(xs, 1), np.stack(ys, 1)), 2),
+                ]
+            )
+        L += _table(["maze", "P(EBE > epsilon-greedy) [95% CI]"], prow)
+
+    paper = PAPER_TABLES.get(train_maze)
+    L += ["", "## Beside the paper", ""]
+    rows = []
+    if paper is not None:
+        caption, table = paper
+        for m in mazes:
+            if m not in table:
+                continue
+            row_name, vals = table[m]
+            row = [m, row_name]
+            for s in strategies:
+                row += [
+                    _pm(*vals[s]),
+                    _pm(*stats.mean_std(results[(m, s, seed0)]["return"])),
+                    _ci(stats.mean_ci(per_seed_scores(results, m, s, seeds))),
+                ]
+            rows.append(row)
+    if rows:
+        L += [
+            f"The paper's {caption}: mean ± std over 10 consecutive test episodes of its "
+            f"single training run. Ours: seed {seed0} in the same form, and the mean over "
+            "seeds of the per-seed mean return [95% bootstrap CI].",
+            "",
+        ]
+        header = ["maze", "paper row"]
+        for n in names:
+            header += [f"{n} paper", f"{n} ours, seed {seed0}", f"{n} ours, all seeds"]
+        L += _table(header, rows)
+    else:
+        L += [
+            f"The paper reports no test results for these mazes after training on `{train_maze}`."
+        ]
+    return "\n".join(L) + "\n"
+
+
+# ----------------------------------------------------------------------------
+# Command line
+# ----------------------------------------------------------------------------
+
+
+def evaluate_to_dir(
+    run_dir: str | Path,
+    maze_names: Sequence[str] | None = None,
+    n_episodes: int | None = None,
+    out: str | Path | None = None,
+) -> Path:
+    """Evaluate; write results.csv, tables.md, trajectories.npz (each atomically) into ``out``."""
+    run, names, text, episodes = evaluate(run_dir, maze_names, n_episodes)
+    tables = tables_markdown(
+        text, run.config.env.maze, run.config.seed, title=f"Test results of {Path(run_dir).name}"
+    )
+    out = Path(out) if out is not None else Path(run_dir) / "eval"
+    out.mkdir(parents=True, exist_ok=True)
+    atomic_write_text(out / "results.csv", text)
+    atomic_write_text(out / "tables.md", tables)
+    atomic_write_bytes(
+        out / "trajectories.npz", episodes_npz(episodes, float(run.env_params.goal_radius))
+    )
+    return out
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(
+        prog="python -m jaxnav.evaluate",
+        description="Test every trained policy of a run on the test mazes (the paper's "
+        "protocol: N consecutive greedy episodes) and write eval/results.csv and eval/tables.md.",
+    )
+    p.add_argument("run_dir", metavar="RUN_DIR", help="a finished training run (with params.npz)")
+    p.add_argument(
+        "--mazes",
+        nargs="+",
+        metavar="M",
+        help="test mazes, replacing the config's run.test_mazes: built-in names "
+        "(square2, square4, ...) or maze YAML paths",
+    )
+    p.add_argument(
+        "--episodes",
+        type=int,
+        metavar="N",
+        help="consecutive test episodes per seed (default run.test_episodes)",
+    )
+    p.add_argument("--out", metavar="DIR", help="output directory (default RUN_DIR/eval)")
+    args = p.parse_args(argv)
+    try:
+        out = evaluate_to_dir(args.run_dir, args.mazes, args.episodes, args.out)
+    except (EvalError, ConfigError, MazeError, RunError) as e:
+        print(f"jaxnav.evaluate: error: {e}", file=sys.stderr)
+        return 2
+    except OSError as e:
+        print(
+            f"jaxnav.evaluate: error: {e.strerror or e}: {e.filename or ''}".rstrip(": "),
+            file=sys.stderr,
+        )
+        return 2
+    print(f"wrote {out / 'results.csv'}, {out / 'tables.md'} and {out / 'trajectories.npz'}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

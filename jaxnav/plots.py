@@ -1,0 +1,458 @@
+"""``python -m jaxnav.plots RUN_DIR [--mazes M ...] [--window W]``: figures of a run.
+
+Writes into RUN_DIR/plots/ (each file atomically):
+
+* ``training_curves.png``: episode return vs episode for EBE and epsilon-greedy
+  (paper Fig. 2(b) and 4(c)): a trailing moving average per seed, then the mean
+  over seeds and its 95% bootstrap interval.
+* ``exploration.png``: EBE's per-step entropy H(s) and epsilon over training
+  (explore.csv), mean and 95% bootstrap interval over seeds.
+* ``trajectory_<maze>.png``: each test maze with its walls and obstacles and the
+  path of both policies (the config's first seed) over the first test episode,
+  the goals they reached and where they collided.
+* ``episode.gif``: an animation of that test episode of one policy (EBE if
+  trained) on the first test maze: robot, LiDAR beams, goal.
+
+The test episode is episode 1 of ``jaxnav.evaluate``: read from
+eval/trajectories.npz when the run was evaluated on these mazes, else played here
+with the same test key. Without params.npz (a run still training) only the first
+two figures are drawn.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import math
+import os
+import re
+import sys
+from pathlib import Path
+from typing import Sequence
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+from matplotlib.animation import PillowWriter  # noqa: E402
+from matplotlib.patches import Circle  # noqa: E402
+
+from jaxnav import render, stats  # noqa: E402
+from jaxnav.config import STRATEGIES, ConfigError, load_config  # noqa: E402
+from jaxnav.evaluate import (  # noqa: E402
+    STRATEGY_NAMES,
+    EvalError,
+    evaluate,
+    read_episodes_npz,
+)
+from jaxnav.maps import Maze, MazeError, make_maze  # noqa: E402
+from jaxnav.train import RunError  # noqa: E402
+
+COLORS = {"ebe": "tab:blue", "epsilon_greedy": "tab:orange"}
+FOOTPRINT = 0.105  # m, TurtleBot3 burger disc (the 0.13 m collision radius is drawn dashed)
+GIF_MAX_BYTES = 1_000_000
+GIF_MAX_FRAMES = 60
+
+
+class PlotError(Exception):
+    """A problem with the run; one-line message."""
+
+
+# ----------------------------------------------------------------------------
+# Files
+# ----------------------------------------------------------------------------
+
+
+def _save_fig(fig, path: Path, **kw) -> Path:
+    tmp = path.with_name(f".{path.stem}.tmp{path.suffix}")
+    fig.savefig(tmp, **kw)
+    plt.close(fig)
+    os.replace(tmp, path)
+    return path
+
+
+def _read_csv(path: Path) -> list[dict[str, str]]:
+    if not path.is_file():
+        raise PlotError(f"{path.parent} has no {path.name}")
+    with open(path, newline="") as f:
+        return list(csv.DictReader(f))
+
+
+def _curves(rows, x_col: str, y_col: str) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """{strategy: (x f[T], y f[seeds, T])}, cut to the x values every seed reached."""
+    by: dict[str, dict[int, dict[float, float]]] = {}
+    for r in rows:
+        by.setdefault(r["strategy"], {}).setdefault(int(r["seed"]), {})[float(r[x_col])] = float(
+            r[y_col]
+        )
+    out = {}
+    for s in STRATEGIES:
+        if s not in by:
+            continue
+        seeds = sorted(by[s])
+        common = sorted(set.intersection(*(set(by[s][k]) for k in seeds)))
+        if not common:
+            continue
+        x = np.asarray(common)
+        y = np.asarray([[by[s][k][v] for v in common] for k in seeds])
+        out[s] = (x, y)
+    return out
+
+
+def safe_name(maze: str) -> str:
+    """A maze name or path as a file-name part (``configs/mazes/corridor.yaml`` -> ``corridor``)."""
+    stem = Path(maze).stem if maze.endswith((".yaml", ".yml")) else maze
+    return re.sub(r"[^A-Za-z0-9_.-]+", "_", stem) or "maze"
+
+
+# ----------------------------------------------------------------------------
+# Drawing helpers
+# ----------------------------------------------------------------------------
+
+
+def draw_maze(ax, maze: Maze, start: bool = True) -> None:
+    """Walls and obstacles (:func:`jaxnav.render.draw_maze`), the start pose as a grey
+    square with an arrow (not a robot disc: the paths are the robot here)."""
+    render.draw_maze(ax, maze, pose=())
+    if start:
+        sx, sy, syaw = np.asarray(maze.start, np.float64)
+        ax.plot([sx], [sy], marker="s", color="0.3", ms=5, zorder=4)
+        ax.annotate(
+            "",
+            xy=(sx + 0.3 * math.cos(syaw), sy + 0.3 * math.sin(syaw)),
+            xytext=(sx, sy),
+            arrowprops=dict(arrowstyle="->", color="0.3", lw=1.2),
+            zorder=4,
+        )
+
+
+def _band(ax, x, y, color, label):
+    mean, low, high = stats.bootstrap_band(y)
+    ax.plot(x, mean, color=color, lw=1.6, label=label)
+    if y.shape[0] > 1:
+        ax.fill_between(x, low, high, color=color, alpha=0.25, lw=0)
+
+
+# ----------------------------------------------------------------------------
+# Training figures
+# ----------------------------------------------------------------------------
+
+
+def plot_training_curves(run_dir: Path, out: Path, window: int | None = None) -> Path:
+    """Episode return vs episode, smoothed, mean and 95% interval over seeds."""
+    curves = _curves(_read_csv(run_dir / "metrics.csv"), "episode", "return")
+    if not curves:
+        raise PlotError(f"{run_dir / 'metrics.csv'} has no episodes")
+    n_ep = max(len(x) for x, _ in curves.values())
+    w = window or int(np.clip(n_ep // 20, 1, 50))
+    fig, ax = plt.subplots(figsize=(7, 4.2))
+    for s, (x, y) in curves.items():
+        _band(
+            ax,
+            x + 1,
+            stats.moving_average(y, w),
+            COLORS[s],
+            f"{STRATEGY_NAMES[s]} ({y.shape[0]} seeds)",
+        )
+    ax.set_xlabel("episode")
+    ax.set_ylabel("episode return")
+    ax.set_title(
+        f"Training on {_train_maze(run_dir)}: return, moving average over {w} episodes\n"
+        f"mean over seeds and 95% bootstrap interval",
+        fontsize=10,
+    )
+    ax.grid(alpha=0.3)
+    ax.legend(loc="upper left")
+    fig.tight_layout()
+    return _save_fig(fig, out, dpi=110)
+
+
+def plot_exploration(run_dir: Path, out: Path, window: int = 10) -> Path:
+    """EBE's entropy H(s) and epsilon per 100-step block over training."""
+    curves = _curves(_read_csv(run_dir / "explore.csv"), "step", "explore")
+    if not curves:
+        raise PlotError(f"{run_dir / 'explore.csv'} has no rows")
+    labels = {
+        "ebe": "EBE: entropy H(s) (= chance of a random action)",
+        "epsilon_greedy": "epsilon-greedy: epsilon",
+    }
+    fig, ax = plt.subplots(figsize=(7, 4.2))
+    for s, (x, y) in curves.items():
+        _band(ax, x, stats.moving_average(y, window), COLORS[s], f"{labels[s]}, {y.shape[0]} seeds")
+    ax.set_xlabel("environment step (per seed)")
+    ax.set_ylabel("exploration probability")
+    ax.set_ylim(0, 1.02)
+    ax.set_title(
+        f"Exploration over training (means over 100-step blocks, moving average over {window} blocks)\n"
+        "mean over seeds and 95% bootstrap interval",
+        fontsize=10,
+    )
+    ax.grid(alpha=0.3)
+    ax.legend(loc="upper right", fontsize=9)
+    fig.tight_layout()
+    return _save_fig(fig, out, dpi=110)
+
+
+def _train_maze(run_dir: Path) -> str:
+    try:
+        return load_config(str(run_dir / "config.yaml")).env.maze
+    except ConfigError:
+        return "?"
+
+
+# ----------------------------------------------------------------------------
+# Test-episode figures
+# ----------------------------------------------------------------------------
+
+
+def plot_trajectory(
+    maze: Maze, name: str, episodes: dict[str, dict], seed: int, goal_radius: float, out: Path
+) -> Path:
+    """One test maze with both policies' paths over one test episode."""
+    fig, ax = plt.subplots(figsize=(5.6, 5.6))
+    draw_maze(ax, maze)
+    for s, ep in episodes.items():
+        c = COLORS[s]
+        pos = ep["pos"]
+        end = "collided" if ep["collided"] else "no collision"
+        ax.plot(
+            pos[:, 0],
+            pos[:, 1],
+            color=c,
+            lw=1.3,
+            alpha=0.9,
+            zorder=5,
+            label=f"{STRATEGY_NAMES[s]}: return {ep['return']:.0f}, {ep['goals']} goals, {end}",
+        )
+        hit = ep["reached"]
+        if hit.any():
+            g = ep["goal"][hit]
+            ax.scatter(
+                g[:, 0], g[:, 1], marker="*", s=130, color=c, edgecolors="black", lw=0.6, zorder=7
+            )
+            for gx, gy in g:  # the goal counts as reached inside this circle
+                ax.add_patch(
+                    Circle(
+                        (gx, gy), goal_radius, facecolor=c, edgecolor="none", alpha=0.15, zorder=2
+                    )
+                )
+        if not hit[-1]:  # the goal it was still heading for
+            gx, gy = ep["goal"][-1]
+            ax.add_patch(
+                Circle(
+                    (gx, gy), goal_radius, facecolor="none", edgecolor=c, lw=1.5, ls="--", zorder=6
+                )
+            )
+        if ep["collided"]:  # at the pose before the colliding step; edge: whose
+            ax.scatter(
+                [pos[-1, 0]],
+                [pos[-1, 1]],
+                marker="X",
+                s=130,
+                color="red",
+                edgecolors=c,
+                lw=1.6,
+                zorder=8,
+            )
+    # legend entries for the markers
+    ax.scatter(
+        [], [], marker="*", s=100, color="0.7", edgecolors="black", lw=0.6, label="goal reached"
+    )
+    ax.scatter(
+        [],
+        [],
+        marker="o",
+        s=60,
+        facecolors="none",
+        edgecolors="0.4",
+        linestyle="--",
+        label="goal not yet reached",
+    )
+    ax.scatter([], [], marker="X", s=80, color="red", edgecolors="0.4", lw=1.2, label="collision")
+    ax.set_title(f"{name}: first test episode, seed {seed}", fontsize=10)
+    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.12), fontsize=8, ncol=1, frameon=False)
+    fig.tight_layout()
+    return _save_fig(fig, out, dpi=100, bbox_inches="tight")
+
+
+def animate_episode(
+    maze: Maze,
+    name: str,
+    ep: dict,
+    strategy: str,
+    seed: int,
+    goal_radius: float,
+    out: Path,
+    max_frames: int = GIF_MAX_FRAMES,
+) -> Path:
+    """An animated GIF of one test episode: robot, LiDAR beams, goal, trail.
+
+    Drawn with PillowWriter, one figure draw per frame; no tick labels (they cost
+    most of a frame), a 1 m scale bar instead. Halves the frames until < 1 MB.
+    """
+    n = ep["length"]
+    n_beams = ep["ranges"].shape[1]
+    beam_idx = np.arange(0, n_beams, max(1, n_beams // 36))  # at most ~36 drawn beams
+    beam_ang = 2 * np.pi * beam_idx / n_beams
+    cum_ret = np.cumsum(ep["reward"])
+    cum_goals = np.cumsum(ep["reached"])
+    while True:
+        stride = max(1, math.ceil(n / max_frames))
+        frames = list(range(0, n, stride))
+        if frames[-1] != n - 1:
+            frames.append(n - 1)
+        fig, ax = plt.subplots(figsize=(4.0, 4.2))
+        draw_maze(ax, maze, start=False)
+        ax.set_axis_off()
+        x0, x1 = ax.get_xlim()
+        y0, _ = ax.get_ylim()
+        ax.plot([x0 + 0.02 * (x1 - x0), x0 + 0.02 * (x1 - x0) + 1.0], [y0, y0], color="black", lw=2)
+        ax.text(x0 + 0.02 * (x1 - x0) + 0.5, y0, "1 m", ha="center", va="bottom", fontsize=7)
+        (trail,) = ax.plot([], [], color=COLORS[strategy], lw=1.0, alpha=0.7, zorder=4)
+        beams = [ax.plot([], [], color="tab:red", lw=0.5, alpha=0.5, zorder=2)[0] for _ in beam_idx]
+        body = Circle(
+            (0, 0), FOOTPRINT, facecolor=COLORS[strategy], edgecolor="black", lw=0.8, zorder=6
+        )
+        ax.add_patch(body)
+        (nose,) = ax.plot([], [], color="black", lw=1.2, zorder=7)
+        goal = Circle(
+            (0, 0), goal_radius, facecolor="limegreen", edgecolor="darkgreen", alpha=0.6, zorder=5
+        )
+        ax.add_patch(goal)
+        title = ax.set_title("two\nlines", fontsize=8)  # room for the real title
+        fig.tight_layout()
+
+        def update(t):
+            p, yaw = ep["pos"][t], ep["yaw"][t]
+            trail.set_data(ep["pos"][: t + 1, 0], ep["pos"][: t + 1, 1])
+            rng = ep["ranges"][t, beam_idx]
+            for line, a, r in zip(beams, beam_ang, rng):
+                line.set_data(
+                    [p[0], p[0] + r * np.cos(yaw + a)], [p[1], p[1] + r * np.sin(yaw + a)]
+                )
+            body.center = (p[0], p[1])
+            nose.set_data(
+                [p[0], p[0] + FOOTPRINT * np.cos(yaw)], [p[1], p[1] + FOOTPRINT * np.sin(yaw)]
+            )
+            goal.center = tuple(ep["goal"][t])
+            crash = " - collision" if ep["collided"] and t == n - 1 else ""
+            title.set_text(
+                f"{name}, {STRATEGY_NAMES[strategy]} seed {seed}: step {t + 1}/{n}\n"
+                f"return {cum_ret[t]:.0f}, goals {int(cum_goals[t])}{crash}"
+            )
+
+        tmp = out.with_name(f".{out.stem}.tmp{out.suffix}")
+        writer = PillowWriter(fps=10)
+        with writer.saving(fig, tmp, dpi=75):
+            for t in frames:
+                update(t)
+                writer.grab_frame()
+        plt.close(fig)
+        if tmp.stat().st_size <= GIF_MAX_BYTES or max_frames <= 10:
+            os.replace(tmp, out)
+            return out
+        tmp.unlink()
+        max_frames //= 2
+
+
+def first_episodes(run_dir: Path, maze_names: Sequence[str] | None = None):
+    """(config, maze names, mazes, goal radius, first test episodes of the config's
+    seed). Read from eval/trajectories.npz when it holds these mazes (no JAX work),
+    else played here by the evaluation (same test key, same episodes; no files)."""
+    cfg = load_config(str(run_dir / "config.yaml"))
+    if not (run_dir / "params.npz").is_file():
+        raise PlotError(f"{run_dir} has no params.npz (training has not finished)")
+    names = list(maze_names) if maze_names else list(cfg.run.test_mazes)
+    saved = run_dir / "eval" / "trajectories.npz"
+    if saved.is_file():
+        try:
+            episodes, goal_radius = read_episodes_npz(saved)
+        except (OSError, ValueError, KeyError):
+            episodes = None  # unreadable: play them again
+        if episodes is not None and all(
+            n in episodes and set(episodes[n]) == set(cfg.strategies) for n in names
+        ):
+            return cfg, names, [make_maze(n) for n in names], goal_radius, episodes
+    run, _, _, episodes = evaluate(run_dir, names)  # nothing written
+    return cfg, names, [make_maze(n) for n in names], float(run.env_params.goal_radius), episodes
+
+
+def plot_test_episodes(
+    run_dir: Path, out_dir: Path, maze_names: Sequence[str] | None = None
+) -> list[Path]:
+    """Trajectory figures for every test maze and the GIF, from the first seed."""
+    cfg, names, mazes, goal_radius, episodes = first_episodes(run_dir, maze_names)
+    written = []
+    for name, maze in zip(names, mazes):
+        out = out_dir / f"trajectory_{safe_name(name)}.png"
+        written.append(plot_trajectory(maze, name, episodes[name], cfg.seed, goal_radius, out))
+    strategy = "ebe" if "ebe" in cfg.strategies else cfg.strategies[0]
+    ep = episodes[names[0]][strategy]
+    written.append(
+        animate_episode(
+            mazes[0], names[0], ep, strategy, cfg.seed, goal_radius, out_dir / "episode.gif"
+        )
+    )
+    return written
+
+
+def make_plots(
+    run_dir: str | Path, maze_names: Sequence[str] | None = None, window: int | None = None
+) -> list[Path]:
+    """Every figure of a run into RUN_DIR/plots/; returns the written paths."""
+    run_dir = Path(run_dir)
+    if not run_dir.is_dir():
+        raise PlotError(f"run directory {run_dir} does not exist")
+    if not (run_dir / "config.yaml").is_file():
+        raise PlotError(f"{run_dir} is not a run directory (no config.yaml)")
+    for name in ("metrics.csv", "explore.csv"):
+        if not (run_dir / name).is_file():
+            raise PlotError(f"{run_dir} has no {name}")
+    for name in maze_names or ():  # check them before anything is drawn
+        make_maze(name)
+    out = run_dir / "plots"
+    out.mkdir(exist_ok=True)
+    written = [
+        plot_training_curves(run_dir, out / "training_curves.png", window),
+        plot_exploration(run_dir, out / "exploration.png"),
+    ]
+    if (run_dir / "params.npz").is_file():
+        written += plot_test_episodes(run_dir, out, maze_names)
+    else:
+        print(
+            f"jaxnav.plots: {run_dir} has no params.npz yet: no test-episode figures",
+            file=sys.stderr,
+        )
+    return written
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(
+        prog="python -m jaxnav.plots",
+        description="Training curves, exploration, test-maze trajectories and an episode GIF "
+        "of a run, written into RUN_DIR/plots/.",
+    )
+    p.add_argument("run_dir", metavar="RUN_DIR")
+    p.add_argument("--mazes", nargs="+", metavar="M", help="test mazes (default run.test_mazes)")
+    p.add_argument(
+        "--window",
+        type=int,
+        metavar="W",
+        help="moving-average window in episodes (default episodes/20)",
+    )
+    args = p.parse_args(argv)
+    try:
+        if args.window is not None and args.window < 1:
+            raise PlotError("--window must be at least 1")
+        written = make_plots(args.run_dir, args.mazes, args.window)
+    except (PlotError, EvalError, ConfigError, MazeError, RunError) as e:
+        print(f"jaxnav.plots: error: {e}", file=sys.stderr)
+        return 2
+    for path in written:
+        print(path)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

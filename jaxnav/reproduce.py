@@ -1,0 +1,367 @@
+"""``python -m jaxnav.reproduce [--seeds N] [--out DIR] [--quick] [--resume]``
+
+The paper's two experiments end to end: train ``configs/paper_no_obstacles.yaml``
+(Table 3, Fig. 2) and ``configs/paper_obstacles.yaml`` (Table 4, Fig. 4), both
+strategies and N seeds each, test them (``jaxnav.evaluate``), draw the figures
+(``jaxnav.plots``) and write ``DIR/report.md`` with the tables, the figures, the
+wall-clock of every stage and the machine.
+
+Default: 4 seeds per strategy and the paper's 500 episodes of at most 500 steps:
+9.5 minutes in all, measured on 2 shared CPU cores (AMD EPYC), 6.4 of them training
+without obstacles and 2.7 with (episodes end sooner there). One 8-seed run without
+obstacles took 11-25 minutes on that machine depending on its load, so ``--seeds 8``
+takes about 20-40 minutes; 4 keeps the default well under an hour even on a busy
+machine.
+
+``--quick``: 2 seeds, 50 episodes of at most 200 steps, 3 test episodes: about a
+minute, for checking that everything runs (its numbers mean little).
+``--episodes``, ``--max-steps``, ``--test-episodes`` override those sizes (tests use
+them for a tiny end-to-end run). ``--resume`` continues an interrupted
+reproduction in DIR: finished trainings are reused, an unfinished one resumes from
+its last checkpoint, evaluation and figures are redone.
+
+Layout::
+
+    DIR/report.md
+    DIR/paper_no_obstacles/   a training run (see jaxnav.train) + eval/ + plots/
+    DIR/paper_obstacles/
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import re
+import sys
+import time
+from pathlib import Path
+
+import jax
+
+from jaxnav import plots
+from jaxnav.config import ConfigError, load_config
+from jaxnav.evaluate import EvalError, evaluate_to_dir
+from jaxnav.maps import MazeError
+from jaxnav.train import CONFIG_DIR, RunError, atomic_write_text, resume, train_from_config
+
+DEFAULT_SEEDS = 4
+QUICK = {"seeds": 2, "episodes": 50, "max_steps": 200, "test_episodes": 3}
+EXPERIMENTS = (
+    (
+        "paper_no_obstacles",
+        "Trained on square4 without obstacles (paper Sec. 6.1, Table 3, Fig. 2)",
+    ),
+    ("paper_obstacles", "Trained on square4 with obstacles (paper Sec. 6.2, Table 4, Fig. 4)"),
+)
+
+
+class ReproduceError(Exception):
+    """A problem with the request or the output directory; one-line message."""
+
+
+def machine_info() -> dict[str, str]:
+    """CPU model, cores, memory, Python, JAX version and backend."""
+    cpu = platform.processor() or platform.machine()
+    try:
+        with open("/proc/cpuinfo") as f:
+            for line in f:
+                if line.lower().startswith("model name"):
+                    cpu = line.split(":", 1)[1].strip()
+                    break
+    except OSError:
+        pass
+    try:
+        usable = len(os.sched_getaffinity(0))
+    except AttributeError:
+        usable = os.cpu_count() or 0
+    mem = ""
+    try:
+        with open("/proc/meminfo") as f:
+            kb = int(re.search(r"MemTotal:\s+(\d+)", f.read()).group(1))
+            mem = f"{kb / 2**20:.1f} GiB"
+    except (OSError, AttributeError):
+        pass
+    devices = jax.devices()
+    return {
+        "CPU": cpu,
+        "cores": f"{usable} usable ({os.cpu_count()} in the machine)",
+        "memory": mem or "unknown",
+        "OS": f"{platform.system()} {platform.release()} {platform.machine()}",
+        "Python": platform.python_version(),
+        "JAX": f"{jax.__version__}, backend {jax.default_backend()} "
+        f"({len(devices)} x {devices[0].device_kind})",
+    }
+
+
+def experiment_config(
+    name: str, seeds: int, episodes: int | None, max_steps: int | None, test_episodes: int | None
+):
+    overrides = [f"seeds={seeds}"]
+    if episodes is not None:
+        overrides.append(f"episodes={episodes}")
+    if max_steps is not None:
+        overrides.append(f"env.max_steps={max_steps}")
+    if test_episodes is not None:
+        overrides.append(f"run.test_episodes={test_episodes}")
+    cfg = load_config(str(CONFIG_DIR / f"{name}.yaml"), overrides)
+    # A chunk longer than a seed's whole run only computes masked steps.
+    if cfg.run.chunk_steps > cfg.max_total_steps:
+        cfg = load_config(
+            str(CONFIG_DIR / f"{name}.yaml"), overrides + [f"run.chunk_steps={cfg.max_total_steps}"]
+        )
+    return cfg
+
+
+def _demote(md: str, levels: int = 2) -> str:
+    return re.sub(r"^(#+) ", lambda m: "#" * (len(m.group(1)) + levels) + " ", md, flags=re.M)
+
+
+def _fmt_s(s: float) -> str:
+    return f"{s:.1f} s" if s < 120 else f"{s:.1f} s ({s / 60:.1f} min)"
+
+
+def write_report(
+    out: Path,
+    info: dict,
+    settings: dict,
+    timings: list[tuple[str, float, str]],
+    sections: list[str],
+) -> Path:
+    total = sum(t for _, t, _ in timings)
+    L = ["# jaxnav: reproduction of Usama & Chang (2019), EBE vs epsilon-greedy", ""]
+    L += [f"Command: `{settings['command']}`, finished {time.strftime('%Y-%m-%d %H:%M:%S')}.", ""]
+    quick = " (--quick: a smoke test, not a reproduction)" if settings["quick"] else ""
+    L += [
+        f"Settings: {settings['seeds']} seeds per strategy, {settings['episodes']} training "
+        f"episodes of at most {settings['max_steps']} steps per seed, "
+        f"{settings['test_episodes']} consecutive test episodes per seed and maze{quick}. "
+        "The rest of each config is the paper's (configs/paper_*.yaml; each run's full "
+        "config.yaml is in its directory). The paper shows one training run per strategy; the "
+        "seeds here show whether a difference holds (default "
+        f"{DEFAULT_SEEDS} seeds to stay well under an hour on 2 CPU cores; `--seeds 8` for a "
+        "tighter interval).",
+        "",
+        "## Machine",
+        "",
+        "| | |",
+        "|---|---|",
+    ]
+    L += [f"| {k} | {v} |" for k, v in info.items()]
+    L += ["", "## Wall-clock", "", "| stage | time | note |", "|---|---|---|"]
+    L += [f"| {name} | {_fmt_s(t)} | {note} |" for name, t, note in timings]
+    L += [f"| **total** | **{_fmt_s(total)}** | |", ""]
+    L += [
+        "Training time includes compiling (tens of seconds per config); timings on a shared "
+        "machine are noisy.",
+        "",
+    ]
+    L += sections
+    path = out / "report.md"
+    atomic_write_text(path, "\n".join(L) + "\n")
+    return path
+
+
+def reproduce(
+    out: Path,
+    seeds: int,
+    episodes: int | None,
+    max_steps: int | None,
+    test_episodes: int | None,
+    quick: bool,
+    resume_ok: bool,
+    quiet: bool,
+    command: str,
+) -> Path:
+    if seeds < 1:
+        raise ReproduceError("--seeds must be at least 1")
+    for flag, v in (
+        ("--episodes", episodes),
+        ("--max-steps", max_steps),
+        ("--test-episodes", test_episodes),
+    ):
+        if v is not None and v < 1:
+            raise ReproduceError(f"{flag} must be at least 1")
+    if out.exists() and not out.is_dir():
+        raise ReproduceError(f"{out} exists and is not a directory")
+    if out.is_dir() and any(out.iterdir()) and not resume_ok:
+        raise ReproduceError(
+            f"output directory {out} already exists and is not empty (use --resume to continue it)"
+        )
+    cfgs = {
+        name: experiment_config(name, seeds, episodes, max_steps, test_episodes)
+        for name, _ in EXPERIMENTS
+    }
+    out.mkdir(parents=True, exist_ok=True)
+
+    def say(msg):
+        if not quiet:
+            print(f"[reproduce] {msg}", file=sys.stderr, flush=True)
+
+    info = machine_info()
+    timings: list[tuple[str, float, str]] = []
+    sections: list[str] = []
+    for name, title in EXPERIMENTS:
+        cfg = cfgs[name]
+        run_dir = out / name
+        # TRAIN
+        t0 = time.perf_counter()
+        note = f"{cfg.seeds} seeds x {len(cfg.strategies)} strategies on {cfg.env.maze}"
+        if (run_dir / "params.npz").is_file():
+            if load_config(str(run_dir / "config.yaml")) != cfg:
+                raise ReproduceError(
+                    f"{run_dir} was trained with other settings; use another --out"
+                )
+            say(f"{name}: reusing the finished training in {run_dir}")
+            note += ", reused (trained before"
+            try:  # report the earlier training's time, not the ~0 s of reusing it
+                wall = float(json.loads((run_dir / "summary.json").read_text())["wall_clock_s"])
+                t0 -= wall
+                note += "; time from its summary.json, chunks only, no compile)"
+            except (OSError, ValueError, KeyError, TypeError):
+                note += ")"
+        elif (run_dir / "config.yaml").is_file():
+            if load_config(str(run_dir / "config.yaml")) != cfg:
+                raise ReproduceError(
+                    f"{run_dir} was started with other settings; use another --out"
+                )
+            say(f"{name}: resuming training in {run_dir}")
+            resume(run_dir, quiet=quiet)
+            note += ", resumed"
+        else:
+            say(f"{name}: training {cfg.n_runs} runs ({note}), {cfg.episodes} episodes each")
+            train_from_config(cfg, run_dir, quiet=quiet)
+        timings.append((f"train {name}", time.perf_counter() - t0, note))
+        # EVALUATE
+        t0 = time.perf_counter()
+        say(f"{name}: testing on {', '.join(cfg.run.test_mazes)}")
+        eval_dir = evaluate_to_dir(run_dir)
+        timings.append(
+            (
+                f"evaluate {name}",
+                time.perf_counter() - t0,
+                f"{cfg.run.test_episodes} episodes x {cfg.n_runs} runs x {len(cfg.run.test_mazes)} mazes",
+            )
+        )
+        # PLOT
+        t0 = time.perf_counter()
+        say(f"{name}: drawing figures")
+        written = plots.make_plots(run_dir)
+        timings.append((f"plot {name}", time.perf_counter() - t0, f"{len(written)} files"))
+
+        rel = lambda p: Path(p).relative_to(out).as_posix()  # noqa: E731
+        figs = [
+            f"![training curves]({rel(run_dir / 'plots' / 'training_curves.png')})",
+            f"![exploration]({rel(run_dir / 'plots' / 'exploration.png')})",
+        ]
+        traj = [p for p in written if p.name.startswith("trajectory_")]
+        gif = [p for p in written if p.suffix == ".gif"]
+        sec = [
+            f"## {title}",
+            "",
+            f"Run directory: `{name}/` (config, metrics.csv, params.npz, eval/, plots/).",
+            "",
+        ]
+        sec += ["### Training", "", *figs, ""]
+        sec += ["### Test episodes (seed " + str(cfg.seed) + ", first test episode)", ""]
+        sec += [" ".join(f"![{p.stem}]({rel(p)})" for p in traj), ""]
+        if gif:
+            sec += [f"![episode animation]({rel(gif[0])})", ""]
+        tables = (eval_dir / "tables.md").read_text()
+        sec += [_demote(tables).rstrip(), ""]
+        sections += sec
+    first = cfgs[EXPERIMENTS[0][0]]
+    settings = {
+        "command": command,
+        "seeds": seeds,
+        "episodes": first.episodes,
+        "max_steps": first.env.max_steps,
+        "test_episodes": first.run.test_episodes,
+        "quick": quick,
+    }
+    return write_report(out, info, settings, timings, sections)
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(
+        prog="python -m jaxnav.reproduce",
+        description="Train, test and plot both of the paper's experiments (no obstacles and "
+        "obstacles, EBE and epsilon-greedy) and write DIR/report.md.",
+    )
+    p.add_argument(
+        "--seeds",
+        type=int,
+        metavar="N",
+        help=f"seeds per strategy (default {DEFAULT_SEEDS}; {QUICK['seeds']} with --quick)",
+    )
+    p.add_argument("--out", metavar="DIR", help="output directory (default runs/reproduce-<time>)")
+    p.add_argument(
+        "--quick",
+        action="store_true",
+        help=f"small version in about a minute: {QUICK['seeds']} seeds, {QUICK['episodes']} episodes "
+        f"of at most {QUICK['max_steps']} steps, {QUICK['test_episodes']} test episodes",
+    )
+    p.add_argument(
+        "--episodes",
+        type=int,
+        metavar="N",
+        help="training episodes per seed (overrides the config / --quick)",
+    )
+    p.add_argument(
+        "--max-steps",
+        type=int,
+        metavar="N",
+        help="steps per episode, training and test (overrides)",
+    )
+    p.add_argument(
+        "--test-episodes",
+        type=int,
+        metavar="N",
+        help="consecutive test episodes per seed and maze (overrides)",
+    )
+    p.add_argument(
+        "--resume",
+        action="store_true",
+        help="continue an interrupted reproduction in --out: reuse finished trainings, resume the rest",
+    )
+    p.add_argument("--quiet", action="store_true", help="no progress output")
+    args = p.parse_args(argv)
+    q = QUICK if args.quick else {}
+    seeds = args.seeds if args.seeds is not None else q.get("seeds", DEFAULT_SEEDS)
+    episodes = args.episodes if args.episodes is not None else q.get("episodes")
+    max_steps = args.max_steps if args.max_steps is not None else q.get("max_steps")
+    test_episodes = args.test_episodes if args.test_episodes is not None else q.get("test_episodes")
+    if args.resume and not args.out:
+        print("jaxnav.reproduce: error: --resume needs --out DIR", file=sys.stderr)
+        return 2
+    out = (
+        Path(args.out) if args.out else Path("runs") / f"reproduce-{time.strftime('%Y%m%d-%H%M%S')}"
+    )
+    command = "python -m jaxnav.reproduce " + " ".join(argv if argv is not None else sys.argv[1:])
+    try:
+        report = reproduce(
+            out,
+            seeds,
+            episodes,
+            max_steps,
+            test_episodes,
+            args.quick,
+            args.resume,
+            args.quiet,
+            command.strip(),
+        )
+    except (ReproduceError, ConfigError, MazeError, RunError, EvalError, plots.PlotError) as e:
+        print(f"jaxnav.reproduce: error: {e}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print(
+            f"\njaxnav.reproduce: interrupted; continue with --resume --out {out}", file=sys.stderr
+        )
+        return 130
+    print(f"report: {report}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,234 @@
+"""The test protocol: greedy, consecutive episodes in the training env; the tables."""
+
+import csv
+import io
+import shutil
+from pathlib import Path
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from _tiny_run import tiny_run
+from jaxnav import stats
+from jaxnav.evaluate import (
+    RESULT_COLUMNS,
+    eval_keys,
+    evaluate,
+    evaluate_to_dir,
+    load_run,
+    main,
+    padded_mazes,
+    run_tests,
+    tables_markdown,
+)
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+@pytest.fixture(scope="module")
+def run(tmp_path_factory):
+    return tiny_run(tmp_path_factory)
+
+
+@pytest.fixture(scope="module")
+def evaluated(run):
+    cfg, out = run
+    evaluate_to_dir(out)
+    return cfg, out
+
+
+def _rows(path):
+    with open(path) as f:
+        return list(csv.DictReader(f))
+
+
+def test_evaluation_covers_every_run_maze_and_episode(evaluated):
+    cfg, out = evaluated
+    rows = _rows(out / "eval" / "results.csv")
+    assert tuple(rows[0]) == RESULT_COLUMNS
+    assert len(rows) == cfg.n_runs * len(cfg.run.test_mazes) * cfg.run.test_episodes
+    assert [r["maze"] for r in rows[:: cfg.n_runs * cfg.run.test_episodes]] == list(
+        cfg.run.test_mazes
+    )
+    assert {(r["strategy"], r["seed"]) for r in rows} == {
+        (s, str(k)) for s in cfg.strategies for k in range(cfg.seeds)
+    }
+    for r in rows:
+        length, collided = int(r["length"]), int(r["collided"])
+        assert 1 <= length <= cfg.env.max_steps
+        # an episode ends early only by a collision
+        assert (length < cfg.env.max_steps) <= bool(collided)
+        assert int(r["goals"]) >= 0 and np.isfinite(float(r["return"]))
+    assert (out / "eval" / "tables.md").is_file() and (out / "eval" / "trajectories.npz").is_file()
+
+
+def test_tables_are_recomputed_from_results_csv(evaluated):
+    cfg, out = evaluated
+    text = (out / "eval" / "results.csv").read_text()
+    tables = (out / "eval" / "tables.md").read_text()
+    assert (
+        tables_markdown(text, cfg.env.maze, cfg.seed, title=f"Test results of {out.name}") == tables
+    )
+    rows = list(csv.DictReader(io.StringIO(text)))
+    lines = tables.splitlines()
+
+    def returns(maze, strategy, seed):
+        return [
+            float(r["return"])
+            for r in rows
+            if (r["maze"], r["strategy"], int(r["seed"])) == (maze, strategy, seed)
+        ]
+
+    for maze in cfg.run.test_mazes:
+        # paper form, seed 0: mean ± std over the test episodes
+        cells = [
+            f"{np.mean(returns(maze, s, 0)):.2f} ± {np.std(returns(maze, s, 0)):.2f}"
+            for s in cfg.strategies
+        ]
+        assert f"| {maze} | {cells[0]} | {cells[1]} |" in lines
+        # across seeds: mean of the per-seed means, the IQM and the pooled rates
+        for s, name in (("ebe", "EBE"), ("epsilon_greedy", "epsilon-greedy")):
+            per_seed = [np.mean(returns(maze, s, k)) for k in range(cfg.seeds)]
+            mine = [r for r in rows if r["maze"] == maze and r["strategy"] == s]
+            goals = np.mean([float(r["goals"]) for r in mine])
+            coll = np.mean([float(r["collided"]) for r in mine])
+            row = next(line for line in lines if line.startswith(f"| {maze} | {name} | "))
+            cells = [c.strip() for c in row.strip("|").split("|")]
+            assert cells[2].startswith(f"{np.mean(per_seed):.1f} [")
+            assert cells[3].startswith(f"{stats.iqm(per_seed):.1f} [")
+            assert cells[4:] == [f"{goals:.2f}", f"{coll:.2f}"]
+        p = stats.probability_of_improvement(
+            [np.mean(returns(maze, "ebe", k)) for k in range(cfg.seeds)],
+            [np.mean(returns(maze, "epsilon_greedy", k)) for k in range(cfg.seeds)],
+        )
+        assert any(line.startswith(f"| {maze} | {p:.2f} [") for line in lines)
+    # the paper's Table 3 beside ours
+    assert "Table 3" in tables
+    assert any(line.startswith("| square4 | 4x4 Square | 3731.92 ± 368.35 |") for line in lines)
+    assert any(line.startswith("| square2 | 2x2 Square | 4369.64 ± 935.56 |") for line in lines)
+
+
+def test_rollout_plays_consecutive_greedy_episodes_like_a_step_loop(run):
+    """The scan against a plain loop over env.step: argmax Q, auto-reset keeps the goal."""
+    cfg, out = run
+    loaded = load_run(out)
+    mazes = padded_mazes(cfg.run.test_mazes)  # as evaluate() does: no new compile
+    m = list(cfg.run.test_mazes).index("square2")
+    n_eps = cfg.run.test_episodes
+    res = run_tests(loaded, mazes, n_eps, record=True)[m]
+    maze = mazes[m]
+    params = jax.tree.map(lambda x: x[0], loaded.params)
+    env_params = loaded.env_params.replace(maze=maze)
+    step = jax.jit(loaded.env.step)
+    q_fn = jax.jit(loaded.network.apply)
+
+    k_reset, key = jax.random.split(eval_keys(loaded.labels[:1])[0])
+    obs, state = loaded.env.reset(k_reset, env_params)
+    first_goal = np.asarray(state.goal)
+    episodes, ret, goals, t = [], 0.0, 0, 0
+    while len(episodes) < n_eps:
+        key, k = jax.random.split(key)
+        action = int(jnp.argmax(q_fn(params, obs)))
+        obs, state, r, term, trunc, info = step(k, state, jnp.int32(action), env_params)
+        ret, goals, t = ret + float(r), goals + int(info["goal_reached"]), t + 1
+        if bool(term | trunc):
+            episodes.append((ret, goals, bool(term), t))
+            if goals == 0:  # the goal is kept across the reset
+                np.testing.assert_array_equal(np.asarray(state.goal), first_goal)
+            np.testing.assert_array_equal(np.asarray(state.pos), np.asarray(maze.start[:2]))
+            ret, goals, t = 0.0, 0, 0
+    for e, (r, g, c, n) in enumerate(episodes):
+        assert res.ret[0, e] == pytest.approx(r, rel=1e-5, abs=1e-3)
+        assert (res.goals[0, e], bool(res.collided[0, e]), res.length[0, e]) == (g, c, n)
+    tr = res.trajectory
+    assert tr.pos.shape == (cfg.n_runs, n_eps * cfg.env.max_steps, 2)
+    np.testing.assert_array_equal(tr.pos[0, 0], np.asarray(maze.start[:2]))
+    np.testing.assert_array_equal(tr.episode[0, : res.length[0, 0]], 0)
+
+
+MAZE_WITH_A_CYLINDER = """\
+outline: [[-1.5, -1.5], [1.5, -1.5], [1.5, 1.5], [-1.5, 1.5], [-1.5, -1.5]]
+obstacles:
+  - circle: [0.8, 0.8, 0.15]
+"""
+
+
+def test_evaluation_on_two_mazes_by_name_and_file(run, tmp_path):
+    """A maze YAML path works like a name, and a policy trained without obstacles keeps
+    its 26-value observation on a maze with an obstacle."""
+    cfg, out = run
+    maze_file = tmp_path / "cylinder.yaml"
+    maze_file.write_text(MAZE_WITH_A_CYLINDER)
+    argv = [
+        str(out),
+        "--mazes",
+        "pentagon",
+        str(maze_file),
+        "--episodes",
+        "2",
+        "--out",
+        str(tmp_path / "e"),
+    ]
+    assert main(argv) == 0
+    rows = _rows(tmp_path / "e" / "results.csv")
+    assert len(rows) == 2 * cfg.n_runs * 2
+    assert [r["maze"] for r in rows[:: 2 * cfg.n_runs]] == ["pentagon", str(maze_file)]
+    tables = (tmp_path / "e" / "tables.md").read_text()
+    assert (
+        "| pentagon | 4x4" not in tables and "| pentagon | Pentagon | 2794.04 ± 544.07 |" in tables
+    )
+    assert load_run(out).env.obstacle_obs is False
+    assert not (out / "eval" / "cylinder").exists()
+
+
+def test_same_run_same_results(evaluated):
+    _, out = evaluated
+    assert evaluate(out)[2] == (out / "eval" / "results.csv").read_text()
+
+
+def _copy_run(src: Path, dst: Path, params: bool = True) -> Path:
+    dst.mkdir()
+    shutil.copy(src / "config.yaml", dst / "config.yaml")
+    if params:
+        shutil.copy(src / "params.npz", dst / "params.npz")
+    return dst
+
+
+@pytest.mark.parametrize(
+    "case, message",
+    [
+        ("missing", "does not exist"),
+        ("no_params", "has no params.npz"),
+        ("corrupt_params", "cannot be read"),
+        ("unknown_maze", "unknown maze 'nowhere'"),
+        ("broken_maze", "not closed"),
+        ("zero_episodes", "at least 1"),
+    ],
+)
+def test_bad_input_is_one_line_and_exit_2(run, case, message, tmp_path, capsys):
+    _, src = run
+    d = tmp_path / "run"
+    argv = [str(d)]
+    if case == "missing":
+        pass
+    elif case == "no_params":
+        _copy_run(src, d, params=False)
+    elif case == "corrupt_params":
+        _copy_run(src, d, params=False)
+        (d / "params.npz").write_bytes(b"PK\x03\x04 this is not a zip")
+    else:
+        _copy_run(src, d)
+        if case == "unknown_maze":
+            argv += ["--mazes", "nowhere"]
+        elif case == "broken_maze":
+            bad = tmp_path / "bad.yaml"
+            bad.write_text("outline: [[0, 0], [1, 0], [1, 1]]\n")
+            argv += ["--mazes", "square2", str(bad)]
+        else:
+            argv += ["--episodes", "0"]
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip()
+    assert message in err and "\n" not in err and "Traceback" not in err
+    assert not (d / "eval").exists()  # nothing half-written

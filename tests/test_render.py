@@ -1,0 +1,70 @@
+"""Maze pictures: the command line writes a PNG and fails cleanly on a bad maze."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from matplotlib.figure import Figure
+
+from jaxnav.maps import make_maze, stack_mazes
+from jaxnav.render import draw_maze, main
+
+ROOT = Path(__file__).resolve().parents[1]
+PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
+
+
+def test_render_writes_a_png(tmp_path, capsys):
+    out = tmp_path / "maze.png"
+    assert main(["square4_obstacles", "--out", str(out), "--beams", "24", "--seed", "1"]) == 0
+    data = out.read_bytes()
+    assert data.startswith(PNG_MAGIC) and len(data) > 10_000
+    assert "wrote" in capsys.readouterr().out
+
+
+def test_draw_maze_draws_walls_obstacles_robot_goal_and_beams():
+    maze = make_maze(str(ROOT / "configs" / "mazes" / "corridor.yaml"))
+    ax = Figure().add_subplot()
+    assert draw_maze(ax, maze, goal=(1.0, 2.6), n_beams=36, title="corridor") is ax
+    # box polygon, cylinder, goal circle, robot disc, heading arrow
+    assert len(ax.patches) == 5
+    assert len(ax.collections) == 1 and len(ax.collections[0].get_segments()) == 36
+    assert ax.get_title() == "corridor" and ax.get_aspect() == 1.0
+    xmin, xmax = ax.get_xlim()
+    assert xmin < -3.0 and xmax > 1.6  # the whole outline is in view
+    # Without a robot: only the maze.
+    ax2 = Figure().add_subplot()
+    draw_maze(ax2, maze, pose=(), show_goal_points=True)
+    assert len(ax2.patches) == 2
+
+
+def test_draw_maze_refuses_a_stacked_batch():
+    stacked = stack_mazes([make_maze("square4"), make_maze("triangle")])
+    with pytest.raises(ValueError, match="one maze"):
+        draw_maze(Figure().add_subplot(), stacked)
+
+
+def test_bad_maze_file_is_one_line_on_stderr_with_exit_code_2(tmp_path, capsys):
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("outline: [[0, 0], [1, 0], [1, 1]]\n")
+    assert main([str(bad), "--out", str(tmp_path / "x.png")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("error: maze file") and "not closed" in err
+    assert not (tmp_path / "x.png").exists()
+
+
+def test_unknown_maze_name_exits_2_without_a_traceback(tmp_path):
+    env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    proc = subprocess.run(
+        [sys.executable, "-m", "jaxnav.render", "sqaure4", "--out", str(tmp_path / "x.png")],
+        capture_output=True, text=True, env=env, cwd=tmp_path, timeout=120,
+    )
+    assert proc.returncode == 2
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: unknown maze 'sqaure4'"), proc.stderr
+    assert "Traceback" not in proc.stderr
+    assert np.all([not p.exists() for p in tmp_path.iterdir()])
