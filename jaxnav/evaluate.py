@@ -29,6 +29,11 @@ The tables are a pure function of results.csv (:func:`tables_markdown`).
 
 from __future__ import annotations
 
+if __name__ == "__main__":  # before JAX starts: one CPU device per core
+    from jaxnav.cpu import use_all_cores
+
+    use_all_cores()
+
 import argparse
 import csv
 import functools
@@ -44,6 +49,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from jaxnav import stats
+from jaxnav.sharding import RunSharding
 from jaxnav.config import STRATEGIES, Config, ConfigError, load_config
 from jaxnav.dqn import QNetwork, make_env
 from jaxnav.env import EnvParams, NavEnv
@@ -311,13 +317,15 @@ def run_tests(
 ) -> list[Rollout]:
     """One vmapped rollout of every (selected) run per maze; NumPy results."""
     idx = np.arange(len(run.labels)) if select is None else np.asarray(select)
-    params = jax.tree.map(lambda x: x[idx], run.params)
-    keys = eval_keys([run.labels[i] for i in idx])
+    # The run axis is laid over every device, as in training.
+    shard = RunSharding(len(idx))
+    params = shard.put(jax.tree.map(lambda x: np.asarray(x)[idx], run.params))
+    keys = shard.put(np.asarray(eval_keys([run.labels[i] for i in idx])))
     fn = _compiled_rollout(run.env, run.network, n_episodes, int(run.env_params.max_steps), record)
     out = []
     for maze in mazes:
         res = fn(params, keys, run.env_params.replace(maze=maze))
-        out.append(jax.tree.map(np.asarray, res))
+        out.append(shard.get(res))
     return out
 
 

@@ -29,6 +29,11 @@ Layout::
 
 from __future__ import annotations
 
+if __name__ == "__main__":  # before JAX starts: one CPU device per core
+    from jaxnav.cpu import use_all_cores
+
+    use_all_cores()
+
 import argparse
 import json
 import os

@@ -19,6 +19,11 @@ Run directory::
 
 from __future__ import annotations
 
+if __name__ == "__main__":  # before JAX starts: one CPU device per core
+    from jaxnav.cpu import use_all_cores
+
+    use_all_cores()
+
 import argparse
 import csv
 import io
@@ -406,7 +411,7 @@ def resume(out: Path, quiet: bool = False) -> dict[str, Any]:
     run = Run(cfg, out, quiet)
     ckpt = out / "checkpoints" / "last.npz"
     if ckpt.is_file():
-        template = jax.eval_shape(run.fresh_state)
+        template = jax.eval_shape(jax.vmap(run.trainer.init), *run_keys(cfg))
         template = jax.tree.map(lambda s: np.zeros((cfg.n_runs, *s.shape[1:]), s.dtype), template)
         ts, host = load_checkpoint(ckpt, template)
         ts = run.shard.put(ts)
