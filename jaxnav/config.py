@@ -43,6 +43,11 @@ class EnvConfig:
     reward_span: float | None = None
     reward_distance_exp: bool | None = None
     obstacle_obs: bool | None = None  # null: on for mazes with obstacles
+    # Realism for a real robot, all off in the paper (see jaxnav.env.NavEnv):
+    beam_dropout: float = 0.0  # probability a beam returns nothing (reads max range)
+    odom_noise: tuple[float, ...] = (0.0, 0.0)  # std of (position m, yaw rad) odometry noise
+    random_start: bool = False  # each episode starts at a random free pose
+    maze_scale: tuple[float, ...] = (1.0, 1.0)  # per-episode maze scale drawn from [low, high]
 
 
 @dataclass(frozen=True)
@@ -244,6 +249,12 @@ def _check(cfg: Config) -> Config:
         fail("env.max_steps", "must be at least 1")
     if e.lidar_noise_std < 0:
         fail("env.lidar_noise_std", "must be non-negative")
+    if not 0.0 <= e.beam_dropout < 1.0:
+        fail("env.beam_dropout", "must be in [0, 1)")
+    if len(e.odom_noise) != 2 or min(e.odom_noise) < 0:
+        fail("env.odom_noise", "must be [position std, yaw std], both non-negative")
+    if len(e.maze_scale) != 2 or not 0.5 <= e.maze_scale[0] <= e.maze_scale[1] <= 2.0:
+        fail("env.maze_scale", "must be [low, high] with 0.5 <= low <= high <= 2")
     if not 0.0 <= d.gamma <= 1.0:
         fail("dqn.gamma", "must be in [0, 1]")
     if d.lr <= 0:

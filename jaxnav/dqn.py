@@ -294,7 +294,15 @@ class Trainer(NamedTuple):
 def make_env(config: Config) -> tuple[NavEnv, EnvParams]:
     """The training environment of a config."""
     e = config.env
-    overrides = dict(n_beams=e.n_beams, max_steps=e.max_steps, lidar_noise_std=e.lidar_noise_std)
+    overrides = dict(
+        n_beams=e.n_beams,
+        max_steps=e.max_steps,
+        lidar_noise_std=e.lidar_noise_std,
+        beam_dropout=e.beam_dropout,
+        odom_noise=tuple(e.odom_noise),
+        random_start=e.random_start,
+        maze_scale=tuple(e.maze_scale),
+    )
     for name in ("R_plus", "R_minus", "reward_span", "reward_distance_exp", "obstacle_obs"):
         if getattr(e, name) is not None:
             overrides[name] = getattr(e, name)

@@ -95,7 +95,10 @@ def ray_distances(maze: Maze, origin: chex.Array, angles: chex.Array) -> chex.Ar
     r = maze.circles[None, :, 2]
     b = jnp.sum(f * dd, axis=-1)  # [B, C]
     c = jnp.sum(f * f, axis=-1) - r**2
-    disc = b**2 - c
+    # disc = b^2 - c = r^2 - h^2 with h the centre's offset from the ray's line.
+    # Computed as (r - h)(r + h): b^2 - c cancels in float32 near a tangent.
+    h = jnp.abs(_cross(dd, f))
+    disc = (r - h) * (r + h)
     sq = jnp.sqrt(jnp.maximum(disc, 0.0))
     tc = jnp.where(c > 0.0, -b - sq, -b + sq)
     hit_c = (disc >= 0.0) & (tc >= 0.0) & maze.circle_mask[None, :]
@@ -290,6 +293,7 @@ class EnvState:
     goal: chex.Array  # f32[2]
     t: chex.Array  # i32[] steps in this episode
     goal_distance0: chex.Array  # f32[] distance to goal when it was drawn (or at reset)
+    scale: chex.Array  # f32[] this episode's maze scale (1 unless NavEnv.maze_scale)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -343,11 +347,45 @@ class NavEnv:
       n_beams: LiDAR beams in the observation (24 as in ROBOTIS; 360 works).
       obstacle_obs: append (min range, its beam index) to the observation (stage 2).
       goal_candidates: goal points tried per draw (fixed, for jit).
+
+    Realism for a real robot (all off by default and in both presets; an option that
+    is off adds no computation and leaves every random draw unchanged):
+      beam_dropout: probability that a beam returns nothing (reads max_range), per
+        beam and step, as a real LDS-01 drops returns on dark or shiny surfaces.
+      odom_noise: (position m, yaw rad) standard deviations of Gaussian noise on the
+        pose the robot uses for the goal's heading and distance (odometry error).
+      random_start: start each episode at a random free pose with a uniform yaw
+        instead of the maze's start pose.
+      maze_scale: (low, high): each episode scales the maze (walls, obstacle
+        positions, goals, start) by a factor drawn uniformly from this range;
+        obstacle radii keep their size. (1, 1) is off.
+    Range noise is ``EnvParams.lidar_noise_std``.
     """
 
     n_beams: int = 24
     obstacle_obs: bool = False
     goal_candidates: int = 16
+    beam_dropout: float = 0.0
+    odom_noise: tuple[float, float] = (0.0, 0.0)
+    random_start: bool = False
+    maze_scale: tuple[float, float] = (1.0, 1.0)
+
+    def __post_init__(self):
+        if self.n_beams < 1:
+            raise ValueError("n_beams must be at least 1")
+        if not 0.0 <= self.beam_dropout < 1.0:
+            raise ValueError("beam_dropout must be in [0, 1)")
+        if len(self.odom_noise) != 2 or min(self.odom_noise) < 0:
+            raise ValueError("odom_noise must be two non-negative standard deviations")
+        lo, hi = self.maze_scale
+        if not 0.5 <= lo <= hi <= 2.0:
+            raise ValueError("maze_scale must be (low, high) with 0.5 <= low <= high <= 2")
+        object.__setattr__(self, "odom_noise", tuple(float(x) for x in self.odom_noise))
+        object.__setattr__(self, "maze_scale", (float(lo), float(hi)))
+
+    @property
+    def scales_maze(self) -> bool:
+        return self.maze_scale != (1.0, 1.0)
 
     @property
     def num_actions(self) -> int:
@@ -371,16 +409,36 @@ class NavEnv:
 
     # -- observation ---------------------------------------------------------
 
+    def maze_at(self, params: EnvParams, scale: chex.Array) -> Maze:
+        """The maze of an episode: ``params.maze``, scaled if ``maze_scale`` is on."""
+        if not self.scales_maze:
+            return params.maze
+        return scale_maze(params.maze, scale)
+
     def observe(
-        self, key: chex.PRNGKey, pos: chex.Array, yaw: chex.Array, goal: chex.Array, params: EnvParams
+        self,
+        key: chex.PRNGKey,
+        pos: chex.Array,
+        yaw: chex.Array,
+        goal: chex.Array,
+        params: EnvParams,
+        scale: chex.Array = 1.0,
     ) -> chex.Array:
         """ROBOTIS state: [ranges, heading, distance(, min range, argmin beam)]."""
-        ranges = ray_distances(params.maze, pos, yaw + beam_angles(self.n_beams))
+        maze = self.maze_at(params, scale)
+        ranges = ray_distances(maze, pos, yaw + beam_angles(self.n_beams))
         return self._obs_from_ranges(key, ranges, pos, yaw, goal, params)
 
     def _obs_from_ranges(self, key, ranges, pos, yaw, goal, params) -> chex.Array:
         noise = params.lidar_noise_std * jax.random.normal(key, ranges.shape)
         ranges = jnp.clip(ranges + noise, params.min_range, params.max_range)
+        if self.beam_dropout > 0.0:
+            lost = jax.random.bernoulli(jax.random.fold_in(key, 1), self.beam_dropout, ranges.shape)
+            ranges = jnp.where(lost, params.max_range, ranges)
+        if self.odom_noise != (0.0, 0.0):  # the goal is seen from the odometry pose
+            k_pos, k_yaw = jax.random.split(jax.random.fold_in(key, 2))
+            pos = pos + self.odom_noise[0] * jax.random.normal(k_pos, (2,))
+            yaw = yaw + self.odom_noise[1] * jax.random.normal(k_yaw)
         heading, distance = goal_heading_distance(pos, yaw, goal)
         parts = [ranges, heading[None], distance[None]]
         if self.obstacle_obs:
@@ -389,13 +447,15 @@ class NavEnv:
 
     # -- goals ---------------------------------------------------------------
 
-    def draw_goal(self, key: chex.PRNGKey, away_from: chex.Array, params: EnvParams) -> chex.Array:
+    def draw_goal(
+        self, key: chex.PRNGKey, away_from: chex.Array, params: EnvParams, scale: chex.Array = 1.0
+    ) -> chex.Array:
         """A free-space goal at least goal_min_separation from ``away_from`` if possible.
 
         Tries ``goal_candidates`` points of the maze's admissible goal set and keeps the
         first far enough away; if none is, the first (still in free space).
         """
-        maze = params.maze
+        maze = self.maze_at(params, scale)
         idx = jax.random.randint(key, (self.goal_candidates,), 0, maze.n_goal_points)
         cand = maze.goal_points[idx]
         far = jnp.linalg.norm(cand - away_from, axis=-1) >= params.goal_min_separation
@@ -403,19 +463,42 @@ class NavEnv:
 
     # -- API -----------------------------------------------------------------
 
+    def _episode_start(self, key, params, goal, scale):
+        """Scale and start pose of a new episode (the maze's start unless randomised)."""
+        start = params.maze.start
+        pos, yaw = start[:2], start[2]
+        if self.scales_maze:
+            lo, hi = self.maze_scale
+            scale = jax.random.uniform(jax.random.fold_in(key, 3), (), jnp.float32, lo, hi)
+            pos = pos * scale
+        else:
+            scale = 1.0  # a constant: the start scan stays independent of the state
+        if self.random_start:  # a free point (goal clearance) away from the goal
+            k_pos, k_yaw = jax.random.split(jax.random.fold_in(key, 4))
+            pos = self.draw_goal(k_pos, goal, params, scale)
+            yaw = jax.random.uniform(k_yaw, (), jnp.float32, -jnp.pi, jnp.pi)
+        return pos, yaw, jnp.asarray(scale, jnp.float32)
+
     def reset(self, key: chex.PRNGKey, params: EnvParams) -> tuple[chex.Array, EnvState]:
         """Robot at the start pose with a freshly drawn goal."""
         k_goal, k_obs = jax.random.split(key)
-        pos, yaw = params.maze.start[:2], params.maze.start[2]
-        goal = self.draw_goal(k_goal, pos, params)
+        scale = 1.0
+        start = params.maze.start[:2]
+        if self.scales_maze:  # the same draw as _episode_start's
+            lo, hi = self.maze_scale
+            scale = jax.random.uniform(jax.random.fold_in(key, 3), (), jnp.float32, lo, hi)
+            start = start * scale
+        goal = self.draw_goal(k_goal, start, params, scale)
+        pos, yaw, scale = self._episode_start(key, params, goal, scale)
         state = EnvState(
             pos=pos,
             yaw=yaw,
             goal=goal,
             t=jnp.zeros((), jnp.int32),
             goal_distance0=jnp.linalg.norm(goal - pos),
+            scale=scale,
         )
-        return self.observe(k_obs, pos, yaw, goal, params), state
+        return self.observe(k_obs, pos, yaw, goal, params, scale), state
 
     def step_env(
         self, key: chex.PRNGKey, state: EnvState, action: chex.Array, params: EnvParams
@@ -423,8 +506,9 @@ class NavEnv:
         """One control period without the auto-reset."""
         k_goal, k_obs = jax.random.split(key)
         omega = jnp.asarray(params.omegas)[action]
+        maze = self.maze_at(params, state.scale)
         collided = path_clearance(
-            params.maze, state.pos, state.yaw, omega, params.v, params.dt
+            maze, state.pos, state.yaw, omega, params.v, params.dt
         ) < params.robot_radius
         pos = state.pos + _displacement(state.yaw, omega, params.v, params.dt)
         yaw = wrap_angle(state.yaw + omega * params.dt)
@@ -434,14 +518,16 @@ class NavEnv:
         reward = reward_fn(
             params, action, heading, distance, state.goal_distance0, reached, collided
         )
-        new_goal = self.draw_goal(k_goal, state.goal, params)
+        new_goal = self.draw_goal(k_goal, state.goal, params, state.scale)
         goal = jnp.where(reached, new_goal, state.goal)
         d0 = jnp.where(reached, jnp.linalg.norm(new_goal - pos), state.goal_distance0)
         t = state.t + 1
         terminated = collided
         truncated = (t >= params.max_steps) & ~terminated
-        new_state = EnvState(pos=pos, yaw=yaw, goal=goal, t=t, goal_distance0=d0)
-        obs = self.observe(k_obs, pos, yaw, goal, params)
+        new_state = EnvState(
+            pos=pos, yaw=yaw, goal=goal, t=t, goal_distance0=d0, scale=state.scale
+        )
+        obs = self.observe(k_obs, pos, yaw, goal, params, state.scale)
         info = {"goal_reached": reached, "collision": collided}
         return obs, new_state, reward.astype(jnp.float32), terminated, truncated, info
 
@@ -456,21 +542,36 @@ class NavEnv:
             k_step, state, action, params
         )
         done = terminated | truncated
-        # The start-pose scan does not depend on the state: under vmap with shared
-        # params it is computed once, not per environment.
-        start = params.maze.start
-        obs_re = self.observe(k_reset, start[:2], start[2], st.goal, params)
+        # Without randomised starts the start-pose scan does not depend on the state:
+        # under vmap with shared params it is computed once, not per environment.
+        goal = st.goal
+        pos, yaw, scale = self._episode_start(k_reset, params, goal, st.scale)
+        if self.scales_maze:  # the kept goal moves with the maze
+            goal = goal * (scale / st.scale)
+        obs_re = self.observe(k_reset, pos, yaw, goal, params, scale)
         st_re = EnvState(
-            pos=start[:2],
-            yaw=start[2],
-            goal=st.goal,
+            pos=pos,
+            yaw=yaw,
+            goal=goal,
             t=jnp.zeros((), jnp.int32),
-            goal_distance0=jnp.linalg.norm(st.goal - start[:2]),
+            goal_distance0=jnp.linalg.norm(goal - pos),
+            scale=scale,
         )
         state = jax.tree.map(lambda a, b: jnp.where(done, a, b), st_re, st)
         obs = jnp.where(done, obs_re, obs_st)
         info = dict(info, final_obs=obs_st)
         return obs, state, reward, terminated, truncated, info
+
+
+def scale_maze(maze: Maze, scale: chex.Array) -> Maze:
+    """The maze scaled about the origin; circle radii keep their size."""
+    return maze.replace(
+        segments=maze.segments * scale,
+        circles=maze.circles.at[:, :2].multiply(scale),
+        start=maze.start.at[:2].multiply(scale),
+        goal_points=maze.goal_points * scale,
+        bounds=maze.bounds * scale,
+    )
 
 
 def goal_heading_distance(pos, yaw, goal):
@@ -511,8 +612,6 @@ def make(
     if "omegas" in values:
         values["omegas"] = jnp.asarray(values["omegas"], jnp.float32)
     env = NavEnv(**env_kwargs)
-    if env.n_beams < 1:
-        raise ValueError("n_beams must be at least 1")
     return env, EnvParams(maze=maze_obj, **values)
 
 
