@@ -87,14 +87,23 @@ def draw_maze(
         L = 2.4 * robot_radius  # the arrow pokes out of the disc: heading at a glance
         ax.add_patch(
             FancyArrow(
-                x, y, L * math.cos(yaw), L * math.sin(yaw),
-                width=0.025, head_width=0.09, head_length=0.08,
-                length_includes_head=True, color=HEADING_COLOR, zorder=6,
+                x,
+                y,
+                L * math.cos(yaw),
+                L * math.sin(yaw),
+                width=0.025,
+                head_width=0.09,
+                head_length=0.08,
+                length_includes_head=True,
+                color=HEADING_COLOR,
+                zorder=6,
             )
         )
     if goal is not None:
         gx, gy = (float(v) for v in goal)
-        ax.add_patch(Circle((gx, gy), goal_radius, fill=False, ec=GOAL_COLOR, ls="--", lw=1.2, zorder=4))
+        ax.add_patch(
+            Circle((gx, gy), goal_radius, fill=False, ec=GOAL_COLOR, ls="--", lw=1.2, zorder=4)
+        )
         ax.plot([gx], [gy], "*", ms=14, color=GOAL_COLOR, mec="white", zorder=6)
 
     xmin, ymin, xmax, ymax = (float(v) for v in np.asarray(maze.bounds))
@@ -177,8 +186,16 @@ def _legend(ax, n_beams: int, goal_radius: float) -> None:
     ]
     if n_beams:
         handles.append(Line2D([], [], color=BEAM_COLOR, lw=1, label=f"{n_beams} LiDAR beams"))
-    ax.legend(handles=handles, loc="upper center", bbox_to_anchor=(0.5, -0.09), ncol=3,
-              fontsize=8, frameon=False, handletextpad=0.3, columnspacing=1.2)
+    ax.legend(
+        handles=handles,
+        loc="upper center",
+        bbox_to_anchor=(0.5, -0.09),
+        ncol=3,
+        fontsize=8,
+        frameon=False,
+        handletextpad=0.3,
+        columnspacing=1.2,
+    )
 
 
 def _display_name(name: str) -> str:
@@ -191,9 +208,12 @@ def _display_name(name: str) -> str:
 def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
         prog="python -m jaxnav.render",
-        description="Draw a maze (built-in name or YAML file) with the robot, a goal and its LiDAR beams.",
+        description="Draw a maze (built-in name or YAML file) with the robot, a goal and "
+        "its LiDAR beams.",
     )
-    parser.add_argument("maze", help="built-in maze name (e.g. square4_obstacles) or a maze .yaml file")
+    parser.add_argument(
+        "maze", help="built-in maze name (e.g. square4_obstacles) or a maze .yaml file"
+    )
     parser.add_argument("--out", default="maze.png", help="output PNG (default: maze.png)")
     parser.add_argument("--beams", type=int, default=24, help="LiDAR beams to draw (default: 24)")
     parser.add_argument("--seed", type=int, default=0, help="seed of the goal draw (default: 0)")
