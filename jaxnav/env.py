@@ -399,7 +399,8 @@ class NavEnv:
         return Discrete(self.num_actions)
 
     def observation_space(self, params: EnvParams) -> Box:
-        big = float(np.max(np.asarray(params.maze.bounds[..., 2:] - params.maze.bounds[..., :2])))
+        bounds = np.asarray(jax.device_get(params.maze.bounds))  # host side, not under jit
+        big = float(np.max(bounds[..., 2:] - bounds[..., :2])) * self.maze_scale[1]
         low = [params.min_range] * self.n_beams + [-math.pi, 0.0]
         high = [params.max_range] * self.n_beams + [math.pi, 2 * big]
         if self.obstacle_obs:
@@ -531,6 +532,27 @@ class NavEnv:
         info = {"goal_reached": reached, "collision": collided}
         return obs, new_state, reward.astype(jnp.float32), terminated, truncated, info
 
+    def restart(
+        self, key: chex.PRNGKey, state: EnvState, params: EnvParams
+    ) -> tuple[chex.Array, EnvState]:
+        """TurtleBot3's restart after a collision or the step limit: the start pose
+        (random if ``random_start``), the same goal, step count 0."""
+        # Without randomised starts the start-pose scan does not depend on the state:
+        # under vmap with shared params it is computed once, not per environment.
+        goal = state.goal
+        pos, yaw, scale = self._episode_start(key, params, goal, state.scale)
+        if self.scales_maze:  # the kept goal moves with the maze
+            goal = goal * (scale / state.scale)
+        obs = self.observe(key, pos, yaw, goal, params, scale)
+        return obs, EnvState(
+            pos=pos,
+            yaw=yaw,
+            goal=goal,
+            t=jnp.zeros((), jnp.int32),
+            goal_distance0=jnp.linalg.norm(goal - pos),
+            scale=scale,
+        )
+
     def step(
         self, key: chex.PRNGKey, state: EnvState, action: chex.Array, params: EnvParams
     ):
@@ -542,21 +564,7 @@ class NavEnv:
             k_step, state, action, params
         )
         done = terminated | truncated
-        # Without randomised starts the start-pose scan does not depend on the state:
-        # under vmap with shared params it is computed once, not per environment.
-        goal = st.goal
-        pos, yaw, scale = self._episode_start(k_reset, params, goal, st.scale)
-        if self.scales_maze:  # the kept goal moves with the maze
-            goal = goal * (scale / st.scale)
-        obs_re = self.observe(k_reset, pos, yaw, goal, params, scale)
-        st_re = EnvState(
-            pos=pos,
-            yaw=yaw,
-            goal=goal,
-            t=jnp.zeros((), jnp.int32),
-            goal_distance0=jnp.linalg.norm(goal - pos),
-            scale=scale,
-        )
+        obs_re, st_re = self.restart(k_reset, st, params)
         state = jax.tree.map(lambda a, b: jnp.where(done, a, b), st_re, st)
         obs = jnp.where(done, obs_re, obs_st)
         info = dict(info, final_obs=obs_st)

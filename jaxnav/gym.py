@@ -64,22 +64,8 @@ ENV_IDS: dict[str, str] = {m: env_id(m) for m in BUILTIN_MAZES}
 
 
 def _restart(env: NavEnv, key, state: EnvState, params: EnvParams):
-    """TurtleBot3 restart after a collision or the step limit: the start pose (random
-    if ``random_start``), the same goal, step count 0. The restart branch of
-    ``NavEnv.step``'s auto-reset, for one key (tests/test_gym.py checks they agree)."""
-    goal = state.goal
-    pos, yaw, scale = env._episode_start(key, params, goal, state.scale)
-    if env.scales_maze:  # the kept goal moves with the maze
-        goal = goal * (scale / state.scale)
-    obs = env.observe(key, pos, yaw, goal, params, scale)
-    return obs, EnvState(
-        pos=pos,
-        yaw=yaw,
-        goal=goal,
-        t=jnp.zeros((), jnp.int32),
-        goal_distance0=jnp.linalg.norm(goal - pos),
-        scale=scale,
-    )
+    """TurtleBot3 restart after a collision or the step limit (``NavEnv.restart``)."""
+    return env.restart(key, state, params)
 
 
 class NavGymEnv(gymnasium.Env):
