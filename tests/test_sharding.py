@@ -57,3 +57,33 @@ def test_sharded_run_matches_single_device_and_pads_odd_seed_counts(tmp_path):
     )
     n_dev, padded, spread, rows = map(int, probe.stdout.split())
     assert (n_dev, padded, spread, rows) == (4, 8, 4, 8)  # really spread over 4 devices
+
+
+def test_two_processes_write_one_run_directory_equal_to_one_process_with_two_devices(tmp_path):
+    """jax.distributed on localhost: 2 processes x 1 CPU device == 1 process x 2 devices."""
+    import socket
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    args = [sys.executable, "-m", "jaxnav.train", "seeds=2", *TINY, "--quiet"]
+    procs = []
+    for pid in range(2):
+        env = dict(
+            os.environ,
+            JAX_COORDINATOR_ADDRESS=f"127.0.0.1:{port}",
+            JAX_NUM_PROCESSES="2",
+            JAX_PROCESS_ID=str(pid),
+            XLA_FLAGS="--xla_force_host_platform_device_count=1",
+        )
+        procs.append(subprocess.Popen(args + ["--out", str(tmp_path / "multi")], cwd=ROOT, env=env,
+                                      stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL))
+    assert [p.wait(timeout=300) for p in procs] == [0, 0]
+    summary = json.loads((tmp_path / "multi" / "summary.json").read_text())
+    assert (summary["processes"], summary["devices"]) == (2, 2)
+    single = tmp_path / "single"
+    subprocess.run(args + ["--out", str(single)], check=True, cwd=ROOT, capture_output=True,
+                   env=dict(os.environ, XLA_FLAGS="--xla_force_host_platform_device_count=2"))
+    assert (tmp_path / "multi" / "metrics.csv").read_bytes() == (single / "metrics.csv").read_bytes()
+    a, b = np.load(tmp_path / "multi" / "params.npz"), np.load(single / "params.npz")
+    assert all(np.array_equal(a[k], b[k]) for k in a.files)
