@@ -1,4 +1,4 @@
-"""``python -m jaxnav.evaluate RUN_DIR [--mazes M ...] [--episodes N] [--out DIR]``
+"""``python -m jaxnav.evaluate RUN_DIR [--mazes M ...] [--episodes N] [--out DIR] [--robustness]``
 
 The paper's test protocol (Sec. 6, Tables 3 and 4): every trained policy runs N
 consecutive greedy test episodes on each test maze and the tables report the mean
@@ -25,6 +25,21 @@ replaces the maze list (built-in names or maze YAML paths). Writes, atomically::
                                     and maze, step by step (for jaxnav.plots)
 
 The tables are a pure function of results.csv (:func:`tables_markdown`).
+
+``--robustness`` runs the same test instead under each setting of
+:data:`PERTURBATIONS` (range noise, beam dropout, odometry noise, random start
+poses), each applied on top of the training environment's settings, on the
+training maze (or ``--mazes``), and writes, atomically::
+
+    RUN_DIR/eval/robustness.csv     strategy, seed, perturbation, maze, episode, return,
+                                    goals, collided, length
+    RUN_DIR/eval/robustness.md      per perturbation and strategy: mean return over seeds
+                                    [95% CI], its change from the unperturbed row,
+                                    goals per episode, collision rate
+    RUN_DIR/eval/robustness.png     return per perturbation and strategy (jaxnav.plots)
+
+The unperturbed setting (``none``) is the plain test: its rows equal results.csv's
+for the same mazes and episodes.
 """
 
 from __future__ import annotations
@@ -36,6 +51,7 @@ if __name__ == "__main__":  # before JAX starts: one CPU device per core
 
 import argparse
 import csv
+import dataclasses
 import functools
 import io
 import sys
@@ -403,23 +419,28 @@ def evaluate(
         name: {run.labels[i][0]: first_episode(res, i) for i in first}
         for name, res in zip(names, results)
     }
-    rows = []
-    for name, res in zip(names, results):
-        for r, (strategy, seed) in enumerate(run.labels):
-            for e in range(n_episodes):
-                rows.append(
-                    (
-                        strategy,
-                        seed,
-                        name,
-                        e,
-                        f"{float(res.ret[r, e]):.4f}",
-                        int(res.goals[r, e]),
-                        int(res.collided[r, e]),
-                        int(res.length[r, e]),
-                    )
-                )
+    rows = list(_episode_rows(run.labels, names, results, n_episodes))
     return run, names, _csv_text(RESULT_COLUMNS, rows), episodes
+
+
+def _episode_rows(labels, names, results, n_episodes, perturbation: str | None = None):
+    """CSV rows (strategy, seed[, perturbation], maze, episode, return, goals, collided,
+    length) of run_tests() results."""
+    tag = () if perturbation is None else (perturbation,)
+    for name, res in zip(names, results):
+        for r, (strategy, seed) in enumerate(labels):
+            for e in range(n_episodes):
+                yield (
+                    strategy,
+                    seed,
+                    *tag,
+                    name,
+                    e,
+                    f"{float(res.ret[r, e]):.4f}",
+                    int(res.goals[r, e]),
+                    int(res.collided[r, e]),
+                    int(res.length[r, e]),
+                )
 
 
 # ----------------------------------------------------------------------------
@@ -429,9 +450,14 @@ def evaluate(
 
 def read_results(text: str) -> dict[tuple[str, str, int], dict[str, np.ndarray]]:
     """results.csv text -> {(maze, strategy, seed): {column: per-episode array}}."""
-    out: dict[tuple[str, str, int], dict[str, list]] = {}
+    return _read_episodes(text, ("maze", "strategy", "seed"))
+
+
+def _read_episodes(text: str, key_columns: Sequence[str]) -> dict[tuple, dict[str, np.ndarray]]:
+    """Episode rows -> {key (seed as int): {column: per-episode array, by episode}}."""
+    out: dict[tuple, dict[str, list]] = {}
     for row in csv.DictReader(io.StringIO(text)):
-        key = (row["maze"], row["strategy"], int(row["seed"]))
+        key = tuple(int(row[c]) if c == "seed" else row[c] for c in key_columns)
         d = out.setdefault(
             key, {"episode": [], "return": [], "goals": [], "collided": [], "length": []}
         )
@@ -619,6 +645,263 @@ def tables_markdown(
 
 
 # ----------------------------------------------------------------------------
+# Robustness: the same test under sensor and start-pose perturbations
+# ----------------------------------------------------------------------------
+
+ROBUSTNESS_COLUMNS = (
+    "strategy",
+    "seed",
+    "perturbation",
+    "maze",
+    "episode",
+    "return",
+    "goals",
+    "collided",
+    "length",
+)
+UNPERTURBED = "none"
+
+# The sweep: name -> settings that replace the training environment's; every other
+# setting keeps its training value. A key is an EnvParams field (data: the compiled
+# rollout is reused) or a NavEnv field (static: one compile per setting). Add a row
+# to extend the sweep; the first row is the reference the others are compared with.
+PERTURBATIONS: dict[str, dict[str, Any]] = {
+    UNPERTURBED: {},
+    "range_noise_0.02": {"lidar_noise_std": 0.02},
+    "range_noise_0.05": {"lidar_noise_std": 0.05},
+    "range_noise_0.1": {"lidar_noise_std": 0.1},
+    "beam_dropout_0.05": {"beam_dropout": 0.05},
+    "beam_dropout_0.2": {"beam_dropout": 0.2},
+    "odom_noise_0.05": {"odom_noise": (0.05, 0.05)},
+    "random_start": {"random_start": True},
+}
+
+# The realism settings of a training environment, shown beside the sweep.
+REALISM_SETTINGS = ("lidar_noise_std", "beam_dropout", "odom_noise", "random_start", "maze_scale")
+
+_PARAM_FIELDS = {f.name for f in dataclasses.fields(EnvParams)} - {"maze"}
+_ENV_FIELDS = {f.name for f in dataclasses.fields(NavEnv)}
+
+
+def perturb(
+    env: NavEnv, env_params: EnvParams, overrides: dict[str, Any]
+) -> tuple[NavEnv, EnvParams]:
+    """The environment with ``overrides`` replacing its settings (raises EvalError).
+
+    The observation must keep its size: the policy's network is fixed.
+    """
+    unknown = sorted(set(overrides) - _PARAM_FIELDS - _ENV_FIELDS)
+    if unknown:
+        raise EvalError(f"unknown environment setting '{unknown[0]}' in a perturbation")
+    static = {k: v for k, v in overrides.items() if k in _ENV_FIELDS}
+    data = {k: v for k, v in overrides.items() if k in _PARAM_FIELDS}
+    try:
+        new_env = dataclasses.replace(env, **static)
+    except (TypeError, ValueError) as e:
+        raise EvalError(f"perturbation {overrides}: {e}") from None
+    if new_env.obs_size != env.obs_size:
+        raise EvalError(f"perturbation {overrides} changes the observation size")
+    return new_env, env_params.replace(**data)
+
+
+def realism_settings(env: NavEnv, env_params: EnvParams) -> dict[str, Any]:
+    """The sensor and start-pose settings of an environment (:data:`REALISM_SETTINGS`)."""
+    return {
+        k: getattr(env_params if k in _PARAM_FIELDS else env, k) for k in REALISM_SETTINGS
+    }
+
+
+def robustness(
+    run_dir: str | Path,
+    maze_names: Sequence[str] | None = None,
+    n_episodes: int | None = None,
+    perturbations: dict[str, dict[str, Any]] = PERTURBATIONS,
+) -> tuple[LoadedRun, list[str], str]:
+    """Test every run of ``run_dir`` under each perturbation of the training env.
+
+    The plain test (:func:`evaluate`'s rollout, keys and episodes) with the env's
+    settings replaced; defaults: the training maze, ``run.test_episodes``.
+    Returns (run, maze names, robustness.csv text).
+    """
+    run = load_run(run_dir)
+    names = list(maze_names) if maze_names else [run.config.env.maze]
+    if len(set(names)) != len(names):
+        raise EvalError("a maze is listed twice")
+    n_episodes = run.config.run.test_episodes if n_episodes is None else n_episodes
+    if n_episodes < 1:
+        raise EvalError("--episodes must be at least 1")
+    if not perturbations:
+        raise EvalError("no perturbations to test")
+    settings = {p: perturb(run.env, run.env_params, ov) for p, ov in perturbations.items()}
+    mazes = padded_mazes(names)
+    rows = []
+    for p, (env, env_params) in settings.items():
+        # record=True: the same program as evaluate()'s, so "none" repeats it exactly.
+        results = run_tests(run._replace(env=env, env_params=env_params), mazes, n_episodes, record=True)
+        rows += _episode_rows(run.labels, names, results, n_episodes, perturbation=p)
+    return run, names, _csv_text(ROBUSTNESS_COLUMNS, rows)
+
+
+def read_robustness(text: str) -> dict[tuple[str, str, str, int], dict[str, np.ndarray]]:
+    """robustness.csv text -> {(perturbation, maze, strategy, seed): {column: per-episode array}}."""
+    return _read_episodes(text, ("perturbation", "maze", "strategy", "seed"))
+
+
+class RobustnessRow(NamedTuple):
+    """One (maze, perturbation, strategy) line of the robustness table."""
+
+    maze: str
+    perturbation: str
+    strategy: str
+    n_seeds: int
+    mean: stats.Interval  # mean over seeds of the per-seed mean return
+    change: stats.Interval | None  # mean over seeds of (perturbed - unperturbed) score
+    change_pct: float  # change / |unperturbed mean| in %, NaN if undefined
+    goals: float  # goals per episode, all seeds pooled
+    collision_rate: float  # share of episodes that ended in a collision
+
+
+def _by_seed(res, perturbation: str, maze: str, strategy: str) -> dict[int, dict[str, np.ndarray]]:
+    return {k[3]: v for k, v in res.items() if k[:3] == (perturbation, maze, strategy)}
+
+
+def robustness_summary(text: str) -> list[RobustnessRow]:
+    """The robustness table's numbers from robustness.csv text.
+
+    A seed's score is its mean return over the test episodes; the change is paired
+    by seed (same seed, same test key) against the unperturbed setting.
+    """
+    res = read_robustness(text)
+    if not res:
+        raise EvalError("robustness.csv has no rows")
+    perts = _ordered_unique(k[0] for k in res)
+    mazes = _ordered_unique(k[1] for k in res)
+    strategies = [s for s in STRATEGIES if any(k[2] == s for k in res)]
+    out = []
+    for m in mazes:
+        for s in strategies:
+            ref = {k: v["return"].mean() for k, v in _by_seed(res, UNPERTURBED, m, s).items()}
+            for p in perts:
+                eps = _by_seed(res, p, m, s)
+                if not eps:
+                    continue
+                seeds = sorted(eps)
+                x = np.asarray([eps[k]["return"].mean() for k in seeds])
+                change, pct = None, float("nan")
+                if p != UNPERTURBED and ref and set(seeds) <= set(ref):
+                    b = np.asarray([ref[k] for k in seeds])
+                    change = stats.mean_ci(x - b)
+                    if b.mean() != 0:
+                        pct = 100.0 * change.value / abs(b.mean())
+                goals = np.concatenate([eps[k]["goals"] for k in seeds])
+                coll = np.concatenate([eps[k]["collided"] for k in seeds])
+                out.append(
+                    RobustnessRow(
+                        maze=m,
+                        perturbation=p,
+                        strategy=s,
+                        n_seeds=len(seeds),
+                        mean=stats.mean_ci(x),
+                        change=change,
+                        change_pct=pct,
+                        goals=float(goals.mean()),
+                        collision_rate=float(coll.mean()),
+                    )
+                )
+    # Perturbation by perturbation, the strategies side by side.
+    rank = {p: i for i, p in enumerate(perts)}
+    out.sort(key=lambda r: (mazes.index(r.maze), rank[r.perturbation], strategies.index(r.strategy)))
+    return out
+
+
+def _signed_ci(iv: stats.Interval, digits: int = 1) -> str:
+    if np.isnan(iv.low):
+        return f"{iv.value:+.{digits}f} [n/a]"
+    return f"{iv.value:+.{digits}f} [{iv.low:+.{digits}f}, {iv.high:+.{digits}f}]"
+
+
+def _setting_text(overrides: dict[str, Any]) -> str:
+    return ", ".join(f"{k}={v}" for k, v in overrides.items())
+
+
+def robustness_markdown(
+    robustness_csv: str,
+    train_maze: str,
+    training: dict[str, Any],
+    perturbations: dict[str, dict[str, Any]] = PERTURBATIONS,
+    title: str = "Robustness",
+    figure: str | None = None,
+) -> str:
+    """robustness.md from robustness.csv text.
+
+    Args:
+      robustness_csv: the text of robustness.csv.
+      train_maze: the training maze.
+      training: the training env's realism settings (:func:`realism_settings`).
+      perturbations: the sweep, for the setting column (names not in it show none).
+      figure: a link to robustness.png to show under the introduction, if given.
+    """
+    rows = robustness_summary(robustness_csv)
+    res = read_robustness(robustness_csv)
+    seeds = sorted({k[3] for k in res})
+    n_eps = sorted({len(v["return"]) for v in res.values()})
+    mazes = _ordered_unique(r.maze for r in rows)
+    L = [f"# {title}", ""]
+    L += [
+        f"Trained on `{train_maze}` with {_setting_text(training)}. Every policy plays the "
+        f"plain test ({'/'.join(map(str, n_eps))} consecutive greedy episodes per seed, the "
+        "same test keys) under each perturbation: the named setting replaces the training "
+        "environment's, every other setting stays as trained, and `none` is the plain test.",
+        "",
+        f"A seed's score is its mean return. Mean over {len(seeds)} seed(s) with a "
+        f"{int(stats.CONFIDENCE * 100)}% percentile-bootstrap CI; change: the mean over seeds "
+        "of each seed's score minus its unperturbed score (paired by seed) with its CI, and "
+        "in % of the unperturbed mean; goals per episode and the collision rate pool all "
+        "seeds and episodes.",
+        "",
+    ]
+    if figure:
+        L += [f"![return under each perturbation]({figure})", ""]
+    for m in mazes:
+        if len(mazes) > 1:
+            L += [f"## {m}", ""]
+        table = []
+        for r in (r for r in rows if r.maze == m):
+            setting = (
+                "as trained"
+                if r.perturbation == UNPERTURBED
+                else _setting_text(perturbations.get(r.perturbation, {}))
+            )
+            table.append(
+                [
+                    r.perturbation,
+                    setting,
+                    STRATEGY_NAMES[r.strategy],
+                    _ci(r.mean),
+                    "" if r.change is None else _signed_ci(r.change),
+                    "" if np.isnan(r.change_pct) else f"{r.change_pct:+.0f}%",
+                    f"{r.goals:.2f}",
+                    f"{r.collision_rate:.2f}",
+                ]
+            )
+        L += _table(
+            [
+                "perturbation",
+                "setting",
+                "strategy",
+                "mean return [95% CI]",
+                "change [95% CI]",
+                "change %",
+                "goals / episode",
+                "collision rate",
+            ],
+            table,
+        )
+        L += [""]
+    return "\n".join(L)
+
+
+# ----------------------------------------------------------------------------
 # Command line
 # ----------------------------------------------------------------------------
 
@@ -644,19 +927,48 @@ def evaluate_to_dir(
     return out
 
 
+def robustness_to_dir(
+    run_dir: str | Path,
+    maze_names: Sequence[str] | None = None,
+    n_episodes: int | None = None,
+    out: str | Path | None = None,
+    perturbations: dict[str, dict[str, Any]] = PERTURBATIONS,
+) -> Path:
+    """The robustness sweep; write robustness.csv, .md and .png (each atomically) into ``out``."""
+    from jaxnav import plots  # plots imports this module
+
+    run, _, text = robustness(run_dir, maze_names, n_episodes, perturbations)
+    name = Path(run_dir).name
+    md = robustness_markdown(
+        text,
+        run.config.env.maze,
+        realism_settings(run.env, run.env_params),
+        perturbations,
+        title=f"Robustness of {name} to sensor noise",
+        figure="robustness.png",
+    )
+    out = Path(out) if out is not None else Path(run_dir) / "eval"
+    out.mkdir(parents=True, exist_ok=True)
+    atomic_write_text(out / "robustness.csv", text)
+    atomic_write_text(out / "robustness.md", md)
+    plots.plot_robustness(text, out / "robustness.png", title=f"{name}: return under perturbations")
+    return out
+
+
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(
         prog="python -m jaxnav.evaluate",
         description="Test every trained policy of a run on the test mazes (the paper's "
-        "protocol: N consecutive greedy episodes) and write eval/results.csv and eval/tables.md.",
+        "protocol: N consecutive greedy episodes) and write eval/results.csv and eval/tables.md; "
+        "with --robustness, test them under sensor perturbations instead.",
     )
     p.add_argument("run_dir", metavar="RUN_DIR", help="a finished training run (with params.npz)")
     p.add_argument(
         "--mazes",
         nargs="+",
         metavar="M",
-        help="test mazes, replacing the config's run.test_mazes: built-in names "
-        "(square2, square4, ...) or maze YAML paths",
+        help="test mazes, replacing the config's run.test_mazes (with --robustness: the "
+        "training maze): built-in names (square2, square4, ...) or maze YAML paths",
     )
     p.add_argument(
         "--episodes",
@@ -665,9 +977,25 @@ def main(argv: list[str] | None = None) -> int:
         help="consecutive test episodes per seed (default run.test_episodes)",
     )
     p.add_argument("--out", metavar="DIR", help="output directory (default RUN_DIR/eval)")
+    p.add_argument(
+        "--robustness",
+        action="store_true",
+        help="instead of the plain test, play it under each perturbation of the training "
+        "environment: "
+        + "; ".join(
+            f"{k} ({_setting_text(v)})" if v else f"{k} (as trained)"
+            for k, v in PERTURBATIONS.items()
+        )
+        + ". Each replaces that setting only. Mazes default to the training maze. Writes "
+        "robustness.csv, robustness.md (mean return over seeds with 95%% CI, its change "
+        "from 'none', goals, collision rate) and robustness.png",
+    )
     args = p.parse_args(argv)
     try:
-        out = evaluate_to_dir(args.run_dir, args.mazes, args.episodes, args.out)
+        if args.robustness:
+            out = robustness_to_dir(args.run_dir, args.mazes, args.episodes, args.out)
+        else:
+            out = evaluate_to_dir(args.run_dir, args.mazes, args.episodes, args.out)
     except (EvalError, ConfigError, MazeError, RunError) as e:
         print(f"jaxnav.evaluate: error: {e}", file=sys.stderr)
         return 2
@@ -677,7 +1005,12 @@ def main(argv: list[str] | None = None) -> int:
             file=sys.stderr,
         )
         return 2
-    print(f"wrote {out / 'results.csv'}, {out / 'tables.md'} and {out / 'trajectories.npz'}")
+    if args.robustness:
+        print(
+            f"wrote {out / 'robustness.csv'}, {out / 'robustness.md'} and {out / 'robustness.png'}"
+        )
+    else:
+        print(f"wrote {out / 'results.csv'}, {out / 'tables.md'} and {out / 'trajectories.npz'}")
     return 0
 
 

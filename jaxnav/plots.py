@@ -13,6 +13,10 @@ Writes into RUN_DIR/plots/ (each file atomically):
 * ``episode.gif``: an animation of that test episode of one policy (EBE if
   trained) on the first test maze: robot, LiDAR beams, goal.
 
+``python -m jaxnav.evaluate RUN_DIR --robustness`` draws ``robustness.png`` beside
+its table with :func:`plot_robustness`: the mean return over seeds under each
+perturbation, a bar per strategy with its 95% bootstrap interval.
+
 The test episode is episode 1 of ``jaxnav.evaluate``: read from
 eval/trajectories.npz when the run was evaluated on these mazes, else played here
 with the same test key. Without params.npz (a run still training) only the first
@@ -45,6 +49,7 @@ from jaxnav.evaluate import (  # noqa: E402
     EvalError,
     evaluate,
     read_episodes_npz,
+    robustness_summary,
 )
 from jaxnav.maps import Maze, MazeError, make_maze  # noqa: E402
 from jaxnav.train import RunError  # noqa: E402
@@ -395,6 +400,54 @@ def plot_test_episodes(
         )
     )
     return written
+
+
+# ----------------------------------------------------------------------------
+# Robustness
+# ----------------------------------------------------------------------------
+
+
+def plot_robustness(robustness_csv: str, out: Path, title: str = "Robustness") -> Path:
+    """Mean return over seeds per perturbation (x) and strategy (bars), 95% bootstrap
+    CI as error bars; one panel per maze. From robustness.csv text."""
+    rows = robustness_summary(robustness_csv)
+    mazes = list(dict.fromkeys(r.maze for r in rows))
+    perts = list(dict.fromkeys(r.perturbation for r in rows))
+    strategies = [s for s in STRATEGIES if any(r.strategy == s for r in rows)]
+    width = 0.8 / len(strategies)
+    fig, axes = plt.subplots(
+        len(mazes), 1, figsize=(max(6.0, 0.9 * len(perts) + 1.5), 3.6 * len(mazes)), squeeze=False
+    )
+    for ax, m in zip(axes[:, 0], mazes):
+        for j, s in enumerate(strategies):
+            by = {r.perturbation: r for r in rows if r.maze == m and r.strategy == s}
+            xs = [i for i, p in enumerate(perts) if p in by]
+            iv = [by[perts[i]].mean for i in xs]
+            mean = np.asarray([v.value for v in iv])
+            low = np.asarray([v.low for v in iv])
+            high = np.asarray([v.high for v in iv])
+            yerr = None
+            if not np.isnan(low).any():  # one seed: no interval
+                yerr = np.stack([mean - low, high - mean])
+            n = by[perts[xs[0]]].n_seeds if xs else 0
+            ax.bar(
+                np.asarray(xs) + (j - (len(strategies) - 1) / 2) * width,
+                mean,
+                width,
+                yerr=yerr,
+                capsize=3,
+                color=COLORS[s],
+                label=f"{STRATEGY_NAMES[s]} ({n} seeds)",
+            )
+        ax.axhline(0.0, color="0.3", lw=0.8)
+        ax.set_xticks(range(len(perts)))
+        ax.set_xticklabels(perts, rotation=30, ha="right", fontsize=8)
+        ax.set_ylabel("mean test return")
+        ax.set_title(f"{title} on {m}\nmean over seeds, 95% bootstrap interval", fontsize=10)
+        ax.grid(axis="y", alpha=0.3)
+        ax.legend(fontsize=8)
+    fig.tight_layout()
+    return _save_fig(fig, out, dpi=110)
 
 
 def make_plots(
