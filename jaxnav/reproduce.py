@@ -6,12 +6,12 @@ strategies and N seeds each, test them (``jaxnav.evaluate``), draw the figures
 (``jaxnav.plots``) and write ``DIR/report.md`` with the tables, the figures, the
 wall-clock of every stage and the machine.
 
-Default: 4 seeds per strategy and the paper's 500 episodes of at most 500 steps:
-9.5 minutes in all, measured on 2 shared CPU cores (AMD EPYC), 6.4 of them training
-without obstacles and 2.7 with (episodes end sooner there). One 8-seed run without
-obstacles took 11-25 minutes on that machine depending on its load, so ``--seeds 8``
-takes about 20-40 minutes; 4 keeps the default well under an hour even on a busy
-machine.
+Default: 8 seeds per strategy (the paper configs' own) and the paper's 500
+episodes of at most 500 steps: 18 minutes in all, measured on 2 shared CPU cores
+(AMD EPYC) with one CPU device per core, 13.7 of them training without obstacles
+and 3.7 with (episodes end sooner there); ``--seeds 4`` takes about half.
+Each experiment's policies are also tested under sensor perturbations on its
+training maze (``jaxnav.evaluate --robustness``).
 
 ``--quick``: 2 seeds, 50 episodes of at most 200 steps, 3 test episodes: about a
 minute, for checking that everything runs (its numbers mean little).
@@ -47,11 +47,11 @@ import jax
 
 from jaxnav import plots
 from jaxnav.config import ConfigError, load_config
-from jaxnav.evaluate import EvalError, evaluate_to_dir
+from jaxnav.evaluate import EvalError, evaluate_to_dir, robustness_to_dir
 from jaxnav.maps import MazeError
 from jaxnav.train import CONFIG_DIR, RunError, atomic_write_text, resume, train_from_config
 
-DEFAULT_SEEDS = 4
+DEFAULT_SEEDS = 8
 QUICK = {"seeds": 2, "episodes": 50, "max_steps": 200, "test_episodes": 3}
 EXPERIMENTS = (
     (
@@ -144,9 +144,7 @@ def write_report(
         f"{settings['test_episodes']} consecutive test episodes per seed and maze{quick}. "
         "The rest of each config is the paper's (configs/paper_*.yaml; each run's full "
         "config.yaml is in its directory). The paper shows one training run per strategy; the "
-        "seeds here show whether a difference holds (default "
-        f"{DEFAULT_SEEDS} seeds to stay well under an hour on 2 CPU cores; `--seeds 8` for a "
-        "tighter interval).",
+        f"seeds here show whether a difference holds (default {DEFAULT_SEEDS}).",
         "",
         "## Machine",
         "",
@@ -254,6 +252,13 @@ def reproduce(
         say(f"{name}: drawing figures")
         written = plots.make_plots(run_dir)
         timings.append((f"plot {name}", time.perf_counter() - t0, f"{len(written)} files"))
+        # ROBUSTNESS: the same test under sensor perturbations, on the training maze
+        t0 = time.perf_counter()
+        say(f"{name}: testing under sensor perturbations on {cfg.env.maze}")
+        rob_dir = robustness_to_dir(run_dir, out=run_dir / "eval")
+        timings.append(
+            (f"robustness {name}", time.perf_counter() - t0, f"on {cfg.env.maze}")
+        )
 
         rel = lambda p: Path(p).relative_to(out).as_posix()  # noqa: E731
         figs = [
@@ -275,6 +280,10 @@ def reproduce(
             sec += [f"![episode animation]({rel(gif[0])})", ""]
         tables = (eval_dir / "tables.md").read_text()
         sec += [_demote(tables).rstrip(), ""]
+        rob = (rob_dir / "robustness.md").read_text().replace(
+            "](robustness.png)", f"]({rel(rob_dir / 'robustness.png')})"
+        )
+        sec += [_demote(rob).rstrip(), ""]
         sections += sec
     first = cfgs[EXPERIMENTS[0][0]]
     settings = {
