@@ -95,7 +95,7 @@ def test_reproduce_quick_end_to_end(run, tmp_path, capsys):
     shutil.copytree(src, out / "paper_no_obstacles", ignore=shutil.ignore_patterns("eval", "plots"))
     assert reproduce.main([*REPRODUCE_TINY, "--out", str(out), "--resume", "--quiet"]) == 0
     report = (out / "report.md").read_text()
-    for stage in ("train", "evaluate", "plot"):
+    for stage in ("train", "evaluate", "plot", "robustness"):
         for exp in ("paper_no_obstacles", "paper_obstacles"):
             assert re.search(rf"\| {stage} {exp} \| [0-9.]+ s", report), (stage, exp)
     assert "reused (trained before; time from its summary.json" in report
@@ -108,7 +108,8 @@ def test_reproduce_quick_end_to_end(run, tmp_path, capsys):
     assert "| pentagon_obstacles | Pentagon | 890.99 ± 641.19 |" in report
     # every figure link resolves
     links = re.findall(r"!\[[^\]]*\]\(([^)]+)\)", report)
-    assert len(links) == 2 * 3 + 5 + 2  # curves, exploration, GIF per run; one path per test maze
+    # curves, exploration, GIF, robustness per run; one path per test maze
+    assert len(links) == 2 * 4 + 5 + 2
     for link in links:
         assert (out / link).is_file(), link
     # the report's tables are the evaluation's
