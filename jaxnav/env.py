@@ -491,14 +491,7 @@ class NavEnv:
             start = start * scale
         goal = self.draw_goal(k_goal, start, params, scale)
         pos, yaw, scale = self._episode_start(key, params, goal, scale)
-        state = EnvState(
-            pos=pos,
-            yaw=yaw,
-            goal=goal,
-            t=jnp.zeros((), jnp.int32),
-            goal_distance0=jnp.linalg.norm(goal - pos),
-            scale=scale,
-        )
+        state = _new_episode(pos, yaw, goal, scale)
         return self.observe(k_obs, pos, yaw, goal, params, scale), state
 
     def step_env(
@@ -544,14 +537,7 @@ class NavEnv:
         if self.scales_maze:  # the kept goal moves with the maze
             goal = goal * (scale / state.scale)
         obs = self.observe(key, pos, yaw, goal, params, scale)
-        return obs, EnvState(
-            pos=pos,
-            yaw=yaw,
-            goal=goal,
-            t=jnp.zeros((), jnp.int32),
-            goal_distance0=jnp.linalg.norm(goal - pos),
-            scale=scale,
-        )
+        return obs, _new_episode(pos, yaw, goal, scale)
 
     def step(
         self, key: chex.PRNGKey, state: EnvState, action: chex.Array, params: EnvParams
@@ -569,6 +555,18 @@ class NavEnv:
         obs = jnp.where(done, obs_re, obs_st)
         info = dict(info, final_obs=obs_st)
         return obs, state, reward, terminated, truncated, info
+
+
+def _new_episode(pos, yaw, goal, scale) -> EnvState:
+    """State at the start of an episode: step count 0, d_0 measured from here."""
+    return EnvState(
+        pos=pos,
+        yaw=yaw,
+        goal=goal,
+        t=jnp.zeros((), jnp.int32),
+        goal_distance0=jnp.linalg.norm(goal - pos),
+        scale=jnp.asarray(scale, jnp.float32),
+    )
 
 
 def scale_maze(maze: Maze, scale: chex.Array) -> Maze:
