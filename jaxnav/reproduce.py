@@ -13,8 +13,8 @@ and 3.7 with (episodes end sooner there); ``--seeds 4`` takes about half.
 Each experiment's policies are also tested under sensor perturbations on its
 training maze (``jaxnav.evaluate --robustness``).
 
-``--quick``: 2 seeds, 50 episodes of at most 200 steps, 3 test episodes: about a
-minute, for checking that everything runs (its numbers mean little).
+``--quick``: 2 seeds, 50 episodes of at most 200 steps, 3 test episodes: about 1.5
+minutes with the robustness stage, for checking that everything runs (its numbers mean little).
 ``--episodes``, ``--max-steps``, ``--test-episodes`` override those sizes (tests use
 them for a tiny end-to-end run). ``--resume`` continues an interrupted
 reproduction in DIR: finished trainings are reused, an unfinished one resumes from
@@ -313,7 +313,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument(
         "--quick",
         action="store_true",
-        help=f"small version in about a minute: {QUICK['seeds']} seeds, {QUICK['episodes']} episodes "
+        help=f"small version in about a minute and a half: {QUICK['seeds']} seeds, {QUICK['episodes']} episodes "
         f"of at most {QUICK['max_steps']} steps, {QUICK['test_episodes']} test episodes",
     )
     p.add_argument(

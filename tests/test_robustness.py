@@ -2,6 +2,7 @@
 
 import csv
 import io
+import re
 
 import numpy as np
 import pytest
@@ -9,7 +10,13 @@ import pytest
 from _tiny_run import tiny_run
 from jaxnav.evaluate import (
     UNPERTURBED,
+    EvalError,
     evaluate_to_dir,
+    load_run,
+    main,
+    perturb,
+    realism_settings,
+    robustness_markdown,
     robustness_summary,
     robustness_to_dir,
 )
@@ -61,3 +68,74 @@ def test_robustness_table_is_recomputed_from_the_csv(swept):
             if (d["perturbation"], d["maze"], d["strategy"]) == (r.perturbation, r.maze, r.strategy):
                 per_seed.setdefault(d["seed"], []).append(float(d["return"]))
         assert r.mean.value == pytest.approx(np.mean([np.mean(v) for v in per_seed.values()]), rel=1e-6)
+
+
+def test_robustness_markdown_is_a_function_of_the_csv(swept, tmp_path_factory):
+    """robustness.md is robustness_markdown(robustness.csv); its cells match the CSV."""
+    cfg, out = swept
+    _, run_dir = tiny_run(tmp_path_factory)
+    run = load_run(run_dir)
+    text = (out / "rob" / "robustness.csv").read_text()
+    md = (out / "rob" / "robustness.md").read_text()
+    assert md == robustness_markdown(
+        text,
+        cfg.env.maze,
+        realism_settings(run.env, run.env_params),
+        SWEEP,
+        title=f"Robustness of {run_dir.name} to sensor noise",
+        figure="robustness.png",
+    )
+    data = list(csv.DictReader(io.StringIO(text)))
+    lines = md.splitlines()
+    names = {"ebe": "EBE", "epsilon_greedy": "epsilon-greedy"}
+
+    def per_seed(p, s):
+        by = {}
+        for d in data:
+            if (d["perturbation"], d["strategy"]) == (p, s):
+                by.setdefault(int(d["seed"]), []).append(float(d["return"]))
+        return np.asarray([np.mean(by[k]) for k in sorted(by)])
+
+    for p in SWEEP:
+        for s in cfg.strategies:
+            row = next(x for x in lines if x.startswith(f"| {p} | ") and f"| {names[s]} |" in x)
+            cells = [c.strip() for c in row.strip("|").split("|")]
+            x, ref = per_seed(p, s), per_seed(UNPERTURBED, s)
+            mine = [d for d in data if (d["perturbation"], d["strategy"]) == (p, s)]
+            assert cells[3].startswith(f"{x.mean():.1f} [")
+            if p == UNPERTURBED:
+                assert cells[4:6] == ["", ""]
+            else:  # paired by seed
+                assert cells[4].startswith(f"{(x - ref).mean():+.1f} [")
+                assert cells[5] == f"{100 * (x - ref).mean() / abs(ref.mean()):+.0f}%"
+            assert cells[6:] == [
+                f"{np.mean([float(d['goals']) for d in mine]):.2f}",
+                f"{np.mean([float(d['collided']) for d in mine]):.2f}",
+            ]
+
+
+def test_a_perturbation_must_keep_the_observation(tmp_path_factory):
+    _, run_dir = tiny_run(tmp_path_factory)
+    run = load_run(run_dir)
+    env, params = perturb(run.env, run.env_params, {"beam_dropout": 0.2, "lidar_noise_std": 0.05})
+    assert (env.beam_dropout, params.lidar_noise_std) == (0.2, 0.05)
+    assert run.env.beam_dropout == 0.0  # the training env is left as it was
+    for bad, message in (
+        ({"n_beams": 12}, "observation size"),
+        ({"wind": 1.0}, "unknown environment setting 'wind'"),
+        ({"beam_dropout": 1.5}, "beam_dropout must be in [0, 1)"),
+    ):
+        with pytest.raises(EvalError, match=re.escape(message)):
+            perturb(run.env, run.env_params, bad)
+
+
+@pytest.mark.parametrize(
+    "extra, message",
+    [(["--episodes", "0"], "at least 1"), (["--mazes", "nowhere"], "unknown maze 'nowhere'")],
+)
+def test_bad_robustness_input_is_one_line_and_exit_2(tmp_path_factory, tmp_path, capsys, extra, message):
+    _, run_dir = tiny_run(tmp_path_factory)
+    assert main([str(run_dir), "--robustness", "--out", str(tmp_path / "e"), *extra]) == 2
+    err = capsys.readouterr().err.strip()
+    assert message in err and "\n" not in err and "Traceback" not in err
+    assert not (tmp_path / "e").exists()  # nothing half-written
