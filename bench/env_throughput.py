@@ -57,29 +57,54 @@ def measure(run, reps: int) -> dict:
     return {"compile_s": compile_s, "times_s": times, "median_s": statistics.median(times)}
 
 
+def env_sharding(n_envs: int):
+    """The batch of environments laid over every device (None: one device, or a batch
+    the device count does not divide)."""
+    import jax
+    from jax.sharding import Mesh, NamedSharding, PartitionSpec
+
+    devices = jax.devices()
+    if len(devices) < 2 or n_envs % len(devices):
+        return None
+    return NamedSharding(Mesh(devices, ("envs",)), PartitionSpec("envs"))
+
+
 def rollout(reset, step, n_actions: int, n_envs: int, n_steps: int):
     """A random-policy rollout of n_envs environments for n_steps, as ``run(key)``.
 
     ``reset(keys) -> (obs, state)`` and ``step(keys, state, actions) -> (obs, state,
     reward, done)`` are already vmapped; obs is an array. Returns a scalar checksum of
-    every observation, reward and done so that the compiler keeps all the work."""
+    every observation, reward and done so that the compiler keeps all the work.
+    With several devices the environments are split evenly over them (the compiler
+    partitions the whole rollout; each device steps its own environments)."""
     import jax
     import jax.numpy as jnp
 
+    sharding = env_sharding(n_envs)
+
+    def spread(tree):
+        if sharding is None:
+            return tree
+        return jax.tree.map(lambda x: jax.lax.with_sharding_constraint(x, sharding), tree)
+
     def run(key):
         k_reset, k_run = jax.random.split(key)
-        obs, state = reset(jax.random.split(k_reset, n_envs))
+        obs, state = reset(spread(jax.random.split(k_reset, n_envs)))
+        state = spread(state)
 
         def body(carry, _):
             state, key, acc = carry
             key, k_act, k_step = jax.random.split(key, 3)
-            actions = jax.random.randint(k_act, (n_envs,), 0, n_actions)
-            obs, state, reward, done = step(jax.random.split(k_step, n_envs), state, actions)
-            acc = acc + jnp.sum(obs) + jnp.sum(reward) + jnp.sum(done)
+            actions = spread(jax.random.randint(k_act, (n_envs,), 0, n_actions))
+            obs, state, reward, done = step(spread(jax.random.split(k_step, n_envs)), state, actions)
+            state = spread(state)
+            # Per environment, so that devices never wait on each other mid-rollout.
+            acc = acc + obs.reshape(n_envs, -1).sum(-1) + reward + done
             return (state, key, acc), None
 
-        (_, _, acc), _ = jax.lax.scan(body, (state, k_run, jnp.sum(obs)), None, length=n_steps)
-        return acc
+        acc0 = spread(obs.reshape(n_envs, -1).sum(-1))
+        (_, _, acc), _ = jax.lax.scan(body, (state, k_run, acc0), None, length=n_steps)
+        return jnp.sum(acc)
 
     return run
 
@@ -143,6 +168,7 @@ def run_one(spec: str) -> dict:
         res = measure(rollout(reset, step, n_actions, envs, steps), reps)
     dev = jax.devices()[0]
     res.update(
+        n_devices=len(jax.devices()) if env_sharding(envs) is not None else 1,
         kind=kind,
         label=label,
         beams=beams,
@@ -163,8 +189,11 @@ def run_one(spec: str) -> dict:
 # ----------------------------------------------------------------------------
 
 
-def subprocess_run(python: str, spec: str, timeout: float) -> dict:
+def subprocess_run(python: str, spec: str, timeout: float, devices: int = 1) -> dict:
     env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    if devices > 1:  # CPU devices; each batch of environments is split over them
+        flags = env.get("XLA_FLAGS", "")
+        env["XLA_FLAGS"] = f"{flags} --xla_force_host_platform_device_count={devices}".strip()
     proc = subprocess.run(
         [python, str(Path(__file__).resolve()), "--one", spec],
         capture_output=True,
@@ -177,6 +206,13 @@ def subprocess_run(python: str, spec: str, timeout: float) -> dict:
             return json.loads(line[len(MARK) :])
     tail = (proc.stderr.strip().splitlines() or ["no output"])[-1]
     raise RuntimeError(f"{spec} failed: {tail}")
+
+
+def _cores() -> int:
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:
+        return os.cpu_count() or 1
 
 
 def find_peer_python(arg: str | None) -> tuple[str | None, str]:
@@ -214,7 +250,7 @@ def choose_steps(max_steps: int, envs: int, rate_hint: float | None, budget_s: f
 
 def table(rows: list[dict], peer: dict, args) -> str:
     head = (
-        f"{'beams':>5} {'envs':>5} {'steps':>5} | {'compile s':>9} {'rollout s':>9} "
+        f"{'beams':>5} {'envs':>5} {'dev':>3} {'steps':>5} | {'compile s':>9} {'rollout s':>9} "
         f"{'steps/s':>11} {'peak MB':>8}"
     )
     if peer:
@@ -222,7 +258,7 @@ def table(rows: list[dict], peer: dict, args) -> str:
     lines = [head, "-" * len(head)]
     for r in rows:
         line = (
-            f"{r['beams']:>5} {r['envs']:>5} {r['steps']:>5} | {r['compile_s']:>9.2f} "
+            f"{r['beams']:>5} {r['envs']:>5} {r.get('n_devices', 1):>3} {r['steps']:>5} | {r['compile_s']:>9.2f} "
             f"{r['median_s']:>9.3f} {r['steps_per_s']:>11,.0f} {r['maxrss_mb']:>8.0f}"
         )
         p = peer.get((r["beams"], r["envs"]))
@@ -250,6 +286,13 @@ def main(argv=None) -> int:
         type=float,
         default=8.0,
         help="seconds one rollout may take; bigger configs get fewer steps",
+    )
+    ap.add_argument(
+        "--devices",
+        type=int,
+        default=_cores(),
+        help="CPU devices to split the environments over, for both us and the peer "
+        "(default: one per core, as jaxnav's commands use)",
     )
     ap.add_argument("--no-peer", action="store_true", help="skip JaxMARL's JaxNav")
     ap.add_argument(
@@ -286,7 +329,7 @@ def main(argv=None) -> int:
             # Each env gets its own rollout length (steps/s is per step either way).
             steps = choose_steps(args.steps, n, hint["jaxnav"], args.budget)
             spec = f"jaxnav:{b}:{n}:{steps}:{args.reps}:{args.maze}"
-            r = subprocess_run(sys.executable, spec, timeout=1800)
+            r = subprocess_run(sys.executable, spec, timeout=1800, devices=args.devices)
             rows.append(r)
             hint["jaxnav"] = r["steps_per_s"]
             msg = f"jaxnav  {b:>3} beams {n:>5} envs x {steps:>4} steps: {r['steps_per_s']:>11,.0f} steps/s"
@@ -294,7 +337,7 @@ def main(argv=None) -> int:
                 p_steps = choose_steps(args.steps, n, hint["jaxmarl"], args.budget)
                 p_spec = f"jaxmarl:{b}:{n}:{p_steps}:{args.reps}:{args.maze}"
                 try:
-                    p = subprocess_run(peer_py, p_spec, timeout=1800)
+                    p = subprocess_run(peer_py, p_spec, timeout=1800, devices=args.devices)
                     peer[(b, n)] = p
                     hint["jaxmarl"] = p["steps_per_s"]
                     msg += f" | JaxMARL x {p_steps:>4} steps: {p['steps_per_s']:>11,.0f} steps/s"
@@ -308,6 +351,7 @@ def main(argv=None) -> int:
     print(
         f"Random-policy steps/s, {args.maze}, lax.scan rollouts under jit, median of "
         f"{args.reps}, compile excluded; {r0['device']}, {os.cpu_count()} CPU cores, "
+        f"batches of environments split over {args.devices} device(s) where they divide, "
         f"jax {r0['jax']}, Python {platform.python_version()}; load average "
         f"{load0:.1f} before, {os.getloadavg()[0]:.1f} after"
     )

@@ -46,13 +46,38 @@ def wrap_angle(a: chex.Array) -> chex.Array:
     return (a + jnp.pi) % (2 * jnp.pi) - jnp.pi
 
 
-def _cross(a: chex.Array, b: chex.Array) -> chex.Array:
-    return a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
+def _cross(ax, ay, bx, by):
+    """z of the 2D cross product (ax, ay) x (bx, by)."""
+    return ax * by - ay * bx
 
 
 def _safe(x: chex.Array) -> chex.Array:
     """x with values too close to 0 replaced by 1 (for division)."""
     return jnp.where(jnp.abs(x) < _EPS, 1.0, x)
+
+
+# Geometry is written on x and y components of one wall or cylinder at a time, and
+# vmapped over the walls: under the caller's vmap every quantity is then a flat
+# [batch, walls] or [batch, walls, beams] array. (Arrays with a trailing axis of 2
+# per point leave XLA's CPU loops two lanes wide.) The minimum over the walls is a
+# reduction, whose result XLA computes once: a chain of element-wise minimums would
+# be recomputed inside every consumer, such as each element of an observation.
+
+
+def _min_over(fn, table: chex.Array, mask: chex.Array):
+    """min over the rows i of ``table`` with ``mask[i]`` of ``fn(*table[i])``, inf if none."""
+    vals = jax.vmap(fn)(*(table[:, j] for j in range(table.shape[1])))
+    mask = mask.reshape(mask.shape + (1,) * (vals.ndim - 1))
+    return jnp.min(jnp.where(mask, vals, jnp.inf), axis=0)
+
+
+def _hypot(x, y):
+    return jnp.sqrt(x * x + y * y)
+
+
+def _norm2(v: chex.Array) -> chex.Array:
+    """Length of a 2-vector f32[2]."""
+    return _hypot(v[0], v[1])
 
 
 # ----------------------------------------------------------------------------
@@ -70,39 +95,40 @@ def ray_distances(maze: Maze, origin: chex.Array, angles: chex.Array) -> chex.Ar
     Returns:
       f32[B] distances.
     """
-    d = jnp.stack([jnp.cos(angles), jnp.sin(angles)], axis=-1)  # [B, 2]
-    dd = d[:, None, :]  # [B, 1, 2]
-
-    # Ray-segment: origin + t d = a + u e, solved with 2D cross products.
-    a = maze.segments[None, :, :2]  # [1, S, 2]
-    e = maze.segments[None, :, 2:] - a
-    w = a - origin
-    denom = _cross(dd, e)  # [B, S]
-    sd = _safe(denom)
-    t = _cross(w, e) / sd
-    u = _cross(w, dd) / sd
-    hit = (
-        (jnp.abs(denom) >= _EPS)
-        & (t >= 0.0)
-        & (u >= -1e-6)
-        & (u <= 1.0 + 1e-6)
-        & maze.segment_mask[None, :]
+    return ray_distances_dir(
+        maze, origin, jnp.stack([jnp.cos(angles), jnp.sin(angles)], axis=-1)
     )
-    t_seg = jnp.min(jnp.where(hit, t, jnp.inf), axis=-1)
 
-    # Ray-circle: |f + t d|^2 = r^2 with f = origin - c; first root outside, second inside.
-    f = origin - maze.circles[None, :, :2]  # [1, C, 2]
-    r = maze.circles[None, :, 2]
-    b = jnp.sum(f * dd, axis=-1)  # [B, C]
-    c = jnp.sum(f * f, axis=-1) - r**2
-    # disc = b^2 - c = r^2 - h^2 with h the centre's offset from the ray's line.
-    # Computed as (r - h)(r + h): b^2 - c cancels in float32 near a tangent.
-    h = jnp.abs(_cross(dd, f))
-    disc = (r - h) * (r + h)
-    sq = jnp.sqrt(jnp.maximum(disc, 0.0))
-    tc = jnp.where(c > 0.0, -b - sq, -b + sq)
-    hit_c = (disc >= 0.0) & (tc >= 0.0) & maze.circle_mask[None, :]
-    t_circ = jnp.min(jnp.where(hit_c, tc, jnp.inf), axis=-1)
+
+def ray_distances_dir(maze: Maze, origin: chex.Array, d: chex.Array) -> chex.Array:
+    """:func:`ray_distances` with the rays given as unit vectors f32[B, 2]."""
+    ox, oy = origin[0], origin[1]
+    dx, dy = d[:, 0], d[:, 1]  # [B]
+
+    def wall(ax, ay, bx, by):  # origin + t d = a + u e, solved with 2D cross products
+        ex, ey = bx - ax, by - ay
+        wx, wy = ax - ox, ay - oy
+        denom = _cross(dx, dy, ex, ey)
+        sd = _safe(denom)
+        t = _cross(wx, wy, ex, ey) / sd
+        u = _cross(wx, wy, dx, dy) / sd
+        hit = (jnp.abs(denom) >= _EPS) & (t >= 0.0) & (u >= -1e-6) & (u <= 1.0 + 1e-6)
+        return jnp.where(hit, t, jnp.inf)
+
+    def cylinder(cx, cy, r):  # |f + t d|^2 = r^2 with f = origin - c
+        fx, fy = ox - cx, oy - cy
+        b = fx * dx + fy * dy
+        c = fx * fx + fy * fy - r**2
+        # disc = b^2 - c = r^2 - h^2 with h the centre's offset from the ray's line.
+        # Computed as (r - h)(r + h): b^2 - c cancels in float32 near a tangent.
+        h = jnp.abs(_cross(dx, dy, fx, fy))
+        disc = (r - h) * (r + h)
+        sq = jnp.sqrt(jnp.maximum(disc, 0.0))
+        tc = jnp.where(c > 0.0, -b - sq, -b + sq)  # first root outside, second inside
+        return jnp.where((disc >= 0.0) & (tc >= 0.0), tc, jnp.inf)
+
+    t_seg = _min_over(wall, maze.segments, maze.segment_mask)
+    t_circ = _min_over(cylinder, maze.circles, maze.circle_mask)
     return jnp.minimum(t_seg, t_circ)
 
 
@@ -120,8 +146,20 @@ def lidar_scan(
     max_range: float = 3.5,
 ) -> chex.Array:
     """LiDAR ranges f32[n_beams] from pose (pos, yaw), clipped to [min_range, max_range]."""
-    ranges = ray_distances(maze, pos, yaw + beam_angles(n_beams))
+    ranges = ray_distances_dir(maze, pos, beam_directions(n_beams, yaw))
     return jnp.clip(ranges, min_range, max_range)
+
+
+def beam_directions(n_beams: int, yaw: chex.Array) -> chex.Array:
+    """Unit vectors f32[n_beams, 2] of the beams at heading ``yaw``.
+
+    The beams' own angles are constants; turning them by ``yaw`` is a rotation, so a
+    scan costs one sine and one cosine instead of one per beam.
+    """
+    a = np.arange(n_beams) * (2 * np.pi / n_beams)
+    ca, sa = np.cos(a).astype(np.float32), np.sin(a).astype(np.float32)
+    cy, sy = jnp.cos(yaw), jnp.sin(yaw)
+    return jnp.stack([cy * ca - sy * sa, sy * ca + cy * sa], axis=-1)
 
 
 # ----------------------------------------------------------------------------
@@ -129,24 +167,11 @@ def lidar_scan(
 # ----------------------------------------------------------------------------
 
 
-def _point_segment_distance(p: chex.Array, a: chex.Array, b: chex.Array) -> chex.Array:
-    ab = b - a
-    t = jnp.clip(jnp.sum((p - a) * ab, -1) / jnp.maximum(jnp.sum(ab * ab, -1), _EPS), 0.0, 1.0)
-    return jnp.linalg.norm(p - (a + t[..., None] * ab), axis=-1)
-
-
-def _segment_segment_distance(p0, p1, a, b) -> chex.Array:
-    """Distance between segment p0p1 and segments ab (broadcast over a, b)."""
-    d = jnp.minimum(
-        jnp.minimum(_point_segment_distance(p0, a, b), _point_segment_distance(p1, a, b)),
-        jnp.minimum(_point_segment_distance(a, p0, p1), _point_segment_distance(b, p0, p1)),
-    )
-    o1 = _cross(p1 - p0, a - p0)
-    o2 = _cross(p1 - p0, b - p0)
-    o3 = _cross(b - a, p0 - a)
-    o4 = _cross(b - a, p1 - a)
-    crossing = (o1 * o2 < 0) & (o3 * o4 < 0)
-    return jnp.where(crossing, 0.0, d)
+def _point_segment_distance(px, py, ax, ay, bx, by) -> chex.Array:
+    abx, aby = bx - ax, by - ay
+    den = jnp.maximum(abx * abx + aby * aby, _EPS)
+    t = jnp.clip(((px - ax) * abx + (py - ay) * aby) / den, 0.0, 1.0)
+    return _hypot(px - (ax + t * abx), py - (ay + t * aby))
 
 
 def path_clearance(
@@ -158,64 +183,81 @@ def path_clearance(
     otherwise an arc of radius v / |omega| swept by omega * dt. The robot collides
     during the step iff this is below its radius.
     """
-    segs = maze.segments
-    a, b = segs[:, :2], segs[:, 2:]
-    circ, rc = maze.circles[:, :2], maze.circles[:, 2]
-    p0 = pos
-    p1 = pos + _displacement(yaw, omega, v, dt)
-
-    # Straight path.
-    d_seg_line = _segment_segment_distance(p0, p1, a, b)
-    d_circ_line = _point_segment_distance(circ, p0, p1) - rc
-
-    # Arc path: centre C, signed radius R, start angle alpha0, sweep delta.
-    w = jnp.where(jnp.abs(omega) < 1e-6, 1.0, omega)
-    R = v / w
-    C = pos + R * jnp.stack([-jnp.sin(yaw), jnp.cos(yaw)])
-    rad = jnp.abs(R)
-    alpha0 = jnp.arctan2(p0[1] - C[1], p0[0] - C[0])
-    sweep = w * dt  # |sweep| < pi for every action
-
-    def in_arc(phi):
-        s = wrap_angle(phi - alpha0) * jnp.sign(sweep)
-        return (s >= 0.0) & (s <= jnp.abs(sweep))
-
-    def point_arc_distance(x):  # x [..., 2]
-        rel = x - C
-        rho = jnp.linalg.norm(rel, axis=-1)
-        phi = jnp.arctan2(rel[..., 1], rel[..., 0])
-        ends = jnp.minimum(jnp.linalg.norm(x - p0, axis=-1), jnp.linalg.norm(x - p1, axis=-1))
-        return jnp.where(in_arc(phi), jnp.abs(rho - rad), ends)
-
-    d_ends = jnp.minimum(_point_segment_distance(p0, a, b), _point_segment_distance(p1, a, b))
-    d_segpts = jnp.minimum(point_arc_distance(a), point_arc_distance(b))
-    # Interior critical points: the foot F of C on each wall's line.
-    ab = b - a
-    ab2 = jnp.maximum(jnp.sum(ab * ab, -1), _EPS)
-    tau = jnp.sum((C - a) * ab, -1) / ab2
-    F = a + tau[:, None] * ab
-    h = jnp.linalg.norm(F - C, axis=-1)
-    phiF = jnp.arctan2(F[:, 1] - C[1], F[:, 0] - C[0])
-    d_foot = jnp.where(
-        (h >= rad) & (tau >= 0.0) & (tau <= 1.0) & in_arc(phiF), h - rad, jnp.inf
-    )
-    # The wall's line crosses the circle: a crossing on both the wall and the arc is a hit.
-    half = jnp.sqrt(jnp.maximum(rad**2 - h**2, 0.0)) / jnp.sqrt(ab2)
-    hits = jnp.zeros_like(h, dtype=bool)
-    for sgn in (-1.0, 1.0):
-        tq = tau + sgn * half
-        q = a + tq[:, None] * ab
-        phiq = jnp.arctan2(q[:, 1] - C[1], q[:, 0] - C[0])
-        hits |= (h < rad) & (tq >= 0.0) & (tq <= 1.0) & in_arc(phiq)
-    d_seg_arc = jnp.where(hits, 0.0, jnp.minimum(jnp.minimum(d_ends, d_segpts), d_foot))
-    d_circ_arc = point_arc_distance(circ) - rc
-
+    x0, y0 = pos[0], pos[1]
+    disp = _displacement(yaw, omega, v, dt)
+    x1, y1 = x0 + disp[0], y0 + disp[1]
     straight = jnp.abs(omega) < 1e-6
-    d_seg = jnp.where(straight, d_seg_line, d_seg_arc)
-    d_circ = jnp.where(straight, d_circ_line, d_circ_arc)
-    d_seg = jnp.where(maze.segment_mask, d_seg, jnp.inf)
-    d_circ = jnp.where(maze.circle_mask, d_circ, jnp.inf)
-    return jnp.minimum(jnp.min(d_seg), jnp.min(d_circ))
+
+    # Arc path: centre C, signed radius R, from p0 to p1, sweep omega dt.
+    w = jnp.where(straight, 1.0, omega)
+    R = v / w
+    cx, cy = x0 - R * jnp.sin(yaw), y0 + R * jnp.cos(yaw)
+    rad = jnp.abs(R)
+    u0x, u0y, u1x, u1y = x0 - cx, y0 - cy, x1 - cx, y1 - cy
+    sgn = jnp.sign(w)
+    half_turn = jnp.abs(w * dt) <= jnp.pi
+
+    def in_arc(px, py):  # is the direction of p from C within the swept arc?
+        # Turning by sgn from u0: after u0 (angle in [0, pi]) and before u1 (the
+        # remaining angle in [0, pi]); both for sweeps up to pi, either beyond.
+        rx, ry = px - cx, py - cy
+        after = sgn * _cross(u0x, u0y, rx, ry) >= 0.0
+        before = sgn * _cross(rx, ry, u1x, u1y) >= 0.0
+        return jnp.where(half_turn, after & before, after | before)
+
+    def point_arc_distance(px, py):
+        rho = _hypot(px - cx, py - cy)
+        ends = jnp.minimum(_hypot(px - x0, py - y0), _hypot(px - x1, py - y1))
+        return jnp.where(in_arc(px, py), jnp.abs(rho - rad), ends)
+
+    def wall(ax, ay, bx, by):
+        d_ends = jnp.minimum(
+            _point_segment_distance(x0, y0, ax, ay, bx, by),
+            _point_segment_distance(x1, y1, ax, ay, bx, by),
+        )
+        # Straight path: segment-segment distance, 0 if they cross.
+        d = jnp.minimum(
+            d_ends,
+            jnp.minimum(
+                _point_segment_distance(ax, ay, x0, y0, x1, y1),
+                _point_segment_distance(bx, by, x0, y0, x1, y1),
+            ),
+        )
+        ex, ey = x1 - x0, y1 - y0
+        abx, aby = bx - ax, by - ay
+        o1 = _cross(ex, ey, ax - x0, ay - y0)
+        o2 = _cross(ex, ey, bx - x0, by - y0)
+        o3 = _cross(abx, aby, x0 - ax, y0 - ay)
+        o4 = _cross(abx, aby, x1 - ax, y1 - ay)
+        d_line = jnp.where((o1 * o2 < 0) & (o3 * o4 < 0), 0.0, d)
+
+        # Arc: the wall's end points, the foot F of C on the wall's line, and the
+        # crossings of the wall's line with the circle.
+        d_segpts = jnp.minimum(point_arc_distance(ax, ay), point_arc_distance(bx, by))
+        ab2 = jnp.maximum(abx * abx + aby * aby, _EPS)
+        tau = ((cx - ax) * abx + (cy - ay) * aby) / ab2
+        fx, fy = ax + tau * abx, ay + tau * aby
+        h = _hypot(fx - cx, fy - cy)
+        d_foot = jnp.where(
+            (h >= rad) & (tau >= 0.0) & (tau <= 1.0) & in_arc(fx, fy), h - rad, jnp.inf
+        )
+        half = jnp.sqrt(jnp.maximum(rad**2 - h**2, 0.0)) / jnp.sqrt(ab2)
+        hits = False
+        for sgn_q in (-1.0, 1.0):
+            tq = tau + sgn_q * half
+            qx, qy = ax + tq * abx, ay + tq * aby
+            hits |= (h < rad) & (tq >= 0.0) & (tq <= 1.0) & in_arc(qx, qy)
+        d_arc = jnp.where(hits, 0.0, jnp.minimum(jnp.minimum(d_ends, d_segpts), d_foot))
+        return jnp.where(straight, d_line, d_arc)
+
+    def cylinder(qx, qy, r):
+        d_line = _point_segment_distance(qx, qy, x0, y0, x1, y1)
+        return jnp.where(straight, d_line, point_arc_distance(qx, qy)) - r
+
+    return jnp.minimum(
+        _min_over(wall, maze.segments, maze.segment_mask),
+        _min_over(cylinder, maze.circles, maze.circle_mask),
+    )
 
 
 def _displacement(yaw, omega, v, dt):
@@ -427,12 +469,14 @@ class NavEnv:
     ) -> chex.Array:
         """ROBOTIS state: [ranges, heading, distance(, min range, argmin beam)]."""
         maze = self.maze_at(params, scale)
-        ranges = ray_distances(maze, pos, yaw + beam_angles(self.n_beams))
+        ranges = ray_distances_dir(maze, pos, beam_directions(self.n_beams, yaw))
         return self._obs_from_ranges(key, ranges, pos, yaw, goal, params)
 
     def _obs_from_ranges(self, key, ranges, pos, yaw, goal, params) -> chex.Array:
-        noise = params.lidar_noise_std * jax.random.normal(key, ranges.shape)
-        ranges = jnp.clip(ranges + noise, params.min_range, params.max_range)
+        std = params.lidar_noise_std
+        if not (isinstance(std, (int, float)) and std == 0.0):  # no draw for a constant 0
+            ranges = ranges + std * jax.random.normal(key, ranges.shape)
+        ranges = jnp.clip(ranges, params.min_range, params.max_range)
         if self.beam_dropout > 0.0:
             lost = jax.random.bernoulli(jax.random.fold_in(key, 1), self.beam_dropout, ranges.shape)
             ranges = jnp.where(lost, params.max_range, ranges)
@@ -453,14 +497,19 @@ class NavEnv:
     ) -> chex.Array:
         """A free-space goal at least goal_min_separation from ``away_from`` if possible.
 
-        Tries ``goal_candidates`` points of the maze's admissible goal set and keeps the
+        Tries ``goal_candidates`` points of the maze's admissible goal set, drawn
+        uniformly (32 random bits modulo the count, a bias below 1e-6), and keeps the
         first far enough away; if none is, the first (still in free space).
         """
-        maze = self.maze_at(params, scale)
-        idx = jax.random.randint(key, (self.goal_candidates,), 0, maze.n_goal_points)
-        cand = maze.goal_points[idx]
-        far = jnp.linalg.norm(cand - away_from, axis=-1) >= params.goal_min_separation
-        return cand[jnp.argmax(far)]
+        points = params.maze.goal_points
+        bits = jax.random.bits(key, (self.goal_candidates,), jnp.uint32)
+        idx = (bits % params.maze.n_goal_points.astype(jnp.uint32)).astype(jnp.int32)
+        cx, cy = points[:, 0][idx], points[:, 1][idx]
+        if self.scales_maze:
+            cx, cy = cx * scale, cy * scale
+        far = _hypot(cx - away_from[0], cy - away_from[1]) >= params.goal_min_separation
+        i = jnp.argmax(far)
+        return jnp.stack([cx[i], cy[i]])
 
     # -- API -----------------------------------------------------------------
 
@@ -498,7 +547,7 @@ class NavEnv:
         self, key: chex.PRNGKey, state: EnvState, action: chex.Array, params: EnvParams
     ):
         """One control period without the auto-reset."""
-        k_goal, k_obs = jax.random.split(key)
+        k_goal, k_obs = _step_keys(key)
         omega = jnp.asarray(params.omegas)[action]
         maze = self.maze_at(params, state.scale)
         collided = path_clearance(
@@ -506,7 +555,7 @@ class NavEnv:
         ) < params.robot_radius
         pos = state.pos + _displacement(state.yaw, omega, params.v, params.dt)
         yaw = wrap_angle(state.yaw + omega * params.dt)
-        distance = jnp.linalg.norm(state.goal - pos)
+        distance = _norm2(state.goal - pos)
         reached = (distance < params.goal_radius) & ~collided
         heading, _ = goal_heading_distance(pos, yaw, state.goal)
         reward = reward_fn(
@@ -514,7 +563,7 @@ class NavEnv:
         )
         new_goal = self.draw_goal(k_goal, state.goal, params, state.scale)
         goal = jnp.where(reached, new_goal, state.goal)
-        d0 = jnp.where(reached, jnp.linalg.norm(new_goal - pos), state.goal_distance0)
+        d0 = jnp.where(reached, _norm2(new_goal - pos), state.goal_distance0)
         t = state.t + 1
         terminated = collided
         truncated = (t >= params.max_steps) & ~terminated
@@ -545,16 +594,27 @@ class NavEnv:
         """Step with auto-reset: after a collision or truncation the robot restarts at the
         start pose and keeps its goal. ``info["final_obs"]`` is the observation before
         the reset (needed to bootstrap through truncation)."""
-        k_step, k_reset = jax.random.split(key)
         obs_st, st, reward, terminated, truncated, info = self.step_env(
-            k_step, state, action, params
+            key, state, action, params
         )
+        # Computed once: without the barrier XLA fuses the scan into both of its
+        # consumers below (the returned and the final observation), twice the work.
+        obs_st = jax.lax.optimization_barrier(obs_st)
         done = terminated | truncated
-        obs_re, st_re = self.restart(k_reset, st, params)
+        # The restart observes with the step's own observation key: its range noise
+        # (and dropout) is the same draw as the step's, so it costs nothing extra; the
+        # two observations are of different poses and never feed one transition.
+        obs_re, st_re = self.restart(_step_keys(key)[1], st, params)
         state = jax.tree.map(lambda a, b: jnp.where(done, a, b), st_re, st)
         obs = jnp.where(done, obs_re, obs_st)
         info = dict(info, final_obs=obs_st)
         return obs, state, reward, terminated, truncated, info
+
+
+def _step_keys(key: chex.PRNGKey) -> tuple[chex.Array, chex.Array]:
+    """(goal key, observation key) of one step."""
+    k_goal, k_obs = jax.random.split(key)
+    return k_goal, k_obs
 
 
 def _new_episode(pos, yaw, goal, scale) -> EnvState:
@@ -564,7 +624,7 @@ def _new_episode(pos, yaw, goal, scale) -> EnvState:
         yaw=yaw,
         goal=goal,
         t=jnp.zeros((), jnp.int32),
-        goal_distance0=jnp.linalg.norm(goal - pos),
+        goal_distance0=_norm2(goal - pos),
         scale=jnp.asarray(scale, jnp.float32),
     )
 
@@ -584,7 +644,7 @@ def goal_heading_distance(pos, yaw, goal):
     """Heading delta (goal direction minus yaw, in [-pi, pi)) and distance to the goal."""
     rel = goal - pos
     heading = wrap_angle(jnp.arctan2(rel[1], rel[0]) - yaw)
-    return heading, jnp.linalg.norm(rel)
+    return heading, _norm2(rel)
 
 
 _PARAM_FIELDS = {f.name for f in dataclasses.fields(EnvParams)} - {"maze"}
@@ -628,6 +688,8 @@ __all__ = [
     "make",
     "lidar_scan",
     "ray_distances",
+    "ray_distances_dir",
+    "beam_directions",
     "path_clearance",
     "reward_fn",
     "psi",

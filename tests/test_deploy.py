@@ -20,7 +20,7 @@ from jaxnav import deploy
 from jaxnav.config import dump_config, load_config
 from jaxnav.deploy import Policy, nearest_rays
 from jaxnav.dqn import QNetwork, make_env
-from jaxnav.env import beam_angles, ray_distances
+from jaxnav.env import beam_angles, beam_directions, ray_distances_dir
 from jaxnav.maps import ROBOT_RADIUS, clearance
 from jaxnav.train import atomic_write_text, load_params, save_params
 
@@ -93,27 +93,33 @@ def _env_obs(env, params, pos, yaw, goal):
 
 
 def _scan_angles(angle_min, increment, n_rays, n_beams=24):
-    """f32 robot-frame angle of each scan ray.
-
-    A ray that points along a trained beam gets exactly the environment's float32
-    beam angle: two roundings of one angle (15 degrees as 0 + 15 * 1 degree, or as
-    1 * 2 pi / 24; or 195 degrees as -165) differ by an ulp, which moves a ray that
-    grazes a wall by more than 1e-5 m.
-    """
+    """f32 robot-frame angle of each scan ray, and the trained beam it points along
+    (-1 if none)."""
     rel = angle_min + increment * np.arange(n_rays)
     out = rel.astype(np.float32)
     beams = np.asarray(beam_angles(n_beams))
     k = np.round((rel % (2 * np.pi)) / (2 * np.pi / n_beams)).astype(int) % n_beams
     on_beam = np.abs(((rel - beams[k] + np.pi) % (2 * np.pi)) - np.pi) < 1e-6
     out[on_beam] = beams[k[on_beam]]
-    return out
+    return out, np.where(on_beam, k, -1)
 
 
-def _scans(maze, pos, yaw, angle_min, increment, n_rays):
-    """Exact synthetic LaserScans: ray i at yaw + angle_min + i * increment (inf: no hit)."""
-    rel = jnp.asarray(_scan_angles(angle_min, increment, n_rays))
-    f = jax.jit(jax.vmap(lambda p, y: ray_distances(maze, p, y + rel)))
-    return np.asarray(f(pos, yaw))
+def _scans(maze, pos, yaw, angle_min, increment, n_rays, n_beams=24):
+    """Exact synthetic LaserScans: ray i at yaw + angle_min + i * increment (inf: no hit).
+
+    A ray that points along a trained beam gets exactly the environment's direction
+    for that beam: two roundings of one direction differ by an ulp, which moves a ray
+    that grazes a wall by more than 1e-5 m.
+    """
+    rel, beam = _scan_angles(angle_min, increment, n_rays, n_beams)
+    rel, on_beam, k = jnp.asarray(rel), jnp.asarray(beam >= 0), jnp.asarray(np.maximum(beam, 0))
+
+    def scan(p, y):
+        plain = jnp.stack([jnp.cos(y + rel), jnp.sin(y + rel)], axis=-1)
+        dirs = jnp.where(on_beam[:, None], beam_directions(n_beams, y)[k], plain)
+        return ray_distances_dir(maze, p, dirs)
+
+    return np.asarray(jax.jit(jax.vmap(scan))(pos, yaw))
 
 
 def _compare(setup, maze, angle_min, increment, n_rays, seed):
@@ -171,7 +177,7 @@ def test_numpy_inference_equals_the_flax_network(setups, maze):
 def test_scan_through_adapter_gives_the_env_observation_and_action(setups, maze, angle_min):
     s = setups[maze]
     increment = 2 * math.pi / 360  # 360 rays include every trained beam angle
-    rays = _scan_angles(angle_min, increment, 360)
+    rays, _ = _scan_angles(angle_min, increment, 360)
     assert np.isin(np.asarray(beam_angles(24)), rays).all()
     scans, obs, actions = _compare(s, s.params.maze, angle_min, increment, 360, seed=2)
     assert len(set(actions.tolist())) > 1  # the check is not vacuous
@@ -209,8 +215,7 @@ def test_nearest_ray_when_the_increment_does_not_divide_the_beam_spacing(setups)
         scans = _scans(maze, pos, yaw, angle_min, increment, n)
         for sc, p, y, g in zip(scans, pos, yaw, goal):
             obs = s.policy.observe(sc, angle_min, increment, (p[0], p[1], y), g)
-            rel = jnp.asarray(_scan_angles(angle_min, increment, n)[idx])
-            direct = np.clip(np.asarray(ray_distances(maze, jnp.asarray(p), y + rel)), 0.12, 3.5)
+            direct = np.clip(sc[idx], 0.12, 3.5)
             np.testing.assert_allclose(obs[:24], direct, atol=1e-5, rtol=0)
             assert obs[24 + 2] == pytest.approx(direct.min(), abs=1e-6)
             assert obs[24 + 3] == np.argmin(direct)

@@ -527,7 +527,8 @@ def test_episode_truncates_after_500_steps_with_the_pre_reset_observation():
     for t in range(499):
         obs, s, _, term, trunc, info = fns["step"](jax.random.PRNGKey(t), s, 4, params)
         assert not bool(term) and not bool(trunc), t
-        np.testing.assert_array_equal(np.asarray(info["final_obs"]), np.asarray(obs))
+        # The same observation, though the compiler may round it in two fused kernels.
+        np.testing.assert_allclose(np.asarray(info["final_obs"]), np.asarray(obs), rtol=1e-6)
     assert int(s.t) == 499
     obs, s500, r, term, trunc, info = fns["step"](KEY, s, 4, params)
     assert bool(trunc) and not bool(term)  # truncated, so a learner must bootstrap
