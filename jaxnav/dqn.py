@@ -46,8 +46,23 @@ class QNetwork(nn.Module):
         init = nn.initializers.lecun_uniform()  # ROBOTIS' Keras initialiser
         for width in self.hidden:
             x = nn.relu(nn.Dense(width, kernel_init=init)(x))
-        x = nn.Dropout(self.dropout, deterministic=not train)(x)
+        if train and self.dropout > 0.0:
+            x = dropout16(self.make_rng("dropout"), x, self.dropout)
         return nn.Dense(self.num_actions, kernel_init=init)(x)
+
+
+def dropout16(key: chex.PRNGKey, x: chex.Array, rate: float) -> chex.Array:
+    """Inverted dropout whose mask takes 16 random bits per unit, two per 32-bit draw.
+
+    A unit is dropped when its 16 bits fall below round(rate * 2^16), so the rate is
+    quantised to 1/65536 (0.2 -> 0.199997). Half the random bits of
+    ``flax.linen.Dropout``: the mask is a large share of a small network's step.
+    """
+    n = x.size
+    words = jax.random.bits(key, ((n + 1) // 2,), jnp.uint32)
+    halves = jnp.stack([words & 0xFFFF, words >> 16], axis=-1).reshape(-1)[:n]
+    keep = halves.reshape(x.shape) >= jnp.uint32(round(rate * 65536))
+    return jnp.where(keep, x / (1.0 - rate), 0.0)
 
 
 # ----------------------------------------------------------------------------

@@ -219,3 +219,17 @@ def test_seeds_differ_and_strategies_share_the_seed_init():
     k = ts.params["params"]["Dense_0"]["kernel"]
     assert not np.allclose(k[0], k[1])  # seed 0 vs seed 1
     np.testing.assert_array_equal(k[0], k[2])  # ebe and epsilon-greedy on seed 0
+
+
+def test_dropout16_drops_the_rate_and_rescales_the_rest():
+    from jaxnav.dqn import dropout16
+
+    x = jnp.ones((64, 64 * 64 + 1))  # odd size: the last 32-bit draw is half used
+    y = np.asarray(jax.jit(dropout16, static_argnums=2)(jax.random.PRNGKey(0), x, 0.2))
+    dropped = y == 0.0
+    assert abs(dropped.mean() - 0.2) < 0.005  # 262k units: 4 standard deviations ~ 0.003
+    np.testing.assert_allclose(y[~dropped], 1.0 / 0.8, rtol=1e-6)
+    # Both 16-bit halves of a draw are used, independently.
+    assert not np.array_equal(dropped[:, 0::2], dropped[:, 1::2])
+    y2 = np.asarray(dropout16(jax.random.PRNGKey(1), x, 0.2))
+    assert not np.array_equal(y, y2)
