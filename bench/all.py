@@ -82,6 +82,9 @@ def one_run(quick: bool, log) -> dict:
         r = run_script(sb3_py, "peers_sb3.py", [*q, "--seeds", "1", "32"], log)
         if r:
             fig["sb3"] = r["sb3"]["transitions_per_s"]
+            if r.get("sb3_parallel"):
+                fig["sb3_parallel"] = r["sb3_parallel"]["transitions_per_s"]
+                fig["sb3_processes"] = r["sb3_parallel"]["processes"]
             fig["wrapper"] = r["wrapper"]["steps_per_s"]
             fig["sb3_env_share"] = r["env_share"]
             for seeds, v in r["ours"].items():
@@ -128,10 +131,12 @@ def table(f: dict, quick: bool, runs: int, header: str) -> str:
         rows.append((f"env steps/s, random actions, {beams} beams, {envs} env{'s' * (envs > 1)}",
                      "JaxMARL JaxNav (jaxmarl 0.2)", fmt(peer), fmt(ours), ratio(ours, peer),
                      f"python bench/env_throughput.py{q}"))
-    sb3 = f.get("sb3")
     for seeds in (1, 32):
         ours = f.get(f"sb3_ours:{seeds}")
-        peer_name = "SB3 DQN, PyTorch CPU, 1 thread" + (" (one process)" if seeds > 1 else "")
+        sb3, peer_name = f.get("sb3"), "SB3 DQN, PyTorch CPU, 1 thread, one process"
+        if seeds > 1 and f.get("sb3_parallel"):  # many seeds: one SB3 process per core
+            n = int(f["sb3_processes"])
+            sb3, peer_name = f["sb3_parallel"], f"SB3 DQN, PyTorch CPU, {n} processes at once (1 per core)"
         rows.append((f"training transitions/s, {seeds} seed{'s' * (seeds > 1)}, 24 beams", peer_name,
                      fmt(sb3), fmt(ours), ratio(ours, sb3), f"python bench/peers_sb3.py{q}"))
     if "wrapper" in f:

@@ -27,12 +27,31 @@ def child_env(extra: dict | None = None) -> dict:
     return env
 
 
+def cores() -> int:
+    """Usable CPU cores."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:
+        return os.cpu_count() or 1
+
+
+def device_env(devices: int) -> dict:
+    """Child environment with ``devices`` CPU devices (XLA_FLAGS), as jaxnav's commands
+    ask for one per core."""
+    if devices <= 1:
+        return child_env()
+    flags = os.environ.get("XLA_FLAGS", "")
+    return child_env({"XLA_FLAGS": f"{flags} --xla_force_host_platform_device_count={devices}".strip()})
+
+
 def ours_train(seeds: int, beams: int, steps: int, reps: int, capacity: int,
-               python: str | None = None, timeout: float = 1800) -> dict:
-    """Our trainer's transitions/s (``train_throughput.run_case``) in its own process."""
+               python: str | None = None, timeout: float = 1800, devices: int | None = None) -> dict:
+    """Our trainer's transitions/s (``train_throughput.run_case``) in its own process, on
+    one CPU device per core unless ``devices`` says otherwise (as ``jaxnav.train``)."""
     cmd = [python or sys.executable, str(BENCH / "train_throughput.py"), "--case", f"{seeds},{beams}",
            "--steps", str(steps), "--reps", str(reps), "--capacity", str(capacity)]
-    out = subprocess.run(cmd, capture_output=True, text=True, env=child_env(), timeout=timeout)
+    env = device_env(cores() if devices is None else devices)
+    out = subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=timeout)
     if out.returncode != 0:
         tail = (out.stderr.strip().splitlines() or ["no output"])[-1]
         raise RuntimeError(f"train_throughput --case {seeds},{beams} failed: {tail}")

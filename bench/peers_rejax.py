@@ -29,7 +29,9 @@ Timing: the state is initialised, one call of ``steps`` train iterations compile
 warms up, then ``reps`` further calls are timed (median). rejax's periodic evaluation
 is switched off (``skip_initial_evaluation`` and a no-op ``eval_callback``). Our
 trainer is measured by bench/train_throughput.py in its own process with the same
-seeds, beams, steps, reps and capacity.
+seeds, beams, steps, reps and capacity. Both run on one CPU device per core with
+the seeds split over the devices (rejax's vmapped seed axis is sharded by placing
+its keys; the compiler partitions the rest).
 
     python bench/peers_rejax.py                 # 1 and 32 seeds, 24 beams
     python bench/peers_rejax.py --quick
@@ -46,7 +48,7 @@ import statistics
 import sys
 import time
 
-from common import MARK, find_python, machine, ours_train, run_marked
+from common import MARK, cores, device_env, find_python, machine, ours_train, run_marked
 
 PEER = "rejax DQN 0.1.3"
 
@@ -132,6 +134,11 @@ def run_one(seeds: int, beams: int, steps: int, reps: int, capacity: int) -> dic
 
     algo = make_rejax(beams, steps, capacity)
     keys = jax.random.split(jax.random.PRNGKey(0), seeds)
+    devices = jax.devices()
+    if len(devices) > 1 and seeds % len(devices) == 0:  # seeds over the devices, as ours
+        from jax.sharding import Mesh, NamedSharding, PartitionSpec
+
+        keys = jax.device_put(keys, NamedSharding(Mesh(devices, ("runs",)), PartitionSpec("runs")))
     ts = jax.jit(jax.vmap(algo.init_state))(keys)
     train = jax.jit(jax.vmap(lambda ts: algo.train(train_state=ts)[0]), donate_argnums=0)
     t0 = time.perf_counter()
@@ -171,7 +178,8 @@ def measure(seeds_list, beams_list, steps, reps, capacity, peer_python=None, our
             else:
                 try:
                     r = run_marked([py, __file__, "--one", f"{seeds},{beams}", "--steps", str(steps),
-                                    "--reps", str(reps), "--capacity", str(capacity)])
+                                    "--reps", str(reps), "--capacity", str(capacity)],
+                                   env=device_env(cores()))
                     row["peer"] = r["transitions_per_s"]
                     row["peer_compile_s"] = r["compile_s"]
                 except (RuntimeError, OSError) as e:

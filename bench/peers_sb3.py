@@ -26,8 +26,10 @@ Matched to ours (paper Table 2):
 Threads: ``torch.set_num_threads(1)`` by default (``--threads``). At batch 64 and
 64-wide layers a second intra-op thread costs more in synchronisation than it
 gains, and the environment's XLA runtime has the second core. SB3 trains one seed
-per process; our 32-seed figure is compared with one SB3 process (on this 2-core
-machine two SB3 processes could at most double SB3's total).
+per process, so for many seeds a user runs one SB3 process per core: our 32-seed
+figure is compared with that (``--parallel``, measured with the processes running at
+once), our 1-seed figure with one process. Ours runs on one CPU device per core, as
+``jaxnav.train`` does.
 
 Measured, in one run: SB3's transitions/s (median of ``--segments`` segments of
 ``--steps`` steps after ``--warmup`` steps, timed by a callback); the wrapper alone
@@ -44,10 +46,11 @@ from __future__ import annotations
 import argparse
 import json
 import statistics
+import subprocess
 import sys
 import time
 
-from common import machine, ours_train
+from common import MARK, child_env, cores, machine, ours_train
 
 PEER = "Stable-Baselines3 DQN (PyTorch CPU)"
 
@@ -166,22 +169,49 @@ def run_wrapper(beams: int, steps: int, segments: int, maze: str = "square4") ->
     return {"steps_per_s": statistics.median(rates), "segments": rates}
 
 
+def run_sb3_parallel(n: int, beams: int, steps: int, segments: int, warmup: int, capacity: int,
+                     threads: int) -> dict:
+    """``n`` SB3 runs at once, one process each (seeds in parallel, one per core): the
+    sum of their transitions/s."""
+    cmd = [sys.executable, __file__, "--one-sb3", "--beams", str(beams), "--steps", str(steps),
+           "--segments", str(segments), "--warmup", str(warmup), "--capacity", str(capacity),
+           "--threads", str(threads)]
+    procs = [subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                              env=child_env()) for _ in range(n)]
+    rates = []
+    for p in procs:
+        out, err = p.communicate(timeout=3600)
+        lines = [x for x in out.splitlines() if x.startswith(MARK)]
+        if p.returncode != 0 or not lines:
+            raise RuntimeError(f"parallel SB3 run failed: {(err.strip().splitlines() or ['?'])[-1]}")
+        rates.append(json.loads(lines[-1][len(MARK):])["transitions_per_s"])
+    return {"processes": n, "transitions_per_s": sum(rates), "per_process": rates}
+
+
 def measure(beams: int, steps: int, segments: int, warmup: int, capacity: int, threads: int,
-            ours_seeds=(1, 32), reps: int = 3, log=print) -> dict:
-    """SB3, the wrapper alone, and ours at ``ours_seeds``; one dict."""
+            ours_seeds=(1, 32), reps: int = 3, parallel: int = 1, log=print) -> dict:
+    """SB3 (one process, and ``parallel`` at once), the wrapper alone, and ours at
+    ``ours_seeds``; one dict. Ours with one seed is compared with one SB3 process, ours
+    with many seeds with SB3 running one seed per core."""
     sb3 = run_sb3(beams, steps, segments, warmup, capacity, threads)
     wrap = run_wrapper(beams, steps, segments)
     share = sb3["transitions_per_s"] / wrap["steps_per_s"]
     log(f"SB3 DQN: {sb3['transitions_per_s']:,.0f} transitions/s (torch {sb3['torch']}, "
         f"{threads} thread(s)); wrapper alone {wrap['steps_per_s']:,.0f} steps/s, "
         f"so the environment is {100 * share:.0f}% of SB3's time")
-    res = {"beams": beams, "steps": steps, "capacity": capacity, "sb3": sb3, "wrapper": wrap,
-           "env_share": share, "ours": {}}
+    par = None
+    if parallel > 1:
+        par = run_sb3_parallel(parallel, beams, steps, segments, warmup, capacity, threads)
+        log(f"SB3 DQN, {parallel} processes at once: {par['transitions_per_s']:,.0f} transitions/s "
+            f"in all ({', '.join(f'{r:,.0f}' for r in par['per_process'])})")
+    res = {"beams": beams, "steps": steps, "capacity": capacity, "sb3": sb3, "sb3_parallel": par,
+           "wrapper": wrap, "env_share": share, "ours": {}}
     for seeds in ours_seeds:
         o = ours_train(seeds, beams, steps, reps, capacity)["transitions_per_s"]
         res["ours"][seeds] = o
-        log(f"ours {seeds:>3} seeds: {o:,.0f} transitions/s, "
-            f"ours/SB3 {o / sb3['transitions_per_s']:.1f}x")
+        peer = par if (par and seeds > 1) else sb3
+        log(f"ours {seeds:>3} seeds: {o:,.0f} transitions/s, ours/SB3 "
+            f"({peer.get('processes', 1)} process(es)) {o / peer['transitions_per_s']:.1f}x")
     return res
 
 
@@ -196,15 +226,22 @@ def main(argv=None) -> int:
     ap.add_argument("--threads", type=int, default=1, help="torch.set_num_threads")
     ap.add_argument("--seeds", type=int, nargs="*", default=[1, 32],
                     help="seeds of ours (none: SB3 and the wrapper only)")
+    ap.add_argument("--parallel", type=int, default=cores(),
+                    help="SB3 processes at once for the many-seed comparison (default: one per core)")
+    ap.add_argument("--one-sb3", action="store_true", help=argparse.SUPPRESS)
     ap.add_argument("--quick", action="store_true", help="500-step segments x 3, 20k capacity")
     ap.add_argument("--json", help="also write the results here")
     args = ap.parse_args(argv)
     if args.quick:
         args.steps, args.segments, args.warmup, args.reps, args.capacity = 500, 3, 500, 2, 20_000
+    if args.one_sb3:  # child of run_sb3_parallel
+        r = run_sb3(args.beams, args.steps, args.segments, args.warmup, args.capacity, args.threads)
+        print(MARK + json.dumps(r), flush=True)
+        return 0
     print(f"# SB3 DQN vs jaxnav trainer, square4, {args.beams} beams, segments of {args.steps} "
           f"steps, capacity {args.capacity}/seed; {machine()}", flush=True)
     res = measure(args.beams, args.steps, args.segments, args.warmup, args.capacity, args.threads,
-                  args.seeds, args.reps)
+                  args.seeds, args.reps, args.parallel)
     if args.json:
         with open(args.json, "w") as f:
             json.dump(res, f, indent=1)

@@ -11,8 +11,9 @@ after compilation, median of ``--reps`` repetitions.
     python bench/train_throughput.py --seeds 32 --beams 24 --devices 1 2 4   # sharding
 
 ``--devices`` forces that many CPU devices (XLA_FLAGS) and lays the seeds over them
-with jaxnav's run sharding, to show its overhead; on one machine the devices share
-its cores, so more devices cannot be faster.
+with jaxnav's run sharding. The default is one device per core, as ``jaxnav.train``
+runs; ``--devices 1 2 4`` shows what the layout gains (devices beyond the core
+count share cores, so they cannot be faster).
 
 The replay buffer has the capacity of a full paper run (500 episodes x 500 steps)
 unless --capacity says otherwise, so the memory column is that of a real run.
@@ -78,6 +79,13 @@ def run_case(seeds: int, beams: int, steps: int, reps: int, capacity: int) -> di
     }
 
 
+def _cores() -> int:
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:
+        return os.cpu_count() or 1
+
+
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--seeds", type=int, nargs="+", default=[1, 8, 32])
@@ -86,7 +94,8 @@ def main() -> None:
     p.add_argument("--reps", type=int, default=3)
     p.add_argument("--capacity", type=int, default=250_000, help="replay capacity per seed")
     p.add_argument("--quick", action="store_true", help="500 steps, 2 reps, 20k capacity")
-    p.add_argument("--devices", type=int, nargs="+", default=[1], help="forced CPU device counts")
+    p.add_argument("--devices", type=int, nargs="+", default=[_cores()],
+                   help="CPU device counts (default: one per core, as jaxnav.train)")
     p.add_argument("--json", help="also write the results here")
     p.add_argument("--case", help=argparse.SUPPRESS)
     args = p.parse_args()
