@@ -299,7 +299,7 @@ def main(argv=None) -> int:
         "--peer-python", help="interpreter with jaxmarl (default: this one or .venv-peers)"
     )
     ap.add_argument(
-        "--quick", action="store_true", help="smoke run: 1 and 64 envs, 100 steps, 3 reps"
+        "--quick", action="store_true", help="smoke run: 1, 64 and 4096 envs, 100 steps, 3 reps"
     )
     ap.add_argument("--profile", action="store_true", help="time the parts of one step instead")
     ap.add_argument("--json", help="also write the results to this file")
@@ -311,7 +311,7 @@ def main(argv=None) -> int:
     if args.profile:
         return profile(args)
     if args.quick:
-        args.envs, args.steps, args.reps = "1,64", 100, 3
+        args.envs, args.steps, args.reps = "1,64,4096", 100, 3
     envs = [int(x) for x in args.envs.split(",")]
     beams = [int(x) for x in args.beams.split(",")]
 
