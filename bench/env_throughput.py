@@ -190,10 +190,9 @@ def run_one(spec: str) -> dict:
 
 
 def subprocess_run(python: str, spec: str, timeout: float, devices: int = 1) -> dict:
-    env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
-    if devices > 1:  # CPU devices; each batch of environments is split over them
-        flags = env.get("XLA_FLAGS", "")
-        env["XLA_FLAGS"] = f"{flags} --xla_force_host_platform_device_count={devices}".strip()
+    from common import device_env  # CPU devices; each batch of environments is split over them
+
+    env = device_env(devices)
     proc = subprocess.run(
         [python, str(Path(__file__).resolve()), "--one", spec],
         capture_output=True,
@@ -206,13 +205,6 @@ def subprocess_run(python: str, spec: str, timeout: float, devices: int = 1) -> 
             return json.loads(line[len(MARK) :])
     tail = (proc.stderr.strip().splitlines() or ["no output"])[-1]
     raise RuntimeError(f"{spec} failed: {tail}")
-
-
-def _cores() -> int:
-    try:
-        return len(os.sched_getaffinity(0))
-    except AttributeError:
-        return os.cpu_count() or 1
 
 
 def find_peer_python(arg: str | None) -> tuple[str | None, str]:
@@ -274,6 +266,8 @@ def table(rows: list[dict], peer: dict, args) -> str:
 
 
 def main(argv=None) -> int:
+    from common import cores
+
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--one", help=argparse.SUPPRESS)
     ap.add_argument("--maze", default="square4_obstacles")
@@ -290,7 +284,7 @@ def main(argv=None) -> int:
     ap.add_argument(
         "--devices",
         type=int,
-        default=_cores(),
+        default=cores(),
         help="CPU devices to split the environments over, for both us and the peer "
         "(default: one per core, as jaxnav's commands use)",
     )

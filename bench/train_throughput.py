@@ -79,14 +79,9 @@ def run_case(seeds: int, beams: int, steps: int, reps: int, capacity: int) -> di
     }
 
 
-def _cores() -> int:
-    try:
-        return len(os.sched_getaffinity(0))
-    except AttributeError:
-        return os.cpu_count() or 1
-
-
 def main() -> None:
+    from common import cores, device_env
+
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--seeds", type=int, nargs="+", default=[1, 8, 32])
     p.add_argument("--beams", type=int, nargs="+", default=[24, 360])
@@ -94,7 +89,7 @@ def main() -> None:
     p.add_argument("--reps", type=int, default=3)
     p.add_argument("--capacity", type=int, default=250_000, help="replay capacity per seed")
     p.add_argument("--quick", action="store_true", help="500 steps, 2 reps, 20k capacity")
-    p.add_argument("--devices", type=int, nargs="+", default=[_cores()],
+    p.add_argument("--devices", type=int, nargs="+", default=[cores()],
                    help="CPU device counts (default: one per core, as jaxnav.train)")
     p.add_argument("--json", help="also write the results here")
     p.add_argument("--case", help=argparse.SUPPRESS)
@@ -116,9 +111,7 @@ def main() -> None:
     results = []
     cases = [(d, b, s) for d in args.devices for b in args.beams for s in args.seeds]
     for devices, beams, seeds in cases:
-        env = dict(os.environ)
-        if devices > 1:
-            env["XLA_FLAGS"] = f"--xla_force_host_platform_device_count={devices}"
+        env = device_env(devices)
         cmd = [sys.executable, __file__, "--case", f"{seeds},{beams}", "--steps", str(args.steps),
                "--reps", str(args.reps), "--capacity", str(args.capacity)]
         out = subprocess.run(cmd, capture_output=True, text=True, env=env)

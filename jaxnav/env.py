@@ -597,9 +597,6 @@ class NavEnv:
         obs_st, st, reward, terminated, truncated, info = self.step_env(
             key, state, action, params
         )
-        # Computed once: without the barrier XLA fuses the scan into both of its
-        # consumers below (the returned and the final observation), twice the work.
-        obs_st = jax.lax.optimization_barrier(obs_st)
         done = terminated | truncated
         # The restart observes with the step's own observation key: its range noise
         # (and dropout) is the same draw as the step's, so it costs nothing extra; the
