@@ -17,18 +17,20 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import os
 import types
 import typing
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 import yaml
 
+from jaxnav.errors import ConfigError
+from jaxnav.settings import PRESETS, env_setting_problem
+
 STRATEGIES = ("ebe", "epsilon_greedy")
-
-
-class ConfigError(ValueError):
-    """A config problem; the message is one line and names the field."""
+CONFIG_DIR = Path(__file__).resolve().parent.parent / "configs"  # the project's configs
 
 
 @dataclass(frozen=True)
@@ -52,7 +54,7 @@ class EnvConfig:
 
 @dataclass(frozen=True)
 class DQNConfig:
-    gamma: float = 0.9
+    gamma: float = PRESETS["paper"].gamma
     lr: float = 0.00025
     rms_decay: float = 0.9  # RMSprop rho
     rms_eps: float = 1e-6
@@ -64,7 +66,7 @@ class DQNConfig:
     # "periodic": hard copy every target_update_every env steps (paper).
     # "episode_end": online net gives the targets for the first target_update_every
     # steps, then the target net is synced at every episode end (ROBOTIS code).
-    target_update: str = "periodic"
+    target_update: str = PRESETS["paper"].target_update
     target_update_every: int = 2000
 
 
@@ -89,7 +91,9 @@ class Config:
     seed: int = 0  # first seed; a run uses seed, seed + 1, ..., seed + seeds - 1
     seeds: int = 8  # seeds per strategy
     strategies: tuple[str, ...] = STRATEGIES
-    episodes: int | None = 500  # per seed (null: only total_steps limits the run)
+    episodes: int | None = PRESETS[
+        "paper"
+    ].episodes  # per seed (null: only total_steps limits the run)
     total_steps: int | None = None  # env steps per seed (null: only episodes limits)
     env: EnvConfig = field(default_factory=EnvConfig)
     dqn: DQNConfig = field(default_factory=DQNConfig)
@@ -99,6 +103,10 @@ class Config:
     @property
     def n_runs(self) -> int:
         return self.seeds * len(self.strategies)
+
+    def run_labels(self) -> list[tuple[str, int]]:
+        """(strategy, seed) of each run, strategy-major (the order of every run axis)."""
+        return [(s, self.seed + i) for s in self.strategies for i in range(self.seeds)]
 
     @property
     def max_total_steps(self) -> int:
@@ -114,15 +122,14 @@ class Config:
     def buffer_capacity(self) -> int:
         return min(self.dqn.buffer_size, self.max_total_steps)
 
-
-PRESETS: dict[str, dict[str, Any]] = {
-    "paper": {},
-    "robotis": {
-        "episodes": 3000,
-        "dqn.gamma": 0.99,
-        "dqn.target_update": "episode_end",
-    },
-}
+    def env_kwargs(self) -> dict[str, Any]:
+        """The environment's settings as ``jaxnav.env.make`` keywords (besides the maze
+        and preset); the reward constants left null come from the preset there."""
+        e = self.env
+        out: dict[str, Any] = {
+            f.name: getattr(e, f.name) for f in dataclasses.fields(e) if f.name != "maze"
+        }
+        return {k: v for k, v in out.items() if v is not None}
 
 
 # ----------------------------------------------------------------------------
@@ -217,20 +224,63 @@ def _parse_override(item: str) -> tuple[str, Any]:
     return key, value
 
 
+_AT_LEAST_1 = (lambda v: v >= 1, "must be at least 1")
+_POSITIVE = (lambda v: v > 0, "must be positive")
+_UNIT = (lambda v: 0.0 <= v <= 1.0, "must be in [0, 1]")
+_UNIT_OPEN = (lambda v: 0.0 <= v < 1.0, "must be in [0, 1)")
+
+# field -> (rule, what it says when it fails); the environment's fields have their
+# rules in jaxnav.settings (NavEnv applies the same ones).
+_RULES: dict[str, tuple[Any, str]] = {
+    "seeds": _AT_LEAST_1,
+    "seed": (lambda v: v >= 0, "must be non-negative"),
+    "strategies": (lambda v: len(v) > 0, "must name at least one strategy"),
+    "episodes": (lambda v: v is None or v >= 1, "must be at least 1"),
+    "total_steps": (lambda v: v is None or v >= 1, "must be at least 1"),
+    "dqn.gamma": _UNIT,
+    "dqn.lr": _POSITIVE,
+    "dqn.rms_decay": _UNIT_OPEN,
+    "dqn.rms_eps": _POSITIVE,
+    "dqn.batch_size": _AT_LEAST_1,
+    "dqn.buffer_size": _AT_LEAST_1,
+    "dqn.learning_starts": _AT_LEAST_1,
+    "dqn.hidden": (
+        lambda v: len(v) > 0 and min(v) >= 1,
+        "must be a non-empty list of positive layer widths",
+    ),
+    "dqn.dropout": _UNIT_OPEN,
+    "dqn.target_update_every": _AT_LEAST_1,
+    "exploration.ebe_temperature": _POSITIVE,
+    "exploration.eps_start": _UNIT,
+    "exploration.eps_decay": _UNIT,
+    "exploration.eps_min": _UNIT,
+    "run.chunk_steps": _AT_LEAST_1,
+    "run.test_episodes": _AT_LEAST_1,
+}
+
+
+def _get(cfg: Config, name: str) -> Any:
+    value = cfg
+    for part in name.split("."):
+        value = getattr(value, part)
+    return value
+
+
 def _check(cfg: Config) -> Config:
-    """Value checks that types alone do not catch."""
+    """Value checks that types alone do not catch; the first failure is a ConfigError."""
 
     def fail(name, msg):
         raise ConfigError(f"config: {name} {msg}")
 
     if cfg.preset not in PRESETS:
         fail("preset", f"must be one of {', '.join(PRESETS)}, got {cfg.preset!r}")
-    if cfg.seeds < 1:
-        fail("seeds", "must be at least 1")
-    if cfg.seed < 0:
-        fail("seed", "must be non-negative")
-    if not cfg.strategies:
-        fail("strategies", "must name at least one strategy")
+    for name, (ok, says) in _RULES.items():
+        if not ok(_get(cfg, name)):
+            fail(name, says)
+    for f in dataclasses.fields(cfg.env):
+        problem = env_setting_problem(f.name, getattr(cfg.env, f.name))
+        if problem:
+            fail(f"env.{f.name}", problem)
     for s in cfg.strategies:
         if s not in STRATEGIES:
             fail("strategies", f"has unknown strategy {s!r} (choose from {', '.join(STRATEGIES)})")
@@ -238,54 +288,11 @@ def _check(cfg: Config) -> Config:
         fail("strategies", "lists a strategy twice")
     if cfg.episodes is None and cfg.total_steps is None:
         fail("episodes", "and total_steps cannot both be null")
-    if cfg.episodes is not None and cfg.episodes < 1:
-        fail("episodes", "must be at least 1")
-    if cfg.total_steps is not None and cfg.total_steps < 1:
-        fail("total_steps", "must be at least 1")
-    e, d, x, r = cfg.env, cfg.dqn, cfg.exploration, cfg.run
-    if e.n_beams < 1:
-        fail("env.n_beams", "must be at least 1")
-    if e.max_steps < 1:
-        fail("env.max_steps", "must be at least 1")
-    if e.lidar_noise_std < 0:
-        fail("env.lidar_noise_std", "must be non-negative")
-    if not 0.0 <= e.beam_dropout < 1.0:
-        fail("env.beam_dropout", "must be in [0, 1)")
-    if len(e.odom_noise) != 2 or min(e.odom_noise) < 0:
-        fail("env.odom_noise", "must be [position std, yaw std], both non-negative")
-    if len(e.maze_scale) != 2 or not 0.5 <= e.maze_scale[0] <= e.maze_scale[1] <= 2.0:
-        fail("env.maze_scale", "must be [low, high] with 0.5 <= low <= high <= 2")
-    if not 0.0 <= d.gamma <= 1.0:
-        fail("dqn.gamma", "must be in [0, 1]")
-    if d.lr <= 0:
-        fail("dqn.lr", "must be positive")
-    if not 0.0 <= d.rms_decay < 1.0:
-        fail("dqn.rms_decay", "must be in [0, 1)")
-    if d.rms_eps <= 0:
-        fail("dqn.rms_eps", "must be positive")
-    if d.batch_size < 1:
-        fail("dqn.batch_size", "must be at least 1")
-    if d.buffer_size < 1:
-        fail("dqn.buffer_size", "must be at least 1")
-    if d.learning_starts < 1:
-        fail("dqn.learning_starts", "must be at least 1")
-    if not d.hidden or any(h < 1 for h in d.hidden):
-        fail("dqn.hidden", "must be a non-empty list of positive layer widths")
-    if not 0.0 <= d.dropout < 1.0:
-        fail("dqn.dropout", "must be in [0, 1)")
-    if d.target_update not in ("periodic", "episode_end"):
-        fail("dqn.target_update", f"must be periodic or episode_end, got {d.target_update!r}")
-    if d.target_update_every < 1:
-        fail("dqn.target_update_every", "must be at least 1")
-    if x.ebe_temperature <= 0:
-        fail("exploration.ebe_temperature", "must be positive")
-    for name in ("eps_start", "eps_decay", "eps_min"):
-        if not 0.0 <= getattr(x, name) <= 1.0:
-            fail(f"exploration.{name}", "must be in [0, 1]")
-    if r.chunk_steps < 1:
-        fail("run.chunk_steps", "must be at least 1")
-    if r.test_episodes < 1:
-        fail("run.test_episodes", "must be at least 1")
+    if cfg.dqn.target_update not in ("periodic", "episode_end"):
+        fail(
+            "dqn.target_update",
+            f"must be periodic or episode_end, got {cfg.dqn.target_update!r}",
+        )
     return cfg
 
 
@@ -294,7 +301,7 @@ def build_config(values: dict[str, Any]) -> Config:
     preset = values.get("preset", "paper")
     merged: dict[str, Any] = {}
     if isinstance(preset, str) and preset in PRESETS:
-        merged.update(PRESETS[preset])
+        merged.update(PRESETS[preset].training())
     merged.update(values)
     for name in merged:
         if name not in FIELD_TYPES:
@@ -314,6 +321,16 @@ def build_config(values: dict[str, Any]) -> Config:
     for sec, kv in sections.items():
         top[sec] = hints[sec](**kv)
     return _check(Config(**top))
+
+
+def resolve_config_path(name: str) -> str:
+    """A config path, or a bare name of a file in the project's configs/."""
+    if os.path.exists(name):
+        return name
+    for cand in (CONFIG_DIR / name, CONFIG_DIR / f"{name}.yaml"):
+        if cand.is_file():
+            return str(cand)
+    return name  # load_config reports it missing
 
 
 def load_config(path: str | None, overrides: list[str] = ()) -> Config:
