@@ -65,7 +65,12 @@ def one_run(quick: bool, log) -> dict:
     q = ["--quick"] if quick else []
     fig: dict[str, float] = {}
 
-    r = run_script(sys.executable, "train_throughput.py", [*q, "--seeds", "1", "32", "--beams", "24", "360"], log)
+    r = run_script(
+        sys.executable,
+        "train_throughput.py",
+        [*q, "--seeds", "1", "32", "--beams", "24", "360"],
+        log,
+    )
     for row in r or []:
         fig[f"ours:{row['seeds']}:{row['beams']}"] = row["transitions_per_s"]
 
@@ -125,46 +130,98 @@ def table(f: dict, quick: bool, runs: int, header: str) -> str:
     def ratio(ours, peer):
         return f"{ours / peer:.1f}x" if ours and peer else "—"
 
-    env_keys = sorted((tuple(map(int, k.split(":")[1:])) for k in f if k.startswith("env:")))
+    env_keys = sorted(tuple(map(int, k.split(":")[1:])) for k in f if k.startswith("env:"))
     for beams, envs in env_keys:
         ours, peer = f.get(f"env:{beams}:{envs}"), f.get(f"env_peer:{beams}:{envs}")
-        rows.append((f"env steps/s, random actions, {beams} beams, {envs} env{'s' * (envs > 1)}",
-                     "JaxMARL JaxNav (jaxmarl 0.2)", fmt(peer), fmt(ours), ratio(ours, peer),
-                     f"python bench/env_throughput.py{q}"))
+        rows.append(
+            (
+                f"env steps/s, random actions, {beams} beams, {envs} env{'s' * (envs > 1)}",
+                "JaxMARL JaxNav (jaxmarl 0.2)",
+                fmt(peer),
+                fmt(ours),
+                ratio(ours, peer),
+                f"python bench/env_throughput.py{q}",
+            )
+        )
     for seeds in (1, 32):
         ours = f.get(f"sb3_ours:{seeds}")
         sb3, peer_name = f.get("sb3"), "SB3 DQN, PyTorch CPU, 1 thread, one process"
         if seeds > 1 and f.get("sb3_parallel"):  # many seeds: one SB3 process per core
             n = int(f["sb3_processes"])
-            sb3, peer_name = f["sb3_parallel"], f"SB3 DQN, PyTorch CPU, {n} processes at once (1 per core)"
-        rows.append((f"training transitions/s, {seeds} seed{'s' * (seeds > 1)}, 24 beams", peer_name,
-                     fmt(sb3), fmt(ours), ratio(ours, sb3), f"python bench/peers_sb3.py{q}"))
+            sb3, peer_name = (
+                f["sb3_parallel"],
+                f"SB3 DQN, PyTorch CPU, {n} processes at once (1 per core)",
+            )
+        rows.append(
+            (
+                f"training transitions/s, {seeds} seed{'s' * (seeds > 1)}, 24 beams",
+                peer_name,
+                fmt(sb3),
+                fmt(ours),
+                ratio(ours, sb3),
+                f"python bench/peers_sb3.py{q}",
+            )
+        )
     if "wrapper" in f:
-        rows.append(("jaxnav.gym wrapper alone, steps/s (random actions)",
-                     f"= {100 * f['sb3_env_share']:.0f}% of SB3's time per transition", fmt(f["wrapper"]),
-                     "—", "—", f"python bench/peers_sb3.py{q}"))
+        rows.append(
+            (
+                "jaxnav.gym wrapper alone, steps/s (random actions)",
+                f"= {100 * f['sb3_env_share']:.0f}% of SB3's time per transition",
+                fmt(f["wrapper"]),
+                "—",
+                "—",
+                f"python bench/peers_sb3.py{q}",
+            )
+        )
     for seeds in (1, 32):
         ours, peer = f.get(f"rejax_ours:{seeds}"), f.get(f"rejax:{seeds}")
-        rows.append((f"training transitions/s, {seeds} seed{'s' * (seeds > 1)}, 24 beams",
-                     "rejax 0.1.3 DQN (JAX)", fmt(peer), fmt(ours), ratio(ours, peer),
-                     f"python bench/peers_rejax.py{q}"))
+        rows.append(
+            (
+                f"training transitions/s, {seeds} seed{'s' * (seeds > 1)}, 24 beams",
+                "rejax 0.1.3 DQN (JAX)",
+                fmt(peer),
+                fmt(ours),
+                ratio(ours, peer),
+                f"python bench/peers_rejax.py{q}",
+            )
+        )
     for beams in (24, 360):
         for seeds in (1, 32):
             ours = f.get(f"ours:{seeds}:{beams}")
-            rows.append((f"training transitions/s, {seeds} seed{'s' * (seeds > 1)}, {beams} beams (ours alone)",
-                         "—", "—", fmt(ours), "—", f"python bench/train_throughput.py{q}"))
+            rows.append(
+                (
+                    f"training transitions/s, {seeds} seed{'s' * (seeds > 1)}, {beams} beams "
+                    "(ours alone)",
+                    "—",
+                    "—",
+                    fmt(ours),
+                    "—",
+                    f"python bench/train_throughput.py{q}",
+                )
+            )
     peak = f.get("peak")
     for beams in (24, 360):
         ours, fl = f.get(f"roof_ours:{beams}"), f.get(f"flops:{beams}")
         achieved = ours * fl / 1e9 if ours and fl else None
-        rows.append((f"learner GFLOP/s vs float32 matmul peak, 32 seeds, {beams} beams "
-                     f"({fl / 1e6:.2f} MFLOP/transition)" if fl else f"learner GFLOP/s, 32 seeds, {beams} beams",
-                     "this CPU's jnp.dot peak", fmt(peak), fmt(achieved),
-                     f"{100 * achieved / peak:.1f}% of peak" if achieved and peak else "—",
-                     f"python bench/roofline.py{q}"))
-    lines = [header, "",
-             "| measure | peer | peer | ours | ours / peer | command |",
-             "|---|---|--:|--:|--:|---|"]
+        rows.append(
+            (
+                f"learner GFLOP/s vs float32 matmul peak, 32 seeds, {beams} beams "
+                f"({fl / 1e6:.2f} MFLOP/transition)"
+                if fl
+                else f"learner GFLOP/s, 32 seeds, {beams} beams",
+                "this CPU's jnp.dot peak",
+                fmt(peak),
+                fmt(achieved),
+                f"{100 * achieved / peak:.1f}% of peak" if achieved and peak else "—",
+                f"python bench/roofline.py{q}",
+            )
+        )
+    lines = [
+        header,
+        "",
+        "| measure | peer | peer | ours | ours / peer | command |",
+        "|---|---|--:|--:|--:|---|",
+    ]
     lines += ["| " + " | ".join(r) + " |" for r in rows]
     return "\n".join(lines)
 
@@ -173,7 +230,7 @@ def write_readme(text: str) -> None:
     old = README.read_text() if README.exists() else "# Benchmarks\n"
     block = f"{BEGIN}\n{text}\n{END}"
     if BEGIN in old and END in old:
-        new = old[: old.index(BEGIN)] + block + old[old.index(END) + len(END):]
+        new = old[: old.index(BEGIN)] + block + old[old.index(END) + len(END) :]
     else:
         new = old.rstrip("\n") + "\n\n" + block + "\n"
     README.write_text(new)
@@ -182,7 +239,9 @@ def write_readme(text: str) -> None:
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--quick", action="store_true", help="every script's --quick")
-    ap.add_argument("--runs", type=int, help="repetitions of everything (median); default 3, quick 1")
+    ap.add_argument(
+        "--runs", type=int, help="repetitions of everything (median); default 3, quick 1"
+    )
     ap.add_argument("--json", help="also write the figures here")
     ap.add_argument("--write-readme", action="store_true", help=f"put the table into {README.name}")
     args = ap.parse_args(argv)
@@ -196,9 +255,11 @@ def main(argv=None) -> int:
         figs.append(one_run(args.quick, log))
     f = median_figures(figs)
     load1 = os.getloadavg()[0]
-    header = (f"`python bench/all.py{' --quick' if args.quick else ''}`, "
-              f"{time.strftime('%Y-%m-%d', time.gmtime(t0))}, median of {runs} run{'s' * (runs > 1)}, "
-              f"{(time.time() - t0) / 60:.0f} min; machine: {m0} (load before), load after {load1:.1f}.")
+    header = (
+        f"`python bench/all.py{' --quick' if args.quick else ''}`, "
+        f"{time.strftime('%Y-%m-%d', time.gmtime(t0))}, median of {runs} run{'s' * (runs > 1)}, "
+        f"{(time.time() - t0) / 60:.0f} min; machine: {m0} (load before), load after {load1:.1f}."
+    )
     text = table(f, args.quick, runs, header)
     print()
     print(text)

@@ -41,15 +41,35 @@ def device_env(devices: int) -> dict:
     if devices <= 1:
         return child_env()
     flags = os.environ.get("XLA_FLAGS", "")
-    return child_env({"XLA_FLAGS": f"{flags} --xla_force_host_platform_device_count={devices}".strip()})
+    return child_env(
+        {"XLA_FLAGS": f"{flags} --xla_force_host_platform_device_count={devices}".strip()}
+    )
 
 
-def ours_train(seeds: int, beams: int, steps: int, reps: int, capacity: int,
-               python: str | None = None, timeout: float = 1800, devices: int | None = None) -> dict:
+def ours_train(
+    seeds: int,
+    beams: int,
+    steps: int,
+    reps: int,
+    capacity: int,
+    python: str | None = None,
+    timeout: float = 1800,
+    devices: int | None = None,
+) -> dict:
     """Our trainer's transitions/s (``train_throughput.run_case``) in its own process, on
     one CPU device per core unless ``devices`` says otherwise (as ``jaxnav.train``)."""
-    cmd = [python or sys.executable, str(BENCH / "train_throughput.py"), "--case", f"{seeds},{beams}",
-           "--steps", str(steps), "--reps", str(reps), "--capacity", str(capacity)]
+    cmd = [
+        python or sys.executable,
+        str(BENCH / "train_throughput.py"),
+        "--case",
+        f"{seeds},{beams}",
+        "--steps",
+        str(steps),
+        "--reps",
+        str(reps),
+        "--capacity",
+        str(capacity),
+    ]
     env = device_env(cores() if devices is None else devices)
     out = subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=timeout)
     if out.returncode != 0:
@@ -61,10 +81,12 @@ def ours_train(seeds: int, beams: int, steps: int, reps: int, capacity: int,
 def run_marked(cmd: list[str], timeout: float = 1800, env: dict | None = None) -> dict:
     """Run a child that prints ``RESULT {json}``; its dict, or RuntimeError with the last
     line of its stderr."""
-    out = subprocess.run(cmd, capture_output=True, text=True, env=env or child_env(), timeout=timeout)
+    out = subprocess.run(
+        cmd, capture_output=True, text=True, env=env or child_env(), timeout=timeout
+    )
     for line in out.stdout.splitlines():
         if line.startswith(MARK):
-            return json.loads(line[len(MARK):])
+            return json.loads(line[len(MARK) :])
     tail = (out.stderr.strip().splitlines() or out.stdout.strip().splitlines() or ["no output"])[-1]
     raise RuntimeError(f"{' '.join(cmd[1:3])} failed: {tail}")
 
@@ -76,7 +98,12 @@ def find_python(module: str, prefer: str | None = None) -> str | None:
         if not py or not Path(py).exists():
             continue
         ok = subprocess.run(
-            [py, "-c", f"import importlib.util, sys; sys.exit(importlib.util.find_spec('{module}') is None)"],
+            [
+                py,
+                "-c",
+                "import importlib.util, sys; "
+                f"sys.exit(importlib.util.find_spec('{module}') is None)",
+            ],
             capture_output=True,
         )
         if ok.returncode == 0:
@@ -101,5 +128,7 @@ def machine() -> str:
         jx = f"jax {jax.__version__} ({jax.default_backend()})"
     except ImportError:
         jx = "no jax"
-    return (f"{model}, {os.cpu_count()} cores, load {os.getloadavg()[0]:.1f}, {jx}, "
-            f"Python {platform.python_version()}")
+    return (
+        f"{model}, {os.cpu_count()} cores, load {os.getloadavg()[0]:.1f}, {jx}, "
+        f"Python {platform.python_version()}"
+    )

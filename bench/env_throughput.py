@@ -96,7 +96,9 @@ def rollout(reset, step, n_actions: int, n_envs: int, n_steps: int):
             state, key, acc = carry
             key, k_act, k_step = jax.random.split(key, 3)
             actions = spread(jax.random.randint(k_act, (n_envs,), 0, n_actions))
-            obs, state, reward, done = step(spread(jax.random.split(k_step, n_envs)), state, actions)
+            obs, state, reward, done = step(
+                spread(jax.random.split(k_step, n_envs)), state, actions
+            )
             state = spread(state)
             # Per environment, so that devices never wait on each other mid-rollout.
             acc = acc + obs.reshape(n_envs, -1).sum(-1) + reward + done
@@ -250,7 +252,8 @@ def table(rows: list[dict], peer: dict, args) -> str:
     lines = [head, "-" * len(head)]
     for r in rows:
         line = (
-            f"{r['beams']:>5} {r['envs']:>5} {r.get('n_devices', 1):>3} {r['steps']:>5} | {r['compile_s']:>9.2f} "
+            f"{r['beams']:>5} {r['envs']:>5} {r.get('n_devices', 1):>3} {r['steps']:>5} | "
+            f"{r['compile_s']:>9.2f} "
             f"{r['median_s']:>9.3f} {r['steps_per_s']:>11,.0f} {r['maxrss_mb']:>8.0f}"
         )
         p = peer.get((r["beams"], r["envs"]))
@@ -326,7 +329,10 @@ def main(argv=None) -> int:
             r = subprocess_run(sys.executable, spec, timeout=1800, devices=args.devices)
             rows.append(r)
             hint["jaxnav"] = r["steps_per_s"]
-            msg = f"jaxnav  {b:>3} beams {n:>5} envs x {steps:>4} steps: {r['steps_per_s']:>11,.0f} steps/s"
+            msg = (
+                f"jaxnav  {b:>3} beams {n:>5} envs x {steps:>4} steps: "
+                f"{r['steps_per_s']:>11,.0f} steps/s"
+            )
             if peer_py:
                 p_steps = choose_steps(args.steps, n, hint["jaxmarl"], args.budget)
                 p_spec = f"jaxmarl:{b}:{n}:{p_steps}:{args.reps}:{args.maze}"
@@ -370,7 +376,6 @@ def profile(args) -> int:
     import jax.numpy as jnp
 
     import jaxnav
-    from jaxnav.env import path_clearance, ray_distances
 
     n = int(args.envs.split(",")[-1])
     print(f"one step of {n} vmapped environments on {args.maze}, ms (median of {args.reps})")
@@ -382,22 +387,7 @@ def profile(args) -> int:
         pts = params.maze.goal_points[jnp.arange(n) % params.maze.n_goal_points]
         state = state.replace(pos=pts, yaw=jnp.linspace(-3, 3, n))
         actions = jnp.arange(n) % env.num_actions
-        angles = jnp.arange(b, dtype=jnp.float32) * (2 * jnp.pi / b)
-        parts = {
-            "step (auto-reset, 2 scans)": lambda k, s, a: env.step(k, s, a, params),
-            "step_env (no reset)": lambda k, s, a: env.step_env(k, s, a, params),
-            "observe (scan, noise, heading)": lambda k, s, a: env.observe(
-                k, s.pos, s.yaw, s.goal, params
-            ),
-            f"  LiDAR ray casting ({b} beams)": lambda k, s, a: ray_distances(
-                params.maze, s.pos, s.yaw + angles
-            ),
-            f"  range noise draw ({b} normals)": lambda k, s, a: jax.random.normal(k, (b,)),
-            "swept collision (path_clearance)": lambda k, s, a: path_clearance(
-                params.maze, s.pos, s.yaw, params.omegas[a], params.v, params.dt
-            ),
-            "goal draw": lambda k, s, a: env.draw_goal(k, s.goal, params),
-        }
+        parts = _step_parts(env, params, b)
         print(f"-- {b} beams")
         for name, f in parts.items():
             g = jax.jit(jax.vmap(f))
@@ -410,6 +400,31 @@ def profile(args) -> int:
             ms = 1e3 * statistics.median(times)
             print(f"   {name:36s} {ms:9.2f} ms  ({1e6 * ms / 1e3 / n:7.2f} us per env)")
     return 0
+
+
+def _step_parts(env, params, b: int) -> dict:
+    """The parts of one environment step, each a function of (key, state, action)."""
+    import jax
+    import jax.numpy as jnp
+
+    from jaxnav.geometry import path_clearance, ray_distances
+
+    angles = jnp.arange(b, dtype=jnp.float32) * (2 * jnp.pi / b)
+    return {
+        "step (auto-reset, 2 scans)": lambda k, s, a: env.step(k, s, a, params),
+        "step_env (no reset)": lambda k, s, a: env.step_env(k, s, a, params),
+        "observe (scan, noise, heading)": lambda k, s, a: env.observe(
+            k, s.pos, s.yaw, s.goal, params
+        ),
+        f"  LiDAR ray casting ({b} beams)": lambda k, s, a: ray_distances(
+            params.maze, s.pos, s.yaw + angles
+        ),
+        f"  range noise draw ({b} normals)": lambda k, s, a: jax.random.normal(k, (b,)),
+        "swept collision (path_clearance)": lambda k, s, a: path_clearance(
+            params.maze, s.pos, s.yaw, params.omegas[a], params.v, params.dt
+        ),
+        "goal draw": lambda k, s, a: env.draw_goal(k, s.goal, params),
+    }
 
 
 if __name__ == "__main__":

@@ -75,7 +75,9 @@ def make_rejax(beams: int, steps: int, capacity: int, maze: str = "square4"):
             # Built eagerly: NavEnv.observation_space does jnp arithmetic on the maze
             # bounds, which turns into tracers when rejax calls it under jit.
             box = env.observation_space(params)
-            self._obs_space = spaces.Box(np.asarray(box.low), np.asarray(box.high), box.shape, jnp.float32)
+            self._obs_space = spaces.Box(
+                np.asarray(box.low), np.asarray(box.high), box.shape, jnp.float32
+            )
 
         @property
         def default_params(self):
@@ -85,7 +87,9 @@ def make_rejax(beams: int, steps: int, capacity: int, maze: str = "square4"):
             return self.env.reset(key, params)
 
         def step(self, key, state, action, params):
-            obs, state, reward, terminated, truncated, info = self.env.step(key, state, action, params)
+            obs, state, reward, terminated, truncated, info = self.env.step(
+                key, state, action, params
+            )
             return obs, state, reward, terminated | truncated, info
 
         def action_space(self, params=None):
@@ -162,14 +166,21 @@ def run_one(seeds: int, beams: int, steps: int, reps: int, capacity: int) -> dic
     }
 
 
-def measure(seeds_list, beams_list, steps, reps, capacity, peer_python=None, ours=True,
-            log=print) -> list[dict]:
+def measure(
+    seeds_list, beams_list, steps, reps, capacity, peer_python=None, ours=True, log=print
+) -> list[dict]:
     """Ours and rejax for every (beams, seeds); rows with both figures and the ratio."""
     py = find_python("rejax", peer_python)
     rows = []
     for beams in beams_list:
         for seeds in seeds_list:
-            row = {"seeds": seeds, "beams": beams, "steps": steps, "capacity": capacity, "ours": None}
+            row = {
+                "seeds": seeds,
+                "beams": beams,
+                "steps": steps,
+                "capacity": capacity,
+                "ours": None,
+            }
             if ours:
                 row["ours"] = ours_train(seeds, beams, steps, reps, capacity)["transitions_per_s"]
             if py is None:
@@ -177,9 +188,21 @@ def measure(seeds_list, beams_list, steps, reps, capacity, peer_python=None, our
                 row["peer_error"] = "rejax not installed (see bench/README.md)"
             else:
                 try:
-                    r = run_marked([py, __file__, "--one", f"{seeds},{beams}", "--steps", str(steps),
-                                    "--reps", str(reps), "--capacity", str(capacity)],
-                                   env=device_env(cores()))
+                    r = run_marked(
+                        [
+                            py,
+                            __file__,
+                            "--one",
+                            f"{seeds},{beams}",
+                            "--steps",
+                            str(steps),
+                            "--reps",
+                            str(reps),
+                            "--capacity",
+                            str(capacity),
+                        ],
+                        env=device_env(cores()),
+                    )
                     row["peer"] = r["transitions_per_s"]
                     row["peer_compile_s"] = r["compile_s"]
                 except (RuntimeError, OSError) as e:
@@ -188,7 +211,11 @@ def measure(seeds_list, beams_list, steps, reps, capacity, peer_python=None, our
             msg = f"{seeds:>3} seeds {beams:>3} beams: "
             if row["ours"]:
                 msg += f"ours {row['ours']:>10,.0f}/s | "
-            msg += f"rejax {row['peer']:>10,.0f}/s" if row["peer"] else f"rejax: {row.get('peer_error')}"
+            msg += (
+                f"rejax {row['peer']:>10,.0f}/s"
+                if row["peer"]
+                else f"rejax: {row.get('peer_error')}"
+            )
             if row["ratio"]:
                 msg += f" | ours/rejax {row['ratio']:.1f}x"
             log(msg)
@@ -204,8 +231,12 @@ def main(argv=None) -> int:
     ap.add_argument("--reps", type=int, default=3)
     ap.add_argument("--capacity", type=int, default=250_000, help="replay capacity per seed")
     ap.add_argument("--quick", action="store_true", help="500 steps, 2 reps, 20k capacity")
-    ap.add_argument("--peer-python", help="interpreter with rejax (default: this one or .venv-peers)")
-    ap.add_argument("--no-ours", action="store_true", help="rejax only (bench/all.py measures ours once)")
+    ap.add_argument(
+        "--peer-python", help="interpreter with rejax (default: this one or .venv-peers)"
+    )
+    ap.add_argument(
+        "--no-ours", action="store_true", help="rejax only (bench/all.py measures ours once)"
+    )
     ap.add_argument("--json", help="also write the results here")
     ap.add_argument("--one", help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
@@ -213,12 +244,25 @@ def main(argv=None) -> int:
         args.steps, args.reps, args.capacity = 500, 2, 20_000
     if args.one:
         seeds, beams = map(int, args.one.split(","))
-        print(MARK + json.dumps(run_one(seeds, beams, args.steps, args.reps, args.capacity)), flush=True)
+        print(
+            MARK + json.dumps(run_one(seeds, beams, args.steps, args.reps, args.capacity)),
+            flush=True,
+        )
         return 0
-    print(f"# rejax DQN vs jaxnav trainer, square4, {args.steps} steps per call, median of "
-          f"{args.reps}, capacity {args.capacity}/seed; {machine()}", flush=True)
-    rows = measure(args.seeds, args.beams, args.steps, args.reps, args.capacity, args.peer_python,
-                   ours=not args.no_ours)
+    print(
+        f"# rejax DQN vs jaxnav trainer, square4, {args.steps} steps per call, median of "
+        f"{args.reps}, capacity {args.capacity}/seed; {machine()}",
+        flush=True,
+    )
+    rows = measure(
+        args.seeds,
+        args.beams,
+        args.steps,
+        args.reps,
+        args.capacity,
+        args.peer_python,
+        ours=not args.no_ours,
+    )
     if args.json:
         with open(args.json, "w") as f:
             json.dump(rows, f, indent=1)

@@ -117,8 +117,15 @@ def segment_rates(times: list[float], steps: int) -> list[float]:
     return [steps / (b - a) for a, b in zip(times, times[1:])]
 
 
-def run_sb3(beams: int, steps: int, segments: int, warmup: int, capacity: int, threads: int,
-            maze: str = "square4") -> dict:
+def run_sb3(
+    beams: int,
+    steps: int,
+    segments: int,
+    warmup: int,
+    capacity: int,
+    threads: int,
+    maze: str = "square4",
+) -> dict:
     import torch
     from stable_baselines3.common.callbacks import BaseCallback
 
@@ -140,8 +147,12 @@ def run_sb3(beams: int, steps: int, segments: int, warmup: int, capacity: int, t
     model.learn(total_timesteps=total, callback=Clock())
     rates = segment_rates(marks, steps)
     assert len(rates) == segments and model._n_updates == total - 64
-    return {"transitions_per_s": statistics.median(rates), "segments": rates,
-            "torch": torch.__version__, "threads": threads}
+    return {
+        "transitions_per_s": statistics.median(rates),
+        "segments": rates,
+        "torch": torch.__version__,
+        "threads": threads,
+    }
 
 
 def run_wrapper(beams: int, steps: int, segments: int, maze: str = "square4") -> dict:
@@ -169,65 +180,121 @@ def run_wrapper(beams: int, steps: int, segments: int, maze: str = "square4") ->
     return {"steps_per_s": statistics.median(rates), "segments": rates}
 
 
-def run_sb3_parallel(n: int, beams: int, steps: int, segments: int, warmup: int, capacity: int,
-                     threads: int) -> dict:
+def run_sb3_parallel(
+    n: int, beams: int, steps: int, segments: int, warmup: int, capacity: int, threads: int
+) -> dict:
     """``n`` SB3 runs at once, one process each (seeds in parallel, one per core): the
     sum of their transitions/s."""
-    cmd = [sys.executable, __file__, "--one-sb3", "--beams", str(beams), "--steps", str(steps),
-           "--segments", str(segments), "--warmup", str(warmup), "--capacity", str(capacity),
-           "--threads", str(threads)]
-    procs = [subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                              env=child_env()) for _ in range(n)]
+    cmd = [
+        sys.executable,
+        __file__,
+        "--one-sb3",
+        "--beams",
+        str(beams),
+        "--steps",
+        str(steps),
+        "--segments",
+        str(segments),
+        "--warmup",
+        str(warmup),
+        "--capacity",
+        str(capacity),
+        "--threads",
+        str(threads),
+    ]
+    procs = [
+        subprocess.Popen(
+            cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=child_env()
+        )
+        for _ in range(n)
+    ]
     rates = []
     for p in procs:
         out, err = p.communicate(timeout=3600)
         lines = [x for x in out.splitlines() if x.startswith(MARK)]
         if p.returncode != 0 or not lines:
-            raise RuntimeError(f"parallel SB3 run failed: {(err.strip().splitlines() or ['?'])[-1]}")
-        rates.append(json.loads(lines[-1][len(MARK):])["transitions_per_s"])
+            raise RuntimeError(
+                f"parallel SB3 run failed: {(err.strip().splitlines() or ['?'])[-1]}"
+            )
+        rates.append(json.loads(lines[-1][len(MARK) :])["transitions_per_s"])
     return {"processes": n, "transitions_per_s": sum(rates), "per_process": rates}
 
 
-def measure(beams: int, steps: int, segments: int, warmup: int, capacity: int, threads: int,
-            ours_seeds=(1, 32), reps: int = 3, parallel: int = 1, log=print) -> dict:
+def measure(
+    beams: int,
+    steps: int,
+    segments: int,
+    warmup: int,
+    capacity: int,
+    threads: int,
+    ours_seeds=(1, 32),
+    reps: int = 3,
+    parallel: int = 1,
+    log=print,
+) -> dict:
     """SB3 (one process, and ``parallel`` at once), the wrapper alone, and ours at
     ``ours_seeds``; one dict. Ours with one seed is compared with one SB3 process, ours
     with many seeds with SB3 running one seed per core."""
     sb3 = run_sb3(beams, steps, segments, warmup, capacity, threads)
     wrap = run_wrapper(beams, steps, segments)
     share = sb3["transitions_per_s"] / wrap["steps_per_s"]
-    log(f"SB3 DQN: {sb3['transitions_per_s']:,.0f} transitions/s (torch {sb3['torch']}, "
+    log(
+        f"SB3 DQN: {sb3['transitions_per_s']:,.0f} transitions/s (torch {sb3['torch']}, "
         f"{threads} thread(s)); wrapper alone {wrap['steps_per_s']:,.0f} steps/s, "
-        f"so the environment is {100 * share:.0f}% of SB3's time")
+        f"so the environment is {100 * share:.0f}% of SB3's time"
+    )
     par = None
     if parallel > 1:
         par = run_sb3_parallel(parallel, beams, steps, segments, warmup, capacity, threads)
-        log(f"SB3 DQN, {parallel} processes at once: {par['transitions_per_s']:,.0f} transitions/s "
-            f"in all ({', '.join(f'{r:,.0f}' for r in par['per_process'])})")
-    res = {"beams": beams, "steps": steps, "capacity": capacity, "sb3": sb3, "sb3_parallel": par,
-           "wrapper": wrap, "env_share": share, "ours": {}}
+        log(
+            f"SB3 DQN, {parallel} processes at once: {par['transitions_per_s']:,.0f} transitions/s "
+            f"in all ({', '.join(f'{r:,.0f}' for r in par['per_process'])})"
+        )
+    res = {
+        "beams": beams,
+        "steps": steps,
+        "capacity": capacity,
+        "sb3": sb3,
+        "sb3_parallel": par,
+        "wrapper": wrap,
+        "env_share": share,
+        "ours": {},
+    }
     for seeds in ours_seeds:
         o = ours_train(seeds, beams, steps, reps, capacity)["transitions_per_s"]
         res["ours"][seeds] = o
         peer = par if (par and seeds > 1) else sb3
-        log(f"ours {seeds:>3} seeds: {o:,.0f} transitions/s, ours/SB3 "
-            f"({peer.get('processes', 1)} process(es)) {o / peer['transitions_per_s']:.1f}x")
+        log(
+            f"ours {seeds:>3} seeds: {o:,.0f} transitions/s, ours/SB3 "
+            f"({peer.get('processes', 1)} process(es)) {o / peer['transitions_per_s']:.1f}x"
+        )
     return res
 
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--beams", type=int, default=24)
-    ap.add_argument("--steps", type=int, default=2000, help="steps per timed segment (and per chunk of ours)")
+    ap.add_argument(
+        "--steps", type=int, default=2000, help="steps per timed segment (and per chunk of ours)"
+    )
     ap.add_argument("--segments", type=int, default=5, help="timed segments (median)")
     ap.add_argument("--warmup", type=int, default=2000, help="untimed SB3 steps first")
     ap.add_argument("--reps", type=int, default=3, help="timed chunks of ours (median)")
     ap.add_argument("--capacity", type=int, default=250_000, help="replay capacity per seed")
     ap.add_argument("--threads", type=int, default=1, help="torch.set_num_threads")
-    ap.add_argument("--seeds", type=int, nargs="*", default=[1, 32],
-                    help="seeds of ours (none: SB3 and the wrapper only)")
-    ap.add_argument("--parallel", type=int, default=cores(),
-                    help="SB3 processes at once for the many-seed comparison (default: one per core)")
+    ap.add_argument(
+        "--seeds",
+        type=int,
+        nargs="*",
+        default=[1, 32],
+        help="seeds of ours (none: SB3 and the wrapper only)",
+    )
+    ap.add_argument(
+        "--parallel",
+        type=int,
+        default=cores(),
+        help="SB3 processes at once for the many-seed comparison (default: one per core)",
+    )
     ap.add_argument("--one-sb3", action="store_true", help=argparse.SUPPRESS)
     ap.add_argument("--quick", action="store_true", help="500-step segments x 3, 20k capacity")
     ap.add_argument("--json", help="also write the results here")
@@ -238,10 +305,22 @@ def main(argv=None) -> int:
         r = run_sb3(args.beams, args.steps, args.segments, args.warmup, args.capacity, args.threads)
         print(MARK + json.dumps(r), flush=True)
         return 0
-    print(f"# SB3 DQN vs jaxnav trainer, square4, {args.beams} beams, segments of {args.steps} "
-          f"steps, capacity {args.capacity}/seed; {machine()}", flush=True)
-    res = measure(args.beams, args.steps, args.segments, args.warmup, args.capacity, args.threads,
-                  args.seeds, args.reps, args.parallel)
+    print(
+        f"# SB3 DQN vs jaxnav trainer, square4, {args.beams} beams, segments of {args.steps} "
+        f"steps, capacity {args.capacity}/seed; {machine()}",
+        flush=True,
+    )
+    res = measure(
+        args.beams,
+        args.steps,
+        args.segments,
+        args.warmup,
+        args.capacity,
+        args.threads,
+        args.seeds,
+        args.reps,
+        args.parallel,
+    )
     if args.json:
         with open(args.json, "w") as f:
             json.dump(res, f, indent=1)

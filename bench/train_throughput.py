@@ -37,7 +37,8 @@ def run_case(seeds: int, beams: int, steps: int, reps: int, capacity: int) -> di
     import numpy as np
 
     from jaxnav.config import load_config
-    from jaxnav.dqn import buffer_bytes, make_trainer, run_keys
+    from jaxnav.dqn import make_trainer, run_keys
+    from jaxnav.replay import nbytes as buffer_bytes
     from jaxnav.sharding import RunSharding
 
     cfg = load_config(
@@ -82,15 +83,22 @@ def run_case(seeds: int, beams: int, steps: int, reps: int, capacity: int) -> di
 def main() -> None:
     from common import cores, device_env
 
-    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     p.add_argument("--seeds", type=int, nargs="+", default=[1, 8, 32])
     p.add_argument("--beams", type=int, nargs="+", default=[24, 360])
     p.add_argument("--steps", type=int, default=2000, help="scan steps per timed chunk")
     p.add_argument("--reps", type=int, default=3)
     p.add_argument("--capacity", type=int, default=250_000, help="replay capacity per seed")
     p.add_argument("--quick", action="store_true", help="500 steps, 2 reps, 20k capacity")
-    p.add_argument("--devices", type=int, nargs="+", default=[cores()],
-                   help="CPU device counts (default: one per core, as jaxnav.train)")
+    p.add_argument(
+        "--devices",
+        type=int,
+        nargs="+",
+        default=[cores()],
+        help="CPU device counts (default: one per core, as jaxnav.train)",
+    )
     p.add_argument("--json", help="also write the results here")
     p.add_argument("--case", help=argparse.SUPPRESS)
     args = p.parse_args()
@@ -103,25 +111,47 @@ def main() -> None:
 
     import jax
 
-    print(f"# train throughput: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
-          f"jax {jax.__version__} ({jax.default_backend()})")
-    print(f"# {args.steps} steps per chunk, median of {args.reps}, replay capacity {args.capacity}/seed")
-    print("| devices | seeds | beams | transitions/s | per seed | compile s | buffer MB/seed | peak RSS MB |")
+    print(
+        f"# train throughput: {platform.processor() or platform.machine()}, "
+        f"{os.cpu_count()} cores, "
+        f"jax {jax.__version__} ({jax.default_backend()})"
+    )
+    print(
+        f"# {args.steps} steps per chunk, median of {args.reps}, "
+        f"replay capacity {args.capacity}/seed"
+    )
+    print(
+        "| devices | seeds | beams | transitions/s | per seed | compile s | buffer MB/seed "
+        "| peak RSS MB |"
+    )
     print("|" + "---|" * 8)
     results = []
     cases = [(d, b, s) for d in args.devices for b in args.beams for s in args.seeds]
     for devices, beams, seeds in cases:
         env = device_env(devices)
-        cmd = [sys.executable, __file__, "--case", f"{seeds},{beams}", "--steps", str(args.steps),
-               "--reps", str(args.reps), "--capacity", str(args.capacity)]
+        cmd = [
+            sys.executable,
+            __file__,
+            "--case",
+            f"{seeds},{beams}",
+            "--steps",
+            str(args.steps),
+            "--reps",
+            str(args.reps),
+            "--capacity",
+            str(args.capacity),
+        ]
         out = subprocess.run(cmd, capture_output=True, text=True, env=env)
         if out.returncode != 0:
-            print(f"| {devices} | {seeds} | {beams} | failed: {out.stderr.strip().splitlines()[-1]} |")
+            print(
+                f"| {devices} | {seeds} | {beams} | failed: {out.stderr.strip().splitlines()[-1]} |"
+            )
             continue
         r = json.loads(out.stdout.strip().splitlines()[-1])
         results.append(r)
         print(
-            f"| {devices} | {seeds} | {beams} | {r['transitions_per_s']:,.0f} | {r['transitions_per_s'] / seeds:,.0f} "
+            f"| {devices} | {seeds} | {beams} | {r['transitions_per_s']:,.0f} "
+            f"| {r['transitions_per_s'] / seeds:,.0f} "
             f"| {r['compile_s']:.1f} | {r['buffer_mb_per_seed']:.1f} | {r['peak_rss_mb']:,.0f} |",
             flush=True,
         )

@@ -6,7 +6,7 @@ checks against the simulator (jaxnav.deploy.Policy.command), but nobody has run 
 on a TurtleBot3 yet. Keep a hand on the stop button.
 
     # on the training machine
-    python -m jaxnav.deploy export runs/paper_no_obstacles_8 --strategy ebe --seed 0 \
+    python -m jaxnav.export runs/paper_no_obstacles_8 --strategy ebe --seed 0 \
         --out policy.npz
     # on the robot (ROS 2 sourced; needs NumPy, not JAX)
     python3 ros2_policy_node.py --ros-args -p policy:=policy.npz
@@ -68,7 +68,7 @@ def _load_deploy():
                 return module
         raise ImportError(
             "cannot find jaxnav.deploy: install jaxnav or copy deploy.py next to this file"
-        )
+        ) from None
 
 
 deploy = _load_deploy()
@@ -135,8 +135,10 @@ class PolicyNode(Node):
             return self.stop()
         goal, goal_frame = self.goal
         if goal_frame and odom_frame and goal_frame != odom_frame:
-            log.warn(f"goal is in frame '{goal_frame}', not the odometry frame '{odom_frame}': "
-                     "stopped", throttle_duration_sec=2.0)
+            log.warn(
+                f"goal is in frame '{goal_frame}', not the odometry frame '{odom_frame}': stopped",
+                throttle_duration_sec=2.0,
+            )
             return self.stop()
         if math.hypot(goal[0] - pose[0], goal[1] - pose[1]) < self.goal_tolerance:
             log.info("goal reached: stopped; waiting for a new goal")

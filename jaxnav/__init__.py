@@ -12,10 +12,10 @@ _EXPORTS = {
     "EnvParams": "jaxnav.env",
     "EnvState": "jaxnav.env",
     "NavEnv": "jaxnav.env",
-    "lidar_scan": "jaxnav.env",
+    "lidar_scan": "jaxnav.sensor",
     "make": "jaxnav.env",
     "Maze": "jaxnav.maps",
-    "MazeError": "jaxnav.maps",
+    "MazeError": "jaxnav.errors",
     "make_maze": "jaxnav.maps",
     "stack_mazes": "jaxnav.maps",
 }

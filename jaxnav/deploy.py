@@ -1,6 +1,6 @@
-"""Run a trained policy on a real TurtleBot3: export it, then act with NumPy alone.
+"""A trained policy on a real TurtleBot3: a policy file, read and run with NumPy alone.
 
-``python -m jaxnav.deploy export RUN_DIR [--strategy ebe] [--seed K] [--out policy.npz]``
+``python -m jaxnav.export RUN_DIR [--strategy ebe] [--seed K] [--out policy.npz]``
 writes one trained Q-network of a run to a portable ``.npz`` (plain arrays, no
 pickle), together with everything needed to feed it:
 
@@ -10,10 +10,11 @@ pickle), together with everything needed to feed it:
     Dense_<i>/kernel, Dense_<i>/bias   the network's layers (f32), in order
     maze/walls, maze/obstacles, maze/start   the training maze's geometry
 
-``python -m jaxnav.deploy info POLICY.npz`` prints the metadata.
+``python -m jaxnav.export --info POLICY.npz`` prints the metadata.
 
-On the robot, :class:`Policy` needs only NumPy (this file imports JAX only inside
-:func:`export_policy`, so it can be copied alone next to a ROS node)::
+On the robot, :class:`Policy` needs only NumPy: this module imports nothing else
+of jaxnav (a contract in pyproject.toml checks that it never imports JAX), so
+``deploy.py`` copied alone runs next to a ROS node::
 
     policy = Policy.load("policy.npz")
     linear, angular = policy.command(scan.ranges, scan.angle_min, scan.angle_increment,
@@ -48,25 +49,26 @@ The network runs in float64 (exact ReLU MLP; dropout is off at inference).
 
 from __future__ import annotations
 
-import argparse
-import io
 import json
 import math
 import os
-import sys
-from pathlib import Path
-from typing import Any, Sequence
+from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
+
+try:  # inside the jaxnav package: its one error type
+    from jaxnav.errors import PolicyError
+except ImportError:  # deploy.py copied alone next to a robot's node
+
+    class PolicyError(ValueError):
+        """A policy file, or a scan or pose it cannot use; one-line message."""
+
 
 FORMAT = "jaxnav-policy"
 FORMAT_VERSION = 1
 # Value given to invalid readings (0, nan, negative): the sensor's "no return".
 INVALID_READING = "max_range"
-
-
-class PolicyError(ValueError):
-    """A policy file or an export request that cannot be used; one-line message."""
 
 
 # ----------------------------------------------------------------------------
@@ -75,7 +77,7 @@ class PolicyError(ValueError):
 
 
 def _wrap(a):
-    """Wrap angles to [-pi, pi), as jaxnav.env.wrap_angle."""
+    """Wrap angles to [-pi, pi), as jaxnav.geometry.wrap_angle."""
     return (np.asarray(a, np.float64) + math.pi) % (2 * math.pi) - math.pi
 
 
@@ -192,7 +194,7 @@ class Policy:
     # -- files ---------------------------------------------------------------
 
     @classmethod
-    def from_arrays(cls, arrays: dict[str, np.ndarray]) -> "Policy":
+    def from_arrays(cls, arrays: dict[str, np.ndarray]) -> Policy:
         """A policy from the arrays of an exported file (see :func:`export_policy`)."""
         if "meta" not in arrays:
             raise PolicyError("not a jaxnav policy (no 'meta' entry)")
@@ -213,7 +215,7 @@ class Policy:
         return cls(layers, meta)
 
     @classmethod
-    def load(cls, path: str | os.PathLike) -> "Policy":
+    def load(cls, path: str | os.PathLike) -> Policy:
         """Read a policy written by ``python -m jaxnav.deploy export``."""
         try:
             with np.load(path, allow_pickle=False) as data:
@@ -243,7 +245,10 @@ class Policy:
         return int(a) if a.ndim == 0 else a
 
     def scan_to_ranges(
-        self, ranges: Sequence[float], angle_min: float, angle_increment: float,
+        self,
+        ranges: Sequence[float],
+        angle_min: float,
+        angle_increment: float,
         invalid: float | None = None,
     ) -> np.ndarray:
         """f32[n_beams]: a raw LaserScan reduced to the trained beams (module docstring)."""
@@ -252,8 +257,13 @@ class Policy:
         return clean_ranges(r[idx], self.min_range, self.max_range, invalid).astype(np.float32)
 
     def observe(
-        self, ranges: Sequence[float], angle_min: float, angle_increment: float,
-        pose: Sequence[float], goal: Sequence[float], invalid: float | None = None,
+        self,
+        ranges: Sequence[float],
+        angle_min: float,
+        angle_increment: float,
+        pose: Sequence[float],
+        goal: Sequence[float],
+        invalid: float | None = None,
     ) -> np.ndarray:
         """f32[obs_size]: [ranges, heading, distance(, min range, its beam index)]."""
         beams = self.scan_to_ranges(ranges, angle_min, angle_increment, invalid)
@@ -264,8 +274,13 @@ class Policy:
         return np.concatenate(parts).astype(np.float32)
 
     def command(
-        self, ranges: Sequence[float], angle_min: float, angle_increment: float,
-        pose: Sequence[float], goal: Sequence[float], invalid: float | None = None,
+        self,
+        ranges: Sequence[float],
+        angle_min: float,
+        angle_increment: float,
+        pose: Sequence[float],
+        goal: Sequence[float],
+        invalid: float | None = None,
     ) -> tuple[float, float]:
         """(linear m/s, angular rad/s) of the greedy action for a raw scan and a pose.
 
@@ -277,178 +292,3 @@ class Policy:
         """
         a = self.act(self.observe(ranges, angle_min, angle_increment, pose, goal, invalid))
         return self.linear_velocity, float(self.omegas[a])
-
-
-# ----------------------------------------------------------------------------
-# Export (imports JAX; the training side)
-# ----------------------------------------------------------------------------
-
-
-def _runs_in(params_path: Path) -> dict[str, list[int]]:
-    """{strategy: [seeds]} stored in a params.npz."""
-    try:
-        with np.load(params_path, allow_pickle=False) as data:
-            names = list(data.files)
-    except Exception as e:
-        raise PolicyError(f"{params_path} cannot be read ({type(e).__name__})") from None
-    runs: dict[str, set[int]] = {}
-    for name in names:
-        parts = name.split("/")
-        if len(parts) > 2 and parts[1].startswith("seed") and parts[1][4:].isdigit():
-            runs.setdefault(parts[0], set()).add(int(parts[1][4:]))
-    return {s: sorted(v) for s, v in runs.items()}
-
-
-def export_policy(
-    run_dir: str | os.PathLike, strategy: str = "ebe", seed: int | None = None
-) -> dict[str, np.ndarray]:
-    """The arrays of a policy file for one trained (strategy, seed) of a run.
-
-    ``seed`` defaults to the run's first seed. Raises PolicyError (one line) for a
-    missing run directory, a run without params.npz, or an unknown strategy/seed.
-    """
-    run_dir = Path(run_dir)
-    if not run_dir.is_dir():
-        raise PolicyError(f"run directory {run_dir} does not exist")
-    cfg_path, params_path = run_dir / "config.yaml", run_dir / "params.npz"
-    if not cfg_path.is_file():
-        raise PolicyError(f"{run_dir} is not a run directory (no config.yaml)")
-    if not params_path.is_file():
-        raise PolicyError(f"{run_dir} has no params.npz (has training finished?)")
-
-    # The training side: JAX comes in here (and with the jaxnav package).
-    from jaxnav import __version__
-    from jaxnav.config import STRATEGIES, ConfigError, dump_config, load_config
-    from jaxnav.dqn import make_env
-    from jaxnav.maps import MazeError
-    from jaxnav.train import RunError, load_params
-
-    if strategy not in STRATEGIES:
-        raise PolicyError(f"unknown strategy '{strategy}' (choose from {', '.join(STRATEGIES)})")
-    runs = _runs_in(params_path)
-    try:
-        cfg = load_config(str(cfg_path))
-        seed = cfg.seed if seed is None else int(seed)
-        if seed not in runs.get(strategy, []):
-            have = "; ".join(f"{s} seeds {', '.join(map(str, v))}" for s, v in runs.items())
-            raise PolicyError(
-                f"{params_path} has no parameters for {strategy} seed {seed} "
-                f"(it has {have or 'none'})"
-            )
-        env, params = make_env(cfg)
-        net = load_params(params_path, strategy, seed).get("params", {})
-    except (ConfigError, MazeError, RunError) as e:
-        raise PolicyError(str(e)) from None
-    names = sorted((n for n in net if n.startswith("Dense_")), key=lambda n: int(n.split("_")[1]))
-    num_actions = len(np.asarray(params.omegas))
-    width = env.obs_size
-    for n in names:
-        k = np.asarray(net[n].get("kernel"))
-        if k.ndim != 2 or k.shape[0] != width:
-            raise PolicyError(f"{params_path}: layer {n} does not fit the run's observation layout")
-        width = k.shape[1]
-    if not names or width != num_actions:
-        raise PolicyError(f"{params_path}: the network does not end in {num_actions} action values")
-
-    maze = params.maze
-    fields = [f"range_{k}" for k in range(env.n_beams)] + ["heading", "distance"]
-    if env.obstacle_obs:
-        fields += ["min_range", "min_range_beam"]
-    meta = {
-        "format": FORMAT,
-        "version": FORMAT_VERSION,
-        "strategy": strategy,
-        "seed": seed,
-        "preset": cfg.preset,
-        "maze": cfg.env.maze,
-        "n_beams": env.n_beams,
-        "obstacle_obs": bool(env.obstacle_obs),
-        "min_range": float(params.min_range),
-        "max_range": float(params.max_range),
-        "beam_angles": "beam k at 2*pi*k/n_beams rad, robot frame, counter-clockwise from ahead",
-        "observation": fields,
-        "omegas": [float(w) for w in np.asarray(params.omegas)],
-        "linear_velocity": float(params.v),
-        "dt": float(params.dt),
-        "goal_radius": float(params.goal_radius),
-        "robot_radius": float(params.robot_radius),
-        "layers": names,
-        "activation": "relu",
-        "invalid_reading": INVALID_READING,
-        "run_dir": str(run_dir.resolve()),
-        "jaxnav_version": __version__,
-        "config": dump_config(cfg),
-    }
-    arrays: dict[str, np.ndarray] = {"meta": np.asarray(json.dumps(meta, indent=1))}
-    for n in names:
-        arrays[f"{n}/kernel"] = np.asarray(net[n]["kernel"], np.float32)
-        arrays[f"{n}/bias"] = np.asarray(net[n]["bias"], np.float32)
-    arrays["maze/walls"] = np.asarray(maze.walls(), np.float32)
-    arrays["maze/obstacles"] = np.asarray(maze.obstacles(), np.float32)
-    arrays["maze/start"] = np.asarray(maze.start, np.float32)
-    return arrays
-
-
-def save_policy(arrays: dict[str, np.ndarray], out: str | os.PathLike) -> None:
-    """Write a policy file atomically (a reader sees the old file or the whole new one)."""
-    out = Path(out)
-    if not out.parent.is_dir():
-        raise PolicyError(f"cannot write {out}: directory {out.parent} does not exist")
-    buf = io.BytesIO()
-    np.savez(buf, **arrays)
-    tmp = out.with_name(f".{out.name}.tmp{os.getpid()}")
-    try:
-        with open(tmp, "wb") as f:
-            f.write(buf.getvalue())
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, out)
-    except OSError as e:
-        tmp.unlink(missing_ok=True)
-        raise PolicyError(f"cannot write {out} ({e.strerror or type(e).__name__})") from None
-
-
-# ----------------------------------------------------------------------------
-# Command line
-# ----------------------------------------------------------------------------
-
-
-class _Parser(argparse.ArgumentParser):
-    def error(self, message):  # one line, not usage + message
-        self.exit(2, f"jaxnav.deploy: error: {message}\n")
-
-
-def main(argv: list[str] | None = None) -> int:
-    p = _Parser(prog="python -m jaxnav.deploy",
-                description="Export a trained policy for a real robot, or show an exported one.")
-    sub = p.add_subparsers(dest="cmd", required=True, parser_class=_Parser)
-    ex = sub.add_parser("export", help="write one trained policy to a portable .npz")
-    ex.add_argument("run_dir", metavar="RUN_DIR")
-    ex.add_argument("--strategy", default="ebe", help="ebe (default) or epsilon_greedy")
-    ex.add_argument("--seed", type=int, default=None, help="which seed (default: the run's first)")
-    ex.add_argument("--out", default=None,
-                    help="output file (default policy-<strategy>-seed<k>.npz)")
-    info = sub.add_parser("info", help="print an exported policy's metadata")
-    info.add_argument("policy", metavar="POLICY")
-    args = p.parse_args(argv)
-    try:
-        if args.cmd == "info":
-            pol = Policy.load(args.policy)
-            for k, v in pol.meta.items():
-                if k not in ("config", "observation", "format", "version"):
-                    print(f"{k}: {v}")
-            return 0
-        arrays = export_policy(args.run_dir, args.strategy, args.seed)
-        meta = json.loads(str(arrays["meta"]))
-        out = Path(args.out or f"policy-{meta['strategy']}-seed{meta['seed']}.npz")
-        save_policy(arrays, out)
-    except PolicyError as e:
-        print(f"jaxnav.deploy: error: {e}", file=sys.stderr)
-        return 2
-    print(f"wrote {out} ({meta['strategy']} seed {meta['seed']}, {meta['n_beams']} beams"
-          f"{', obstacle features' if meta['obstacle_obs'] else ''}, maze {meta['maze']})")
-    return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -95,7 +95,8 @@ class NavGymEnv(gymnasium.Env):
     ):
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(
-                f"render_mode must be None or one of {self.metadata['render_modes']}, got {render_mode!r}"
+                f"render_mode must be None or one of {self.metadata['render_modes']}, "
+                f"got {render_mode!r}"
             )
         self.render_mode = render_mode
         env, params = make(maze, preset, **overrides)
@@ -158,8 +159,14 @@ class NavGymEnv(gymnasium.Env):
         if self.state is None:
             raise RuntimeError("call reset() before step()")
         a = np.asarray(action)
-        if a.size != 1 or not np.issubdtype(a.dtype, np.integer) or not 0 <= int(a) < self.action_space.n:
-            raise ValueError(f"action must be an integer in [0, {self.action_space.n}), got {action!r}")
+        if (
+            a.size != 1
+            or not np.issubdtype(a.dtype, np.integer)
+            or not 0 <= int(a) < self.action_space.n
+        ):
+            raise ValueError(
+                f"action must be an integer in [0, {self.action_space.n}), got {action!r}"
+            )
         self._key, self.state, out = self._step(self._key, self.state, np.int32(a.item()))
         out = np.asarray(out)
         d = self.observation_space.shape[0]

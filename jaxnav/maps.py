@@ -48,12 +48,14 @@ from __future__ import annotations
 
 import math
 import os
-from typing import Sequence
+from collections.abc import Sequence
 
 import chex
 import jax.numpy as jnp
 import numpy as np
 from flax import struct
+
+from jaxnav.errors import MazeError
 
 # Geometry constants shared with the environment (robot and goal sampler).
 ROBOT_RADIUS = 0.13  # m, ROBOTIS collision threshold
@@ -65,10 +67,6 @@ MIN_GOAL_POINTS = 8  # "room left for goals"
 
 # Padding for unused slots: far away and degenerate, and masked out anyway.
 _FAR = 1.0e4
-
-
-class MazeError(ValueError):
-    """A maze file or name that cannot be used; the message is one line."""
 
 
 @struct.dataclass
@@ -146,9 +144,10 @@ def _segments_intersect(p1, p2, q1, q2, eps: float = 1e-12) -> bool:
         return 0 if abs(v) < eps else (1 if v > 0 else -1)
 
     def on_seg(a, b, c):
-        return min(a[0], b[0]) - eps <= c[0] <= max(a[0], b[0]) + eps and min(
-            a[1], b[1]
-        ) - eps <= c[1] <= max(a[1], b[1]) + eps
+        return (
+            min(a[0], b[0]) - eps <= c[0] <= max(a[0], b[0]) + eps
+            and min(a[1], b[1]) - eps <= c[1] <= max(a[1], b[1]) + eps
+        )
 
     o1, o2 = orient(p1, p2, q1), orient(p1, p2, q2)
     o3, o4 = orient(q1, q2, p1), orient(q1, q2, p2)
@@ -373,9 +372,22 @@ def _closed_polygon(value, what: str, where: str) -> np.ndarray:
 
 def load_maze_file(path: str) -> Maze:
     """Load and validate a maze YAML file (format in the module docstring)."""
+    where = f"maze file {path}"
+    doc = _read_maze_yaml(path, where)
+    outline = _closed_polygon(doc["outline"], "outline", where)
+    circles, polygons = _obstacles(doc.get("obstacles") or [], outline, where)
+    circles_arr = np.asarray(circles).reshape(-1, 3)
+    segments = np.concatenate(
+        [_polygon_segments(outline)] + [_polygon_segments(p) for p in polygons]
+    )
+    start = _start_pose(doc, outline, polygons, segments, circles_arr, where)
+    return _build(outline, circles_arr, polygons, start, where)
+
+
+def _read_maze_yaml(path: str, where: str) -> dict:
+    """The file's mapping, with only known keys and an outline."""
     import yaml
 
-    where = f"maze file {path}"
     try:
         with open(path) as f:
             doc = yaml.safe_load(f)
@@ -394,17 +406,25 @@ def load_maze_file(path: str) -> Maze:
         raise MazeError(f"{where}: unknown key '{sorted(unknown)[0]}'")
     if "outline" not in doc:
         raise MazeError(f"{where}: missing 'outline'")
-    outline = _closed_polygon(doc["outline"], "outline", where)
+    return doc
 
+
+def _obstacles(obstacles, outline: np.ndarray, where: str):
+    """(circles [x, y, r], polygons (N, 2)) of the file's obstacle list, each inside the
+    outline."""
     circles, polygons = [], []
-    obstacles = doc.get("obstacles") or []
     if not isinstance(obstacles, list):
         raise MazeError(f"{where}: 'obstacles' must be a list")
     for i, ob in enumerate(obstacles):
         what = f"obstacle {i}"
-        if not isinstance(ob, dict) or len(ob) != 1 or next(iter(ob)) not in (
-            "circle",
-            "polygon",
+        if (
+            not isinstance(ob, dict)
+            or len(ob) != 1
+            or next(iter(ob))
+            not in (
+                "circle",
+                "polygon",
+            )
         ):
             raise MazeError(f"{where}: {what} must be {{circle: [x, y, r]}} or {{polygon: [...]}}")
         kind, val = next(iter(ob.items()))
@@ -415,9 +435,10 @@ def load_maze_file(path: str) -> Maze:
                 c = np.zeros(0)
             if c.shape != (3,) or not np.isfinite(c).all() or c[2] <= 0:
                 raise MazeError(f"{where}: {what} circle must be [x, y, r] with r > 0")
-            if not points_in_polygon(c[None, :2], outline)[0] or clearance(
-                c[None, :2], _polygon_segments(outline), np.zeros((0, 3))
-            )[0] < c[2]:
+            if (
+                not points_in_polygon(c[None, :2], outline)[0]
+                or clearance(c[None, :2], _polygon_segments(outline), np.zeros((0, 3)))[0] < c[2]
+            ):
                 raise MazeError(f"{where}: {what} is not inside the outline")
             circles.append(c)
         else:
@@ -429,11 +450,12 @@ def load_maze_file(path: str) -> Maze:
             ):
                 raise MazeError(f"{where}: {what} is not inside the outline")
             polygons.append(poly)
+    return circles, polygons
 
-    circles_arr = np.asarray(circles).reshape(-1, 3)
-    segments = np.concatenate(
-        [_polygon_segments(outline)] + [_polygon_segments(p) for p in polygons]
-    )
+
+def _start_pose(doc, outline, polygons, segments, circles, where: str) -> np.ndarray:
+    """The file's start pose (x, y, yaw), default the outline's centroid facing +x; in
+    free space and clear of the robot radius."""
     if "start" in doc and doc["start"] is not None:
         try:
             start = np.asarray(doc["start"], np.float64)
@@ -449,11 +471,12 @@ def load_maze_file(path: str) -> Maze:
     )
     if not inside:
         raise MazeError(f"{where}: start pose is not inside the free space")
-    if clearance(start[None, :2], segments, circles_arr)[0] <= ROBOT_RADIUS:
+    if clearance(start[None, :2], segments, circles)[0] <= ROBOT_RADIUS:
         raise MazeError(
-            f"{where}: start pose is within the robot radius ({ROBOT_RADIUS} m) of a wall or obstacle"
+            f"{where}: start pose is within the robot radius ({ROBOT_RADIUS} m) "
+            "of a wall or obstacle"
         )
-    return _build(outline, circles_arr, polygons, start, where)
+    return start
 
 
 def make_maze(name_or_path: str) -> Maze:
@@ -461,9 +484,7 @@ def make_maze(name_or_path: str) -> Maze:
     if name_or_path in BUILTIN_MAZES:
         outline, circles, polys, start = _builtin(name_or_path)
         return _build(outline, circles, polys, start, f"maze {name_or_path}")
-    if os.path.splitext(name_or_path)[1] in (".yaml", ".yml") or os.path.exists(
-        name_or_path
-    ):
+    if os.path.splitext(name_or_path)[1] in (".yaml", ".yml") or os.path.exists(name_or_path):
         return load_maze_file(name_or_path)
     raise MazeError(
         f"unknown maze '{name_or_path}' (built-in: {', '.join(BUILTIN_MAZES)}; "

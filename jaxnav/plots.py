@@ -17,51 +17,39 @@ Writes into RUN_DIR/plots/ (each file atomically):
 its table with :func:`plot_robustness`: the mean return over seeds under each
 perturbation, a bar per strategy with its 95% bootstrap interval.
 
-The test episode is episode 1 of ``jaxnav.evaluate``: read from
-eval/trajectories.npz when the run was evaluated on these mazes, else played here
-with the same test key. Without params.npz (a run still training) only the first
-two figures are drawn.
+The test episodes are those ``jaxnav.evaluate`` recorded in eval/trajectories.npz
+(episode 1 of the config's seed); a run that has not been evaluated on these mazes
+gets the first two figures only. Every figure is drawn from files: nothing here
+runs the environment or a network.
 """
 
 from __future__ import annotations
 
-import argparse
-import csv
+import io
 import math
-import os
 import re
 import sys
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Sequence
 
 import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
-from matplotlib.animation import PillowWriter  # noqa: E402
 from matplotlib.patches import Circle  # noqa: E402
+from PIL import Image  # noqa: E402
 
-from jaxnav import render, stats  # noqa: E402
-from jaxnav.config import STRATEGIES, ConfigError, load_config  # noqa: E402
-from jaxnav.evaluate import (  # noqa: E402
-    STRATEGY_NAMES,
-    EvalError,
-    evaluate,
-    read_episodes_npz,
-    robustness_summary,
-)
-from jaxnav.maps import Maze, MazeError, make_maze  # noqa: E402
-from jaxnav.train import RunError  # noqa: E402
+from jaxnav import cli, drawing, rundir, stats  # noqa: E402
+from jaxnav.config import STRATEGIES, load_config  # noqa: E402
+from jaxnav.errors import ConfigError, JaxnavError, RunError  # noqa: E402
+from jaxnav.maps import Maze, make_maze  # noqa: E402
+from jaxnav.results import STRATEGY_NAMES, read_episodes_npz, robustness_summary  # noqa: E402
 
 COLORS = {"ebe": "tab:blue", "epsilon_greedy": "tab:orange"}
 FOOTPRINT = 0.105  # m, TurtleBot3 burger disc (the 0.13 m collision radius is drawn dashed)
 GIF_MAX_BYTES = 1_000_000
 GIF_MAX_FRAMES = 60
-
-
-class PlotError(Exception):
-    """A problem with the run; one-line message."""
 
 
 # ----------------------------------------------------------------------------
@@ -70,18 +58,34 @@ class PlotError(Exception):
 
 
 def _save_fig(fig, path: Path, **kw) -> Path:
-    tmp = path.with_name(f".{path.stem}.tmp{path.suffix}")
-    fig.savefig(tmp, **kw)
+    """Render a figure and write the file whole or not at all."""
+    buf = io.BytesIO()
+    fig.savefig(buf, format=path.suffix.lstrip("."), **kw)
     plt.close(fig)
-    os.replace(tmp, path)
+    rundir.atomic_write_bytes(path, buf.getvalue())
     return path
 
 
+def _gif_bytes(fig, update, frames: Sequence[int], dpi: int, fps: int = 10) -> bytes:
+    """An animated GIF of ``fig`` after ``update(t)`` for each frame t (as PillowWriter)."""
+    width, height = (int(round(x * dpi)) for x in fig.get_size_inches())
+    images = []
+    for t in frames:
+        update(t)
+        buf = io.BytesIO()
+        fig.savefig(buf, format="rgba", dpi=dpi)
+        images.append(
+            Image.frombuffer("RGBA", (width, height), buf.getbuffer(), "raw", "RGBA", 0, 1)
+        )
+    out = io.BytesIO()
+    images[0].save(
+        out, format="GIF", save_all=True, append_images=images[1:], duration=1000 // fps, loop=0
+    )
+    return out.getvalue()
+
+
 def _read_csv(path: Path) -> list[dict[str, str]]:
-    if not path.is_file():
-        raise PlotError(f"{path.parent} has no {path.name}")
-    with open(path, newline="") as f:
-        return list(csv.DictReader(f))
+    return rundir.CsvLog(path, ()).read()
 
 
 def _curves(rows, x_col: str, y_col: str) -> dict[str, tuple[np.ndarray, np.ndarray]]:
@@ -117,9 +121,9 @@ def safe_name(maze: str) -> str:
 
 
 def draw_maze(ax, maze: Maze, start: bool = True) -> None:
-    """Walls and obstacles (:func:`jaxnav.render.draw_maze`), the start pose as a grey
+    """Walls and obstacles (:func:`jaxnav.drawing.draw_maze`), the start pose as a grey
     square with an arrow (not a robot disc: the paths are the robot here)."""
-    render.draw_maze(ax, maze, pose=())
+    drawing.draw_maze(ax, maze, pose=())
     if start:
         sx, sy, syaw = np.asarray(maze.start, np.float64)
         ax.plot([sx], [sy], marker="s", color="0.3", ms=5, zorder=4)
@@ -148,7 +152,7 @@ def plot_training_curves(run_dir: Path, out: Path, window: int | None = None) ->
     """Episode return vs episode, smoothed, mean and 95% interval over seeds."""
     curves = _curves(_read_csv(run_dir / "metrics.csv"), "episode", "return")
     if not curves:
-        raise PlotError(f"{run_dir / 'metrics.csv'} has no episodes")
+        raise RunError(f"{run_dir / 'metrics.csv'} has no episodes")
     n_ep = max(len(x) for x, _ in curves.values())
     w = window or int(np.clip(n_ep // 20, 1, 50))
     fig, ax = plt.subplots(figsize=(7, 4.2))
@@ -177,7 +181,7 @@ def plot_exploration(run_dir: Path, out: Path, window: int = 10) -> Path:
     """EBE's entropy H(s) and epsilon per 100-step block over training."""
     curves = _curves(_read_csv(run_dir / "explore.csv"), "step", "explore")
     if not curves:
-        raise PlotError(f"{run_dir / 'explore.csv'} has no rows")
+        raise RunError(f"{run_dir / 'explore.csv'} has no rows")
     labels = {
         "ebe": "EBE: entropy H(s) (= chance of a random action)",
         "epsilon_greedy": "epsilon-greedy: epsilon",
@@ -189,7 +193,8 @@ def plot_exploration(run_dir: Path, out: Path, window: int = 10) -> Path:
     ax.set_ylabel("exploration probability")
     ax.set_ylim(0, 1.02)
     ax.set_title(
-        f"Exploration over training (means over 100-step blocks, moving average over {window} blocks)\n"
+        "Exploration over training (means over 100-step blocks, moving average over "
+        f"{window} blocks)\n"
         "mean over seeds and 95% bootstrap interval",
         fontsize=10,
     )
@@ -218,49 +223,58 @@ def plot_trajectory(
     fig, ax = plt.subplots(figsize=(5.6, 5.6))
     draw_maze(ax, maze)
     for s, ep in episodes.items():
-        c = COLORS[s]
-        pos = ep["pos"]
-        end = "collided" if ep["collided"] else "no collision"
-        ax.plot(
-            pos[:, 0],
-            pos[:, 1],
-            color=c,
-            lw=1.3,
-            alpha=0.9,
-            zorder=5,
-            label=f"{STRATEGY_NAMES[s]}: return {ep['return']:.0f}, {ep['goals']} goals, {end}",
+        _draw_path(ax, s, ep, goal_radius)
+    _marker_legend(ax)
+    ax.set_title(f"{name}: first test episode, seed {seed}", fontsize=10)
+    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.12), fontsize=8, ncol=1, frameon=False)
+    fig.tight_layout()
+    return _save_fig(fig, out, dpi=100, bbox_inches="tight")
+
+
+def _draw_path(ax, strategy: str, ep: dict, goal_radius: float) -> None:
+    """One policy's path, the goals it reached, the goal it was heading for, a crash."""
+    c = COLORS[strategy]
+    pos = ep["pos"]
+    end = "collided" if ep["collided"] else "no collision"
+    ax.plot(
+        pos[:, 0],
+        pos[:, 1],
+        color=c,
+        lw=1.3,
+        alpha=0.9,
+        zorder=5,
+        label=f"{STRATEGY_NAMES[strategy]}: return {ep['return']:.0f}, {ep['goals']} goals, {end}",
+    )
+    hit = ep["reached"]
+    if hit.any():
+        g = ep["goal"][hit]
+        ax.scatter(
+            g[:, 0], g[:, 1], marker="*", s=130, color=c, edgecolors="black", lw=0.6, zorder=7
         )
-        hit = ep["reached"]
-        if hit.any():
-            g = ep["goal"][hit]
-            ax.scatter(
-                g[:, 0], g[:, 1], marker="*", s=130, color=c, edgecolors="black", lw=0.6, zorder=7
-            )
-            for gx, gy in g:  # the goal counts as reached inside this circle
-                ax.add_patch(
-                    Circle(
-                        (gx, gy), goal_radius, facecolor=c, edgecolor="none", alpha=0.15, zorder=2
-                    )
-                )
-        if not hit[-1]:  # the goal it was still heading for
-            gx, gy = ep["goal"][-1]
+        for gx, gy in g:  # the goal counts as reached inside this circle
             ax.add_patch(
-                Circle(
-                    (gx, gy), goal_radius, facecolor="none", edgecolor=c, lw=1.5, ls="--", zorder=6
-                )
+                Circle((gx, gy), goal_radius, facecolor=c, edgecolor="none", alpha=0.15, zorder=2)
             )
-        if ep["collided"]:  # at the pose before the colliding step; edge: whose
-            ax.scatter(
-                [pos[-1, 0]],
-                [pos[-1, 1]],
-                marker="X",
-                s=130,
-                color="red",
-                edgecolors=c,
-                lw=1.6,
-                zorder=8,
-            )
-    # legend entries for the markers
+    if not hit[-1]:  # the goal it was still heading for
+        gx, gy = ep["goal"][-1]
+        ax.add_patch(
+            Circle((gx, gy), goal_radius, facecolor="none", edgecolor=c, lw=1.5, ls="--", zorder=6)
+        )
+    if ep["collided"]:  # at the pose before the colliding step; edge: whose
+        ax.scatter(
+            [pos[-1, 0]],
+            [pos[-1, 1]],
+            marker="X",
+            s=130,
+            color="red",
+            edgecolors=c,
+            lw=1.6,
+            zorder=8,
+        )
+
+
+def _marker_legend(ax) -> None:
+    """Legend entries for the markers (drawn empty, in grey)."""
     ax.scatter(
         [], [], marker="*", s=100, color="0.7", edgecolors="black", lw=0.6, label="goal reached"
     )
@@ -275,10 +289,6 @@ def plot_trajectory(
         label="goal not yet reached",
     )
     ax.scatter([], [], marker="X", s=80, color="red", edgecolors="0.4", lw=1.2, label="collision")
-    ax.set_title(f"{name}: first test episode, seed {seed}", fontsize=10)
-    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.12), fontsize=8, ncol=1, frameon=False)
-    fig.tight_layout()
-    return _save_fig(fig, out, dpi=100, bbox_inches="tight")
 
 
 def animate_episode(
@@ -293,101 +303,97 @@ def animate_episode(
 ) -> Path:
     """An animated GIF of one test episode: robot, LiDAR beams, goal, trail.
 
-    Drawn with PillowWriter, one figure draw per frame; no tick labels (they cost
-    most of a frame), a 1 m scale bar instead. Halves the frames until < 1 MB.
+    One figure draw per frame; no tick labels (they cost most of a frame), a 1 m
+    scale bar instead. Halves the frames until < 1 MB.
     """
+    n = ep["length"]
+    while True:
+        stride = max(1, math.ceil(n / max_frames))
+        frames = list(range(0, n, stride))
+        if frames[-1] != n - 1:
+            frames.append(n - 1)
+        fig, update = _episode_figure(maze, name, ep, strategy, seed, goal_radius)
+        gif = _gif_bytes(fig, update, frames, dpi=75)
+        plt.close(fig)
+        if len(gif) <= GIF_MAX_BYTES or max_frames <= 10:
+            rundir.atomic_write_bytes(out, gif)
+            return out
+        max_frames //= 2
+
+
+def _episode_figure(maze: Maze, name: str, ep: dict, strategy: str, seed: int, goal_radius):
+    """The animation's figure and its ``update(t)``, which moves the artists to step t."""
     n = ep["length"]
     n_beams = ep["ranges"].shape[1]
     beam_idx = np.arange(0, n_beams, max(1, n_beams // 36))  # at most ~36 drawn beams
     beam_ang = 2 * np.pi * beam_idx / n_beams
     cum_ret = np.cumsum(ep["reward"])
     cum_goals = np.cumsum(ep["reached"])
-    while True:
-        stride = max(1, math.ceil(n / max_frames))
-        frames = list(range(0, n, stride))
-        if frames[-1] != n - 1:
-            frames.append(n - 1)
-        fig, ax = plt.subplots(figsize=(4.0, 4.2))
-        draw_maze(ax, maze, start=False)
-        ax.set_axis_off()
-        x0, x1 = ax.get_xlim()
-        y0, _ = ax.get_ylim()
-        ax.plot([x0 + 0.02 * (x1 - x0), x0 + 0.02 * (x1 - x0) + 1.0], [y0, y0], color="black", lw=2)
-        ax.text(x0 + 0.02 * (x1 - x0) + 0.5, y0, "1 m", ha="center", va="bottom", fontsize=7)
-        (trail,) = ax.plot([], [], color=COLORS[strategy], lw=1.0, alpha=0.7, zorder=4)
-        beams = [ax.plot([], [], color="tab:red", lw=0.5, alpha=0.5, zorder=2)[0] for _ in beam_idx]
-        body = Circle(
-            (0, 0), FOOTPRINT, facecolor=COLORS[strategy], edgecolor="black", lw=0.8, zorder=6
-        )
-        ax.add_patch(body)
-        (nose,) = ax.plot([], [], color="black", lw=1.2, zorder=7)
-        goal = Circle(
-            (0, 0), goal_radius, facecolor="limegreen", edgecolor="darkgreen", alpha=0.6, zorder=5
-        )
-        ax.add_patch(goal)
-        title = ax.set_title("two\nlines", fontsize=8)  # room for the real title
-        fig.tight_layout()
+    fig, ax = plt.subplots(figsize=(4.0, 4.2))
+    draw_maze(ax, maze, start=False)
+    ax.set_axis_off()
+    x0, x1 = ax.get_xlim()
+    y0, _ = ax.get_ylim()
+    ax.plot([x0 + 0.02 * (x1 - x0), x0 + 0.02 * (x1 - x0) + 1.0], [y0, y0], color="black", lw=2)
+    ax.text(x0 + 0.02 * (x1 - x0) + 0.5, y0, "1 m", ha="center", va="bottom", fontsize=7)
+    color = COLORS[strategy]
+    (trail,) = ax.plot([], [], color=color, lw=1.0, alpha=0.7, zorder=4)
+    beams = [ax.plot([], [], color="tab:red", lw=0.5, alpha=0.5, zorder=2)[0] for _ in beam_idx]
+    body = Circle((0, 0), FOOTPRINT, facecolor=color, edgecolor="black", lw=0.8, zorder=6)
+    ax.add_patch(body)
+    (nose,) = ax.plot([], [], color="black", lw=1.2, zorder=7)
+    goal = Circle(
+        (0, 0), goal_radius, facecolor="limegreen", edgecolor="darkgreen", alpha=0.6, zorder=5
+    )
+    ax.add_patch(goal)
+    title = ax.set_title("two\nlines", fontsize=8)  # room for the real title
+    fig.tight_layout()
 
-        def update(t):
-            p, yaw = ep["pos"][t], ep["yaw"][t]
-            trail.set_data(ep["pos"][: t + 1, 0], ep["pos"][: t + 1, 1])
-            rng = ep["ranges"][t, beam_idx]
-            for line, a, r in zip(beams, beam_ang, rng):
-                line.set_data(
-                    [p[0], p[0] + r * np.cos(yaw + a)], [p[1], p[1] + r * np.sin(yaw + a)]
-                )
-            body.center = (p[0], p[1])
-            nose.set_data(
-                [p[0], p[0] + FOOTPRINT * np.cos(yaw)], [p[1], p[1] + FOOTPRINT * np.sin(yaw)]
-            )
-            goal.center = tuple(ep["goal"][t])
-            crash = " - collision" if ep["collided"] and t == n - 1 else ""
-            title.set_text(
-                f"{name}, {STRATEGY_NAMES[strategy]} seed {seed}: step {t + 1}/{n}\n"
-                f"return {cum_ret[t]:.0f}, goals {int(cum_goals[t])}{crash}"
-            )
+    def update(t):
+        p, yaw = ep["pos"][t], ep["yaw"][t]
+        trail.set_data(ep["pos"][: t + 1, 0], ep["pos"][: t + 1, 1])
+        for line, a, r in zip(beams, beam_ang, ep["ranges"][t, beam_idx]):
+            line.set_data([p[0], p[0] + r * np.cos(yaw + a)], [p[1], p[1] + r * np.sin(yaw + a)])
+        body.center = (p[0], p[1])
+        nose.set_data(
+            [p[0], p[0] + FOOTPRINT * np.cos(yaw)], [p[1], p[1] + FOOTPRINT * np.sin(yaw)]
+        )
+        goal.center = tuple(ep["goal"][t])
+        crash = " - collision" if ep["collided"] and t == n - 1 else ""
+        title.set_text(
+            f"{name}, {STRATEGY_NAMES[strategy]} seed {seed}: step {t + 1}/{n}\n"
+            f"return {cum_ret[t]:.0f}, goals {int(cum_goals[t])}{crash}"
+        )
 
-        tmp = out.with_name(f".{out.stem}.tmp{out.suffix}")
-        writer = PillowWriter(fps=10)
-        with writer.saving(fig, tmp, dpi=75):
-            for t in frames:
-                update(t)
-                writer.grab_frame()
-        plt.close(fig)
-        if tmp.stat().st_size <= GIF_MAX_BYTES or max_frames <= 10:
-            os.replace(tmp, out)
-            return out
-        tmp.unlink()
-        max_frames //= 2
+    return fig, update
 
 
 def first_episodes(run_dir: Path, maze_names: Sequence[str] | None = None):
     """(config, maze names, mazes, goal radius, first test episodes of the config's
-    seed). Read from eval/trajectories.npz when it holds these mazes (no JAX work),
-    else played here by the evaluation (same test key, same episodes; no files)."""
-    cfg = load_config(str(run_dir / "config.yaml"))
-    if not (run_dir / "params.npz").is_file():
-        raise PlotError(f"{run_dir} has no params.npz (training has not finished)")
+    seed) from eval/trajectories.npz; None if the run was not evaluated on these mazes."""
+    cfg = load_config(str(run_dir / rundir.CONFIG))
     names = list(maze_names) if maze_names else list(cfg.run.test_mazes)
     saved = run_dir / "eval" / "trajectories.npz"
-    if saved.is_file():
-        try:
-            episodes, goal_radius = read_episodes_npz(saved)
-        except (OSError, ValueError, KeyError):
-            episodes = None  # unreadable: play them again
-        if episodes is not None and all(
-            n in episodes and set(episodes[n]) == set(cfg.strategies) for n in names
-        ):
-            return cfg, names, [make_maze(n) for n in names], goal_radius, episodes
-    run, _, _, episodes = evaluate(run_dir, names)  # nothing written
-    return cfg, names, [make_maze(n) for n in names], float(run.env_params.goal_radius), episodes
+    if not saved.is_file():
+        return None
+    try:
+        episodes, goal_radius = read_episodes_npz(saved)
+    except (OSError, ValueError, KeyError) as e:
+        raise RunError(f"{saved} cannot be read ({type(e).__name__})") from None
+    if not all(n in episodes and set(episodes[n]) == set(cfg.strategies) for n in names):
+        return None
+    return cfg, names, [make_maze(n) for n in names], goal_radius, episodes
 
 
 def plot_test_episodes(
     run_dir: Path, out_dir: Path, maze_names: Sequence[str] | None = None
 ) -> list[Path]:
-    """Trajectory figures for every test maze and the GIF, from the first seed."""
-    cfg, names, mazes, goal_radius, episodes = first_episodes(run_dir, maze_names)
+    """Trajectory figures for every test maze and the GIF, from the first seed
+    (none if the run was not evaluated on these mazes)."""
+    found = first_episodes(run_dir, maze_names)
+    if found is None:
+        return []
+    cfg, names, mazes, goal_radius, episodes = found
     written = []
     for name, maze in zip(names, mazes):
         out = out_dir / f"trajectory_{safe_name(name)}.png"
@@ -454,14 +460,10 @@ def make_plots(
     run_dir: str | Path, maze_names: Sequence[str] | None = None, window: int | None = None
 ) -> list[Path]:
     """Every figure of a run into RUN_DIR/plots/; returns the written paths."""
-    run_dir = Path(run_dir)
-    if not run_dir.is_dir():
-        raise PlotError(f"run directory {run_dir} does not exist")
-    if not (run_dir / "config.yaml").is_file():
-        raise PlotError(f"{run_dir} is not a run directory (no config.yaml)")
-    for name in ("metrics.csv", "explore.csv"):
+    run_dir = rundir.existing(run_dir)
+    for name in (rundir.METRICS, rundir.EXPLORE):
         if not (run_dir / name).is_file():
-            raise PlotError(f"{run_dir} has no {name}")
+            raise RunError(f"{run_dir} has no {name}")
     for name in maze_names or ():  # check them before anything is drawn
         make_maze(name)
     out = run_dir / "plots"
@@ -470,18 +472,18 @@ def make_plots(
         plot_training_curves(run_dir, out / "training_curves.png", window),
         plot_exploration(run_dir, out / "exploration.png"),
     ]
-    if (run_dir / "params.npz").is_file():
-        written += plot_test_episodes(run_dir, out, maze_names)
-    else:
+    tests = plot_test_episodes(run_dir, out, maze_names)
+    if not tests:
         print(
-            f"jaxnav.plots: {run_dir} has no params.npz yet: no test-episode figures",
+            f"jaxnav.plots: {run_dir} has no test episodes of these mazes: run "
+            f"python -m jaxnav.evaluate {run_dir} for the trajectory figures",
             file=sys.stderr,
         )
-    return written
+    return written + tests
 
 
 def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(
+    p = cli.Parser(
         prog="python -m jaxnav.plots",
         description="Training curves, exploration, test-maze trajectories and an episode GIF "
         "of a run, written into RUN_DIR/plots/.",
@@ -495,16 +497,14 @@ def main(argv: list[str] | None = None) -> int:
         help="moving-average window in episodes (default episodes/20)",
     )
     args = p.parse_args(argv)
-    try:
+
+    def work() -> None:
         if args.window is not None and args.window < 1:
-            raise PlotError("--window must be at least 1")
-        written = make_plots(args.run_dir, args.mazes, args.window)
-    except (PlotError, EvalError, ConfigError, MazeError, RunError) as e:
-        print(f"jaxnav.plots: error: {e}", file=sys.stderr)
-        return 2
-    for path in written:
-        print(path)
-    return 0
+            raise JaxnavError("--window must be at least 1")
+        for path in make_plots(args.run_dir, args.mazes, args.window):
+            print(path)
+
+    return cli.run(p.prog, work)
 
 
 if __name__ == "__main__":

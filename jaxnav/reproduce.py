@@ -34,7 +34,6 @@ if __name__ == "__main__":  # before JAX starts: one CPU device per core
 
     use_all_cores()
 
-import argparse
 import json
 import os
 import platform
@@ -45,11 +44,13 @@ from pathlib import Path
 
 import jax
 
-from jaxnav import plots
-from jaxnav.config import ConfigError, load_config
-from jaxnav.evaluate import EvalError, evaluate_to_dir, robustness_to_dir
-from jaxnav.maps import MazeError
-from jaxnav.train import CONFIG_DIR, RunError, atomic_write_text, resume, train_from_config
+from jaxnav import cli, plots
+from jaxnav.config import CONFIG_DIR, Config, load_config
+from jaxnav.errors import JaxnavError
+from jaxnav.evaluation import evaluate_to_dir
+from jaxnav.robustness import robustness_to_dir
+from jaxnav.rundir import atomic_write_text
+from jaxnav.training import resume, train_new
 
 DEFAULT_SEEDS = 8
 QUICK = {"seeds": 2, "episodes": 50, "max_steps": 200, "test_episodes": 3}
@@ -60,10 +61,6 @@ EXPERIMENTS = (
     ),
     ("paper_obstacles", "Trained on square4 with obstacles (paper Sec. 6.2, Table 4, Fig. 4)"),
 )
-
-
-class ReproduceError(Exception):
-    """A problem with the request or the output directory; one-line message."""
 
 
 def machine_info() -> dict[str, str]:
@@ -166,6 +163,111 @@ def write_report(
     return path
 
 
+def _check_request(out: Path, seeds: int, sizes: dict[str, int | None], resume_ok: bool):
+    if seeds < 1:
+        raise JaxnavError("--seeds must be at least 1")
+    for flag, v in sizes.items():
+        if v is not None and v < 1:
+            raise JaxnavError(f"{flag} must be at least 1")
+    if out.exists() and not out.is_dir():
+        raise JaxnavError(f"{out} exists and is not a directory")
+    if out.is_dir() and any(out.iterdir()) and not resume_ok:
+        raise JaxnavError(
+            f"output directory {out} already exists and is not empty (use --resume to continue it)"
+        )
+
+
+def _train(name: str, cfg: Config, run_dir: Path, quiet: bool, say) -> tuple[float, str]:
+    """Train (or reuse, or resume) one experiment; (seconds, note) for the report."""
+    t0 = time.perf_counter()
+    note = f"{cfg.seeds} seeds x {len(cfg.strategies)} strategies on {cfg.env.maze}"
+    started = (run_dir / "config.yaml").is_file()
+    if started and load_config(str(run_dir / "config.yaml")) != cfg:
+        what = "trained" if (run_dir / "params.npz").is_file() else "started"
+        raise JaxnavError(f"{run_dir} was {what} with other settings; use another --out")
+    if (run_dir / "params.npz").is_file():
+        say(f"{name}: reusing the finished training in {run_dir}")
+        note += ", reused (trained before"
+        try:  # report the earlier training's time, not the ~0 s of reusing it
+            wall = float(json.loads((run_dir / "summary.json").read_text())["wall_clock_s"])
+            t0 -= wall
+            note += "; time from its summary.json, chunks only, no compile)"
+        except (OSError, ValueError, KeyError, TypeError):
+            note += ")"
+    elif started:
+        say(f"{name}: resuming training in {run_dir}")
+        resume(run_dir, quiet=quiet)
+        note += ", resumed"
+    else:
+        say(f"{name}: training {cfg.n_runs} runs ({note}), {cfg.episodes} episodes each")
+        train_new(cfg, run_dir, quiet=quiet)
+    return time.perf_counter() - t0, note
+
+
+def _experiment(
+    name: str, title: str, cfg: Config, out: Path, quiet: bool, say
+) -> tuple[list[tuple[str, float, str]], list[str]]:
+    """Train, test, plot and perturb one experiment: (timings, report section)."""
+    run_dir = out / name
+    timings = [(f"train {name}", *_train(name, cfg, run_dir, quiet, say))]
+
+    def stage(label: str, note: str, fn):
+        t0 = time.perf_counter()
+        result = fn()
+        timings.append((f"{label} {name}", time.perf_counter() - t0, note(result)))
+        return result
+
+    say(f"{name}: testing on {', '.join(cfg.run.test_mazes)}")
+    tests = f"{cfg.run.test_episodes} episodes x {cfg.n_runs} runs x {len(cfg.run.test_mazes)}"
+    eval_dir = stage("evaluate", lambda _: f"{tests} mazes", lambda: evaluate_to_dir(run_dir))
+    say(f"{name}: drawing figures")
+    written = stage("plot", lambda w: f"{len(w)} files", lambda: plots.make_plots(run_dir))
+    # ROBUSTNESS: the same test under sensor perturbations, on the training maze
+    say(f"{name}: testing under sensor perturbations on {cfg.env.maze}")
+    rob_dir = stage(
+        "robustness",
+        lambda _: f"on {cfg.env.maze}",
+        lambda: robustness_to_dir(run_dir, out=run_dir / "eval"),
+    )
+    return timings, _section(name, title, cfg, out, written, eval_dir, rob_dir)
+
+
+def _section(name, title, cfg, out: Path, written, eval_dir: Path, rob_dir: Path) -> list[str]:
+    """The report's section of one experiment: figures, tables, robustness."""
+    run_dir = out / name
+
+    def rel(p):
+        return Path(p).relative_to(out).as_posix()
+
+    traj = [p for p in written if p.name.startswith("trajectory_")]
+    gif = [p for p in written if p.suffix == ".gif"]
+    sec = [
+        f"## {title}",
+        "",
+        f"Run directory: `{name}/` (config, metrics.csv, params.npz, eval/, plots/).",
+        "",
+        "### Training",
+        "",
+        f"![training curves]({rel(run_dir / 'plots' / 'training_curves.png')})",
+        f"![exploration]({rel(run_dir / 'plots' / 'exploration.png')})",
+        "",
+        f"### Test episodes (seed {cfg.seed}, first test episode)",
+        "",
+        " ".join(f"![{p.stem}]({rel(p)})" for p in traj),
+        "",
+    ]
+    if gif:
+        sec += [f"![episode animation]({rel(gif[0])})", ""]
+    tables = (eval_dir / "tables.md").read_text()
+    sec += [_demote(tables).rstrip(), ""]
+    rob = (
+        (rob_dir / "robustness.md")
+        .read_text()
+        .replace("](robustness.png)", f"]({rel(rob_dir / 'robustness.png')})")
+    )
+    return sec + [_demote(rob).rstrip(), ""]
+
+
 def reproduce(
     out: Path,
     seeds: int,
@@ -177,21 +279,8 @@ def reproduce(
     quiet: bool,
     command: str,
 ) -> Path:
-    if seeds < 1:
-        raise ReproduceError("--seeds must be at least 1")
-    for flag, v in (
-        ("--episodes", episodes),
-        ("--max-steps", max_steps),
-        ("--test-episodes", test_episodes),
-    ):
-        if v is not None and v < 1:
-            raise ReproduceError(f"{flag} must be at least 1")
-    if out.exists() and not out.is_dir():
-        raise ReproduceError(f"{out} exists and is not a directory")
-    if out.is_dir() and any(out.iterdir()) and not resume_ok:
-        raise ReproduceError(
-            f"output directory {out} already exists and is not empty (use --resume to continue it)"
-        )
+    sizes = {"--episodes": episodes, "--max-steps": max_steps, "--test-episodes": test_episodes}
+    _check_request(out, seeds, sizes, resume_ok)
     cfgs = {
         name: experiment_config(name, seeds, episodes, max_steps, test_episodes)
         for name, _ in EXPERIMENTS
@@ -206,84 +295,8 @@ def reproduce(
     timings: list[tuple[str, float, str]] = []
     sections: list[str] = []
     for name, title in EXPERIMENTS:
-        cfg = cfgs[name]
-        run_dir = out / name
-        # TRAIN
-        t0 = time.perf_counter()
-        note = f"{cfg.seeds} seeds x {len(cfg.strategies)} strategies on {cfg.env.maze}"
-        if (run_dir / "params.npz").is_file():
-            if load_config(str(run_dir / "config.yaml")) != cfg:
-                raise ReproduceError(
-                    f"{run_dir} was trained with other settings; use another --out"
-                )
-            say(f"{name}: reusing the finished training in {run_dir}")
-            note += ", reused (trained before"
-            try:  # report the earlier training's time, not the ~0 s of reusing it
-                wall = float(json.loads((run_dir / "summary.json").read_text())["wall_clock_s"])
-                t0 -= wall
-                note += "; time from its summary.json, chunks only, no compile)"
-            except (OSError, ValueError, KeyError, TypeError):
-                note += ")"
-        elif (run_dir / "config.yaml").is_file():
-            if load_config(str(run_dir / "config.yaml")) != cfg:
-                raise ReproduceError(
-                    f"{run_dir} was started with other settings; use another --out"
-                )
-            say(f"{name}: resuming training in {run_dir}")
-            resume(run_dir, quiet=quiet)
-            note += ", resumed"
-        else:
-            say(f"{name}: training {cfg.n_runs} runs ({note}), {cfg.episodes} episodes each")
-            train_from_config(cfg, run_dir, quiet=quiet)
-        timings.append((f"train {name}", time.perf_counter() - t0, note))
-        # EVALUATE
-        t0 = time.perf_counter()
-        say(f"{name}: testing on {', '.join(cfg.run.test_mazes)}")
-        eval_dir = evaluate_to_dir(run_dir)
-        timings.append(
-            (
-                f"evaluate {name}",
-                time.perf_counter() - t0,
-                f"{cfg.run.test_episodes} episodes x {cfg.n_runs} runs x {len(cfg.run.test_mazes)} mazes",
-            )
-        )
-        # PLOT
-        t0 = time.perf_counter()
-        say(f"{name}: drawing figures")
-        written = plots.make_plots(run_dir)
-        timings.append((f"plot {name}", time.perf_counter() - t0, f"{len(written)} files"))
-        # ROBUSTNESS: the same test under sensor perturbations, on the training maze
-        t0 = time.perf_counter()
-        say(f"{name}: testing under sensor perturbations on {cfg.env.maze}")
-        rob_dir = robustness_to_dir(run_dir, out=run_dir / "eval")
-        timings.append(
-            (f"robustness {name}", time.perf_counter() - t0, f"on {cfg.env.maze}")
-        )
-
-        rel = lambda p: Path(p).relative_to(out).as_posix()  # noqa: E731
-        figs = [
-            f"![training curves]({rel(run_dir / 'plots' / 'training_curves.png')})",
-            f"![exploration]({rel(run_dir / 'plots' / 'exploration.png')})",
-        ]
-        traj = [p for p in written if p.name.startswith("trajectory_")]
-        gif = [p for p in written if p.suffix == ".gif"]
-        sec = [
-            f"## {title}",
-            "",
-            f"Run directory: `{name}/` (config, metrics.csv, params.npz, eval/, plots/).",
-            "",
-        ]
-        sec += ["### Training", "", *figs, ""]
-        sec += ["### Test episodes (seed " + str(cfg.seed) + ", first test episode)", ""]
-        sec += [" ".join(f"![{p.stem}]({rel(p)})" for p in traj), ""]
-        if gif:
-            sec += [f"![episode animation]({rel(gif[0])})", ""]
-        tables = (eval_dir / "tables.md").read_text()
-        sec += [_demote(tables).rstrip(), ""]
-        rob = (rob_dir / "robustness.md").read_text().replace(
-            "](robustness.png)", f"]({rel(rob_dir / 'robustness.png')})"
-        )
-        sec += [_demote(rob).rstrip(), ""]
+        t, sec = _experiment(name, title, cfgs[name], out, quiet, say)
+        timings += t
         sections += sec
     first = cfgs[EXPERIMENTS[0][0]]
     settings = {
@@ -297,8 +310,8 @@ def reproduce(
     return write_report(out, info, settings, timings, sections)
 
 
-def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(
+def _parser() -> cli.Parser:
+    p = cli.Parser(
         prog="python -m jaxnav.reproduce",
         description="Train, test and plot both of the paper's experiments (no obstacles and "
         "obstacles, EBE and epsilon-greedy) and write DIR/report.md.",
@@ -313,7 +326,8 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument(
         "--quick",
         action="store_true",
-        help=f"small version in about a minute and a half: {QUICK['seeds']} seeds, {QUICK['episodes']} episodes "
+        help="small version in about a minute and a half: "
+        f"{QUICK['seeds']} seeds, {QUICK['episodes']} episodes "
         f"of at most {QUICK['max_steps']} steps, {QUICK['test_episodes']} test episodes",
     )
     p.add_argument(
@@ -337,44 +351,34 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument(
         "--resume",
         action="store_true",
-        help="continue an interrupted reproduction in --out: reuse finished trainings, resume the rest",
+        help="continue an interrupted reproduction in --out: reuse finished trainings, "
+        "resume the rest",
     )
     p.add_argument("--quiet", action="store_true", help="no progress output")
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = _parser()
     args = p.parse_args(argv)
     q = QUICK if args.quick else {}
     seeds = args.seeds if args.seeds is not None else q.get("seeds", DEFAULT_SEEDS)
     episodes = args.episodes if args.episodes is not None else q.get("episodes")
     max_steps = args.max_steps if args.max_steps is not None else q.get("max_steps")
     test_episodes = args.test_episodes if args.test_episodes is not None else q.get("test_episodes")
-    if args.resume and not args.out:
-        print("jaxnav.reproduce: error: --resume needs --out DIR", file=sys.stderr)
-        return 2
     out = (
         Path(args.out) if args.out else Path("runs") / f"reproduce-{time.strftime('%Y%m%d-%H%M%S')}"
     )
     command = "python -m jaxnav.reproduce " + " ".join(argv if argv is not None else sys.argv[1:])
-    try:
-        report = reproduce(
-            out,
-            seeds,
-            episodes,
-            max_steps,
-            test_episodes,
-            args.quick,
-            args.resume,
-            args.quiet,
-            command.strip(),
-        )
-    except (ReproduceError, ConfigError, MazeError, RunError, EvalError, plots.PlotError) as e:
-        print(f"jaxnav.reproduce: error: {e}", file=sys.stderr)
-        return 2
-    except KeyboardInterrupt:
-        print(
-            f"\njaxnav.reproduce: interrupted; continue with --resume --out {out}", file=sys.stderr
-        )
-        return 130
-    print(f"report: {report}")
-    return 0
+
+    def work() -> None:
+        if args.resume and not args.out:
+            raise JaxnavError("--resume needs --out DIR")
+        sizes = (seeds, episodes, max_steps, test_episodes)
+        report = reproduce(out, *sizes, args.quick, args.resume, args.quiet, command.strip())
+        print(f"report: {report}")
+
+    return cli.run(p.prog, work, interrupted=f"interrupted; continue with --resume --out {out}")
 
 
 if __name__ == "__main__":

@@ -17,7 +17,8 @@ Intervals of fewer than two samples are undefined and come back as NaN.
 
 from __future__ import annotations
 
-from typing import NamedTuple, Sequence
+from collections.abc import Sequence
+from typing import NamedTuple
 
 import numpy as np
 from scipy import stats as _st

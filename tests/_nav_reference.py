@@ -1,9 +1,12 @@
 """Independent float64 NumPy geometry for the tests (no jaxnav internals).
 
-Formulas here are deliberately different from the ones in ``jaxnav.env`` (line
+Formulas here are deliberately different from the ones in ``jaxnav.geometry`` (line
 equations instead of cross-product Cramer solves, perpendicular-foot circle
-intersection, dense sampling of the arc instead of closed-form arc distances), so
-an agreement means something.
+intersection, dense sampling of the arc instead of closed-form arc distances, the
+integral of the velocity instead of the chord formula), so an agreement means
+something. Each primitive of ``jaxnav.geometry`` has its counterpart here
+(``ray_wall``, ``ray_cylinder``, ``point_wall``, ``displacement``, ``arc_wall_distance``,
+``arc_cylinder_distance``, ``wrap``).
 """
 
 from __future__ import annotations
@@ -69,6 +72,20 @@ def ray_distances(
     return best
 
 
+def ray_wall(origin, angles, wall) -> np.ndarray:
+    """Distance along rays from ``origin`` (2,) at ``angles`` (B,) to one wall (4,) -> (B,)."""
+    origin, angles = np.asarray(origin, np.float64), np.asarray(angles, np.float64)
+    walls = np.asarray(wall, np.float64)[None]
+    return ray_distances(origin[None], angles[None], walls, np.zeros((0, 3)))[0]
+
+
+def ray_cylinder(origin, angles, circle) -> np.ndarray:
+    """Distance along rays from ``origin`` (2,) at ``angles`` (B,) to one circle (3,) -> (B,)."""
+    origin, angles = np.asarray(origin, np.float64), np.asarray(angles, np.float64)
+    circles = np.asarray(circle, np.float64)[None]
+    return ray_distances(origin[None], angles[None], np.zeros((0, 4)), circles)[0]
+
+
 def lidar(pos, yaw, walls, circles, n_beams) -> np.ndarray:
     """Clipped scan (P, n_beams); beam k at yaw + 2 pi k / n (counter-clockwise)."""
     yaw = np.asarray(yaw, np.float64)
@@ -90,6 +107,12 @@ def point_wall_distance(pts: np.ndarray, walls: np.ndarray) -> np.ndarray:
     ab = b - a
     u = np.clip(np.sum((p - a) * ab, -1) / np.sum(ab * ab, -1), 0.0, 1.0)
     return np.linalg.norm(p - (a + u[..., None] * ab), axis=-1).min(axis=1)
+
+
+def point_wall(p, wall) -> float:
+    """Distance from the point p (2,) to one wall (4,)."""
+    pts = np.asarray(p, np.float64)[None]
+    return float(point_wall_distance(pts, np.asarray(wall, np.float64)[None])[0])
 
 
 def clearance(pts: np.ndarray, walls: np.ndarray, circles: np.ndarray) -> np.ndarray:
@@ -155,6 +178,17 @@ def unicycle(pos, yaw, omega, s, v=V):
     return np.stack([x, y], axis=-1), yaw + omega * s
 
 
+def displacement(yaw, omega, v, dt, n: int = 64) -> np.ndarray:
+    """Unicycle displacement (2,) over time dt: the integral of the velocity
+    v (cos, sin)(yaw + omega s) for s in [0, dt], by n-point Gauss-Legendre quadrature
+    (exact to float64 rounding for the smooth integrand of a turn below 2 pi)."""
+    nodes, weights = np.polynomial.legendre.leggauss(n)
+    s = 0.5 * dt * (nodes + 1.0)
+    heading = float(yaw) + float(omega) * s
+    w = 0.5 * dt * weights * float(v)
+    return np.array([np.sum(w * np.cos(heading)), np.sum(w * np.sin(heading))])
+
+
 def path_min_clearance(pos, yaw, omega, walls, circles, n: int = 400) -> float:
     """Min clearance of the robot centre over ``n`` points of one step's true arc."""
     s = np.linspace(0.0, DT, n)
@@ -200,3 +234,21 @@ def swept_distance_batch(pos, yaw, omega, v, dt, walls, circles, n: int = 4000) 
         np.asarray(v)[:, None],
     )
     return clearance(pts.reshape(-1, 2), walls, circles).reshape(len(pos), n).min(axis=1)
+
+
+def arc_wall_distance(pos, yaw, omega, v, dt, wall, n: int = 4000) -> float:
+    """Smallest distance from n samples of one step's path to one wall (4,)."""
+    walls = np.asarray(wall, np.float64)[None]
+    return float(_swept_one(pos, yaw, omega, v, dt, walls, np.zeros((0, 3)), n))
+
+
+def arc_cylinder_distance(pos, yaw, omega, v, dt, circle, n: int = 4000) -> float:
+    """Smallest distance from n samples of one step's path to one circle's edge (3,),
+    negative inside it."""
+    circles = np.asarray(circle, np.float64)[None]
+    return float(_swept_one(pos, yaw, omega, v, dt, np.zeros((0, 4)), circles, n))
+
+
+def _swept_one(pos, yaw, omega, v, dt, walls, circles, n):
+    args = (np.asarray(x, np.float64)[None] for x in (pos, yaw, omega, v, dt))
+    return swept_distance_batch(*args, walls, circles, n=n)[0]

@@ -8,7 +8,7 @@ evaluation of it shares one compiled rollout: compiling dominates these tests.
 from __future__ import annotations
 
 from jaxnav.reproduce import experiment_config
-from jaxnav.train import train_from_config
+from jaxnav.training import train_new
 
 REPRODUCE_TINY = [
     "--quick",
@@ -37,6 +37,6 @@ def tiny_run(tmp_path_factory):
     if "run" not in _RUNS:
         cfg = tiny_config()
         out = tmp_path_factory.mktemp("tiny") / "paper_no_obstacles"
-        train_from_config(cfg, out, quiet=True)
+        train_new(cfg, out, quiet=True)
         _RUNS["run"] = (cfg, out)
     return _RUNS["run"]

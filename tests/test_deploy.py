@@ -16,13 +16,16 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from jaxnav import deploy
+from jaxnav import deploy, export
 from jaxnav.config import dump_config, load_config
 from jaxnav.deploy import Policy, nearest_rays
-from jaxnav.dqn import QNetwork, make_env
-from jaxnav.env import beam_angles, beam_directions, ray_distances_dir
+from jaxnav.dqn import QNetwork
+from jaxnav.env import from_config
+from jaxnav.geometry import ray_distances_dir
 from jaxnav.maps import ROBOT_RADIUS, clearance
-from jaxnav.train import atomic_write_text, load_params, save_params
+from jaxnav.rundir import atomic_write_bytes, atomic_write_text, load_params, npz_bytes
+from jaxnav.sensor import beam_angles, beam_directions
+from jaxnav.training import params_arrays
 
 ROOT = Path(__file__).resolve().parent.parent
 N_STATES = 150
@@ -36,14 +39,14 @@ def _fake_run(root: Path, maze: str) -> Path:
     not needed; the weights are scaled up so the greedy action varies with the input.
     """
     cfg = load_config(None, ["seeds=1", "strategies=[ebe]", f"env.maze={maze}"])
-    env, _ = make_env(cfg)
+    env, _ = from_config(cfg)
     net = QNetwork(env.num_actions, cfg.dqn.hidden, cfg.dqn.dropout)
     params = net.init(jax.random.key(7), jnp.zeros(env.obs_size))
     params = jax.tree.map(lambda x: x[None], params)  # leading axis: one run
     out = root / maze
     out.mkdir()
     atomic_write_text(out / "config.yaml", dump_config(cfg))
-    save_params(out / "params.npz", cfg, params)
+    atomic_write_bytes(out / "params.npz", npz_bytes(params_arrays(cfg, params)))
     return out
 
 
@@ -58,10 +61,10 @@ class Setup:
 
     def __init__(self, run: Path):
         self.cfg = load_config(str(run / "config.yaml"))
-        self.env, self.params = make_env(self.cfg)
+        self.env, self.params = from_config(self.cfg)
         self.net = QNetwork(self.env.num_actions, self.cfg.dqn.hidden, self.cfg.dqn.dropout)
         self.net_params = load_params(run / "params.npz", "ebe", 0)
-        self.policy = Policy.from_arrays(deploy.export_policy(run, "ebe", 0))
+        self.policy = Policy.from_arrays(export.export_policy(run, "ebe", 0))
 
     def flax_q(self, obs):
         return np.asarray(self.net.apply(self.net_params, jnp.asarray(obs)))
@@ -128,10 +131,12 @@ def _compare(setup, maze, angle_min, increment, n_rays, seed):
     params = setup.params.replace(maze=maze)
     want = _env_obs(setup.env, params, pos, yaw, goal)
     scans = _scans(maze, pos, yaw, angle_min, increment, n_rays)
-    got = np.stack([
-        setup.policy.observe(s, angle_min, increment, (p[0], p[1], y), g)
-        for s, p, y, g in zip(scans, pos, yaw, goal)
-    ])
+    got = np.stack(
+        [
+            setup.policy.observe(s, angle_min, increment, (p[0], p[1], y), g)
+            for s, p, y, g in zip(scans, pos, yaw, goal)
+        ]
+    )
     nb = setup.env.n_beams
     heading_err = np.abs((got[:, nb] - want[:, nb] + math.pi) % (2 * math.pi) - math.pi)
     assert heading_err.max() < 1e-5
@@ -292,17 +297,29 @@ def test_yaw_from_an_odometry_quaternion():
 
 def test_export_writes_a_file_that_policy_load_reads(runs, tmp_path):
     out = tmp_path / "policy.npz"
-    assert deploy.main(["export", str(runs["square4_obstacles"]), "--strategy", "ebe",
-                        "--seed", "0", "--out", str(out)]) == 0
+    assert (
+        export.main(
+            [str(runs["square4_obstacles"]), "--strategy", "ebe", "--seed", "0", "--out", str(out)]
+        )
+        == 0
+    )
     with np.load(out, allow_pickle=False) as data:  # plain arrays only, no pickle
         arrays = {k: data[k] for k in data.files}
     assert all(a.dtype != object for a in arrays.values())
     policy = Policy.load(out)
     meta = policy.meta
     assert (meta["strategy"], meta["seed"], meta["maze"], meta["preset"]) == (
-        "ebe", 0, "square4_obstacles", "paper")
+        "ebe",
+        0,
+        "square4_obstacles",
+        "paper",
+    )
     assert (policy.n_beams, policy.obstacle_obs, policy.min_range, policy.max_range) == (
-        24, True, 0.12, 3.5)
+        24,
+        True,
+        0.12,
+        3.5,
+    )
     assert policy.omegas.tolist() == [-1.5, -0.75, 0.0, 0.75, 1.5]
     assert policy.linear_velocity == 0.15 and policy.obs_size == 28
     assert arrays["maze/obstacles"].shape == (4, 3) and arrays["maze/walls"].shape == (4, 4)
@@ -329,16 +346,19 @@ def test_export_with_bad_input_fails_with_exit_2_and_one_line(runs, tmp_path, ca
         (tmp_path / "config.yaml").write_text((run / "config.yaml").read_text())
     if case != "out_dir":
         argv += ["--out", str(out)]
-    assert deploy.main(["export"] + argv) == 2
+    assert export.main(argv) == 2
     err = capsys.readouterr().err
-    assert err.count("\n") == 1 and err.startswith("jaxnav.deploy: error: ")
+    assert err.count("\n") == 1 and err.startswith("jaxnav.export: error: ")
     assert out.read_bytes() == b"old"  # the old file is untouched
 
 
 def test_command_line_error_is_one_line_without_traceback(tmp_path):
     r = subprocess.run(
-        [sys.executable, "-m", "jaxnav.deploy", "export", str(tmp_path / "missing")],
-        capture_output=True, text=True, cwd=tmp_path, timeout=120,
+        [sys.executable, "-m", "jaxnav.export", str(tmp_path / "missing")],
+        capture_output=True,
+        text=True,
+        cwd=tmp_path,
+        timeout=120,
     )
     assert r.returncode == 2
     assert r.stderr.count("\n") == 1 and "Traceback" not in r.stderr
@@ -348,7 +368,7 @@ def test_command_line_error_is_one_line_without_traceback(tmp_path):
 def test_policy_inference_needs_only_numpy(runs, tmp_path):
     """deploy.py copied alone onto a robot without JAX loads a policy and acts."""
     out = tmp_path / "p.npz"
-    deploy.save_policy(deploy.export_policy(runs["square4"]), out)
+    export.save_policy(export.export_policy(runs["square4"]), out)
     code = (
         "import importlib.util, math, sys\n"
         "sys.modules['jax'] = None  # any 'import jax' now fails\n"
@@ -375,8 +395,8 @@ def test_load_rejects_a_file_that_is_not_a_policy(tmp_path):
 
 def test_info_prints_the_metadata(runs, tmp_path, capsys):
     out = tmp_path / "p.npz"
-    deploy.save_policy(deploy.export_policy(runs["square4"]), out)
-    assert deploy.main(["info", str(out)]) == 0
+    export.save_policy(export.export_policy(runs["square4"]), out)
+    assert export.main(["--info", str(out)]) == 0
     text = capsys.readouterr().out
     assert "n_beams: 24" in text and "strategy: ebe" in text
     assert json.loads(str(np.load(out)["meta"]))["format"] == "jaxnav-policy"

@@ -7,22 +7,25 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from jaxnav.config import load_config
+from jaxnav.config import STRATEGIES, ExplorationConfig, load_config
 from jaxnav.dqn import (
+    EXPLORATION,
     QNetwork,
-    buffer_add,
-    buffer_init,
-    buffer_sample,
+    dropout16,
     ebe,
     epsilon_greedy,
     epsilon_schedule,
+    exploration_probability,
+    explore_or_greedy,
+    make_train,
     make_trainer,
     normalised_entropy,
     run_keys,
+    run_limits,
+    still_training,
     td_loss,
     td_target,
 )
-
 
 # -- TD target and loss -------------------------------------------------------
 
@@ -97,52 +100,20 @@ def test_epsilon_greedy_rate_and_schedule():
     assert float(got[0]) == 1.0 and float(got[-1]) == pytest.approx(0.05)
 
 
-# -- Replay buffer ------------------------------------------------------------
-
-
-def _fill(buf, n, trunc_at=(), term_at=()):
-    for i in range(n):
-        obs = jnp.full(2, float(i))
-        nxt = jnp.full(2, 1000.0 + i)  # the observation before any reset
-        buf = buffer_add(buf, obs, jnp.int32(i % 5), jnp.float32(i), i in term_at, i in trunc_at, nxt)
-    return buf
-
-
-def test_buffer_wraps_around_and_samples_only_filled_slots():
-    buf = _fill(buffer_init(5, 2, max_steps=2), 3)
-    assert int(buf.size) == 3 and int(buf.pos) == 3
-    batch = buffer_sample(buf, jax.random.PRNGKey(0), 512)
-    assert set(np.asarray(batch.reward).tolist()) == {0.0, 1.0, 2.0}
-    buf = _fill(buffer_init(5, 2, max_steps=2), 7)
-    assert int(buf.size) == 5 and int(buf.pos) == 2
-    # slots 0, 1 were overwritten by transitions 5, 6
-    np.testing.assert_array_equal(buf.reward, [5.0, 6.0, 2.0, 3.0, 4.0])
-    batch = buffer_sample(buf, jax.random.PRNGKey(0), 512)
-    assert set(np.asarray(batch.reward).tolist()) == {2.0, 3.0, 4.0, 5.0, 6.0}
-
-
-def test_buffer_next_obs_is_following_slot_tail_or_final_obs():
-    # transitions 0..5; 2 truncated, 4 terminated; obs of step i is i
-    buf = _fill(buffer_init(8, 2, max_steps=2), 6, trunc_at={2}, term_at={4})
-    batch = buffer_sample(buf, jax.random.PRNGKey(3), 1024)
-    r = np.asarray(batch.reward).astype(int)
-    nxt = np.asarray(batch.next_obs)[:, 0]
-    for i, n in zip(r, nxt):
-        if i == 2:
-            assert n == 1002.0  # the pre-reset observation kept for bootstrapping
-        elif i == 5:
-            assert n == 1005.0  # newest slot: the tail
-        else:
-            assert n == i + 1  # the next slot's observation
-    np.testing.assert_array_equal(np.asarray(batch.obs)[:, 0], r)
-    np.testing.assert_array_equal(np.asarray(batch.terminated), r == 4)
-
-
-def test_buffer_inactive_add_changes_nothing():
-    buf = _fill(buffer_init(4, 2, max_steps=2), 2)
-    same = buffer_add(buf, jnp.ones(2), jnp.int32(1), jnp.float32(9.0), False, True, jnp.ones(2), False)
-    for a, b in zip(jax.tree.leaves(buf), jax.tree.leaves(same)):
-        np.testing.assert_array_equal(a, b)
+def test_strategy_table_gives_each_strategy_its_tested_probability():
+    assert tuple(EXPLORATION) == STRATEGIES  # a run's strategy index picks its entry
+    x = ExplorationConfig(ebe_temperature=2.0, eps_start=0.8, eps_decay=0.9, eps_min=0.1)
+    q = jnp.array([0.0, 0.5, 1.5, 0.2, -0.3])
+    episode = jnp.int32(7)
+    want = {
+        "ebe": normalised_entropy(q, 2.0),
+        "epsilon_greedy": epsilon_schedule(episode, 0.8, 0.9, 0.1),
+    }
+    for i, name in enumerate(STRATEGIES):
+        assert float(exploration_probability(jnp.int32(i), q, episode, x)) == float(want[name])
+    # vmapped over one strategy index per run, as in the trainer
+    both = jax.vmap(lambda s: exploration_probability(s, q, episode, x))(jnp.arange(2))
+    np.testing.assert_array_equal(both, [want[name] for name in STRATEGIES])
 
 
 # -- Network ------------------------------------------------------------------
@@ -206,7 +177,9 @@ def test_learning_starts_after_enough_transitions():
     ts = ts0
     for n in range(1, 6):
         ts, _ = step(ts, None)
-        changed = not np.array_equal(ts.params["params"]["Dense_0"]["kernel"], ts0.params["params"]["Dense_0"]["kernel"])
+        changed = not np.array_equal(
+            ts.params["params"]["Dense_0"]["kernel"], ts0.params["params"]["Dense_0"]["kernel"]
+        )
         assert changed == (n >= 4), n
 
 
@@ -222,8 +195,6 @@ def test_seeds_differ_and_strategies_share_the_seed_init():
 
 
 def test_dropout16_drops_the_rate_and_rescales_the_rest():
-    from jaxnav.dqn import dropout16
-
     x = jnp.ones((64, 64 * 64 + 1))  # odd size: the last 32-bit draw is half used
     y = np.asarray(jax.jit(dropout16, static_argnums=2)(jax.random.PRNGKey(0), x, 0.2))
     dropped = y == 0.0
@@ -233,3 +204,56 @@ def test_dropout16_drops_the_rate_and_rescales_the_rest():
     assert not np.array_equal(dropped[:, 0::2], dropped[:, 1::2])
     y2 = np.asarray(dropout16(jax.random.PRNGKey(1), x, 0.2))
     assert not np.array_equal(y, y2)
+
+
+@pytest.mark.parametrize("strategy", STRATEGIES)
+def test_trainer_acts_with_the_tested_exploration_functions(strategy):
+    cfg = _tiny()
+    tr = make_trainer(cfg)
+    keys, _ = run_keys(cfg)
+    ts = tr.init(keys[0], STRATEGIES.index(strategy))
+    ts = ts.replace(episode=jnp.int32(2))  # eps below eps_start
+    new, explore = jax.jit(tr.step)(ts, None)
+    # The trainer's own key for acting, and its network's Q-values at the observation.
+    _, k_act, _, _, _ = jax.random.split(ts.key, 5)
+    q = tr.network.apply(ts.params, ts.obs)
+    x = cfg.exploration
+    if strategy == "ebe":
+        action, prob = ebe(k_act, q, x.ebe_temperature)
+    else:
+        eps = epsilon_schedule(ts.episode, x.eps_start, x.eps_decay, x.eps_min)
+        action, prob = epsilon_greedy(k_act, q, eps)
+    assert float(explore) == pytest.approx(float(prob), rel=1e-6)
+    assert int(new.buffer.action[0]) == int(action)
+    # One draw serves both strategies: the same coin and random action for either.
+    np.testing.assert_array_equal(action, explore_or_greedy(k_act, q, prob))
+
+
+def test_still_training_is_one_rule_for_numpy_and_jax():
+    episode, step = np.array([0, 2, 3, 1]), np.array([5, 5, 5, 10])
+    want = [True, True, False, False]  # limits: 3 episodes, 10 steps
+    np.testing.assert_array_equal(still_training(episode, step, 3, 10), want)
+    got = still_training(jnp.asarray(episode), jnp.asarray(step), 3, 10)
+    np.testing.assert_array_equal(got, want)
+    never = int(jnp.iinfo(jnp.int32).max)
+    assert run_limits(_tiny()) == (3, never)
+    assert run_limits(_tiny("episodes=null", "total_steps=100")) == (never, 100)
+    tr = make_trainer(_tiny())
+    keys, strat = run_keys(tr.config)
+    ts = tr.init(keys[0], strat[0]).replace(episode=jnp.int32(3))
+    assert not bool(tr.active(ts))
+
+
+def test_make_train_gives_the_state_of_repeated_chunks():
+    cfg = _tiny("seeds=1", "episodes=2", "env.max_steps=20", "run.chunk_steps=16")
+    tr = make_trainer(cfg)
+    keys, strat = run_keys(cfg)
+    final = jax.jit(jax.vmap(make_train(cfg)))(keys, strat)
+    ts = jax.jit(jax.vmap(tr.init))(keys, strat)
+    chunk, chunks = jax.jit(jax.vmap(tr.chunk)), 0
+    while np.asarray(jax.vmap(tr.active)(ts)).any():
+        ts, _ = chunk(ts)
+        chunks += 1
+    assert chunks >= 2 and np.all(np.asarray(final.episode) == 2)
+    for a, b in zip(jax.tree.leaves(final), jax.tree.leaves(ts), strict=True):
+        np.testing.assert_array_equal(a, b)

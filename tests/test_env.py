@@ -16,16 +16,10 @@ from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
 import jaxnav
-from jaxnav.env import (
-    EnvParams,
-    EnvState,
-    NavEnv,
-    path_clearance,
-    psi,
-    reward_fn,
-    wrap_angle,
-)
+from jaxnav.config import build_config
+from jaxnav.env import EnvParams, EnvState, NavEnv, from_config
 from jaxnav.maps import BUILTIN_MAZES, GOAL_CLEARANCE, make_maze, stack_mazes
+from jaxnav.reward import psi, reward_fn
 
 CORRIDOR = str(Path(__file__).resolve().parents[1] / "configs" / "mazes" / "corridor.yaml")
 NAMES = (*BUILTIN_MAZES, "corridor")
@@ -47,7 +41,7 @@ ENV = NavEnv(obstacle_obs=True)
 N_BATCH = 1000
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def jitted(env: NavEnv):
     """Compiled reset/step/step_env for one env (static shapes), and vmapped ones."""
     return dict(
@@ -67,7 +61,7 @@ def make(name: str, preset: str = "paper", **kw):
     return env, params
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _template() -> EnvState:
     """A real state from reset; tests replace the fields they set (so new fields keep
     their reset values)."""
@@ -146,21 +140,6 @@ def test_yaw_and_heading_stay_wrapped(yaw, action):
     obs, s, *_ = step_env(KEY, state_at((0.3, -0.2), yaw, goal=(-1.0, 0.7)), action, params)
     assert -PI32 <= float(s.yaw) < PI32
     assert -PI32 <= float(obs[ENV.n_beams]) < PI32  # heading to the goal
-
-
-def test_wrap_angle_at_the_float32_boundaries():
-    xs = []
-    for c in (-5, -3, -1, 1, 3, 5):
-        x = np.float32(c * np.pi)
-        lo = hi = x
-        xs.append(x)
-        for _ in range(64):
-            lo = np.nextafter(lo, np.float32(-np.inf))
-            hi = np.nextafter(hi, np.float32(np.inf))
-            xs += [lo, hi]
-    w = np.asarray(wrap_angle(jnp.asarray(np.array(xs, np.float32))))
-    assert (w >= -PI32).all() and (w < PI32).all()
-    np.testing.assert_allclose(np.cos(w), np.cos(np.array(xs, np.float64)), atol=1e-5)
 
 
 # ----------------------------------------------------------------------------
@@ -255,40 +234,6 @@ def test_collision_flag_matches_dense_arc_sampling(name):
     assert 0.05 < collided.mean() < 0.95  # both outcomes exercised
     end = np.asarray(s.pos, np.float64)[~collided]  # no reset there (t = 1)
     assert ref.in_free_space(end, walls, circles, ref.ROBOT_R - BAND).all()
-
-
-@pytest.mark.parametrize("name", NAMES)
-def test_path_clearance_is_the_exact_swept_distance(name):
-    """path_clearance against 2000 samples of the arc, on long arcs (up to 1 m and
-    170 degrees) so that every case of the closed form comes up: a wall's foot point
-    mid-arc, a wall's end vertex nearest, the arc crossing a wall, cylinders."""
-    rng = np.random.default_rng(11)
-    walls, circles = ref.maze_geometry(MAZES[name])
-    n = 250
-    pos = f32(ref.sample_free(rng, MAZES[name], n, 0.0))
-    yaw = f32(rng.uniform(-np.pi, np.pi, n))
-    dt = f32(rng.uniform(0.2, 2.0, n))
-    omega = f32(rng.uniform(-1.0, 1.0, n) * 2.95 / dt)
-    omega[: n // 10] = 0.0  # straight segments too
-    v = f32(rng.uniform(0.05, 0.5, n))
-    got = np.asarray(swept(padded(name), pos, yaw, omega, v, dt))
-    want = ref.swept_distance_batch(pos, yaw, omega, v, dt, walls, circles, n=2000)
-    # Sampling overestimates by at most half a sample spacing (<= 2.5e-4 m here).
-    step = v * dt / 2000
-    err = got - want
-    assert (err <= 2e-5).all(), f"{name}: path_clearance above the sampled minimum by {err.max()}"
-    assert (err >= -(step / 2 + 2e-5)).all(), f"{name}: path_clearance too small by {-err.min()}"
-    assert (want < 0.13).mean() > 0.1 and (want > 0.13).mean() > 0.1
-
-
-@functools.lru_cache(maxsize=None)
-def _swept_fn():
-    return jax.jit(jax.vmap(path_clearance, in_axes=(None, 0, 0, 0, 0, 0)))
-
-
-def swept(maze, pos, yaw, omega, v, dt):
-    to = functools.partial(jnp.asarray, dtype=jnp.float32)
-    return _swept_fn()(maze, to(pos), to(yaw), to(omega), to(v), to(dt))
 
 
 @pytest.mark.parametrize("name", ["square2", "triangle", "square4_obstacles", "corridor"])
@@ -678,3 +623,50 @@ def test_make_rejects_an_unknown_keyword_by_name():
         jaxnav.make("square4", lidar_beams=360)
     with pytest.raises(ValueError, match="nonsense"):
         jaxnav.make("square4", preset="nonsense")
+
+
+def test_make_takes_the_reward_constants_from_the_one_preset_table():
+    from jaxnav.settings import PRESETS
+
+    for preset in PRESETS:
+        for maze in ("square4", "square4_obstacles"):
+            _, p = jaxnav.make(maze, preset)
+            want = PRESETS[preset].reward(maze == "square4_obstacles")
+            assert {k: getattr(p, k) for k in want} == want, (preset, maze)
+
+
+@pytest.mark.parametrize(
+    "setting, value, says",
+    [
+        ("n_beams", 0, "n_beams must be at least 1"),
+        ("goal_candidates", 0, "goal_candidates must be at least 1"),
+        ("beam_dropout", 1.0, "beam_dropout must be in [0, 1)"),
+        ("odom_noise", (0.1, -0.1), "odom_noise must be [position std, yaw std]"),
+        ("odom_noise", (0.1,), "odom_noise must be [position std, yaw std]"),
+        ("maze_scale", (0.4, 1.0), "maze_scale must be [low, high] with 0.5 <= low"),
+    ],
+)
+def test_env_settings_are_checked_by_the_shared_rule(setting, value, says):
+    with pytest.raises(ValueError) as err:
+        NavEnv(**{setting: value})
+    assert str(err.value).startswith(says)
+
+
+def test_from_config_builds_what_make_builds():
+    cfg = build_config(
+        {
+            "preset": "robotis",
+            "env.maze": "square4_obstacles",
+            "env.n_beams": 36,
+            "env.beam_dropout": 0.1,
+            "env.R_plus": 300.0,
+        }
+    )
+    env, params = from_config(cfg)
+    want_env, want_params = jaxnav.make(
+        "square4_obstacles", "robotis", n_beams=36, beam_dropout=0.1, R_plus=300.0
+    )
+    assert env == want_env and env.obstacle_obs
+    for got, want in zip(jax.tree.leaves(params), jax.tree.leaves(want_params)):
+        np.testing.assert_array_equal(np.asarray(got), np.asarray(want))
+    assert params.R_plus == 300.0 and params.R_minus == -150.0  # robotis stage 2

@@ -9,20 +9,14 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
-
 from _tiny_run import tiny_run
+
 from jaxnav import stats
-from jaxnav.evaluate import (
-    RESULT_COLUMNS,
-    eval_keys,
-    evaluate,
-    evaluate_to_dir,
-    load_run,
-    main,
-    padded_mazes,
-    run_tests,
-    tables_markdown,
-)
+from jaxnav.evaluate import main
+from jaxnav.evaluation import evaluate, evaluate_to_dir, load_run
+from jaxnav.results import RESULT_COLUMNS
+from jaxnav.rollout import eval_keys, padded_mazes, run_tests
+from jaxnav.tables import tables_markdown
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -117,15 +111,15 @@ def test_rollout_plays_consecutive_greedy_episodes_like_a_step_loop(run):
     mazes = padded_mazes(cfg.run.test_mazes)  # as evaluate() does: no new compile
     m = list(cfg.run.test_mazes).index("square2")
     n_eps = cfg.run.test_episodes
-    res = run_tests(loaded, mazes, n_eps, record=True)[m]
+    res = run_tests(loaded.policies, mazes, n_eps, record=True)[m]
     maze = mazes[m]
-    params = jax.tree.map(lambda x: x[0], loaded.params)
-    env_params = loaded.env_params.replace(maze=maze)
-    step = jax.jit(loaded.env.step)
-    q_fn = jax.jit(loaded.network.apply)
+    params = jax.tree.map(lambda x: x[0], loaded.policies.params)
+    env_params = loaded.policies.env_params.replace(maze=maze)
+    step = jax.jit(loaded.policies.env.step)
+    q_fn = jax.jit(loaded.policies.network.apply)
 
-    k_reset, key = jax.random.split(eval_keys(loaded.labels[:1])[0])
-    obs, state = loaded.env.reset(k_reset, env_params)
+    k_reset, key = jax.random.split(eval_keys(loaded.policies.labels[:1])[0])
+    obs, state = loaded.policies.env.reset(k_reset, env_params)
     first_goal = np.asarray(state.goal)
     episodes, ret, goals, t = [], 0.0, 0, 0
     while len(episodes) < n_eps:
@@ -179,7 +173,7 @@ def test_evaluation_on_two_mazes_by_name_and_file(run, tmp_path):
     assert (
         "| pentagon | 4x4" not in tables and "| pentagon | Pentagon | 2794.04 ± 544.07 |" in tables
     )
-    assert load_run(out).env.obstacle_obs is False
+    assert load_run(out).policies.env.obstacle_obs is False
     assert not (out / "eval" / "cylinder").exists()
 
 

@@ -137,7 +137,9 @@ def test_restart_keeps_the_goal_and_new_goal_option_draws_one(noisy_env):
     noisy_env.reset()
     s = noisy_env.state
     np.testing.assert_array_equal(np.asarray(s.goal), goal)
-    np.testing.assert_array_equal(np.asarray(s.pos), np.asarray(noisy_env.jax_params.maze.start[:2]))
+    np.testing.assert_array_equal(
+        np.asarray(s.pos), np.asarray(noisy_env.jax_params.maze.start[:2])
+    )
     assert int(s.t) == 0
     goals = set()
     for _ in range(6):
@@ -174,4 +176,6 @@ def test_make_of_the_package_and_the_wrapper_agree():
     env, params = jaxnav.make("pentagon")
     w = NavGymEnv("pentagon")
     assert w.observation_space.shape == (env.obs_size,)
-    np.testing.assert_array_equal(w.observation_space.high, np.asarray(env.observation_space(params).high))
+    np.testing.assert_array_equal(
+        w.observation_space.high, np.asarray(env.observation_space(params).high)
+    )

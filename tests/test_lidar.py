@@ -17,8 +17,8 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from jaxnav.env import lidar_scan
 from jaxnav.maps import BUILTIN_MAZES, make_maze, stack_mazes
+from jaxnav.sensor import lidar_scan
 
 TOL = 1e-4  # m
 CORRIDOR = str(Path(__file__).resolve().parents[1] / "configs" / "mazes" / "corridor.yaml")
@@ -32,7 +32,7 @@ def mazes():
     real = [make_maze(CORRIDOR if name == "corridor" else name) for name in ALL_MAZES]
     stacked = stack_mazes(real)
     return {
-        name: Padded(jax.tree.map(lambda x: x[i], stacked), real[i])
+        name: Padded(jax.tree.map(lambda x, i=i: x[i], stacked), real[i])
         for i, name in enumerate(ALL_MAZES)
     }
 
@@ -50,7 +50,7 @@ class Padded:
         return self.real.obstacles()
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _scan_fn(n_beams):
     return jax.jit(jax.vmap(lambda m, p, y: lidar_scan(m, p, y, n_beams), in_axes=(None, 0, 0)))
 
@@ -220,7 +220,7 @@ def test_beam_tangent_to_a_cylinder(mazes):
         Y = np.array([c[1] for c in cases])
         got = scan_batch(maze, P, Y, n_beams)
         spreads = []
-        for (p, yaw, k, tangent_dist), row in zip(cases, got):
+        for (p, yaw, k, _tangent_dist), row in zip(cases, got):
             spreads.append(assert_grazing_ok(row[k], maze, p, yaw + 2 * math.pi * k / n_beams))
         # The setup really grazes: for visible tangents, a hair's turn changes the reading.
         assert np.mean(np.array(spreads) > 1e-3) > 0.5

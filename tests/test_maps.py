@@ -13,8 +13,10 @@ import numpy as np
 import pytest
 
 import jaxnav
-from jaxnav.env import lidar_scan, path_clearance
+import jaxnav.errors
+from jaxnav.geometry import path_clearance
 from jaxnav.maps import BUILTIN_MAZES, Maze, MazeError, load_maze_file, make_maze, stack_mazes
+from jaxnav.sensor import lidar_scan
 
 ROOT = Path(__file__).resolve().parents[1]
 CORRIDOR = ROOT / "configs" / "mazes" / "corridor.yaml"
@@ -95,7 +97,7 @@ def test_walls_and_obstacles_return_only_real_rows(builtin):
     stacked = stack_mazes([builtin[n] for n in BUILTIN_MAZES])
     assert stacked.segments.shape[1] == 5 and stacked.circles.shape[1] == 5
     for i, name in enumerate(BUILTIN_MAZES):
-        one = jax.tree.map(lambda x: x[i], stacked)
+        one = jax.tree.map(lambda x, i=i: x[i], stacked)
         np.testing.assert_array_equal(one.walls(), builtin[name].walls())
         np.testing.assert_array_equal(one.obstacles(), builtin[name].obstacles())
     # square4 stores one masked circle so reductions are never empty; it is not real.
@@ -249,3 +251,5 @@ def test_a_missing_file_or_unknown_name_is_one_line():
     assert "unknown maze 'sqaure4'" in str(err.value) and "square4" in str(err.value)
     assert "\n" not in str(err.value)
     assert issubclass(MazeError, ValueError)
+    assert MazeError is jaxnav.errors.MazeError  # the one error type, caught by every command
+    assert issubclass(MazeError, jaxnav.errors.JaxnavError)

@@ -5,11 +5,11 @@ import shutil
 from pathlib import Path
 
 import pytest
+from _tiny_run import REPRODUCE_TINY, tiny_run
 from PIL import Image
 
-from _tiny_run import REPRODUCE_TINY, tiny_run
 from jaxnav import plots, reproduce
-from jaxnav.evaluate import evaluate_to_dir
+from jaxnav.evaluation import evaluate_to_dir
 
 PNG = b"\x89PNG\r\n\x1a\n"
 
@@ -50,17 +50,17 @@ def test_plots_of_a_tiny_run_are_written_and_non_empty(run, capsys):
         assert im.n_frames > 5
 
 
-def test_trajectories_are_played_when_the_run_was_not_evaluated(run, tmp_path):
-    """Without eval/trajectories.npz the plots play the first test episode themselves."""
-    cfg, src = run
+def test_a_run_not_yet_evaluated_gets_its_training_figures_and_a_hint(run, tmp_path, capsys):
+    """The plots draw files; without eval/trajectories.npz they play nothing."""
+    _, src = run
     d = tmp_path / "run"
     d.mkdir()
     for name in ("config.yaml", "params.npz", "metrics.csv", "explore.csv"):
         shutil.copy(src / name, d / name)
     written = plots.make_plots(d)
-    assert written[-1].name == "episode.gif" and len(written) == 3 + len(cfg.run.test_mazes)
+    assert [p.name for p in written] == ["training_curves.png", "exploration.png"]
     assert not (d / "eval").exists()
-    _check_image(d / "plots" / "trajectory_square2.png", PNG)
+    assert f"python -m jaxnav.evaluate {d}" in capsys.readouterr().err
 
 
 def test_safe_name_of_a_maze_file():

@@ -1,13 +1,13 @@
 """Sensor and start-pose realism options of the environment (off in the paper)."""
 
 import jax
-import jax.numpy as jnp
 import numpy as np
 import pytest
 
 import jaxnav
-from jaxnav.env import lidar_scan, scale_maze
+from jaxnav.env import scale_maze
 from jaxnav.maps import clearance
+from jaxnav.sensor import lidar_scan
 
 
 def _rollout(env, params, key, n=200):
@@ -26,8 +26,13 @@ def _rollout(env, params, key, n=200):
 
 def test_options_off_change_nothing():
     env0, p0 = jaxnav.make("square4_obstacles")
-    env1, p1 = jaxnav.make("square4_obstacles", beam_dropout=0.0, odom_noise=(0.0, 0.0),
-                           random_start=False, maze_scale=(1.0, 1.0))
+    env1, p1 = jaxnav.make(
+        "square4_obstacles",
+        beam_dropout=0.0,
+        odom_noise=(0.0, 0.0),
+        random_start=False,
+        maze_scale=(1.0, 1.0),
+    )
     a = jax.jit(_rollout, static_argnums=(0, 3))(env0, p0, jax.random.PRNGKey(3))
     b = jax.jit(_rollout, static_argnums=(0, 3))(env1, p1, jax.random.PRNGKey(3))
     for x, y in zip(jax.tree.leaves(a), jax.tree.leaves(b)):
@@ -40,6 +45,20 @@ def test_beam_dropout_reads_max_range_at_the_given_rate():
     obs, _ = jax.vmap(env.reset, in_axes=(0, None))(keys, params)
     lost = np.asarray(obs[:, :24]) == params.max_range
     assert lost.mean() == pytest.approx(0.3, abs=0.01)
+
+
+def test_dropout_leaves_the_range_noise_of_the_kept_beams_unchanged():
+    # Dropout draws from its own key: the beams it keeps read what they read without it.
+    env0, p = jaxnav.make("square2", lidar_noise_std=0.01)  # every range < 3.5 here
+    env1, _ = jaxnav.make("square2", lidar_noise_std=0.01, beam_dropout=0.3)
+    keys = jax.random.split(jax.random.PRNGKey(7), 500)
+    o0, _ = jax.vmap(env0.reset, in_axes=(0, None))(keys, p)
+    o1, _ = jax.vmap(env1.reset, in_axes=(0, None))(keys, p)
+    r0, r1 = np.asarray(o0[:, :24]), np.asarray(o1[:, :24])
+    kept = r1 != p.max_range
+    assert kept.mean() == pytest.approx(0.7, abs=0.02)
+    np.testing.assert_array_equal(r1[kept], r0[kept])
+    np.testing.assert_array_equal(o1[:, 24:], o0[:, 24:])
 
 
 def test_odometry_noise_moves_heading_and_distance_not_ranges():
@@ -64,7 +83,9 @@ def test_random_start_is_free_and_varied():
     assert (clearance(pos, maze.walls(), maze.obstacles()) > 0.3).all()
     assert np.asarray(st.yaw).std() > 1.0
     # after a collision the next episode starts somewhere new, goal kept
-    _, (obs, states, done) = jax.jit(_rollout, static_argnums=(0, 3))(env, params, jax.random.PRNGKey(5), 400)
+    _, (obs, states, done) = jax.jit(_rollout, static_argnums=(0, 3))(
+        env, params, jax.random.PRNGKey(5), 400
+    )
     ends = np.flatnonzero(np.asarray(done))
     assert len(ends) >= 2
     starts = np.asarray(states.pos)[ends]
@@ -85,7 +106,9 @@ def test_maze_scale_scales_walls_goals_and_scan():
         goal = np.asarray(st.goal[i])
         assert (np.abs(goal) <= 1.85 * scale[i] - 0.35 * scale[i] + 1e-4).all()
     # a kept goal follows the maze into the next episode's scale
-    _, (o, states, done) = jax.jit(_rollout, static_argnums=(0, 3))(env, params, jax.random.PRNGKey(6), 400)
+    _, (o, states, done) = jax.jit(_rollout, static_argnums=(0, 3))(
+        env, params, jax.random.PRNGKey(6), 400
+    )
     ends = np.flatnonzero(np.asarray(done))
     assert len(ends) >= 1
     e = ends[0]

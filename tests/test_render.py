@@ -53,7 +53,11 @@ def test_bad_maze_file_is_one_line_on_stderr_with_exit_code_2(tmp_path, capsys):
     bad.write_text("outline: [[0, 0], [1, 0], [1, 1]]\n")
     assert main([str(bad), "--out", str(tmp_path / "x.png")]) == 2
     err = capsys.readouterr().err
-    assert err.count("\n") == 1 and err.startswith("error: maze file") and "not closed" in err
+    assert (
+        err.count("\n") == 1
+        and err.startswith("jaxnav.render: error: maze file")
+        and "not closed" in err
+    )
     assert not (tmp_path / "x.png").exists()
 
 
@@ -69,6 +73,8 @@ def test_unknown_maze_name_exits_2_without_a_traceback(tmp_path):
     )
     assert proc.returncode == 2
     lines = proc.stderr.strip().splitlines()
-    assert len(lines) == 1 and lines[0].startswith("error: unknown maze 'sqaure4'"), proc.stderr
+    assert len(lines) == 1 and lines[0].startswith(
+        "jaxnav.render: error: unknown maze 'sqaure4'"
+    ), proc.stderr
     assert "Traceback" not in proc.stderr
     assert np.all([not p.exists() for p in tmp_path.iterdir()])

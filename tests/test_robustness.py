@@ -6,20 +6,14 @@ import re
 
 import numpy as np
 import pytest
-
 from _tiny_run import tiny_run
-from jaxnav.evaluate import (
-    UNPERTURBED,
-    EvalError,
-    evaluate_to_dir,
-    load_run,
-    main,
-    perturb,
-    realism_settings,
-    robustness_markdown,
-    robustness_summary,
-    robustness_to_dir,
-)
+
+from jaxnav.errors import JaxnavError
+from jaxnav.evaluate import main
+from jaxnav.evaluation import evaluate_to_dir, load_run
+from jaxnav.results import UNPERTURBED, robustness_summary
+from jaxnav.robustness import perturb, realism_settings, robustness_to_dir
+from jaxnav.tables import robustness_markdown
 
 SWEEP = {UNPERTURBED: {}, "noisy": {"lidar_noise_std": 0.1}, "dropout": {"beam_dropout": 0.3}}
 
@@ -65,9 +59,15 @@ def test_robustness_table_is_recomputed_from_the_csv(swept):
     for r in rows:
         per_seed = {}
         for d in data:
-            if (d["perturbation"], d["maze"], d["strategy"]) == (r.perturbation, r.maze, r.strategy):
+            if (d["perturbation"], d["maze"], d["strategy"]) == (
+                r.perturbation,
+                r.maze,
+                r.strategy,
+            ):
                 per_seed.setdefault(d["seed"], []).append(float(d["return"]))
-        assert r.mean.value == pytest.approx(np.mean([np.mean(v) for v in per_seed.values()]), rel=1e-6)
+        assert r.mean.value == pytest.approx(
+            np.mean([np.mean(v) for v in per_seed.values()]), rel=1e-6
+        )
 
 
 def test_robustness_markdown_is_a_function_of_the_csv(swept, tmp_path_factory):
@@ -80,7 +80,7 @@ def test_robustness_markdown_is_a_function_of_the_csv(swept, tmp_path_factory):
     assert md == robustness_markdown(
         text,
         cfg.env.maze,
-        realism_settings(run.env, run.env_params),
+        realism_settings(run.policies.env, run.policies.env_params),
         SWEEP,
         title=f"Robustness of {run_dir.name} to sensor noise",
         figure="robustness.png",
@@ -117,23 +117,27 @@ def test_robustness_markdown_is_a_function_of_the_csv(swept, tmp_path_factory):
 def test_a_perturbation_must_keep_the_observation(tmp_path_factory):
     _, run_dir = tiny_run(tmp_path_factory)
     run = load_run(run_dir)
-    env, params = perturb(run.env, run.env_params, {"beam_dropout": 0.2, "lidar_noise_std": 0.05})
+    env, params = perturb(
+        run.policies.env, run.policies.env_params, {"beam_dropout": 0.2, "lidar_noise_std": 0.05}
+    )
     assert (env.beam_dropout, params.lidar_noise_std) == (0.2, 0.05)
-    assert run.env.beam_dropout == 0.0  # the training env is left as it was
+    assert run.policies.env.beam_dropout == 0.0  # the training env is left as it was
     for bad, message in (
         ({"n_beams": 12}, "observation size"),
         ({"wind": 1.0}, "unknown environment setting 'wind'"),
         ({"beam_dropout": 1.5}, "beam_dropout must be in [0, 1)"),
     ):
-        with pytest.raises(EvalError, match=re.escape(message)):
-            perturb(run.env, run.env_params, bad)
+        with pytest.raises(JaxnavError, match=re.escape(message)):
+            perturb(run.policies.env, run.policies.env_params, bad)
 
 
 @pytest.mark.parametrize(
     "extra, message",
     [(["--episodes", "0"], "at least 1"), (["--mazes", "nowhere"], "unknown maze 'nowhere'")],
 )
-def test_bad_robustness_input_is_one_line_and_exit_2(tmp_path_factory, tmp_path, capsys, extra, message):
+def test_bad_robustness_input_is_one_line_and_exit_2(
+    tmp_path_factory, tmp_path, capsys, extra, message
+):
     _, run_dir = tiny_run(tmp_path_factory)
     assert main([str(run_dir), "--robustness", "--out", str(tmp_path / "e"), *extra]) == 2
     err = capsys.readouterr().err.strip()

@@ -14,7 +14,7 @@ TINY = ["episodes=6", "env.max_steps=80", "run.chunk_steps=100", "dqn.batch_size
 _PROBE = """
 import sys, jax
 from jaxnav.config import load_config
-from jaxnav.train import Run
+from jaxnav.training import Run
 cfg = load_config(None, sys.argv[1:])
 run = Run(cfg, None, quiet=True)
 ts = run.fresh_state()
@@ -28,7 +28,16 @@ def _run(tmp_path, name, devices, seeds):
     if devices > 1:
         env["XLA_FLAGS"] = f"--xla_force_host_platform_device_count={devices}"
     out = tmp_path / name
-    cmd = [sys.executable, "-m", "jaxnav.train", f"seeds={seeds}", *TINY, "--out", str(out), "--quiet"]
+    cmd = [
+        sys.executable,
+        "-m",
+        "jaxnav.train",
+        f"seeds={seeds}",
+        *TINY,
+        "--out",
+        str(out),
+        "--quiet",
+    ]
     subprocess.run(cmd, check=True, cwd=ROOT, env=env, capture_output=True)
     return out
 
@@ -52,7 +61,10 @@ def test_sharded_run_matches_single_device_and_pads_odd_seed_counts(tmp_path):
     assert json.loads((four / "summary.json").read_text())["devices"] == 4
     probe = subprocess.run(
         [sys.executable, "-c", _PROBE, "seeds=3", *TINY],
-        check=True, cwd=ROOT, capture_output=True, text=True,
+        check=True,
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
         env=dict(os.environ, XLA_FLAGS="--xla_force_host_platform_device_count=4"),
     )
     n_dev, padded, spread, rows = map(int, probe.stdout.split())
@@ -76,14 +88,28 @@ def test_two_processes_write_one_run_directory_equal_to_one_process_with_two_dev
             JAX_PROCESS_ID=str(pid),
             XLA_FLAGS="--xla_force_host_platform_device_count=1",
         )
-        procs.append(subprocess.Popen(args + ["--out", str(tmp_path / "multi")], cwd=ROOT, env=env,
-                                      stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL))
+        procs.append(
+            subprocess.Popen(
+                args + ["--out", str(tmp_path / "multi")],
+                cwd=ROOT,
+                env=env,
+                stdout=subprocess.DEVNULL,
+                stderr=subprocess.DEVNULL,
+            )
+        )
     assert [p.wait(timeout=300) for p in procs] == [0, 0]
     summary = json.loads((tmp_path / "multi" / "summary.json").read_text())
     assert (summary["processes"], summary["devices"]) == (2, 2)
     single = tmp_path / "single"
-    subprocess.run(args + ["--out", str(single)], check=True, cwd=ROOT, capture_output=True,
-                   env=dict(os.environ, XLA_FLAGS="--xla_force_host_platform_device_count=2"))
-    assert (tmp_path / "multi" / "metrics.csv").read_bytes() == (single / "metrics.csv").read_bytes()
+    subprocess.run(
+        args + ["--out", str(single)],
+        check=True,
+        cwd=ROOT,
+        capture_output=True,
+        env=dict(os.environ, XLA_FLAGS="--xla_force_host_platform_device_count=2"),
+    )
+    assert (tmp_path / "multi" / "metrics.csv").read_bytes() == (
+        single / "metrics.csv"
+    ).read_bytes()
     a, b = np.load(tmp_path / "multi" / "params.npz"), np.load(single / "params.npz")
     assert all(np.array_equal(a[k], b[k]) for k in a.files)

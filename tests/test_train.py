@@ -1,7 +1,6 @@
 """The training command end to end: learning, determinism, resume, bad input."""
 
 import csv
-import os
 import signal
 import subprocess
 import sys
@@ -14,8 +13,10 @@ import numpy as np
 import pytest
 
 from jaxnav.config import load_config
-from jaxnav.dqn import make_env, make_train, run_keys
-from jaxnav.train import main, train_from_config
+from jaxnav.dqn import make_train, run_keys
+from jaxnav.env import from_config
+from jaxnav.train import main
+from jaxnav.training import train_new
 
 ROOT = Path(__file__).resolve().parent.parent
 TINY = ["seeds=2", "episodes=8", "env.max_steps=100", "run.chunk_steps=100", "dqn.batch_size=16"]
@@ -33,7 +34,7 @@ def _params(run_dir):
 
 def _random_policy_return(cfg, episodes=64):
     """Mean episode return of uniformly random actions in the config's environment."""
-    env, params = make_env(cfg)
+    env, params = from_config(cfg)
 
     def episode(key):
         k0, key = jax.random.split(key)
@@ -58,7 +59,7 @@ def _random_policy_return(cfg, episodes=64):
 def smoke_run(tmp_path_factory):
     cfg = load_config(str(ROOT / "configs" / "smoke.yaml"))
     out = tmp_path_factory.mktemp("smoke") / "run"
-    train_from_config(cfg, out, quiet=True)
+    train_new(cfg, out, quiet=True)
     return cfg, out
 
 
@@ -68,12 +69,24 @@ def test_smoke_run_writes_the_run_directory(smoke_run):
         assert (out / name).is_file(), name
     assert (out / "checkpoints" / "last.npz").is_file()
     rows = _metrics(out)
-    assert list(rows[0]) == ["strategy", "seed", "episode", "return", "length", "goals", "collided", "explore"]
+    assert list(rows[0]) == [
+        "strategy",
+        "seed",
+        "episode",
+        "return",
+        "length",
+        "goals",
+        "collided",
+        "explore",
+    ]
     assert len(rows) == cfg.n_runs * cfg.episodes
     assert {(r["strategy"], r["seed"]) for r in rows} == {
         (s, str(k)) for s in cfg.strategies for k in range(cfg.seeds)
     }
-    assert set(_params(out)) >= {f"ebe/seed1/params/Dense_2/kernel", "epsilon_greedy/seed0/params/Dense_0/bias"}
+    assert set(_params(out)) >= {
+        "ebe/seed1/params/Dense_2/kernel",
+        "epsilon_greedy/seed0/params/Dense_0/bias",
+    }
     assert load_config(str(out / "config.yaml")) == cfg  # the snapshot resolves to the same config
 
 
@@ -82,18 +95,24 @@ def test_smoke_run_beats_a_random_policy(smoke_run):
     rows = _metrics(out)
     random_return = _random_policy_return(cfg)
     for strategy in cfg.strategies:
-        last = [float(r["return"]) for r in rows if r["strategy"] == strategy and int(r["episode"]) >= cfg.episodes - 10]
+        last = [
+            float(r["return"])
+            for r in rows
+            if r["strategy"] == strategy and int(r["episode"]) >= cfg.episodes - 10
+        ]
         assert np.mean(last) > random_return + 100, (strategy, np.mean(last), random_return)
 
 
 def test_same_seed_same_numbers_and_seeds_differ(smoke_run, tmp_path):
     cfg, out = smoke_run
-    train_from_config(cfg, tmp_path / "again", quiet=True)
+    train_new(cfg, tmp_path / "again", quiet=True)
     assert (tmp_path / "again" / "metrics.csv").read_bytes() == (out / "metrics.csv").read_bytes()
     a, b = _params(out), _params(tmp_path / "again")
     assert all(np.array_equal(a[k], b[k]) for k in a)
     # vmapped seeds are really different runs
-    assert not np.array_equal(a["ebe/seed0/params/Dense_0/kernel"], a["ebe/seed1/params/Dense_0/kernel"])
+    assert not np.array_equal(
+        a["ebe/seed0/params/Dense_0/kernel"], a["ebe/seed1/params/Dense_0/kernel"]
+    )
     rows = _metrics(out)
     r0 = [r["return"] for r in rows if r["strategy"] == "ebe" and r["seed"] == "0"]
     r1 = [r["return"] for r in rows if r["strategy"] == "ebe" and r["seed"] == "1"]
@@ -102,7 +121,7 @@ def test_same_seed_same_numbers_and_seeds_differ(smoke_run, tmp_path):
 
 def test_compiled_train_function_matches_the_host_loop(tmp_path):
     cfg = load_config(None, TINY)
-    train_from_config(cfg, tmp_path / "run", quiet=True)
+    train_new(cfg, tmp_path / "run", quiet=True)
     final = jax.jit(jax.vmap(make_train(cfg)))(*run_keys(cfg))
     assert np.all(np.asarray(final.episode) == cfg.episodes)
     p = _params(tmp_path / "run")
@@ -123,7 +142,11 @@ def test_resume_after_sigkill_gives_identical_results(tmp_path):
     proc.send_signal(signal.SIGKILL)
     proc.wait()
     assert not (killed / "params.npz").exists(), "the run finished before it could be killed"
-    subprocess.run([sys.executable, "-m", "jaxnav.train", "--resume", str(killed), "--quiet"], check=True, cwd=ROOT)
+    subprocess.run(
+        [sys.executable, "-m", "jaxnav.train", "--resume", str(killed), "--quiet"],
+        check=True,
+        cwd=ROOT,
+    )
     assert (killed / "metrics.csv").read_bytes() == (ref / "metrics.csv").read_bytes()
     assert (killed / "explore.csv").read_bytes() == (ref / "explore.csv").read_bytes()
     a, b = _params(ref), _params(killed)

@@ -1,0 +1,182 @@
+"""Replay memory: a ring buffer of transitions that stores each observation once.
+
+A small bundle of pure functions over one pytree, in flashbax's shape:
+:func:`init` (checked by :func:`validate`), :func:`add`, :func:`sample`,
+:func:`can_sample` and :func:`nbytes`. Every function is traceable, so a run's buffer
+lives in the trainer's ``lax.scan`` carry and ``jax.vmap`` gives one buffer per run.
+
+Layout. Slot i holds (obs_i, action_i, reward_i, terminated_i, truncated_i). The next
+observation of slot i is the obs of slot i + 1, except for
+
+* the newest slot, whose next observation is ``tail`` (slot i + 1 is not written yet);
+* truncated slots: the environment auto-resets, so slot i + 1 holds the start of the
+  next episode, while truncation is not terminal and bootstraps from the observation
+  before the reset. That observation is kept in a small ring ``final_obs`` at row
+  ``final_index[i]``.
+
+After a collision (``terminated``) the next observation is never used.
+
+Truncation-ring invariant. ``final_obs`` has ``K = capacity // max_steps + 2`` rows;
+the j-th truncation stored writes row ``j % K`` and the slot remembers the row in
+``final_index``. Requirement: a row may be reused only once the slot that last wrote
+it has left the buffer. Why K rows are enough:
+
+* the environment truncates an episode only when it reaches exactly ``max_steps``
+  steps, so every truncated episode fills ``max_steps`` slots and two truncations are
+  at least ``max_steps`` adds apart;
+* so the ``capacity`` live slots hold at most ``ceil(capacity / max_steps) <=
+  capacity // max_steps + 1`` truncated slots, and one more row serves the slot being
+  written: ``K`` rows. Put the other way, two truncations that share a row are at
+  least ``K * max_steps > capacity`` adds apart, so the older slot has been
+  overwritten before its row is.
+
+What a smaller ring breaks: with fewer than ``ceil(capacity / max_steps)`` rows, runs
+of truncated episodes reuse the row of a truncated slot that is still in the buffer,
+and every later sample of that slot bootstraps from another episode's last
+observation: wrong TD targets, silently. ``K`` is also part of the checkpoint layout
+(the shape of ``final_obs``): changing it changes the checkpoint format.
+"""
+
+from __future__ import annotations
+
+import operator
+from typing import NamedTuple
+
+import chex
+import jax
+import jax.numpy as jnp
+from flax import struct
+
+
+@struct.dataclass
+class Buffer:
+    """One run's replay memory. Field names and order are the checkpoint layout."""
+
+    obs: chex.Array  # f32[N, D]
+    action: chex.Array  # u8[N]
+    reward: chex.Array  # f32[N]
+    terminated: chex.Array  # bool[N]
+    truncated: chex.Array  # bool[N]
+    final_index: chex.Array  # i32[N] row of final_obs for truncated slots
+    final_obs: chex.Array  # f32[K, D], K = capacity // max_steps + 2
+    tail: chex.Array  # f32[D] next observation of the newest slot
+    pos: chex.Array  # i32[] next slot to write
+    size: chex.Array  # i32[] filled slots
+    n_final: chex.Array  # i32[] truncations stored so far
+
+
+class Batch(NamedTuple):
+    """A sampled minibatch; ``next_obs`` is resolved (following slot, tail or final_obs)."""
+
+    obs: chex.Array  # f32[B, D]
+    action: chex.Array  # i32[B]
+    reward: chex.Array  # f32[B]
+    next_obs: chex.Array  # f32[B, D]
+    terminated: chex.Array  # bool[B]
+
+
+def validate(capacity: int, obs_dim: int, max_steps: int) -> None:
+    """Raise ``ValueError`` unless every size is a positive integer."""
+    for name, value in (("capacity", capacity), ("obs_dim", obs_dim), ("max_steps", max_steps)):
+        try:
+            n = operator.index(value)
+        except TypeError:
+            n = None
+        if n is None or isinstance(value, bool) or n < 1:
+            raise ValueError(f"replay buffer {name} must be a positive integer, got {value!r}")
+
+
+def final_rows(capacity: int, max_steps: int) -> int:
+    """Rows K of the truncation ring (see the module docstring for why K is enough)."""
+    return capacity // max_steps + 2
+
+
+def init(capacity: int, obs_dim: int, max_steps: int) -> Buffer:
+    """An empty buffer of ``capacity`` slots of ``obs_dim``-float observations."""
+    validate(capacity, obs_dim, max_steps)
+    k = final_rows(capacity, max_steps)
+    return Buffer(
+        obs=jnp.zeros((capacity, obs_dim), jnp.float32),
+        action=jnp.zeros((capacity,), jnp.uint8),
+        reward=jnp.zeros((capacity,), jnp.float32),
+        terminated=jnp.zeros((capacity,), bool),
+        truncated=jnp.zeros((capacity,), bool),
+        final_index=jnp.zeros((capacity,), jnp.int32),
+        final_obs=jnp.zeros((k, obs_dim), jnp.float32),
+        tail=jnp.zeros((obs_dim,), jnp.float32),
+        pos=jnp.zeros((), jnp.int32),
+        size=jnp.zeros((), jnp.int32),
+        n_final=jnp.zeros((), jnp.int32),
+    )
+
+
+def nbytes(capacity: int, obs_dim: int, max_steps: int) -> int:
+    """Bytes of one buffer, without allocating it."""
+    b = jax.eval_shape(lambda: init(capacity, obs_dim, max_steps))
+    return sum(x.size * x.dtype.itemsize for x in jax.tree.leaves(b))
+
+
+def add(
+    buf: Buffer,
+    obs: chex.Array,
+    action: chex.Array,
+    reward: chex.Array,
+    terminated: chex.Array,
+    truncated: chex.Array,
+    next_obs: chex.Array,
+    active: chex.Array = True,
+) -> Buffer:
+    """Store one transition; ``next_obs`` is the observation before any auto-reset.
+
+    With ``active`` false the buffer is returned unchanged (a finished run).
+    """
+    n = buf.obs.shape[0]
+    k = buf.final_obs.shape[0]
+    p = buf.pos
+    fi = buf.n_final % k
+
+    def put(arr, i, value):
+        return arr.at[i].set(jnp.where(active, value, arr[i]))
+
+    active = jnp.asarray(active, bool)
+    store_final = active & jnp.asarray(truncated, bool)
+    return Buffer(
+        obs=put(buf.obs, p, obs),
+        action=put(buf.action, p, action.astype(jnp.uint8)),
+        reward=put(buf.reward, p, reward),
+        terminated=put(buf.terminated, p, terminated),
+        truncated=put(buf.truncated, p, truncated),
+        final_index=put(buf.final_index, p, fi),
+        final_obs=buf.final_obs.at[fi].set(jnp.where(store_final, next_obs, buf.final_obs[fi])),
+        tail=jnp.where(active, next_obs, buf.tail),
+        pos=jnp.where(active, (p + 1) % n, p),
+        size=jnp.where(active, jnp.minimum(buf.size + 1, n), buf.size),
+        n_final=buf.n_final + store_final.astype(jnp.int32),
+    )
+
+
+def can_sample(buf: Buffer, min_size: int) -> chex.Array:
+    """bool[]: at least ``min_size`` transitions are stored."""
+    return buf.size >= min_size
+
+
+def sample(buf: Buffer, key: chex.PRNGKey, batch_size: int) -> Batch:
+    """Uniform sample (with replacement) of filled slots only."""
+    n = buf.obs.shape[0]
+    idx = jax.random.randint(key, (batch_size,), 0, jnp.maximum(buf.size, 1))
+    newest = (buf.pos - 1) % n
+    following = buf.obs[(idx + 1) % n]
+    final = buf.final_obs[buf.final_index[idx]]
+    trunc = buf.truncated[idx]
+    next_obs = jnp.where(
+        (idx == newest)[:, None],
+        buf.tail[None, :],
+        jnp.where(trunc[:, None], final, following),
+    )
+    return Batch(
+        obs=buf.obs[idx],
+        action=buf.action[idx].astype(jnp.int32),
+        reward=buf.reward[idx],
+        next_obs=next_obs,
+        terminated=buf.terminated[idx],
+    )

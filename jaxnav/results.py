@@ -1,0 +1,200 @@
+"""Test results as files: the rows of results.csv and robustness.csv, reading them
+back, per-seed scores and summaries, and the recorded test episodes.
+
+A seed's score is its mean return over its test episodes. No JAX here: tables and
+figures are pure functions of these files.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any, NamedTuple
+
+import numpy as np
+
+from jaxnav import stats
+from jaxnav.config import STRATEGIES
+from jaxnav.errors import RunError
+
+RESULT_COLUMNS = ("strategy", "seed", "maze", "episode", "return", "goals", "collided", "length")
+STRATEGY_NAMES = {"ebe": "EBE", "epsilon_greedy": "epsilon-greedy"}
+ROBUSTNESS_COLUMNS = (
+    "strategy",
+    "seed",
+    "perturbation",
+    "maze",
+    "episode",
+    "return",
+    "goals",
+    "collided",
+    "length",
+)
+UNPERTURBED = "none"
+
+
+def episode_rows(labels, names, results, n_episodes, perturbation: str | None = None):
+    """CSV rows (strategy, seed[, perturbation], maze, episode, return, goals, collided,
+    length) of run_tests() results."""
+    tag = () if perturbation is None else (perturbation,)
+    for name, res in zip(names, results):
+        for r, (strategy, seed) in enumerate(labels):
+            for e in range(n_episodes):
+                yield (
+                    strategy,
+                    seed,
+                    *tag,
+                    name,
+                    e,
+                    f"{float(res.ret[r, e]):.4f}",
+                    int(res.goals[r, e]),
+                    int(res.collided[r, e]),
+                    int(res.length[r, e]),
+                )
+
+
+def read_results(text: str) -> dict[tuple[str, str, int], dict[str, np.ndarray]]:
+    """results.csv text -> {(maze, strategy, seed): {column: per-episode array}}."""
+    return _read_episodes(text, ("maze", "strategy", "seed"))
+
+
+def _read_episodes(text: str, key_columns: Sequence[str]) -> dict[tuple, dict[str, np.ndarray]]:
+    """Episode rows -> {key (seed as int): {column: per-episode array, by episode}}."""
+    out: dict[tuple, dict[str, list]] = {}
+    for row in csv.DictReader(io.StringIO(text)):
+        key = tuple(int(row[c]) if c == "seed" else row[c] for c in key_columns)
+        d = out.setdefault(
+            key, {"episode": [], "return": [], "goals": [], "collided": [], "length": []}
+        )
+        for c in d:
+            d[c].append(float(row[c]))
+    res = {}
+    for key, d in out.items():
+        order = np.argsort(d["episode"])
+        res[key] = {c: np.asarray(v)[order] for c, v in d.items()}
+    return res
+
+
+def ordered_unique(xs):
+    seen = []
+    for x in xs:
+        if x not in seen:
+            seen.append(x)
+    return seen
+
+
+def per_seed_scores(
+    results, maze: str, strategy: str, seeds: Sequence[int], column: str = "return"
+) -> np.ndarray:
+    """Per-seed mean of a column over the test episodes -> f[len(seeds)]."""
+    return np.asarray([results[(maze, strategy, s)][column].mean() for s in seeds])
+
+
+def read_robustness(text: str) -> dict[tuple[str, str, str, int], dict[str, np.ndarray]]:
+    """robustness.csv text -> {(perturbation, maze, strategy, seed): {column: episodes}}."""
+    return _read_episodes(text, ("perturbation", "maze", "strategy", "seed"))
+
+
+class RobustnessRow(NamedTuple):
+    """One (maze, perturbation, strategy) line of the robustness table."""
+
+    maze: str
+    perturbation: str
+    strategy: str
+    n_seeds: int
+    mean: stats.Interval  # mean over seeds of the per-seed mean return
+    change: stats.Interval | None  # mean over seeds of (perturbed - unperturbed) score
+    change_pct: float  # change / |unperturbed mean| in %, NaN if undefined
+    goals: float  # goals per episode, all seeds pooled
+    collision_rate: float  # share of episodes that ended in a collision
+
+
+def _by_seed(res, perturbation: str, maze: str, strategy: str) -> dict[int, dict[str, np.ndarray]]:
+    return {k[3]: v for k, v in res.items() if k[:3] == (perturbation, maze, strategy)}
+
+
+def robustness_summary(text: str) -> list[RobustnessRow]:
+    """The robustness table's numbers from robustness.csv text.
+
+    A seed's score is its mean return over the test episodes; the change is paired
+    by seed (same seed, same test key) against the unperturbed setting.
+    """
+    res = read_robustness(text)
+    if not res:
+        raise RunError("robustness.csv has no rows")
+    perts = ordered_unique(k[0] for k in res)
+    mazes = ordered_unique(k[1] for k in res)
+    strategies = [s for s in STRATEGIES if any(k[2] == s for k in res)]
+    out = []
+    for m in mazes:
+        for s in strategies:
+            ref = {k: v["return"].mean() for k, v in _by_seed(res, UNPERTURBED, m, s).items()}
+            for p in perts:
+                eps = _by_seed(res, p, m, s)
+                if not eps:
+                    continue
+                seeds = sorted(eps)
+                x = np.asarray([eps[k]["return"].mean() for k in seeds])
+                change, pct = None, float("nan")
+                if p != UNPERTURBED and ref and set(seeds) <= set(ref):
+                    b = np.asarray([ref[k] for k in seeds])
+                    change = stats.mean_ci(x - b)
+                    if b.mean() != 0:
+                        pct = 100.0 * change.value / abs(b.mean())
+                goals = np.concatenate([eps[k]["goals"] for k in seeds])
+                coll = np.concatenate([eps[k]["collided"] for k in seeds])
+                out.append(
+                    RobustnessRow(
+                        maze=m,
+                        perturbation=p,
+                        strategy=s,
+                        n_seeds=len(seeds),
+                        mean=stats.mean_ci(x),
+                        change=change,
+                        change_pct=pct,
+                        goals=float(goals.mean()),
+                        collision_rate=float(coll.mean()),
+                    )
+                )
+    # Perturbation by perturbation, the strategies side by side.
+    rank = {p: i for i, p in enumerate(perts)}
+    out.sort(
+        key=lambda r: (mazes.index(r.maze), rank[r.perturbation], strategies.index(r.strategy))
+    )
+    return out
+
+
+Episodes = dict[str, dict[str, dict[str, Any]]]  # maze -> strategy -> first_episode()
+
+
+def episodes_npz(episodes: Episodes, goal_radius: float) -> bytes:
+    """trajectories.npz bytes: "<maze index>/<strategy>/<field>", the maze names and
+    the goal radius (what a plot needs besides the maze)."""
+    arrays: dict[str, np.ndarray] = {
+        "mazes": np.asarray(list(episodes), dtype=str),
+        "goal_radius": np.asarray(goal_radius, np.float64),
+    }
+    for i, per_strategy in enumerate(episodes.values()):
+        for s, ep in per_strategy.items():
+            for k, v in ep.items():
+                arrays[f"{i}/{s}/{k}"] = np.asarray(v)
+    buf = io.BytesIO()
+    np.savez_compressed(buf, **arrays)
+    return buf.getvalue()
+
+
+def read_episodes_npz(path: str | Path) -> tuple[Episodes, float]:
+    """Inverse of :func:`episodes_npz`: (episodes, goal radius)."""
+    with np.load(path, allow_pickle=False) as data:
+        names = [str(m) for m in data["mazes"]]
+        goal_radius = float(data["goal_radius"])
+        out: Episodes = {m: {} for m in names}
+        for key in data.files:
+            if key in ("mazes", "goal_radius"):
+                continue
+            i, s, k = key.split("/")
+            v = data[key]
+            out[names[int(i)]].setdefault(s, {})[k] = v if v.ndim else v.item()
+    return out, goal_radius

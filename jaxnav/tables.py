@@ -1,0 +1,297 @@
+"""The report's markdown tables, pure functions of results.csv and robustness.csv text."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any, NamedTuple
+
+import numpy as np
+
+from jaxnav import stats
+from jaxnav.config import STRATEGIES
+from jaxnav.errors import RunError
+from jaxnav.paper import PAPER_TABLES
+from jaxnav.results import (
+    STRATEGY_NAMES,
+    UNPERTURBED,
+    RobustnessRow,
+    ordered_unique,
+    per_seed_scores,
+    read_results,
+    read_robustness,
+    robustness_summary,
+)
+
+
+def _pm(mean: float, std: float) -> str:
+    return f"{mean:.2f} ± {std:.2f}"
+
+
+def _ci(iv: stats.Interval, digits: int = 1) -> str:
+    if np.isnan(iv.low):
+        return f"{iv.value:.{digits}f} [n/a]"
+    return f"{iv.value:.{digits}f} [{iv.low:.{digits}f}, {iv.high:.{digits}f}]"
+
+
+def _table(header: Sequence[str], rows: Sequence[Sequence[str]]) -> list[str]:
+    lines = ["| " + " | ".join(header) + " |", "|" + "|".join("---" for _ in header) + "|"]
+    lines += ["| " + " | ".join(str(c) for c in r) + " |" for r in rows]
+    return lines
+
+
+class _Test(NamedTuple):
+    """What every section of the test tables needs, read once from results.csv."""
+
+    results: dict  # (maze, strategy, seed) -> per-episode arrays
+    mazes: list[str]
+    strategies: list[str]
+    seeds: list[int]
+    seed0: int  # the single seed of the paper-form table
+    names: list[str]  # display names of the strategies
+
+    def paper_form(self, maze: str, strategy: str, seed: int) -> str:
+        return _pm(*stats.mean_std(self.results[(maze, strategy, seed)]["return"]))
+
+    def scores(self, maze: str, strategy: str) -> np.ndarray:
+        return per_seed_scores(self.results, maze, strategy, self.seeds)
+
+
+def tables_markdown(
+    results_csv: str, train_maze: str, first_seed: int, title: str = "Test results"
+) -> str:
+    """The report's tables from results.csv text.
+
+    Args:
+      results_csv: the text of results.csv.
+      train_maze: the training maze (picks the paper's Table 3 or 4).
+      first_seed: the config's seed: the single-seed table uses it, as the paper
+        shows one run.
+    """
+    results = read_results(results_csv)
+    if not results:
+        raise RunError("results.csv has no rows")
+    strategies = [s for s in STRATEGIES if any(k[1] == s for k in results)]
+    seeds = sorted({k[2] for k in results})
+    t = _Test(
+        results=results,
+        mazes=ordered_unique(k[0] for k in results),
+        strategies=strategies,
+        seeds=seeds,
+        seed0=first_seed if first_seed in seeds else seeds[0],
+        names=[STRATEGY_NAMES[s] for s in strategies],
+    )
+    n_eps = {len(v["return"]) for v in results.values()}
+    L: list[str] = [f"# {title}", ""]
+    L += [
+        f"Trained on `{train_maze}`; {len(seeds)} seed(s) per strategy; "
+        f"{'/'.join(map(str, sorted(n_eps)))} consecutive greedy test episodes per seed and maze "
+        "(dropout off, argmax Q, the training environment's settings).",
+        "",
+    ]
+    L += _paper_form_section(t) + _across_seeds_section(t)
+    if set(strategies) == set(STRATEGIES):
+        L += _improvement_section(t)
+    L += _beside_paper_section(t, train_maze)
+    return "\n".join(L) + "\n"
+
+
+def _paper_form_section(t: _Test) -> list[str]:
+    L = [
+        "## Paper form: mean ± std (ddof 0) of the episode return over the test episodes, "
+        f"seed {t.seed0}",
+        "",
+    ]
+    L += _table(
+        ["maze"] + t.names,
+        [[m] + [t.paper_form(m, s, t.seed0) for s in t.strategies] for m in t.mazes],
+    )
+    L += ["", "## Paper form, every seed", ""]
+    L += _table(
+        ["maze", "seed"] + t.names,
+        [
+            [m, str(k)] + [t.paper_form(m, s, k) for s in t.strategies]
+            for m in t.mazes
+            for k in t.seeds
+        ],
+    )
+    return L
+
+
+def _across_seeds_section(t: _Test) -> list[str]:
+    L = [
+        "",
+        "## Across seeds",
+        "",
+        "A seed's score is its mean return over the test episodes. Mean and IQM "
+        "(interquartile mean, scipy `trim_mean(x, 0.25)`) of the per-seed scores, with "
+        f"{int(stats.CONFIDENCE * 100)}% percentile-bootstrap confidence intervals over seeds "
+        f"({stats.N_RESAMPLES} resamples; n/a with one seed; with a handful of seeds the interval "
+        "is little more than the range of the per-seed scores). Goals per episode and the "
+        "collision rate (share of test episodes that ended in a collision) pool all seeds.",
+        "",
+    ]
+    rows = []
+    for m in t.mazes:
+        for s in t.strategies:
+            x = t.scores(m, s)
+            goals = np.concatenate([t.results[(m, s, k)]["goals"] for k in t.seeds])
+            coll = np.concatenate([t.results[(m, s, k)]["collided"] for k in t.seeds])
+            rows.append(
+                [
+                    m,
+                    STRATEGY_NAMES[s],
+                    _ci(stats.mean_ci(x)),
+                    _ci(stats.iqm_ci(x)),
+                    f"{goals.mean():.2f}",
+                    f"{coll.mean():.2f}",
+                ]
+            )
+    L += _table(
+        ["maze", "strategy", "mean [95% CI]", "IQM [95% CI]", "goals / episode", "collision rate"],
+        rows,
+    )
+    return L
+
+
+def _improvement_section(t: _Test) -> list[str]:
+    L = [
+        "",
+        "## Probability of improvement",
+        "",
+        "P(EBE > epsilon-greedy) as rliable defines it: the chance that a seed of EBE "
+        "scores more than a seed of epsilon-greedy, ties counting half "
+        "(P(X > Y) + 0.5 P(X = Y) over all pairs of per-seed scores), with a stratified "
+        "bootstrap CI (the seeds of each strategy resampled independently within each "
+        "maze). 0.5: no difference. The last row averages over the mazes.",
+        "",
+    ]
+    rows = []
+    xs, ys = [], []
+    for m in t.mazes:
+        x, y = t.scores(m, "ebe"), t.scores(m, "epsilon_greedy")
+        xs.append(x)
+        ys.append(y)
+        rows.append([m, _ci(stats.probability_of_improvement_ci(x, y), 2)])
+    if len(t.mazes) > 1:
+        pooled = stats.probability_of_improvement_ci(np.stack(xs, 1), np.stack(ys, 1))
+        rows.append(["all mazes", _ci(pooled, 2)])
+    return L + _table(["maze", "P(EBE > epsilon-greedy) [95% CI]"], rows)
+
+
+def _beside_paper_section(t: _Test, train_maze: str) -> list[str]:
+    L = ["", "## Beside the paper", ""]
+    paper = PAPER_TABLES.get(train_maze)
+    rows = []
+    if paper is not None:
+        caption, table = paper
+        for m in (m for m in t.mazes if m in table):
+            row_name, vals = table[m]
+            row = [m, row_name]
+            for s in t.strategies:
+                row += [
+                    _pm(*vals[s]),
+                    t.paper_form(m, s, t.seed0),
+                    _ci(stats.mean_ci(t.scores(m, s))),
+                ]
+            rows.append(row)
+    if not rows:
+        return L + [
+            f"The paper reports no test results for these mazes after training on `{train_maze}`."
+        ]
+    L += [
+        f"The paper's {caption}: mean ± std over 10 consecutive test episodes of its "
+        f"single training run. Ours: seed {t.seed0} in the same form, and the mean over "
+        "seeds of the per-seed mean return [95% bootstrap CI].",
+        "",
+    ]
+    header = ["maze", "paper row"]
+    for n in t.names:
+        header += [f"{n} paper", f"{n} ours, seed {t.seed0}", f"{n} ours, all seeds"]
+    return L + _table(header, rows)
+
+
+def _signed_ci(iv: stats.Interval, digits: int = 1) -> str:
+    if np.isnan(iv.low):
+        return f"{iv.value:+.{digits}f} [n/a]"
+    return f"{iv.value:+.{digits}f} [{iv.low:+.{digits}f}, {iv.high:+.{digits}f}]"
+
+
+def setting_text(overrides: dict[str, Any]) -> str:
+    return ", ".join(f"{k}={v}" for k, v in overrides.items())
+
+
+ROBUSTNESS_HEADER = [
+    "perturbation",
+    "setting",
+    "strategy",
+    "mean return [95% CI]",
+    "change [95% CI]",
+    "change %",
+    "goals / episode",
+    "collision rate",
+]
+
+
+def robustness_markdown(
+    robustness_csv: str,
+    train_maze: str,
+    training: dict[str, Any],
+    perturbations: dict[str, dict[str, Any]],
+    title: str = "Robustness",
+    figure: str | None = None,
+) -> str:
+    """robustness.md from robustness.csv text.
+
+    Args:
+      robustness_csv: the text of robustness.csv.
+      train_maze: the training maze.
+      training: the training env's realism settings (name -> value).
+      perturbations: the sweep, for the setting column (names not in it show none).
+      figure: a link to robustness.png to show under the introduction, if given.
+    """
+    rows = robustness_summary(robustness_csv)
+    res = read_robustness(robustness_csv)
+    seeds = sorted({k[3] for k in res})
+    n_eps = sorted({len(v["return"]) for v in res.values()})
+    mazes = ordered_unique(r.maze for r in rows)
+    L = [f"# {title}", ""]
+    L += [
+        f"Trained on `{train_maze}` with {setting_text(training)}. Every policy plays the "
+        f"plain test ({'/'.join(map(str, n_eps))} consecutive greedy episodes per seed, the "
+        "same test keys) under each perturbation: the named setting replaces the training "
+        "environment's, every other setting stays as trained, and `none` is the plain test.",
+        "",
+        f"A seed's score is its mean return. Mean over {len(seeds)} seed(s) with a "
+        f"{int(stats.CONFIDENCE * 100)}% percentile-bootstrap CI; change: the mean over seeds "
+        "of each seed's score minus its unperturbed score (paired by seed) with its CI, and "
+        "in % of the unperturbed mean; goals per episode and the collision rate pool all "
+        "seeds and episodes.",
+        "",
+    ]
+    if figure:
+        L += [f"![return under each perturbation]({figure})", ""]
+    for m in mazes:
+        if len(mazes) > 1:
+            L += [f"## {m}", ""]
+        table = [_robustness_row(r, perturbations) for r in rows if r.maze == m]
+        L += _table(ROBUSTNESS_HEADER, table)
+        L += [""]
+    return "\n".join(L)
+
+
+def _robustness_row(r: RobustnessRow, perturbations: dict[str, dict[str, Any]]) -> list[str]:
+    setting = (
+        "as trained"
+        if r.perturbation == UNPERTURBED
+        else setting_text(perturbations.get(r.perturbation, {}))
+    )
+    return [
+        r.perturbation,
+        setting,
+        STRATEGY_NAMES[r.strategy],
+        _ci(r.mean),
+        "" if r.change is None else _signed_ci(r.change),
+        "" if np.isnan(r.change_pct) else f"{r.change_pct:+.0f}%",
+        f"{r.goals:.2f}",
+        f"{r.collision_rate:.2f}",
+    ]

@@ -1,0 +1,352 @@
+"""The host loop around the compiled trainer: chunks, progress, logs, checkpoints.
+
+All seeds of all strategies run as one vmapped program (:func:`jaxnav.dqn.make_trainer`),
+``run.chunk_steps`` environment steps per call. After each chunk the host appends
+the new episodes to ``metrics.csv`` and ``explore.csv`` and writes a checkpoint
+that records the training state and how long the logs were, so a run killed at any
+moment (even by SIGKILL) resumes from its last chunk (:func:`resume`) and ends with
+exactly the metrics and parameters of an uninterrupted run. The files and their
+checks are :mod:`jaxnav.rundir`'s.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import os
+import platform
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+import jax
+import numpy as np
+
+from jaxnav import replay, rundir
+from jaxnav.config import Config, dump_config, load_config
+from jaxnav.dqn import TrainState, make_trainer, run_keys, run_limits, still_training
+from jaxnav.errors import RunError
+from jaxnav.sharding import RunSharding, is_writer
+
+METRIC_COLUMNS = ("strategy", "seed", "episode", "return", "length", "goals", "collided", "explore")
+EXPLORE_COLUMNS = ("strategy", "seed", "step", "explore")
+EXPLORE_BLOCK = 100  # env steps averaged per row of explore.csv
+PROGRESS_EPISODES = 20  # episodes per seed in the progress bar's mean return
+
+# Replay rows beyond the filled ones are zeros: a checkpoint leaves them out.
+_BUFFER_ROWS = ("obs", "action", "reward", "terminated", "truncated", "final_index")
+
+
+# ----------------------------------------------------------------------------
+# Pytrees <-> named arrays
+# ----------------------------------------------------------------------------
+
+
+def _leaf_names(tree) -> list[str]:
+    paths, _ = jax.tree_util.tree_flatten_with_path(tree)
+    return [jax.tree_util.keystr(p) for p, _ in paths]
+
+
+def _is_buffer_rows(name: str) -> bool:
+    return any(name == f".buffer.{r}" for r in _BUFFER_ROWS)
+
+
+def checkpoint_arrays(ts: TrainState, host: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """Host copies of the training state (replay rows cut to the filled ones) and
+    the host loop's own counters."""
+    size = int(np.max(np.asarray(ts.buffer.size)))
+    arrays: dict[str, np.ndarray] = {}
+    for name, leaf in zip(_leaf_names(ts), jax.tree.leaves(ts)):
+        a = np.asarray(leaf)
+        arrays["state" + name] = a[:, :size] if _is_buffer_rows(name) else a
+    arrays.update({"host." + k: v for k, v in host.items()})
+    return arrays
+
+
+def state_from_checkpoint(
+    arrays: dict[str, np.ndarray], template: TrainState, path: Path
+) -> tuple[TrainState, dict[str, np.ndarray]]:
+    """Inverse of :func:`checkpoint_arrays` against a template of the right shapes."""
+    leaves = []
+    for name, leaf in zip(_leaf_names(template), jax.tree.leaves(template)):
+        a = arrays.get("state" + name)
+        if a is None:
+            raise RunError(f"checkpoint {path} does not match the run's config (missing {name})")
+        if a.shape != leaf.shape:
+            if not (_is_buffer_rows(name) and a.shape[1] <= leaf.shape[1]):
+                raise RunError(f"checkpoint {path} does not match the run's config ({name})")
+            full = np.zeros(leaf.shape, leaf.dtype)
+            full[:, : a.shape[1]] = a
+            a = full
+        leaves.append(np.asarray(a, leaf.dtype))
+    ts = jax.tree.unflatten(jax.tree.structure(template), leaves)
+    host = {k[5:]: v for k, v in arrays.items() if k.startswith("host.")}
+    return ts, host
+
+
+def params_arrays(cfg: Config, params) -> dict[str, np.ndarray]:
+    """``params.npz`` entries: every array of every run, by strategy, seed and layer."""
+    arrays = {}
+    flat, _ = jax.tree_util.tree_flatten_with_path(params)
+    for r, (strategy, seed) in enumerate(cfg.run_labels()):
+        for p, leaf in flat:
+            name = "/".join(str(getattr(k, "key", k)) for k in p)
+            arrays[rundir.params_key(strategy, seed, name)] = np.asarray(leaf[r])
+    return arrays
+
+
+# ----------------------------------------------------------------------------
+# The run
+# ----------------------------------------------------------------------------
+
+
+class Run:
+    """Host loop around the compiled chunk: progress, metrics, checkpoints."""
+
+    def __init__(self, cfg: Config, out: Path | None, quiet: bool = False):
+        """``out`` None: a run that only computes (tests, benchmarks), no files."""
+        self.cfg, self.out, self.quiet = cfg, out, quiet
+        self.trainer = make_trainer(cfg)
+        self.labels = cfg.run_labels()
+        # The run axis of every array is laid over all devices.
+        self.shard = RunSharding(cfg.n_runs)
+        sharding = self.shard.sharding
+        self.init = jax.jit(jax.vmap(self.trainer.init), out_shardings=sharding)
+        self.chunk = jax.jit(jax.vmap(self.trainer.chunk), donate_argnums=0, out_shardings=sharding)
+        out = Path(".") if out is None else out
+        self.metrics = rundir.CsvLog(out / rundir.METRICS, METRIC_COLUMNS)
+        self.explore = rundir.CsvLog(out / rundir.EXPLORE, EXPLORE_COLUMNS)
+        self.checkpoint = out / rundir.CHECKPOINT
+        self.logged = np.zeros(cfg.n_runs, np.int64)  # episodes written per run
+        self.recent: dict[tuple[str, int], list[float]] = {label: [] for label in self.labels}
+        self.wall = 0.0  # training seconds over all sessions of this run
+
+    # -- state ---------------------------------------------------------------
+
+    def fresh_state(self) -> TrainState:
+        keys, strat = self.shard.put(jax.tree.map(np.asarray, run_keys(self.cfg)))
+        return self.init(keys, strat)
+
+    def restored_state(self) -> TrainState:
+        """The last checkpoint's state, the logs cut back to what it covers."""
+        cfg = self.cfg
+        template = jax.eval_shape(jax.vmap(self.trainer.init), *run_keys(cfg))
+        template = jax.tree.map(lambda s: np.zeros((cfg.n_runs, *s.shape[1:]), s.dtype), template)
+        arrays = rundir.read_npz(self.checkpoint, f"checkpoint {self.checkpoint}")
+        ts, host = state_from_checkpoint(arrays, template, self.checkpoint)
+        if not {"logged", "wall", "csv_sizes"} <= set(host):
+            raise RunError(f"checkpoint {self.checkpoint} was written by another jaxnav version")
+        self.logged = host["logged"].astype(np.int64)
+        self.wall = float(host["wall"])
+        metrics_size, explore_size = (int(x) for x in host["csv_sizes"])
+        if is_writer():
+            self.metrics.truncate(metrics_size)
+            self.explore.truncate(explore_size)
+        for row in self.metrics.read():
+            self.recent[(row["strategy"], int(row["seed"]))].append(float(row["return"]))
+        return self.shard.put(ts)
+
+    def active(self, ts: TrainState) -> np.ndarray:
+        """Which real runs still train (host side, the trainer's own rule)."""
+        episode, step = self.shard.get((ts.episode, ts.step))
+        return np.asarray(still_training(episode, step, *run_limits(self.cfg)))
+
+    # -- per chunk -----------------------------------------------------------
+
+    def new_episodes(self, ts: TrainState) -> list[tuple]:
+        """metrics.csv rows of the episodes finished in the last chunk."""
+        m, episodes = self.shard.get((ts.metrics, ts.episode))
+        slots = self.trainer.metric_slots
+        rows = []
+        for r, (strategy, seed) in enumerate(self.labels):
+            for e in range(self.logged[r], episodes[r]):
+                i = e % slots
+                ret = float(m.ep_return[r, i])
+                self.recent[(strategy, seed)].append(ret)
+                rows.append(
+                    (
+                        strategy,
+                        seed,
+                        e,
+                        f"{ret:.6g}",
+                        int(m.ep_length[r, i]),
+                        int(m.ep_goals[r, i]),
+                        int(m.ep_collided[r, i]),
+                        f"{float(m.ep_explore[r, i]):.6g}",
+                    )
+                )
+            self.logged[r] = episodes[r]
+        return rows
+
+    def explore_blocks(self, explore: np.ndarray, step_before: np.ndarray) -> list[tuple]:
+        """explore.csv rows: mean exploration per block of steps; ``explore`` is
+        [n_runs, chunk_steps], NaN once a run has finished."""
+        rows = []
+        for r, (strategy, seed) in enumerate(self.labels):
+            col = explore[r]
+            for b in range(0, col.shape[0], EXPLORE_BLOCK):
+                block = col[b : b + EXPLORE_BLOCK]
+                block = block[~np.isnan(block)]
+                if len(block):
+                    mean = float(block.mean())
+                    rows.append((strategy, seed, int(step_before[r]) + b, f"{mean:.6g}"))
+        return rows
+
+    def save(self, ts: TrainState, metric_rows: list, explore_rows: list) -> None:
+        """Append the chunk's rows, then checkpoint (with the logs' new lengths)."""
+        state = self.shard.get(ts)  # every process: a gather across hosts is collective
+        if not is_writer():
+            return
+        sizes = np.asarray(
+            [self.metrics.append(metric_rows), self.explore.append(explore_rows)], np.int64
+        )
+        host = {"logged": self.logged, "wall": np.float64(self.wall), "csv_sizes": sizes}
+        arrays = checkpoint_arrays(state, host)
+        rundir.atomic_write_bytes(self.checkpoint, rundir.npz_bytes(arrays))
+
+    def progress_text(self, steps_per_s: float) -> str:
+        parts = []
+        for s in self.cfg.strategies:
+            recent = [
+                x
+                for (strategy, _), returns in self.recent.items()
+                if strategy == s
+                for x in returns[-PROGRESS_EPISODES:]
+            ]
+            if recent:
+                parts.append(f"{s} R={np.mean(recent):.0f}")
+        parts.append(f"{steps_per_s / 1000:.1f}k steps/s")
+        return " ".join(parts)
+
+    # -- loop ----------------------------------------------------------------
+
+    def _progress_bar(self, ts: TrainState):
+        from tqdm import tqdm
+
+        cfg = self.cfg
+        if cfg.episodes is not None:
+            total, unit = cfg.n_runs * cfg.episodes, "ep"
+        else:
+            total, unit = cfg.n_runs * cfg.total_steps, "step"
+        bar = tqdm(
+            total=total,
+            initial=self._done(ts),
+            unit=unit,
+            disable=self.quiet or not is_writer(),
+            dynamic_ncols=True,
+            file=sys.stderr,
+        )
+        return bar
+
+    def _done(self, ts: TrainState) -> int:
+        """Progress: episodes (or steps) finished over all runs."""
+        if self.cfg.episodes is not None:
+            return int(np.minimum(self.shard.get(ts.episode), self.cfg.episodes).sum())
+        return int(self.shard.get(ts.step).sum())
+
+    def train(self, ts: TrainState) -> TrainState:
+        bar = self._progress_bar(ts)
+        try:
+            while self.active(ts).any():
+                before = self._done(ts)
+                step_before = self.shard.get(ts.step).copy()
+                t0 = time.perf_counter()
+                ts, explore = self.chunk(ts)
+                explore = self.shard.get(explore)  # waits for the chunk
+                dt = time.perf_counter() - t0
+                self.wall += dt
+                steps = int((self.shard.get(ts.step) - step_before).sum())
+                self.save(ts, self.new_episodes(ts), self.explore_blocks(explore, step_before))
+                bar.set_postfix_str(self.progress_text(steps / max(dt, 1e-9)), refresh=False)
+                bar.update(self._done(ts) - before)
+        finally:
+            bar.close()
+        return ts
+
+    def finish(self, ts: TrainState) -> dict[str, Any]:
+        """Write params.npz and summary.json; return the summary."""
+        steps = int(self.shard.get(ts.step).sum())
+        summary: dict[str, Any] = {
+            "wall_clock_s": round(self.wall, 2),
+            "env_steps": steps,
+            "steps_per_s": round(steps / max(self.wall, 1e-9), 1),
+            "buffer_capacity": self.cfg.buffer_capacity,
+            "buffer_bytes_per_seed": replay.nbytes(
+                self.cfg.buffer_capacity,
+                self.trainer.env.obs_size,
+                self.trainer.env_params.max_steps,
+            ),
+            "machine": f"{platform.machine()} {os.cpu_count()} cores, jax {jax.__version__} "
+            f"on {jax.default_backend()}",
+            "devices": self.shard.n_devices,
+            "processes": jax.process_count(),
+            "last50": last50(self.metrics.read(), self.cfg.strategies) if is_writer() else {},
+        }
+        params = self.shard.get(ts.params)  # every process: collective across hosts
+        if is_writer():
+            params = params_arrays(self.cfg, params)
+            rundir.atomic_write_bytes(self.out / rundir.PARAMS, rundir.npz_bytes(params))
+            text = json.dumps(summary, indent=2) + "\n"
+            rundir.atomic_write_text(self.out / rundir.SUMMARY, text)
+        return summary
+
+
+def last50(rows: list[dict[str, str]], strategies) -> dict[str, dict[str, float]]:
+    """Mean over seeds of each seed's last 50 training episodes (from metrics.csv)."""
+    out = {}
+    for s in strategies:
+        per_seed: dict[int, list[tuple[int, float, float]]] = {}
+        for r in rows:
+            if r["strategy"] == s:
+                per_seed.setdefault(int(r["seed"]), []).append(
+                    (int(r["episode"]), float(r["return"]), float(r["goals"]))
+                )
+        ret, goals = [], []
+        for eps in per_seed.values():
+            tail = sorted(eps)[-50:]
+            ret.append(np.mean([x[1] for x in tail]))
+            goals.append(np.mean([x[2] for x in tail]))
+        out[s] = {
+            "return_mean": round(float(np.mean(ret)), 2),
+            "return_std_over_seeds": round(float(np.std(ret)), 2),
+            "goals_per_episode": round(float(np.mean(goals)), 3),
+        }
+    return out
+
+
+# ----------------------------------------------------------------------------
+# Starting and resuming
+# ----------------------------------------------------------------------------
+
+
+def _writer_lock(out: Path):
+    """The run directory's lock, held by the process that writes (process 0)."""
+    return rundir.Lock(out) if is_writer() else contextlib.nullcontext()
+
+
+def train_new(cfg: Config, out: Path, quiet: bool = False) -> dict[str, Any]:
+    """Start a new run in ``out`` (absent or empty) and train it to the end."""
+    run = Run(cfg, out, quiet)  # builds the env first: a bad maze leaves no directory
+    if is_writer():
+        rundir.create(out)
+    with _writer_lock(out):
+        if is_writer():
+            rundir.atomic_write_text(out / rundir.CONFIG, dump_config(cfg))
+        return run.finish(run.train(run.fresh_state()))
+
+
+def resume(out: Path, quiet: bool = False) -> dict[str, Any]:
+    """Continue a run from its last checkpoint (or from the start if it has none)."""
+    out = rundir.existing(out)
+    cfg = load_config(str(out / rundir.CONFIG))
+    run = Run(cfg, out, quiet)
+    with _writer_lock(out):
+        if run.checkpoint.is_file():
+            ts = run.restored_state()
+        else:  # killed before its first checkpoint: start over
+            if is_writer():
+                run.metrics.path.unlink(missing_ok=True)
+                run.explore.path.unlink(missing_ok=True)
+            ts = run.fresh_state()
+        return run.finish(run.train(ts))
