@@ -373,10 +373,12 @@ def _learn(network, optimizer, d: DQNConfig, ts, buffer, n_steps, run, k_sample,
 
 
 def _target_sync_due(d: DQNConfig, n_steps: chex.Array, done: chex.Array) -> chex.Array:
-    """Paper: every target_update_every steps. ROBOTIS: at episode ends after warm-up."""
+    """Paper: every target_update_every steps. ROBOTIS: at every episode end (during
+    the warm-up too, so the first target the network bootstraps from after it is the
+    last episode's copy, never the initial network)."""
     if d.target_update == "periodic":
         return n_steps % d.target_update_every == 0
-    return done & (n_steps > d.target_update_every)
+    return done
 
 
 def _record_episode(ts, slots, reward, terminated, done, info, explore, write) -> Metrics:

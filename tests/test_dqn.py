@@ -168,6 +168,47 @@ def test_target_sync_every_n_steps():
         assert same == (n % 5 == 0), n
 
 
+def test_robotis_target_is_the_online_net_in_warm_up_then_last_episode_ends_copy():
+    """ROBOTIS: targets from the online net while the step is at most N, then from the
+    target net, which is copied at every episode end (warm-up included)."""
+    warm = 30
+    cfg = _tiny(
+        "dqn.target_update=episode_end",
+        f"dqn.target_update_every={warm}",
+        "dqn.learning_starts=1",
+        "env.max_steps=7",  # episodes end often: at least every 7 steps
+        "episodes=100",
+    )
+    tr = make_trainer(cfg)
+    keys, strat = run_keys(cfg)
+    ts = tr.init(keys[0], strat[0])
+    init_params = ts.target_params
+    step = jax.jit(tr.step)
+    copies = 0
+    for n in range(1, 3 * warm):
+        before = ts
+        ts, _ = step(ts, None)
+        ended = int(ts.episode) > int(before.episode)
+        synced = all(
+            np.array_equal(a, b)
+            for a, b in zip(jax.tree.leaves(ts.params), jax.tree.leaves(ts.target_params))
+        )
+        kept = all(
+            np.array_equal(a, b)
+            for a, b in zip(
+                jax.tree.leaves(before.target_params), jax.tree.leaves(ts.target_params)
+            )
+        )
+        assert synced if ended else kept, n
+        copies += ended
+    assert copies >= 2 * warm // 7
+    # after the warm-up the target is never the initial network
+    assert not np.array_equal(
+        ts.target_params["params"]["Dense_0"]["kernel"],
+        init_params["params"]["Dense_0"]["kernel"],
+    )
+
+
 def test_learning_starts_after_enough_transitions():
     cfg = _tiny("dqn.learning_starts=4")
     tr = make_trainer(cfg)
