@@ -27,7 +27,7 @@ from jaxnav.dqn import QNetwork
 from jaxnav.env import from_config
 from jaxnav.errors import JaxnavError, RunError
 from jaxnav.results import RESULT_COLUMNS, Episodes, episode_rows, episodes_npz
-from jaxnav.rollout import Policies, first_episode, padded_mazes, run_tests
+from jaxnav.rollout import MODES, Policies, first_episode, padded_mazes, run_tests
 from jaxnav.tables import tables_markdown
 
 
@@ -61,7 +61,10 @@ def load_run(run_dir: str | Path) -> LoadedRun:
             )
         trees.append(tree)
     params = jax.tree.map(lambda *xs: jnp.asarray(np.stack(xs), jnp.float32), *trees)
-    return LoadedRun(cfg, Policies(labels, params, env, env_params, network))
+    # A run limited by total_steps ends at different episodes: epsilon at its floor.
+    episodes = cfg.episodes if cfg.episodes is not None else 2**30
+    policies = Policies(labels, params, env, env_params, network, cfg.exploration, episodes)
+    return LoadedRun(cfg, policies)
 
 
 def test_setup(
@@ -80,21 +83,25 @@ def test_setup(
 def evaluate(
     run_dir: str | Path, maze_names: Sequence[str] | None = None, n_episodes: int | None = None
 ) -> tuple[LoadedRun, list[str], str, Episodes]:
-    """Test every run of ``run_dir``.
+    """Test every run of ``run_dir`` in both test modes (greedy, then exploring).
 
-    Returns (run, maze names, results.csv text, the first test episode of the
-    config's seed per maze and strategy).
+    Returns (run, maze names, results.csv text, the first greedy test episode of
+    the config's seed per maze and strategy).
     """
     run = load_run(run_dir)
     names, n_episodes = test_setup(run, maze_names, n_episodes, run.config.run.test_mazes)
     labels = run.policies.labels
-    results = run_tests(run.policies, padded_mazes(names), n_episodes, record=True)
-    first = [i for i, (_, seed) in enumerate(labels) if seed == run.config.seed]
-    episodes = {
-        name: {labels[i][0]: first_episode(res, i) for i in first}
-        for name, res in zip(names, results)
-    }
-    rows = list(episode_rows(labels, names, results, n_episodes))
+    mazes = padded_mazes(names)
+    rows = []
+    for mode in MODES:
+        results = run_tests(run.policies, mazes, n_episodes, record=mode == "greedy", mode=mode)
+        rows += episode_rows(labels, names, results, n_episodes, mode)
+        if mode == "greedy":
+            first = [i for i, (_, seed) in enumerate(labels) if seed == run.config.seed]
+            episodes = {
+                name: {labels[i][0]: first_episode(res, i) for i in first}
+                for name, res in zip(names, results)
+            }
     return run, names, rundir.csv_text(RESULT_COLUMNS, rows), episodes
 
 

@@ -45,11 +45,12 @@ from pathlib import Path
 import jax
 
 from jaxnav import cli, plots
+from jaxnav.claims import claims_markdown, evaluate_claims
 from jaxnav.config import CONFIG_DIR, Config, load_config
 from jaxnav.errors import JaxnavError
 from jaxnav.evaluation import evaluate_to_dir
 from jaxnav.robustness import robustness_to_dir
-from jaxnav.rundir import atomic_write_text
+from jaxnav.rundir import METRICS, CsvLog, atomic_write_text
 from jaxnav.training import resume, train_new
 
 DEFAULT_SEEDS = 8
@@ -130,6 +131,7 @@ def write_report(
     settings: dict,
     timings: list[tuple[str, float, str]],
     sections: list[str],
+    claims: str,
 ) -> Path:
     total = sum(t for _, t, _ in timings)
     L = ["# jaxnav: reproduction of Usama & Chang (2019), EBE vs epsilon-greedy", ""]
@@ -142,6 +144,8 @@ def write_report(
         "The rest of each config is the paper's (configs/paper_*.yaml; each run's full "
         "config.yaml is in its directory). The paper shows one training run per strategy; the "
         f"seeds here show whether a difference holds (default {DEFAULT_SEEDS}).",
+        "",
+        _demote(claims, 1).rstrip(),
         "",
         "## Machine",
         "",
@@ -298,6 +302,10 @@ def reproduce(
         t, sec = _experiment(name, title, cfgs[name], out, quiet, say)
         timings += t
         sections += sec
+    t0 = time.perf_counter()
+    claims = claims_markdown(evaluate_claims(experiment_files(out)), quick=quick)
+    atomic_write_text(out / "claims.md", claims)
+    timings.append(("claims", time.perf_counter() - t0, "verdicts from the files above"))
     first = cfgs[EXPERIMENTS[0][0]]
     settings = {
         "command": command,
@@ -307,7 +315,17 @@ def reproduce(
         "test_episodes": first.run.test_episodes,
         "quick": quick,
     }
-    return write_report(out, info, settings, timings, sections)
+    return write_report(out, info, settings, timings, sections, claims)
+
+
+def experiment_files(out: Path) -> dict[str, tuple[list[dict[str, str]], str]]:
+    """name -> (metrics.csv rows, eval/results.csv text) of each experiment in ``out``."""
+    files = {}
+    for name, _ in EXPERIMENTS:
+        run_dir = out / name
+        rows = CsvLog(run_dir / METRICS, ()).read()
+        files[name] = (rows, (run_dir / "eval" / "results.csv").read_text())
+    return files
 
 
 def _parser() -> cli.Parser:

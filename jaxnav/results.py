@@ -19,7 +19,23 @@ from jaxnav import stats
 from jaxnav.config import STRATEGIES
 from jaxnav.errors import RunError
 
-RESULT_COLUMNS = ("strategy", "seed", "maze", "episode", "return", "goals", "collided", "length")
+RESULT_COLUMNS = (
+    "strategy",
+    "seed",
+    "mode",
+    "maze",
+    "episode",
+    "return",
+    "goals",
+    "collided",
+    "length",
+)
+# Test modes: "greedy" (argmax Q) or "exploring" (each strategy's own exploration at
+# the end of its training); see jaxnav.rollout.
+MODE_NAMES = {
+    "greedy": "greedy (argmax Q, no exploration)",
+    "exploring": "exploring (each strategy's own exploration as at the end of training)",
+}
 STRATEGY_NAMES = {"ebe": "EBE", "epsilon_greedy": "epsilon-greedy"}
 ROBUSTNESS_COLUMNS = (
     "strategy",
@@ -35,17 +51,16 @@ ROBUSTNESS_COLUMNS = (
 UNPERTURBED = "none"
 
 
-def episode_rows(labels, names, results, n_episodes, perturbation: str | None = None):
-    """CSV rows (strategy, seed[, perturbation], maze, episode, return, goals, collided,
-    length) of run_tests() results."""
-    tag = () if perturbation is None else (perturbation,)
+def episode_rows(labels, names, results, n_episodes, tag: str):
+    """CSV rows (strategy, seed, tag, maze, episode, return, goals, collided, length) of
+    run_tests() results; the tag is the test mode or the perturbation."""
     for name, res in zip(names, results):
         for r, (strategy, seed) in enumerate(labels):
             for e in range(n_episodes):
                 yield (
                     strategy,
                     seed,
-                    *tag,
+                    tag,
                     name,
                     e,
                     f"{float(res.ret[r, e]):.4f}",
@@ -55,15 +70,28 @@ def episode_rows(labels, names, results, n_episodes, perturbation: str | None = 
                 )
 
 
-def read_results(text: str) -> dict[tuple[str, str, int], dict[str, np.ndarray]]:
-    """results.csv text -> {(maze, strategy, seed): {column: per-episode array}}."""
-    return _read_episodes(text, ("maze", "strategy", "seed"))
+def read_results(
+    text: str, mode: str = "greedy"
+) -> dict[tuple[str, str, int], dict[str, np.ndarray]]:
+    """The rows of one test mode of results.csv text ->
+    {(maze, strategy, seed): {column: per-episode array}}."""
+    return _read_episodes(text, ("maze", "strategy", "seed"), {"mode": mode})
 
 
-def _read_episodes(text: str, key_columns: Sequence[str]) -> dict[tuple, dict[str, np.ndarray]]:
-    """Episode rows -> {key (seed as int): {column: per-episode array, by episode}}."""
+def result_modes(text: str) -> list[str]:
+    """The test modes in results.csv text, in file order."""
+    return ordered_unique(row["mode"] for row in csv.DictReader(io.StringIO(text)))
+
+
+def _read_episodes(
+    text: str, key_columns: Sequence[str], where: dict[str, str] | None = None
+) -> dict[tuple, dict[str, np.ndarray]]:
+    """Episode rows (those matching ``where``) -> {key (seed as int): {column:
+    per-episode array, by episode}}."""
     out: dict[tuple, dict[str, list]] = {}
     for row in csv.DictReader(io.StringIO(text)):
+        if where and any(row.get(k) != v for k, v in where.items()):
+            continue
         key = tuple(int(row[c]) if c == "seed" else row[c] for c in key_columns)
         d = out.setdefault(
             key, {"episode": [], "return": [], "goals": [], "collided": [], "length": []}

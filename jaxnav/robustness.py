@@ -97,7 +97,7 @@ def robustness(
         # record=True: the same program as evaluate()'s, so "none" repeats it exactly.
         perturbed = pol._replace(env=env, env_params=env_params)
         results = run_tests(perturbed, mazes, n_episodes, record=True)
-        rows += episode_rows(pol.labels, names, results, n_episodes, perturbation=p)
+        rows += episode_rows(pol.labels, names, results, n_episodes, p)
     return run, names, rundir.csv_text(ROBUSTNESS_COLUMNS, rows)
 
 

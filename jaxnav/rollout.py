@@ -20,12 +20,16 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from jaxnav.dqn import QNetwork
+from jaxnav.config import STRATEGIES, ExplorationConfig
+from jaxnav.dqn import QNetwork, exploration_probability, explore_or_greedy
 from jaxnav.env import EnvParams, NavEnv
 from jaxnav.maps import MAX_GOAL_POINTS, Maze, make_maze, pad_maze
 from jaxnav.sharding import RunSharding
 
 EVAL_SALT = 0x7E57  # folded into a seed's key: test goals differ from training's
+
+
+MODES = ("greedy", "exploring")  # how a policy acts in a test (see make_rollout)
 
 
 class Policies(NamedTuple):
@@ -36,6 +40,8 @@ class Policies(NamedTuple):
     env: NavEnv  # the training env (static settings)
     env_params: EnvParams  # the training env's params
     network: QNetwork
+    exploration: ExplorationConfig  # the strategies' settings in training
+    episodes_trained: int  # episodes each policy trained for (epsilon's last value)
 
 
 class Trajectory(NamedTuple):
@@ -67,20 +73,40 @@ class Rollout(NamedTuple):
 
 
 def make_rollout(
-    env: NavEnv, network: QNetwork, n_episodes: int, max_steps: int, record: bool = False
+    env: NavEnv,
+    network: QNetwork,
+    n_episodes: int,
+    max_steps: int,
+    record: bool = False,
+    exploring: tuple[ExplorationConfig, int] | None = None,
 ):
-    """A pure ``rollout(params, key, env_params) -> Rollout`` of one greedy policy.
+    """A pure ``rollout(params, key, strategy, env_params) -> Rollout`` of one policy.
 
     Plays ``n_episodes`` consecutive episodes in one environment with auto-reset.
     Each episode lasts at most ``max_steps`` steps, so a scan of
     ``n_episodes * max_steps`` steps always completes them; later steps are ignored.
+
+    Greedy (``exploring`` None): dropout off, action = argmax Q. Exploring
+    (``exploring = (exploration config, episodes trained)``): each strategy explores
+    as at the end of its training, through the trainer's own
+    :func:`jaxnav.dqn.exploration_probability` (EBE with probability H(s), epsilon-
+    greedy with the schedule's last epsilon); the environment's keys are the greedy
+    test's, so both modes start from the same goals.
     """
     n_steps = n_episodes * max_steps
     E = n_episodes
 
     # One scan body over one explicit carry, read top to bottom: ACT, STEP ENV, RECORD.
 
-    def rollout(params, key: chex.PRNGKey, env_params: EnvParams) -> Rollout:
+    def act(params, obs, key, strategy):
+        q = network.apply(params, obs)  # dropout off (Keras predict)
+        if exploring is None:
+            return jnp.argmax(q, axis=-1).astype(jnp.int32)
+        x, episodes = exploring
+        prob = exploration_probability(strategy, q, jnp.int32(episodes), x)
+        return explore_or_greedy(jax.random.fold_in(key, 1), q, prob).astype(jnp.int32)
+
+    def rollout(params, key: chex.PRNGKey, strategy, env_params: EnvParams) -> Rollout:
         k_reset, key = jax.random.split(key)
         obs, state = env.reset(k_reset, env_params)
         zeros_f = jnp.zeros(E, jnp.float32)
@@ -98,9 +124,8 @@ def make_rollout(
         def body(carry, _):
             obs, state, key, ep, cur_ret, cur_goals, (rets, goals, coll, lens) = carry
             key, k_step = jax.random.split(key)
-            # ACT: greedy, dropout off (Keras predict).
-            q = network.apply(params, obs)
-            action = jnp.argmax(q, axis=-1).astype(jnp.int32)
+            # ACT: greedy, or the strategy's own exploration.
+            action = act(params, obs, k_step, strategy)
             # STEP ENV (auto-reset keeps the goal, restarts at the start pose).
             obs2, state2, reward, terminated, truncated, info = env.step(
                 k_step, state, action, env_params
@@ -168,11 +193,11 @@ def eval_keys(labels: Sequence[tuple[str, int]]) -> chex.Array:
 
 @functools.lru_cache(maxsize=16)
 def _compiled_rollout(
-    env: NavEnv, network: QNetwork, n_episodes: int, max_steps: int, record: bool
+    env: NavEnv, network: QNetwork, n_episodes: int, max_steps: int, record: bool, exploring
 ):
     """jit(vmap(rollout)) over runs, one per setting: equal shapes never recompile."""
-    rollout = make_rollout(env, network, n_episodes, max_steps, record)
-    return jax.jit(jax.vmap(rollout, in_axes=(0, 0, None)))
+    rollout = make_rollout(env, network, n_episodes, max_steps, record, exploring)
+    return jax.jit(jax.vmap(rollout, in_axes=(0, 0, 0, None)))
 
 
 def run_tests(
@@ -180,17 +205,24 @@ def run_tests(
     mazes: Sequence[Maze],
     n_episodes: int,
     record: bool = False,
+    mode: str = "greedy",
 ) -> list[Rollout]:
-    """One vmapped rollout of every policy per maze; NumPy results."""
+    """One vmapped rollout of every policy per maze in a test ``mode``; NumPy results."""
+    if mode not in MODES:
+        raise ValueError(f"unknown test mode {mode!r}")
+    exploring = None
+    if mode == "exploring":
+        exploring = (policies.exploration, policies.episodes_trained)
     # The run axis is laid over every device, as in training.
     shard = RunSharding(len(policies.labels))
     params = shard.put(jax.tree.map(np.asarray, policies.params))
     keys = shard.put(np.asarray(eval_keys(policies.labels)))
+    strategy = shard.put(np.asarray([STRATEGIES.index(s) for s, _ in policies.labels], np.int32))
     max_steps = int(policies.env_params.max_steps)
-    fn = _compiled_rollout(policies.env, policies.network, n_episodes, max_steps, record)
+    fn = _compiled_rollout(policies.env, policies.network, n_episodes, max_steps, record, exploring)
     out = []
     for maze in mazes:
-        res = fn(params, keys, policies.env_params.replace(maze=maze))
+        res = fn(params, keys, strategy, policies.env_params.replace(maze=maze))
         out.append(shard.get(res))
     return out
 

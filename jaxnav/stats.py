@@ -1,30 +1,33 @@
-"""Across-seed statistics for the test tables: small pure NumPy/SciPy functions.
+"""Across-seed statistics: rliable's metrics, bootstrap intervals that resample seeds.
 
-The paper reports one training run per strategy as mean ± std over 10 test
-episodes. jaxnav trains many seeds, so it also summarises the per-seed scores the
-way rliable (Agarwal et al., NeurIPS 2021) recommends, without depending on it:
+The paper reports one training run per strategy. jaxnav trains many seeds and
+summarises the per-seed scores as rliable (Agarwal et al., NeurIPS 2021)
+recommends, with rliable's own functions for the point estimates (interquartile
+mean, probability of improvement) and arch's bootstrap (the engine under rliable's
+intervals) for percentile confidence intervals, seeded so a table is reproducible.
 
-* :func:`mean_ci`: mean of the per-seed scores with a percentile bootstrap CI;
-* :func:`iqm` / :func:`iqm_ci`: interquartile mean (25 % trimmed mean) and its CI;
-* :func:`probability_of_improvement` / :func:`probability_of_improvement_ci`:
-  P(X > Y) + 0.5 P(X = Y) for a run of X against a run of Y, averaged over tasks
-  (mazes), with rliable's stratified independent bootstrap: the seeds of X and the
-  seeds of Y are resampled independently, within each task.
+One seed is one trained network. When the same networks are tested on several
+mazes, a bootstrap resample draws seeds, and each drawn seed brings its scores on
+every maze (joint resampling, ``x`` as f[seeds, mazes]). rliable's
+``StratifiedBootstrap`` draws seeds independently for each task, as if every maze
+had been trained separately; with the same networks on every maze that interval is
+too narrow. The seeds of two strategies are resampled independently of each other.
 
-Every function takes plain arrays and returns floats, so it can be checked by hand.
-Intervals of fewer than two samples are undefined and come back as NaN.
+Intervals need at least two seeds; with fewer they come back as NaN.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from typing import NamedTuple
 
 import numpy as np
-from scipy import stats as _st
+from arch.bootstrap import IIDBootstrap, IndependentSamplesBootstrap
+from rliable import metrics
 
 CONFIDENCE = 0.95
-N_RESAMPLES = 5000  # bootstrap resamples; plenty for 2-16 seeds
+N_RESAMPLES = 5000  # bootstrap resamples
 BOOTSTRAP_SEED = 0  # fixed, so a table is reproducible
 
 
@@ -42,94 +45,91 @@ def mean_std(x: Sequence[float]) -> tuple[float, float]:
     return float(x.mean()), float(x.std())
 
 
-def iqm(x: Sequence[float]) -> float:
-    """Interquartile mean: the mean of the middle 50 % (scipy ``trim_mean(x, 0.25)``)."""
-    return float(_st.trim_mean(np.asarray(x, np.float64).ravel(), 0.25))
-
-
-def _bootstrap(
-    samples: tuple[np.ndarray, ...], statistic, confidence: float
-) -> tuple[float, float]:
-    """Percentile bootstrap CI (each sample resampled independently), NaN if undefined."""
-    if any(len(s) < 2 for s in samples):
-        return float("nan"), float("nan")
-    res = _st.bootstrap(
-        samples,
-        statistic,
-        n_resamples=N_RESAMPLES,
-        confidence_level=confidence,
-        method="percentile",  # as rliable; BCa is unstable for a handful of seeds
-        vectorized=True,
-        paired=False,
-        random_state=np.random.default_rng(BOOTSTRAP_SEED),
-    )
-    return float(res.confidence_interval.low), float(res.confidence_interval.high)
-
-
-def mean_ci(x: Sequence[float], confidence: float = CONFIDENCE) -> Interval:
-    """Mean of ``x`` (one score per seed) with a percentile bootstrap CI."""
-    x = np.asarray(x, np.float64).ravel()
-    low, high = _bootstrap((x,), lambda s, axis=-1: np.mean(s, axis=axis), confidence)
-    return Interval(float(x.mean()), low, high)
-
-
-def iqm_ci(x: Sequence[float], confidence: float = CONFIDENCE) -> Interval:
-    """Interquartile mean of ``x`` with a percentile bootstrap CI."""
-    x = np.asarray(x, np.float64).ravel()
-    low, high = _bootstrap((x,), lambda s, axis=-1: _st.trim_mean(s, 0.25, axis=axis), confidence)
-    return Interval(iqm(x), low, high)
-
-
-def _p_greater(x: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """P(X > Y) + 0.5 P(X = Y) over all pairs; x [..., n], y [..., m] -> [...]."""
-    xx, yy = x[..., :, None], y[..., None, :]
-    return np.mean((xx > yy) + 0.5 * (xx == yy), axis=(-2, -1))
-
-
 def _as_tasks(x) -> np.ndarray:
-    """Scores as [runs, tasks]; a 1-D array is one task."""
+    """Scores as f[seeds, tasks]; a 1-D array is one task."""
     x = np.asarray(x, np.float64)
     if x.ndim == 1:
         x = x[:, None]
     if x.ndim != 2:
-        raise ValueError("scores must be [runs] or [runs, tasks]")
+        raise ValueError("scores must be [seeds] or [seeds, tasks]")
     return x
 
 
+def _percentile_ci(bootstrap, statistic, confidence: float) -> tuple[float, float]:
+    ci = bootstrap.conf_int(statistic, reps=N_RESAMPLES, method="percentile", size=confidence)
+    return float(ci[0, 0]), float(ci[1, 0])
+
+
+def iqm(x) -> float:
+    """Interquartile mean over seeds (and tasks): rliable's ``aggregate_iqm``."""
+    return float(metrics.aggregate_iqm(_as_tasks(x)))
+
+
+def mean_ci(x, confidence: float = CONFIDENCE) -> Interval:
+    """Mean over seeds (and tasks) with a percentile bootstrap CI over seeds."""
+    x = _as_tasks(x)
+    value = float(metrics.aggregate_mean(x))
+    if len(x) < 2:
+        return Interval(value, math.nan, math.nan)
+    bs = IIDBootstrap(x, seed=BOOTSTRAP_SEED)
+    return Interval(value, *_percentile_ci(bs, lambda s: np.mean(s), confidence))
+
+
+def iqm_ci(x, confidence: float = CONFIDENCE) -> Interval:
+    """Interquartile mean with a percentile bootstrap CI over seeds."""
+    x = _as_tasks(x)
+    if len(x) < 2:
+        return Interval(iqm(x), math.nan, math.nan)
+    bs = IIDBootstrap(x, seed=BOOTSTRAP_SEED)
+    return Interval(iqm(x), *_percentile_ci(bs, metrics.aggregate_iqm, confidence))
+
+
+def _p_greater(x: np.ndarray, y: np.ndarray) -> float:
+    """rliable's probability of improvement, without a Mann-Whitney call per task:
+    per task P(X > Y) + 0.5 P(X = Y) over all pairs, averaged over tasks."""
+    xx, yy = x[:, None, :], y[None, :, :]
+    return float(np.mean((xx > yy) + 0.5 * (xx == yy)))
+
+
 def probability_of_improvement(x, y) -> float:
-    """rliable's P(X > Y): for each task, the chance a run of X scores more than a
-    run of Y (ties count half), averaged over tasks.
+    """rliable's P(X > Y): for each task, the chance that a seed of X scores more than
+    a seed of Y (ties count half), averaged over tasks.
 
     Args:
-      x: f[n] or f[n, tasks] scores of algorithm X (one row per seed).
-      y: f[m] or f[m, tasks] scores of algorithm Y (same tasks).
+      x: f[n] or f[n, tasks] scores of X, one row per seed.
+      y: f[m] or f[m, tasks] scores of Y on the same tasks.
     """
     x, y = _as_tasks(x), _as_tasks(y)
     if x.shape[1] != y.shape[1]:
         raise ValueError("x and y must have the same tasks")
-    return float(np.mean([_p_greater(x[:, t], y[:, t]) for t in range(x.shape[1])]))
+    return float(metrics.probability_of_improvement(x, y))
 
 
 def probability_of_improvement_ci(x, y, confidence: float = CONFIDENCE) -> Interval:
-    """P(X > Y) with a stratified independent bootstrap CI (seeds of X and of Y
-    resampled independently within every task, as rliable's
-    ``StratifiedIndependentBootstrap``)."""
+    """P(X > Y) with a percentile bootstrap CI: the seeds of X and of Y resampled
+    independently, each seed jointly over all tasks (its row)."""
     x, y = _as_tasks(x), _as_tasks(y)
-    if x.shape[1] != y.shape[1]:
-        raise ValueError("x and y must have the same tasks")
-    n_tasks = x.shape[1]
-    # One bootstrap sample per (algorithm, task): scipy resamples each independently.
-    samples = tuple(a[:, t] for t in range(n_tasks) for a in (x, y))
+    value = probability_of_improvement(x, y)
+    if len(x) < 2 or len(y) < 2:
+        return Interval(value, math.nan, math.nan)
+    bs = IndependentSamplesBootstrap(x, y, seed=BOOTSTRAP_SEED)
+    return Interval(value, *_percentile_ci(bs, _p_greater, confidence))
 
-    def stat(*s, axis=-1):
-        per_task = [
-            _p_greater(np.moveaxis(s[2 * t], axis, -1), np.moveaxis(s[2 * t + 1], axis, -1))
-            for t in range(n_tasks)
-        ]
-        return np.mean(per_task, axis=0)
 
-    low, high = _bootstrap(samples, stat, confidence)
-    return Interval(probability_of_improvement(x, y), low, high)
+def seeds_to_resolve(p: Interval, n_seeds: int) -> float:
+    """Seeds per strategy at which an interval like ``p`` would exclude 0.5.
+
+    A rough extrapolation from the observed effect: the interval's half-width
+    shrinks as 1 / sqrt(seeds), and its centre stays at the observed value. Infinite
+    when the observed value is 0.5 (no effect to resolve), NaN without an interval.
+    """
+    half = (p.high - p.low) / 2
+    effect = abs(p.value - 0.5)
+    if math.isnan(half) or half == 0:
+        return math.nan
+    if effect == 0:
+        return math.inf
+    return float(math.ceil(n_seeds * (half / effect) ** 2 - 1e-9))
 
 
 def moving_average(x: Sequence[float], window: int) -> np.ndarray:
@@ -158,10 +158,8 @@ def bootstrap_band(
     mean = x.mean(axis=0)
     if x.shape[0] < 2:
         return mean, mean.copy(), mean.copy()
-    rng = np.random.default_rng(BOOTSTRAP_SEED)
-    n_boot = 2000
-    idx = rng.integers(0, x.shape[0], size=(n_boot, x.shape[0]))
-    boot = x[idx].mean(axis=1)  # [n_boot, T]
+    bs = IIDBootstrap(x, seed=BOOTSTRAP_SEED)
+    boot = bs.apply(lambda s: s.mean(axis=0), reps=2000)  # [reps, T]
     alpha = (1.0 - confidence) / 2
     low, high = np.quantile(boot, [alpha, 1.0 - alpha], axis=0)
     return mean, low, high

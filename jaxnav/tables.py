@@ -12,6 +12,7 @@ from jaxnav.config import STRATEGIES
 from jaxnav.errors import RunError
 from jaxnav.paper import PAPER_TABLES
 from jaxnav.results import (
+    MODE_NAMES,
     STRATEGY_NAMES,
     UNPERTURBED,
     RobustnessRow,
@@ -19,6 +20,7 @@ from jaxnav.results import (
     per_seed_scores,
     read_results,
     read_robustness,
+    result_modes,
     robustness_summary,
 )
 
@@ -59,7 +61,7 @@ class _Test(NamedTuple):
 def tables_markdown(
     results_csv: str, train_maze: str, first_seed: int, title: str = "Test results"
 ) -> str:
-    """The report's tables from results.csv text.
+    """The report's tables from results.csv text, one part per test mode.
 
     Args:
       results_csv: the text of results.csv.
@@ -67,12 +69,34 @@ def tables_markdown(
       first_seed: the config's seed: the single-seed table uses it, as the paper
         shows one run.
     """
-    results = read_results(results_csv)
-    if not results:
+    modes = result_modes(results_csv)
+    if not modes:
         raise RunError("results.csv has no rows")
+    L: list[str] = [f"# {title}", ""]
+    for mode in modes:
+        t = _test(read_results(results_csv, mode), first_seed)
+        n_eps = {len(v["return"]) for v in t.results.values()}
+        L += [
+            f"## Test mode: {MODE_NAMES[mode]}",
+            "",
+            f"Trained on `{train_maze}`; {len(t.seeds)} seed(s) per strategy; "
+            f"{'/'.join(map(str, sorted(n_eps)))} consecutive test episodes per seed and maze "
+            "in the training environment's settings (dropout off).",
+            "",
+        ]
+        sections = _paper_form_section(t) + _across_seeds_section(t)
+        if set(t.strategies) == set(STRATEGIES):
+            sections += _improvement_section(t)
+        sections += _beside_paper_section(t, train_maze)
+        L += [("#" + line) if line.startswith("## ") else line for line in sections]
+        L += [""]
+    return "\n".join(L).rstrip("\n") + "\n"
+
+
+def _test(results: dict, first_seed: int) -> _Test:
     strategies = [s for s in STRATEGIES if any(k[1] == s for k in results)]
     seeds = sorted({k[2] for k in results})
-    t = _Test(
+    return _Test(
         results=results,
         mazes=ordered_unique(k[0] for k in results),
         strategies=strategies,
@@ -80,19 +104,6 @@ def tables_markdown(
         seed0=first_seed if first_seed in seeds else seeds[0],
         names=[STRATEGY_NAMES[s] for s in strategies],
     )
-    n_eps = {len(v["return"]) for v in results.values()}
-    L: list[str] = [f"# {title}", ""]
-    L += [
-        f"Trained on `{train_maze}`; {len(seeds)} seed(s) per strategy; "
-        f"{'/'.join(map(str, sorted(n_eps)))} consecutive greedy test episodes per seed and maze "
-        "(dropout off, argmax Q, the training environment's settings).",
-        "",
-    ]
-    L += _paper_form_section(t) + _across_seeds_section(t)
-    if set(strategies) == set(STRATEGIES):
-        L += _improvement_section(t)
-    L += _beside_paper_section(t, train_maze)
-    return "\n".join(L) + "\n"
 
 
 def _paper_form_section(t: _Test) -> list[str]:
@@ -123,7 +134,7 @@ def _across_seeds_section(t: _Test) -> list[str]:
         "## Across seeds",
         "",
         "A seed's score is its mean return over the test episodes. Mean and IQM "
-        "(interquartile mean, scipy `trim_mean(x, 0.25)`) of the per-seed scores, with "
+        "(interquartile mean, rliable's `aggregate_iqm`) of the per-seed scores, with "
         f"{int(stats.CONFIDENCE * 100)}% percentile-bootstrap confidence intervals over seeds "
         f"({stats.N_RESAMPLES} resamples; n/a with one seed; with a handful of seeds the interval "
         "is little more than the range of the per-seed scores). Goals per episode and the "
@@ -160,9 +171,10 @@ def _improvement_section(t: _Test) -> list[str]:
         "",
         "P(EBE > epsilon-greedy) as rliable defines it: the chance that a seed of EBE "
         "scores more than a seed of epsilon-greedy, ties counting half "
-        "(P(X > Y) + 0.5 P(X = Y) over all pairs of per-seed scores), with a stratified "
-        "bootstrap CI (the seeds of each strategy resampled independently within each "
-        "maze). 0.5: no difference. The last row averages over the mazes.",
+        "(P(X > Y) + 0.5 P(X = Y) over all pairs of per-seed scores), with a percentile "
+        "bootstrap CI: the seeds of each strategy are resampled independently, and in the "
+        "last row (the average over the mazes) each drawn seed keeps its scores on every "
+        "maze, since all mazes test the same trained networks. 0.5: no difference.",
         "",
     ]
     rows = []

@@ -12,6 +12,7 @@ import pytest
 from _tiny_run import tiny_run
 
 from jaxnav import stats
+from jaxnav.dqn import ebe, epsilon_greedy, epsilon_schedule
 from jaxnav.evaluate import main
 from jaxnav.evaluation import evaluate, evaluate_to_dir, load_run
 from jaxnav.results import RESULT_COLUMNS
@@ -42,8 +43,10 @@ def test_evaluation_covers_every_run_maze_and_episode(evaluated):
     cfg, out = evaluated
     rows = _rows(out / "eval" / "results.csv")
     assert tuple(rows[0]) == RESULT_COLUMNS
-    assert len(rows) == cfg.n_runs * len(cfg.run.test_mazes) * cfg.run.test_episodes
-    assert [r["maze"] for r in rows[:: cfg.n_runs * cfg.run.test_episodes]] == list(
+    per_mode = cfg.n_runs * len(cfg.run.test_mazes) * cfg.run.test_episodes
+    assert len(rows) == 2 * per_mode
+    assert [r["mode"] for r in rows[::per_mode]] == ["greedy", "exploring"]
+    assert [r["maze"] for r in rows[: per_mode : cfg.n_runs * cfg.run.test_episodes]] == list(
         cfg.run.test_mazes
     )
     assert {(r["strategy"], r["seed"]) for r in rows} == {
@@ -65,8 +68,8 @@ def test_tables_are_recomputed_from_results_csv(evaluated):
     assert (
         tables_markdown(text, cfg.env.maze, cfg.seed, title=f"Test results of {out.name}") == tables
     )
-    rows = list(csv.DictReader(io.StringIO(text)))
-    lines = tables.splitlines()
+    rows = [r for r in csv.DictReader(io.StringIO(text)) if r["mode"] == "greedy"]
+    lines = tables.split("## Test mode: exploring")[0].splitlines()
 
     def returns(maze, strategy, seed):
         return [
@@ -142,6 +145,39 @@ def test_rollout_plays_consecutive_greedy_episodes_like_a_step_loop(run):
     np.testing.assert_array_equal(tr.episode[0, : res.length[0, 0]], 0)
 
 
+def test_exploring_test_acts_as_each_strategy_at_the_end_of_training(run):
+    """The exploring test mode against a step loop calling ebe() and epsilon_greedy():
+    EBE explores with probability H(s), epsilon-greedy with its last epsilon."""
+    cfg, out = run
+    loaded = load_run(out)
+    mazes = padded_mazes(cfg.run.test_mazes)
+    pol = loaded.policies
+    res = run_tests(pol, mazes[:1], 1, mode="exploring")[0]
+    env_params = pol.env_params.replace(maze=mazes[0])
+    step = jax.jit(pol.env.step)
+    q_fn = jax.jit(pol.network.apply)
+    eps = float(epsilon_schedule(jnp.int32(cfg.episodes), 1.0, 0.99, 0.05))
+    explored = 0
+    for r, (strategy, _) in enumerate(pol.labels):
+        params = jax.tree.map(lambda x, r=r: x[r], pol.params)
+        k_reset, key = jax.random.split(eval_keys(pol.labels[r : r + 1])[0])
+        obs, state = pol.env.reset(k_reset, env_params)
+        ret, done = 0.0, False
+        while not done:
+            key, k = jax.random.split(key)
+            q = q_fn(params, obs)
+            k_act = jax.random.fold_in(k, 1)
+            if strategy == "ebe":
+                action, _ = ebe(k_act, q, cfg.exploration.ebe_temperature)
+            else:
+                action, _ = epsilon_greedy(k_act, q, eps)
+            explored += int(action) != int(jnp.argmax(q))
+            obs, state, rew, term, trunc, _ = step(k, state, jnp.int32(action), env_params)
+            ret, done = ret + float(rew), bool(term | trunc)
+        assert res.ret[r, 0] == pytest.approx(ret, rel=1e-5, abs=1e-3), strategy
+    assert explored > 0  # the mode really explores
+
+
 MAZE_WITH_A_CYLINDER = """\
 outline: [[-1.5, -1.5], [1.5, -1.5], [1.5, 1.5], [-1.5, 1.5], [-1.5, -1.5]]
 obstacles:
@@ -167,8 +203,9 @@ def test_evaluation_on_two_mazes_by_name_and_file(run, tmp_path):
     ]
     assert main(argv) == 0
     rows = _rows(tmp_path / "e" / "results.csv")
-    assert len(rows) == 2 * cfg.n_runs * 2
-    assert [r["maze"] for r in rows[:: 2 * cfg.n_runs]] == ["pentagon", str(maze_file)]
+    assert len(rows) == 2 * (2 * cfg.n_runs * 2)  # two test modes
+    mazes = [r["maze"] for r in rows[:: 2 * cfg.n_runs]]
+    assert mazes == ["pentagon", str(maze_file)] * 2
     tables = (tmp_path / "e" / "tables.md").read_text()
     assert (
         "| pentagon | 4x4" not in tables and "| pentagon | Pentagon | 2794.04 ± 544.07 |" in tables

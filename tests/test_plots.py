@@ -114,7 +114,13 @@ def test_reproduce_quick_end_to_end(run, tmp_path, capsys):
         assert (out / link).is_file(), link
     # the report's tables are the evaluation's
     tables = (out / "paper_obstacles" / "eval" / "tables.md").read_text()
-    assert tables.split("\n## Across seeds")[1].split("\n## ")[0].strip() in report
+    assert tables.split("\n### Across seeds")[1].split("\n### ")[0].strip() in report
+    assert "## Test mode: exploring" in tables
+    # the claims table, computed from the files, at the top; a quick run says so
+    claims = (out / "claims.md").read_text()
+    assert claims.split("\n", 1)[1].strip() in report
+    assert "## The paper's claims, judged" in report and "not conclusive" in report
+    assert "| Fig. 2(b) | EBE learns faster (no obstacles) | training |" in report
     # without --resume a finished reproduction is not overwritten
     before = (out / "report.md").read_bytes()
     assert reproduce.main([*REPRODUCE_TINY, "--out", str(out), "--quiet"]) == 2

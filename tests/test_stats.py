@@ -1,5 +1,7 @@
 """The across-seed statistics against inputs whose answer is known by hand."""
 
+import math
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -98,3 +100,92 @@ def test_bootstrap_band_brackets_the_mean_curve():
     assert np.all(low <= mean) and np.all(mean <= high) and np.all(high > low)
     m1, l1, h1 = stats.bootstrap_band(x[:1])
     np.testing.assert_array_equal(l1, m1)
+
+
+# ----------------------------------------------------------------------------
+# Against rliable, and the joint resampling of seeds over mazes
+# ----------------------------------------------------------------------------
+
+# Per-seed mean test returns of an earlier 8-seed reproduction (trained on square4,
+# tested on five mazes): rows are seeds 0-7, columns square4, square8, square2,
+# triangle, pentagon.
+EBE_8 = np.array(
+    [
+        [9674.26, 7155.14, 12425.16, 9464.89, 9823.02],
+        [-411.23, 999.50, -138.33, 1479.38, 1613.80],
+        [7356.40, 7830.63, 7142.72, 7064.16, 7538.72],
+        [10084.77, 6325.00, 15002.35, 9850.84, 9941.76],
+        [9773.42, 3827.77, 2469.92, 8554.08, 9891.03],
+        [9442.42, 7598.66, 7442.32, 8831.84, 9802.55],
+        [10309.27, 8223.10, 15747.15, 9791.52, 10195.42],
+        [9397.17, 6003.05, -137.69, 9322.34, 9188.01],
+    ]
+)
+EPS_8 = np.array(
+    [
+        [7743.80, 4107.61, -219.28, 6003.53, 8210.13],
+        [6508.21, 4213.80, -71.60, 6354.71, 7518.49],
+        [7780.26, 4586.76, 2017.67, 7111.72, 9115.85],
+        [1370.26, 7645.00, -172.99, 1406.67, 5093.55],
+        [9743.71, 6754.29, -253.07, 9119.45, 9635.80],
+        [9190.06, 3893.23, 2877.70, 7099.67, 7684.42],
+        [9717.97, 6796.74, 280.04, 8353.33, 9862.05],
+        [986.61, 1442.55, -137.69, -214.94, 1180.99],
+    ]
+)
+
+
+def test_point_estimates_are_rlibables():
+    from rliable import metrics
+
+    rng = np.random.default_rng(3)
+    x, y = rng.normal(size=(7, 3)), rng.normal(0.5, 1, size=(9, 3))
+    x[0, 0] = y[0, 0]  # a tie
+    assert stats.probability_of_improvement(x, y) == pytest.approx(
+        metrics.probability_of_improvement(x, y)
+    )
+    assert stats._p_greater(x, y) == pytest.approx(metrics.probability_of_improvement(x, y))
+    assert stats.iqm(x) == pytest.approx(metrics.aggregate_iqm(x))
+    assert stats.mean_ci(x).value == pytest.approx(metrics.aggregate_mean(x))
+
+
+def test_pooled_interval_resamples_each_seed_jointly_over_mazes():
+    """All mazes test the same networks: a resample draws seeds, not (seed, maze) cells.
+
+    rliable's StratifiedBootstrap draws seeds per maze and gives a narrower interval
+    on these numbers ([0.63, 0.85]); drawing each seed's row gives [0.54, 0.92].
+    """
+    from rliable import library
+
+    p = stats.probability_of_improvement_ci(EBE_8, EPS_8)
+    assert p.value == pytest.approx(0.7484375)
+    assert p.low == pytest.approx(0.54, abs=0.02) and p.high == pytest.approx(0.92, abs=0.02)
+    np.random.seed(0)  # rliable's bootstrap draws from NumPy's global generator
+    _, cis = library.get_interval_estimates(
+        {"p": [EBE_8, EPS_8]},
+        lambda x, y: np.array([stats._p_greater(x, y)]),
+        reps=2000,
+    )
+    low, high = cis["p"][:, 0]
+    assert (p.high - p.low) > (high - low) + 0.1  # per-maze resampling is too narrow
+
+
+def test_joint_resampling_keeps_a_seeds_mazes_together_by_hand():
+    """Two seeds per strategy, two mazes, X wins on one maze and loses on the other in
+    every seed: each resample keeps that, so P stays 0.5 exactly. Independent
+    per-maze resampling would mix rows and move it."""
+    x = np.array([[1.0, 10.0], [2.0, 11.0]])
+    y = np.array([[5.0, 0.0], [6.0, 1.0]])
+    assert stats.probability_of_improvement_ci(x, y) == (0.5, 0.5, 0.5)
+    # seed 0 of X beats Y on maze 0 only when drawn; the interval spans the draws
+    x2 = np.array([[9.0, 0.0], [1.0, 0.0]])
+    y2 = np.array([[5.0, 0.0], [5.0, 0.0]])
+    p = stats.probability_of_improvement_ci(x2, y2)
+    assert p.value == 0.5 and p.low == pytest.approx(0.25) and p.high == pytest.approx(0.75)
+
+
+def test_seeds_to_resolve_extrapolates_the_half_width():
+    p = stats.Interval(0.625, 0.5, 0.875)  # half-width 0.1875, effect 0.125, at 8 seeds
+    assert stats.seeds_to_resolve(p, 8) == math.ceil(8 * 1.5**2)
+    assert stats.seeds_to_resolve(stats.Interval(0.5, 0.4, 0.6), 8) == math.inf
+    assert math.isnan(stats.seeds_to_resolve(stats.Interval(0.7, math.nan, math.nan), 1))
