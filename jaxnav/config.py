@@ -18,6 +18,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import os
+import re
 import types
 import typing
 from dataclasses import dataclass, field
@@ -177,6 +178,28 @@ def _type_name(t) -> str:
     return {int: "an integer", float: "a number", bool: "true or false", str: "a string"}[t]
 
 
+# A number as people write one: 1e-4, 5E3, 1_000_000, -2.5. YAML 1.1 (PyYAML) reads
+# "1e-4" (no dot) and "1_000" in a file as strings; they are numbers here.
+_NUMBER = re.compile(r"[+-]?(\d[\d_]*(\.[\d_]*)?|\.\d[\d_]*)([eE][+-]?\d+)?")
+
+
+def _number(value: Any) -> int | float | None:
+    """An int or float from a YAML scalar (int, float or numeric string), else None."""
+    if isinstance(value, bool):
+        return None
+    if isinstance(value, (int, float)):
+        return value
+    if isinstance(value, str):
+        text = value.strip()
+        if text.lower() in (".inf", "+.inf", "-.inf", ".nan", "inf", "-inf", "nan"):
+            return math.nan if "nan" in text.lower() else math.inf
+        if _NUMBER.fullmatch(text) and "__" not in text and not text.endswith("_"):
+            number = float(text.replace("_", ""))
+            is_int = number.is_integer() and not any(c in text for c in ".eE")
+            return int(text.replace("_", "")) if is_int else number
+    return None
+
+
 def _coerce(name: str, value: Any, t) -> Any:
     """Check ``value`` against type ``t``; return it in canonical form."""
     origin = typing.get_origin(t)
@@ -195,16 +218,17 @@ def _coerce(name: str, value: Any, t) -> Any:
         if not isinstance(value, bool):
             raise bad
         return value
-    if t is int:
-        if isinstance(value, bool) or not isinstance(value, int):
+    if t in (int, float):
+        number = _number(value)
+        if number is None:
             raise bad
-        return value
-    if t is float:
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
+        if not math.isfinite(number):
+            raise ConfigError(f"config: {name} must be a finite number, got {value!r}")
+        if t is float:
+            return float(number)
+        if number != int(number):
             raise bad
-        if not math.isfinite(value):
-            raise bad
-        return float(value)
+        return int(number)
     if t is str:
         if not isinstance(value, str):
             raise bad

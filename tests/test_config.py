@@ -1,0 +1,61 @@
+"""Configs: numbers as people write them, non-finite numbers refused, the preset table."""
+
+import pytest
+
+from jaxnav.config import ConfigError, load_config
+from jaxnav.settings import PRESETS
+
+
+@pytest.mark.parametrize(
+    "override, field, value",
+    [
+        ("dqn.lr=1e-4", ("dqn", "lr"), 1e-4),  # YAML 1.1 reads 1e-4 as a string
+        ("dqn.lr=2.5E-4", ("dqn", "lr"), 2.5e-4),
+        ("exploration.eps_decay=9.9e-1", ("exploration", "eps_decay"), 0.99),
+        ("dqn.buffer_size=1_000_000", ("dqn", "buffer_size"), 1_000_000),
+        ("episodes=5E2", (None, "episodes"), 500),
+        ("env.lidar_noise_std=1e-2", ("env", "lidar_noise_std"), 0.01),
+        ("env.odom_noise=[1e-2, 2E-2]", ("env", "odom_noise"), (0.01, 0.02)),
+    ],
+)
+def test_numbers_as_people_write_them(override, field, value):
+    cfg = load_config(None, [override])
+    section, name = field
+    got = getattr(cfg if section is None else getattr(cfg, section), name)
+    assert got == pytest.approx(value) and type(got) is type(value)
+
+
+def test_numbers_in_a_yaml_file_too(tmp_path):
+    path = tmp_path / "c.yaml"
+    path.write_text("dqn:\n  lr: 1e-4\n  buffer_size: 1_000_000\nepisodes: 1E2\n")
+    cfg = load_config(str(path))
+    assert (cfg.dqn.lr, cfg.dqn.buffer_size, cfg.episodes) == (1e-4, 1_000_000, 100)
+
+
+@pytest.mark.parametrize(
+    "override, message",
+    [
+        ("dqn.lr=.inf", "dqn.lr must be a finite number"),
+        ("dqn.gamma=.nan", "dqn.gamma must be a finite number"),
+        ("env.odom_noise=[.nan, 0]", "env.odom_noise must be a finite number"),
+        ("episodes=2.5", "episodes must be an integer"),
+        ("seeds=1e0_0", "seeds must be an integer"),
+        ("dqn.lr=1e-4x", "dqn.lr must be a number"),
+        ("seeds=true", "seeds must be an integer"),
+    ],
+)
+def test_bad_numbers_are_refused_with_the_field_named(override, message):
+    with pytest.raises(ConfigError, match=message):
+        load_config(None, [override])
+
+
+def test_a_preset_sets_the_training_constants_of_one_table():
+    cfg = load_config(None, ["preset=robotis"])
+    robotis = PRESETS["robotis"]
+    assert (cfg.episodes, cfg.dqn.gamma, cfg.dqn.target_update) == (
+        robotis.episodes,
+        robotis.gamma,
+        robotis.target_update,
+    )
+    paper = load_config(None)
+    assert (paper.episodes, paper.dqn.gamma) == (PRESETS["paper"].episodes, PRESETS["paper"].gamma)
