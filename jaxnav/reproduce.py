@@ -51,6 +51,7 @@ from jaxnav.errors import JaxnavError
 from jaxnav.evaluation import evaluate_to_dir
 from jaxnav.robustness import robustness_to_dir
 from jaxnav.rundir import METRICS, CsvLog, atomic_write_text
+from jaxnav.tables import training_markdown
 from jaxnav.training import resume, train_new
 
 DEFAULT_SEEDS = 8
@@ -251,6 +252,8 @@ def _section(name, title, cfg, out: Path, written, eval_dir: Path, rob_dir: Path
         f"Run directory: `{name}/` (config, metrics.csv, params.npz, eval/, plots/).",
         "",
         "### Training",
+        "",
+        training_markdown(CsvLog(run_dir / METRICS, ()).read()).rstrip(),
         "",
         f"![training curves]({rel(run_dir / 'plots' / 'training_curves.png')})",
         f"![exploration]({rel(run_dir / 'plots' / 'exploration.png')})",

@@ -222,6 +222,46 @@ def _beside_paper_section(t: _Test, train_maze: str) -> list[str]:
     return L + _table(header, rows)
 
 
+def training_markdown(metrics_rows: list[dict[str, str]], last: int = 50) -> str:
+    """Training outcome per strategy from metrics.csv rows: the last ``last`` episodes
+    of each seed (return, goals, collisions) and the mean return over all episodes,
+    each a mean over seeds with a 95% bootstrap CI."""
+    by: dict[str, dict[int, list[dict[str, str]]]] = {}
+    for r in metrics_rows:
+        by.setdefault(r["strategy"], {}).setdefault(int(r["seed"]), []).append(r)
+    rows = []
+    for s in (s for s in STRATEGIES if s in by):
+        per_seed = [sorted(eps, key=lambda r: int(r["episode"])) for eps in by[s].values()]
+
+        def mean_of(column, eps_of, per_seed=per_seed):
+            return np.asarray([np.mean([float(r[column]) for r in eps_of(e)]) for e in per_seed])
+
+        tail = lambda e: e[-last:]  # noqa: E731
+        rows.append(
+            [
+                STRATEGY_NAMES[s],
+                str(len(per_seed)),
+                _ci(stats.mean_ci(mean_of("return", tail)), 0),
+                _ci(stats.mean_ci(mean_of("goals", tail)), 2),
+                _ci(stats.mean_ci(mean_of("collided", tail)), 2),
+                _ci(stats.mean_ci(mean_of("return", lambda e: e)), 0),
+            ]
+        )
+    header = [
+        "strategy",
+        "seeds",
+        f"return, last {last} episodes",
+        "goals per episode",
+        "share ending in a collision",
+        "return, all episodes (learning speed)",
+    ]
+    intro = (
+        f"Training episodes (exploration on). Per seed: the mean over its last {last} "
+        "episodes, and over all its episodes; then the mean over seeds [95% bootstrap CI]."
+    )
+    return "\n".join([intro, "", *_table(header, rows)]) + "\n"
+
+
 def _signed_ci(iv: stats.Interval, digits: int = 1) -> str:
     if np.isnan(iv.low):
         return f"{iv.value:+.{digits}f} [n/a]"

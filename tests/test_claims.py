@@ -133,3 +133,29 @@ def test_the_pooled_claim_draws_each_seed_over_all_mazes():
     assert pooled.p == stats.probability_of_improvement_ci(x, y)
     assert {v.claim.experiment for v in got} == {"paper_no_obstacles"}  # only what is given
     assert claims.OTHER["ebe"] == "epsilon_greedy"
+
+
+def test_training_table_is_computed_from_metrics_rows():
+    from jaxnav.tables import training_markdown
+
+    rows = []
+    for seed, (early, late) in enumerate([(0.0, 100.0), (0.0, 300.0)]):
+        for e in range(60):
+            ret = early if e < 10 else late
+            rows.append(
+                {
+                    "strategy": "ebe",
+                    "seed": str(seed),
+                    "episode": str(e),
+                    "return": str(ret),
+                    "goals": "2",
+                    "collided": str(int(e % 2 == 0)),
+                }
+            )
+    md = training_markdown(rows, last=50)
+    cells = [c.strip() for c in md.splitlines()[-1].strip("|").split("|")]
+    # last 50: 100 and 300 -> 200; all 60: (50*100)/60 and (50*300)/60 -> 166.7
+    assert cells[:2] == ["EBE", "2"]
+    assert cells[2].startswith("200 [100, 300]")
+    assert cells[3].startswith("2.00 [2.00, 2.00]") and cells[4].startswith("0.50 [")
+    assert cells[5].startswith(f"{(50 * 100 / 60 + 50 * 300 / 60) / 2:.0f} [")
