@@ -1,0 +1,43 @@
+"""The committed reproduction report: its claims are computed from its own data.
+
+docs/report holds what ``python -m jaxnav.reproduce --seeds 32`` wrote: each
+experiment's metrics.csv and eval/results.csv, the claims table and the report.
+The claims table must be exactly what the claims code computes from those files,
+and the README must quote it unchanged.
+"""
+
+from pathlib import Path
+
+import pytest
+
+from jaxnav.claims import claims_markdown, evaluate_claims
+from jaxnav.reproduce import EXPERIMENTS, experiment_files
+
+ROOT = Path(__file__).resolve().parent.parent
+REPORT = ROOT / "docs" / "report"
+
+
+def _table_rows(md: str) -> list[str]:
+    return [line for line in md.splitlines() if line.startswith("| ") and "---" not in line]
+
+
+@pytest.fixture(scope="module")
+def committed_claims():
+    if not (REPORT / "claims.md").is_file():
+        pytest.skip("no committed report")
+    return (REPORT / "claims.md").read_text()
+
+
+def test_the_committed_claims_are_computed_from_the_committed_runs(committed_claims):
+    verdicts = evaluate_claims(experiment_files(REPORT))
+    assert claims_markdown(verdicts) == committed_claims
+    assert {v.claim.experiment for v in verdicts} == {name for name, _ in EXPERIMENTS}
+
+
+def test_the_readme_and_the_report_quote_the_claims_table_unchanged(committed_claims):
+    rows = _table_rows(committed_claims)
+    readme = (ROOT / "README.md").read_text()
+    report = (REPORT / "report.md").read_text()
+    for row in rows:
+        assert row in readme, row
+        assert row in report, row
