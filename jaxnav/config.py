@@ -51,6 +51,11 @@ class EnvConfig:
     odom_noise: tuple[float, ...] = (0.0, 0.0)  # std of (position m, yaw rad) odometry noise
     random_start: bool = False  # each episode starts at a random free pose
     maze_scale: tuple[float, ...] = (1.0, 1.0)  # per-episode maze scale drawn from [low, high]
+    # ROBOTIS-faithful switches, all off by default (see jaxnav.env.NavEnv):
+    collision: str = "disc"  # or "lidar": smallest observed beam below 0.13 m
+    goal_sampler: str = "free"  # or "robotis": respawnGoal.py's grid, boxes and rules
+    beam_layout: str = "even"  # or "gazebo": n beams over [0, 2 pi] inclusive
+    action_delay: bool = False  # each action applied one step late
 
 
 @dataclass(frozen=True)

@@ -81,12 +81,16 @@ def _wrap(a):
     return (np.asarray(a, np.float64) + math.pi) % (2 * math.pi) - math.pi
 
 
-def beam_angles(n_beams: int) -> np.ndarray:
-    """f64[n_beams]: trained beam k looks at 2 pi k / n_beams in the robot frame."""
-    return np.arange(n_beams, dtype=np.float64) * (2 * math.pi / n_beams)
+def beam_angles(n_beams: int, layout: str = "even") -> np.ndarray:
+    """f64[n_beams]: trained beam k looks at 2 pi k / n_beams in the robot frame, or at
+    2 pi k / (n_beams - 1) for a policy trained with Gazebo's inclusive layout."""
+    span = n_beams - 1 if layout == "gazebo" and n_beams > 1 else n_beams
+    return np.arange(n_beams, dtype=np.float64) * (2 * math.pi / span)
 
 
-def nearest_rays(n_rays: int, angle_min: float, angle_increment: float, n_beams: int) -> np.ndarray:
+def nearest_rays(
+    n_rays: int, angle_min: float, angle_increment: float, n_beams: int, layout: str = "even"
+) -> np.ndarray:
     """i64[n_beams]: index of the scan ray nearest each trained beam direction.
 
     Ray i of the scan points at ``angle_min + i * angle_increment`` (robot frame,
@@ -100,14 +104,15 @@ def nearest_rays(n_rays: int, angle_min: float, angle_increment: float, n_beams:
     if not (math.isfinite(angle_min) and math.isfinite(inc)) or (n_rays > 1 and inc == 0.0):
         raise ValueError(f"bad scan angles (angle_min {angle_min}, angle_increment {inc})")
     rays = angle_min + inc * np.arange(n_rays, dtype=np.float64)
-    gap = np.abs(_wrap(rays[None, :] - beam_angles(n_beams)[:, None]))  # [n_beams, n_rays]
+    angles = beam_angles(n_beams, layout)
+    gap = np.abs(_wrap(rays[None, :] - angles[:, None]))  # [n_beams, n_rays]
     idx = np.argmin(gap, axis=1)
     worst = gap[np.arange(n_beams), idx]
     tol = abs(inc) * (1 + 1e-6) if n_rays > 1 else 1e-6
     bad = np.flatnonzero(worst > tol)
     if bad.size:
         k = int(bad[0])
-        beam_deg, off_deg = math.degrees(beam_angles(n_beams)[k]), math.degrees(worst[k])
+        beam_deg, off_deg = math.degrees(angles[k]), math.degrees(worst[k])
         raise ValueError(
             f"the scan does not cover trained beam {k} at {beam_deg:.1f} deg (nearest ray "
             f"{off_deg:.1f} deg away); the policy needs a 360-degree scan"
@@ -173,8 +178,11 @@ class Policy:
             self.linear_velocity = float(meta["linear_velocity"])
             self.dt = float(meta.get("dt", 0.2))
             self.goal_radius = float(meta.get("goal_radius", 0.2))
+            self.beam_layout = str(meta.get("beam_layout", "even"))
         except (KeyError, TypeError, ValueError) as e:
             raise PolicyError(f"policy metadata is incomplete or wrong ({e})") from None
+        if self.beam_layout not in ("even", "gazebo"):
+            raise PolicyError(f"policy metadata has an unknown beam_layout {self.beam_layout!r}")
         self.meta = dict(meta)
         self.layers = [(np.asarray(k, np.float64), np.asarray(b, np.float64)) for k, b in layers]
         width = self.obs_size
@@ -253,7 +261,7 @@ class Policy:
     ) -> np.ndarray:
         """f32[n_beams]: a raw LaserScan reduced to the trained beams (module docstring)."""
         r = np.asarray(ranges, np.float64).reshape(-1)
-        idx = nearest_rays(len(r), angle_min, angle_increment, self.n_beams)
+        idx = nearest_rays(len(r), angle_min, angle_increment, self.n_beams, self.beam_layout)
         return clean_ranges(r[idx], self.min_range, self.max_range, invalid).astype(np.float32)
 
     def observe(

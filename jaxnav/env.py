@@ -16,6 +16,11 @@ What is simulated (numbers from the spec):
 * Collision: the 0.13 m robot disc against every wall and obstacle, exactly, along
   the whole arc of the step (:func:`jaxnav.geometry.path_clearance`), so no step
   can cross a wall unnoticed.
+
+ROBOTIS' own simulation differs from this in four ways, each a switch of
+:class:`NavEnv`, off by default (spec.md, "ROBOTIS' code in detail"):
+``collision="lidar"``, ``goal_sampler="robotis"``, ``beam_layout="gazebo"`` and
+``action_delay=True``. ``ROBOTIS_SWITCHES`` lists them with their ROBOTIS values.
 * Goals: reaching within 0.2 m pays R+ and draws a new goal, the episode goes on; a
   collision pays R- and terminates the episode; 500 steps truncate it. After either,
   the robot restarts at the maze's start pose and keeps its goal (as TurtleBot3).
@@ -45,7 +50,14 @@ from jaxnav.geometry import (
     path_clearance,
     wrap_angle,
 )
-from jaxnav.maps import ROBOT_RADIUS, Maze, make_maze
+from jaxnav.maps import (
+    BURGER_RADIUS,
+    ROBOT_RADIUS,
+    ROBOTIS_FIRST_GOAL,
+    ROBOTIS_GOAL_SEPARATION,
+    Maze,
+    make_maze,
+)
 from jaxnav.reward import reward_fn
 from jaxnav.sensor import goal_heading_distance
 from jaxnav.settings import PRESETS, env_setting_problem
@@ -56,6 +68,15 @@ if TYPE_CHECKING:
 
 # Paper Table 1: action -> angular velocity (rad/s), positive = counter-clockwise.
 PAPER_OMEGAS = (-1.5, -0.75, 0.0, 0.75, 1.5)
+STRAIGHT = PAPER_OMEGAS.index(0.0)  # the action pending at an episode start (action_delay)
+
+# The ROBOTIS-faithful switches of NavEnv: field -> (jaxnav's default, ROBOTIS' value).
+ROBOTIS_SWITCHES = {
+    "collision": ("disc", "lidar"),
+    "goal_sampler": ("free", "robotis"),
+    "beam_layout": ("even", "gazebo"),
+    "action_delay": (False, True),
+}
 
 
 @struct.dataclass
@@ -87,6 +108,9 @@ class EnvState:
     t: chex.Array  # i32[] steps in this episode
     goal_distance0: chex.Array  # f32[] distance to goal when it was drawn (or at reset)
     scale: chex.Array  # f32[] this episode's maze scale (1 unless NavEnv.maze_scale)
+    # i32[] the action chosen last step, applied this step; None (no leaf) unless
+    # NavEnv.action_delay, so the state is unchanged when the switch is off.
+    pending_action: chex.Array | None = None
 
 
 @dataclasses.dataclass(frozen=True)
@@ -110,6 +134,23 @@ class NavEnv:
         positions, goals, start) by a factor drawn uniformly from this range;
         obstacle radii keep their size. (1, 1) is off.
     Range noise is ``EnvParams.lidar_noise_std``.
+
+    ROBOTIS-faithful switches (spec.md; all off by default and in both presets):
+      collision: "disc" (the exact 0.13 m disc along the step's arc) or "lidar"
+        (ROBOTIS: the episode ends when the smallest observed beam reads below
+        0.13 m, so a wall between beams can be missed; touching a surface with the
+        burger's 0.105 m footprint also ends it, since a kinematic robot would
+        otherwise drive through where Gazebo's would be stopped).
+      goal_sampler: "free" (the maze's own admissible points, a new goal at least
+        ``goal_min_separation`` away) or "robotis" (ROBOTIS' grid and boxes scaled to
+        the maze, :attr:`Maze.robotis_goals`; a new goal at least 1 m (times the
+        scale) from the last along x or y; the first goal (0.6, 0) times the scale).
+      beam_layout: "even" (beam k at 2 pi k / n) or "gazebo" (beam k at 2 pi k / (n - 1):
+        Gazebo spreads n samples over [0, 2 pi] inclusive, so the first and last both
+        look straight ahead).
+      action_delay: apply each action one step late, as ROBOTIS' real-time loop can
+        (the reward still scores the chosen action, as ROBOTIS' does); an episode
+        starts with the straight action pending.
     """
 
     n_beams: int = 24
@@ -119,6 +160,10 @@ class NavEnv:
     odom_noise: tuple[float, float] = (0.0, 0.0)
     random_start: bool = False
     maze_scale: tuple[float, float] = (1.0, 1.0)
+    collision: str = "disc"
+    goal_sampler: str = "free"
+    beam_layout: str = "even"
+    action_delay: bool = False
 
     def __post_init__(self):
         for f in dataclasses.fields(self):  # the rules of jaxnav.settings, as for a config
@@ -172,7 +217,9 @@ class NavEnv:
         scale: chex.Array = 1.0,
     ) -> chex.Array:
         """ROBOTIS state f32[obs_size]: [ranges, heading, distance(, min range, argmin beam)]."""
-        ranges = sensor.beam_ranges(self.maze_at(params, scale), pos, yaw, self.n_beams)
+        ranges = sensor.beam_ranges(
+            self.maze_at(params, scale), pos, yaw, self.n_beams, self.beam_layout == "gazebo"
+        )
         return sensor.observation(
             key,
             ranges,
@@ -192,21 +239,48 @@ class NavEnv:
     def draw_goal(
         self, key: chex.PRNGKey, away_from: chex.Array, params: EnvParams, scale: chex.Array = 1.0
     ) -> chex.Array:
-        """A free-space goal f32[2] at least goal_min_separation from ``away_from`` if possible.
+        """A new goal f32[2] away from the last one, ``away_from``, by ``goal_sampler``."""
+        if self.goal_sampler == "robotis":
+            maze = params.maze
+            s = maze.robotis_scale * scale
+            cx, cy = self._candidates(key, maze.robotis_goals, maze.n_robotis_goals, scale)
+            # ROBOTIS: |dx| >= 1 or |dy| >= 1. The points are on a 0.1 s grid, so a
+            # threshold of 0.95 s decides exactly, whatever the float rounding.
+            sep = (ROBOTIS_GOAL_SEPARATION - 0.05) * s
+            far = (jnp.abs(cx - away_from[0]) >= sep) | (jnp.abs(cy - away_from[1]) >= sep)
+            i = jnp.argmax(far)
+            return jnp.stack([cx[i], cy[i]])
+        return self.draw_free_point(key, away_from, params, scale)
+
+    def draw_free_point(
+        self, key: chex.PRNGKey, away_from: chex.Array, params: EnvParams, scale: chex.Array = 1.0
+    ) -> chex.Array:
+        """A free-space point f32[2] at least goal_min_separation from ``away_from`` if possible.
 
         Tries ``goal_candidates`` points of the maze's admissible goal set, drawn
         uniformly (32 random bits modulo the count, a bias below 1e-6), and keeps the
         first far enough away; if none is, the first (still in free space).
         """
-        points = params.maze.goal_points
-        bits = jax.random.bits(key, (self.goal_candidates,), jnp.uint32)
-        idx = (bits % params.maze.n_goal_points.astype(jnp.uint32)).astype(jnp.int32)
-        cx, cy = points[:, 0][idx], points[:, 1][idx]
-        if self.scales_maze:
-            cx, cy = cx * scale, cy * scale
+        maze = params.maze
+        cx, cy = self._candidates(key, maze.goal_points, maze.n_goal_points, scale)
         far = hypot(cx - away_from[0], cy - away_from[1]) >= params.goal_min_separation
         i = jnp.argmax(far)
         return jnp.stack([cx[i], cy[i]])
+
+    def _candidates(self, key, points, n_points, scale) -> tuple[chex.Array, chex.Array]:
+        """``goal_candidates`` rows of the first ``n_points`` of ``points``, uniformly."""
+        bits = jax.random.bits(key, (self.goal_candidates,), jnp.uint32)
+        idx = (bits % n_points.astype(jnp.uint32)).astype(jnp.int32)
+        cx, cy = points[:, 0][idx], points[:, 1][idx]
+        if self.scales_maze:
+            cx, cy = cx * scale, cy * scale
+        return cx, cy
+
+    def first_goal(self, key, start, params: EnvParams, scale) -> chex.Array:
+        """The goal of a reset: drawn away from the start, or ROBOTIS' fixed first one."""
+        if self.goal_sampler == "robotis":
+            return jnp.asarray(ROBOTIS_FIRST_GOAL) * (params.maze.robotis_scale * scale)
+        return self.draw_goal(key, start, params, scale)
 
     def _episode_scale(self, key: chex.PRNGKey) -> chex.Array | float:
         """This episode's maze scale, from ``fold_in(key, 3)``; the constant 1 when off."""
@@ -223,7 +297,7 @@ class NavEnv:
             pos = pos * scale
         if self.random_start:  # a free point (goal clearance) away from the goal
             k_pos, k_yaw = jax.random.split(jax.random.fold_in(key, 4))
-            pos = self.draw_goal(k_pos, goal, params, scale)
+            pos = self.draw_free_point(k_pos, goal, params, scale)
             yaw = jax.random.uniform(k_yaw, (), jnp.float32, -jnp.pi, jnp.pi)
         return pos, yaw
 
@@ -236,23 +310,27 @@ class NavEnv:
         start = params.maze.start[:2]
         if self.scales_maze:
             start = start * scale
-        goal = self.draw_goal(k_goal, start, params, scale)
+        goal = self.first_goal(k_goal, start, params, scale)
         pos, yaw = self._start_pose(key, params, goal, scale)
         scale = jnp.asarray(scale, jnp.float32)
-        state = _new_episode(pos, yaw, goal, scale)
+        state = _new_episode(pos, yaw, goal, scale, self.action_delay)
         return self.observe(k_obs, pos, yaw, goal, params, scale), state
 
     def step_env(self, key: chex.PRNGKey, state: EnvState, action: chex.Array, params: EnvParams):
         """One control period without the auto-reset."""
         k_goal, k_obs = _step_keys(key)
-        omega = jnp.asarray(params.omegas)[action]
+        applied = state.pending_action if self.action_delay else action
+        omega = jnp.asarray(params.omegas)[applied]
         maze = self.maze_at(params, state.scale)
-        collided = (
-            path_clearance(maze, state.pos, state.yaw, omega, params.v, params.dt)
-            < params.robot_radius
-        )
+        clearance = path_clearance(maze, state.pos, state.yaw, omega, params.v, params.dt)
         pos = state.pos + displacement(state.yaw, omega, params.v, params.dt)
         yaw = wrap_angle(state.yaw + omega * params.dt)
+        if self.collision == "lidar":  # the scan after the step, as ROBOTIS reads it
+            ranges = self.observe(k_obs, pos, yaw, state.goal, params, state.scale)
+            nearest = jnp.min(ranges[: self.n_beams])
+            collided = (nearest < params.robot_radius) | (clearance < BURGER_RADIUS)
+        else:
+            collided = clearance < params.robot_radius
         distance = norm2(state.goal - pos)
         reached = (distance < params.goal_radius) & ~collided
         heading, _ = goal_heading_distance(pos, yaw, state.goal)
@@ -265,7 +343,15 @@ class NavEnv:
         t = state.t + 1
         terminated = collided
         truncated = (t >= params.max_steps) & ~terminated
-        new_state = EnvState(pos=pos, yaw=yaw, goal=goal, t=t, goal_distance0=d0, scale=state.scale)
+        new_state = EnvState(
+            pos=pos,
+            yaw=yaw,
+            goal=goal,
+            t=t,
+            goal_distance0=d0,
+            scale=state.scale,
+            pending_action=action if self.action_delay else None,
+        )
         obs = self.observe(k_obs, pos, yaw, goal, params, state.scale)
         info = {"goal_reached": reached, "collision": collided}
         return obs, new_state, reward.astype(jnp.float32), terminated, truncated, info
@@ -284,7 +370,7 @@ class NavEnv:
         if self.scales_maze:  # the kept goal moves with the maze
             goal = goal * (scale / state.scale)
         obs = self.observe(key, pos, yaw, goal, params, scale)
-        return obs, _new_episode(pos, yaw, goal, scale)
+        return obs, _new_episode(pos, yaw, goal, scale, self.action_delay)
 
     def step(self, key: chex.PRNGKey, state: EnvState, action: chex.Array, params: EnvParams):
         """Step with auto-reset: after a collision or truncation the robot restarts at the
@@ -308,7 +394,7 @@ def _step_keys(key: chex.PRNGKey) -> tuple[chex.Array, chex.Array]:
     return k_goal, k_obs
 
 
-def _new_episode(pos, yaw, goal, scale) -> EnvState:
+def _new_episode(pos, yaw, goal, scale, action_delay: bool = False) -> EnvState:
     """State at the start of an episode: step count 0, d_0 measured from here."""
     return EnvState(
         pos=pos,
@@ -317,6 +403,7 @@ def _new_episode(pos, yaw, goal, scale) -> EnvState:
         t=jnp.zeros((), jnp.int32),
         goal_distance0=norm2(goal - pos),
         scale=jnp.asarray(scale, jnp.float32),
+        pending_action=jnp.asarray(STRAIGHT, jnp.int32) if action_delay else None,
     )
 
 
@@ -375,6 +462,7 @@ __all__ = [
     "ENV_FIELDS",
     "PARAM_FIELDS",
     "PAPER_OMEGAS",
+    "ROBOTIS_SWITCHES",
     "EnvParams",
     "EnvState",
     "NavEnv",

@@ -86,7 +86,13 @@ def _meta(cfg, env, params, strategy: str, seed: int, names: list[str], run_dir:
         "obstacle_obs": bool(env.obstacle_obs),
         "min_range": float(params.min_range),
         "max_range": float(params.max_range),
-        "beam_angles": "beam k at 2*pi*k/n_beams rad, robot frame, counter-clockwise from ahead",
+        "beam_layout": env.beam_layout,
+        "beam_angles": (
+            "beam k at 2*pi*k/(n_beams - 1) rad (Gazebo's inclusive layout)"
+            if env.beam_layout == "gazebo"
+            else "beam k at 2*pi*k/n_beams rad"
+        )
+        + ", robot frame, counter-clockwise from ahead",
         "observation": fields,
         "omegas": [float(w) for w in np.asarray(params.omegas)],
         "linear_velocity": float(params.v),

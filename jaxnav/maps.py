@@ -64,6 +64,30 @@ GOAL_START_CLEARANCE = 0.4  # m, goals are not drawn this close to the start pos
 GOAL_GRID = 0.1  # m, resolution of the admissible goal grid (ROBOTIS used 0.1 m)
 MAX_GOAL_POINTS = 4096  # the grid is coarsened past this many points
 MIN_GOAL_POINTS = 8  # "room left for goals"
+BURGER_RADIUS = 0.105  # m, the burger's footprint (contact with the LiDAR collision rule)
+
+# ROBOTIS' goal sampler (turtlebot3_machine_learning, respawnGoal.py), in the frame of
+# its 3.7 m arena (square4): a 0.1 m grid on [-1.2, 1.2]^2 without the points in a
+# 0.4 m box (per axis, boundary included up to Python's float rounding) around the
+# origin and around (+-0.6, +-0.6), in stage 1 too. A new goal must be at least 1 m
+# from the last along x or y; the first goal is (0.6, 0). Other mazes get this grid
+# scaled by their size over 3.7 m.
+ROBOTIS_ARENA = 3.7
+ROBOTIS_BOX_CENTRES = ((0.6, 0.6), (0.6, -0.6), (-0.6, 0.6), (-0.6, -0.6), (0.0, 0.0))
+ROBOTIS_FIRST_GOAL = (0.6, 0.0)
+ROBOTIS_GOAL_SEPARATION = 1.0  # m, along x or along y
+
+
+def robotis_goal_grid() -> np.ndarray:
+    """ROBOTIS' goal points f64[256, 2] (of the 625 grid points), compared as its Python does."""
+    pts = []
+    for i in range(-12, 13):
+        for j in range(-12, 13):
+            x, y = i / 10.0, j / 10.0
+            if not any(abs(x - cx) <= 0.4 and abs(y - cy) <= 0.4 for cx, cy in ROBOTIS_BOX_CENTRES):
+                pts.append((x, y))
+    return np.asarray(pts)
+
 
 # Padding for unused slots: far away and degenerate, and masked out anyway.
 _FAR = 1.0e4
@@ -83,6 +107,12 @@ class Maze:
       n_goal_points: i32[] number of real rows in ``goal_points``.
       bounds: f32[4] bounding box of the outline (xmin, ymin, xmax, ymax).
       n_obstacles: i32[] number of obstacles (circles and polygons) in the outline.
+      robotis_goals: f32[256, 2] ROBOTIS' goal points scaled to this maze
+        (:func:`robotis_goal_grid`, times :attr:`robotis_scale`); the first
+        ``n_robotis_goals`` rows are the points reachable in this maze (free and at
+        least the robot radius from every surface), the rest repeat them.
+      n_robotis_goals: i32[] number of real rows in ``robotis_goals``.
+      robotis_scale: f32[] the maze's size over ROBOTIS' 3.7 m arena (1 for square4).
     """
 
     segments: chex.Array
@@ -94,6 +124,9 @@ class Maze:
     n_goal_points: chex.Array
     bounds: chex.Array
     n_obstacles: chex.Array
+    robotis_goals: chex.Array
+    n_robotis_goals: chex.Array
+    robotis_scale: chex.Array
 
     # Host-side accessors (not for use under jit).
     def walls(self) -> np.ndarray:
@@ -294,19 +327,36 @@ def _goal_grid(
         if len(pts) <= 4 * MAX_GOAL_POINTS:
             break
         res *= 1.5
-    ok = points_in_polygon(pts, outline)
-    for poly in polygons:
-        ok &= ~points_in_polygon(pts, poly)
-    if len(circles):
-        dc = np.linalg.norm(pts[:, None] - circles[None, :, :2], axis=-1)
-        ok &= (dc > circles[None, :, 2]).all(axis=1)
-    ok &= clearance(pts, segments, circles) >= GOAL_CLEARANCE
+    ok = _admissible(pts, outline, segments, circles, polygons, GOAL_CLEARANCE)
     ok &= np.linalg.norm(pts - start[None, :2], axis=1) >= GOAL_START_CLEARANCE
     pts = pts[ok]
     if len(pts) > MAX_GOAL_POINTS:  # thin evenly, deterministically
         idx = np.linspace(0, len(pts) - 1, MAX_GOAL_POINTS).round().astype(int)
         pts = pts[idx]
     return pts
+
+
+def _admissible(pts, outline, segments, circles, polygons, margin) -> np.ndarray:
+    """bool[N]: inside the outline, outside every obstacle, ``margin`` from every surface."""
+    ok = points_in_polygon(pts, outline)
+    for poly in polygons:
+        ok &= ~points_in_polygon(pts, poly)
+    if len(circles):
+        dc = np.linalg.norm(pts[:, None] - circles[None, :, :2], axis=-1)
+        ok &= (dc > circles[None, :, 2]).all(axis=1)
+    return ok & (clearance(pts, segments, circles) >= margin)
+
+
+def _robotis_goals(outline, segments, circles, polygons) -> tuple[np.ndarray, int, float]:
+    """ROBOTIS' points scaled to the maze, the reachable ones first: (f32[256, 2], n, scale)."""
+    lo, hi = outline.min(axis=0), outline.max(axis=0)
+    scale = float(np.max(hi - lo)) / ROBOTIS_ARENA
+    grid = robotis_goal_grid() * scale
+    ok = _admissible(grid, outline, segments, circles, polygons, ROBOT_RADIUS)
+    pts = grid[ok]
+    if len(pts) == 0:  # never drawn (the sampler's default is the maze's own set)
+        pts = grid[:1]
+    return np.resize(pts, grid.shape), int(ok.sum()), scale
 
 
 def _build(
@@ -325,6 +375,7 @@ def _build(
             f"clear of walls and obstacles and {GOAL_START_CLEARANCE} m from the start)"
         )
     lo, hi = outline.min(axis=0), outline.max(axis=0)
+    robotis, n_robotis, robotis_scale = _robotis_goals(outline, segments, circles, polygons)
     n_circles = len(circles)
     circles = circles.reshape(-1, 3)
     if n_circles == 0:  # keep one masked row so reductions over circles are never empty
@@ -339,6 +390,9 @@ def _build(
         n_goal_points=jnp.asarray(len(goals), jnp.int32),
         bounds=jnp.asarray([lo[0], lo[1], hi[0], hi[1]], jnp.float32),
         n_obstacles=jnp.asarray(n_circles + len(polygons), jnp.int32),
+        robotis_goals=jnp.asarray(robotis, jnp.float32),
+        n_robotis_goals=jnp.asarray(n_robotis, jnp.int32),
+        robotis_scale=jnp.asarray(robotis_scale, jnp.float32),
     )
     return maze
 
@@ -514,6 +568,9 @@ def pad_maze(maze: Maze, n_segments: int, n_circles: int, n_goal_points: int) ->
         n_goal_points=maze.n_goal_points,
         bounds=maze.bounds,
         n_obstacles=maze.n_obstacles,
+        robotis_goals=maze.robotis_goals,
+        n_robotis_goals=maze.n_robotis_goals,
+        robotis_scale=maze.robotis_scale,
     )
 
 
@@ -537,4 +594,7 @@ def _fields(m: Maze):
         m.n_goal_points,
         m.bounds,
         m.n_obstacles,
+        m.robotis_goals,
+        m.n_robotis_goals,
+        m.robotis_scale,
     )

@@ -37,17 +37,8 @@ MODE_NAMES = {
     "exploring": "exploring (each strategy's own exploration as at the end of training)",
 }
 STRATEGY_NAMES = {"ebe": "EBE", "epsilon_greedy": "epsilon-greedy"}
-ROBUSTNESS_COLUMNS = (
-    "strategy",
-    "seed",
-    "perturbation",
-    "maze",
-    "episode",
-    "return",
-    "goals",
-    "collided",
-    "length",
-)
+# robustness.csv: the same columns, the perturbation in place of the test mode.
+ROBUSTNESS_COLUMNS = tuple("perturbation" if c == "mode" else c for c in RESULT_COLUMNS)
 UNPERTURBED = "none"
 
 

@@ -25,26 +25,34 @@ from jaxnav.geometry import norm2, ray_distances_dir, wrap_angle
 from jaxnav.maps import Maze
 
 
-def beam_angles(n_beams: int) -> jax.Array:
-    """Beam k points at yaw + 2 pi k / n_beams (counter-clockwise from ahead): f32[n_beams]."""
-    return jnp.arange(n_beams, dtype=jnp.float32) * (2 * math.pi / n_beams)
+def beam_step(n_beams: int, inclusive: bool = False) -> float:
+    """Angle between beams: 2 pi / n, or 2 pi / (n - 1) when n samples span [0, 2 pi]
+    inclusive (Gazebo's layout: the first and last beams both look ahead)."""
+    return 2 * math.pi / (n_beams - 1 if inclusive and n_beams > 1 else n_beams)
 
 
-def beam_directions(n_beams: int, yaw: chex.Array) -> chex.Array:
+def beam_angles(n_beams: int, inclusive: bool = False) -> jax.Array:
+    """Beam k points at yaw + k * beam_step (counter-clockwise from ahead): f32[n_beams]."""
+    return jnp.arange(n_beams, dtype=jnp.float32) * beam_step(n_beams, inclusive)
+
+
+def beam_directions(n_beams: int, yaw: chex.Array, inclusive: bool = False) -> chex.Array:
     """Unit vectors f32[n_beams, 2] of the beams at heading ``yaw``.
 
     The beams' own angles are constants; turning them by ``yaw`` is a rotation, so a
     scan costs one sine and one cosine instead of one per beam.
     """
-    a = np.arange(n_beams) * (2 * np.pi / n_beams)
+    a = np.arange(n_beams) * beam_step(n_beams, inclusive)
     ca, sa = np.cos(a).astype(np.float32), np.sin(a).astype(np.float32)
     cy, sy = jnp.cos(yaw), jnp.sin(yaw)
     return jnp.stack([cy * ca - sy * sa, sy * ca + cy * sa], axis=-1)
 
 
-def beam_ranges(maze: Maze, pos: chex.Array, yaw: chex.Array, n_beams: int) -> chex.Array:
+def beam_ranges(
+    maze: Maze, pos: chex.Array, yaw: chex.Array, n_beams: int, inclusive: bool = False
+) -> chex.Array:
     """True, unclipped beam ranges f32[n_beams] from pose (pos f32[2], yaw f32[])."""
-    return ray_distances_dir(maze, pos, beam_directions(n_beams, yaw))
+    return ray_distances_dir(maze, pos, beam_directions(n_beams, yaw, inclusive))
 
 
 def lidar_scan(

@@ -96,6 +96,9 @@ _RULES: dict[str, tuple[Any, str]] = {
         lambda x: _pair(x) and 0.5 <= x[0] <= x[1] <= 2.0,
         "must be [low, high] with 0.5 <= low <= high <= 2",
     ),
+    "collision": (lambda x: x in ("disc", "lidar"), "must be disc or lidar"),
+    "goal_sampler": (lambda x: x in ("free", "robotis"), "must be free or robotis"),
+    "beam_layout": (lambda x: x in ("even", "gazebo"), "must be even or gazebo"),
 }
 
 
