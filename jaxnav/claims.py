@@ -165,17 +165,19 @@ def training_scores(metrics_rows: list[dict[str, str]], measure: str) -> dict[st
     return out
 
 
-def _judge(claim: Claim, mode: str, x: np.ndarray, y: np.ndarray) -> Verdict:
+def judge(claim: Claim, mode: str, x: np.ndarray, y: np.ndarray) -> Verdict:
+    """The verdict on ``claim`` from per-seed scores of the winner ``x`` and the other ``y``."""
     p = stats.probability_of_improvement_ci(x, y)
     v = verdict(p)
     needed = stats.seeds_to_resolve(p, len(x)) if v == "inconclusive" else math.nan
     return Verdict(claim, mode, len(x), p, v, needed)
 
 
-def evaluate_claims(
+def claim_scores(
     experiments: dict[str, tuple[list[dict[str, str]], str]],
-) -> list[Verdict]:
-    """A verdict for every claim whose experiment is given.
+) -> list[tuple[Claim, str, np.ndarray, np.ndarray]]:
+    """(claim, test mode, winner's scores, other's scores) of every claim whose experiment
+    is given; scores are f[seeds] (training) or f[seeds, mazes] (test).
 
     Args:
       experiments: name -> (metrics.csv rows, results.csv text) of each experiment.
@@ -188,15 +190,21 @@ def evaluate_claims(
         w, o = claim.winner, OTHER[claim.winner]
         if claim.measure != "test":
             scores = training_scores(rows, claim.measure)
-            out.append(_judge(claim, "", scores[w], scores[o]))
+            out.append((claim, "", scores[w], scores[o]))
             continue
         for mode in MODE_NAMES:
             res = read_results(results_csv, mode)
             if not all((m, s) in {k[:2] for k in res} for m in claim.mazes for s in (w, o)):
                 continue
-            x, y = (_test_scores(res, claim.mazes, s) for s in (w, o))
-            out.append(_judge(claim, mode, x, y))
+            out.append((claim, mode, *(_test_scores(res, claim.mazes, s) for s in (w, o))))
     return out
+
+
+def evaluate_claims(
+    experiments: dict[str, tuple[list[dict[str, str]], str]],
+) -> list[Verdict]:
+    """A verdict for every claim whose experiment is given (see :func:`claim_scores`)."""
+    return [judge(*c) for c in claim_scores(experiments)]
 
 
 def _test_scores(results: dict, mazes: tuple[str, ...], strategy: str) -> np.ndarray:

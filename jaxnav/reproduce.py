@@ -100,9 +100,15 @@ def machine_info() -> dict[str, str]:
 
 
 def experiment_config(
-    name: str, seeds: int, episodes: int | None, max_steps: int | None, test_episodes: int | None
+    name: str,
+    seeds: int,
+    episodes: int | None,
+    max_steps: int | None,
+    test_episodes: int | None,
+    extra: tuple[str, ...] = (),
 ):
-    overrides = [f"seeds={seeds}"]
+    """An experiment's config at the requested size; ``extra``: more overrides."""
+    overrides = [f"seeds={seeds}", *extra]
     if episodes is not None:
         overrides.append(f"episodes={episodes}")
     if max_steps is not None:
@@ -168,7 +174,7 @@ def write_report(
     return path
 
 
-def _check_request(out: Path, seeds: int, sizes: dict[str, int | None], resume_ok: bool):
+def check_request(out: Path, seeds: int, sizes: dict[str, int | None], resume_ok: bool):
     if seeds < 1:
         raise JaxnavError("--seeds must be at least 1")
     for flag, v in sizes.items():
@@ -182,7 +188,7 @@ def _check_request(out: Path, seeds: int, sizes: dict[str, int | None], resume_o
         )
 
 
-def _train(name: str, cfg: Config, run_dir: Path, quiet: bool, say) -> tuple[float, str]:
+def train_stage(name: str, cfg: Config, run_dir: Path, quiet: bool, say) -> tuple[float, str]:
     """Train (or reuse, or resume) one experiment; (seconds, note) for the report."""
     t0 = time.perf_counter()
     note = f"{cfg.seeds} seeds x {len(cfg.strategies)} strategies on {cfg.env.maze}"
@@ -214,7 +220,7 @@ def _experiment(
 ) -> tuple[list[tuple[str, float, str]], list[str]]:
     """Train, test, plot and perturb one experiment: (timings, report section)."""
     run_dir = out / name
-    timings = [(f"train {name}", *_train(name, cfg, run_dir, quiet, say))]
+    timings = [(f"train {name}", *train_stage(name, cfg, run_dir, quiet, say))]
 
     def stage(label: str, note: str, fn):
         t0 = time.perf_counter()
@@ -287,7 +293,7 @@ def reproduce(
     command: str,
 ) -> Path:
     sizes = {"--episodes": episodes, "--max-steps": max_steps, "--test-episodes": test_episodes}
-    _check_request(out, seeds, sizes, resume_ok)
+    check_request(out, seeds, sizes, resume_ok)
     cfgs = {
         name: experiment_config(name, seeds, episodes, max_steps, test_episodes)
         for name, _ in EXPERIMENTS

@@ -1,0 +1,86 @@
+"""The ablation's tables: computed from per-seed scores that reproduce the claims."""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from jaxnav import ablation, stats
+from jaxnav.claims import evaluate_claims
+from jaxnav.paper import PAPER_TABLES
+from jaxnav.reproduce import experiment_files
+
+ROOT = Path(__file__).resolve().parent.parent
+REPORT = ROOT / "docs" / "report"
+
+
+@pytest.fixture(scope="module")
+def report_rows():
+    if not (REPORT / "claims.md").is_file():
+        pytest.skip("no committed report")
+    return ablation.score_rows("jaxnav", REPORT)
+
+
+def test_scores_round_trip_through_csv_and_give_the_claims_verdicts(report_rows):
+    rows = list(csv.DictReader(io.StringIO(ablation.rows_to_csv(report_rows))))
+    md = ablation.ablation_markdown(rows)
+    for v in evaluate_claims(experiment_files(REPORT)):
+        p = v.p
+        cell = f"{p.value:.2f} [{p.low:.2f}, {p.high:.2f}] {v.verdict[0].upper()}"
+        line = f"| {v.claim.source}: {v.claim.statement} | {v.mode or 'training'} | {cell} |"
+        assert line in md, line
+
+
+def test_magnitude_is_the_mean_over_seeds_and_table_mazes(report_rows):
+    scores = ablation._scores(report_rows)
+    rows = ablation.magnitude_rows(scores, ["jaxnav"])
+    (row,) = [r for r in rows if r[1:4] == ("paper_no_obstacles", "greedy", "ebe")]
+    table = PAPER_TABLES["square4"][1]
+    assert row[5] == pytest.approx(np.mean([table[m][1]["ebe"][0] for m in table]))
+    # Independently: each seed's mean greedy test return per maze, from results.csv.
+    by_seed: dict[int, list[float]] = {}
+    text = (REPORT / "paper_no_obstacles" / "eval" / "results.csv").read_text()
+    for r in csv.DictReader(io.StringIO(text)):
+        if r["mode"] == "greedy" and r["strategy"] == "ebe":
+            by_seed.setdefault(int(r["seed"]), []).append(float(r["return"]))
+    want = np.mean([np.mean(v) for v in by_seed.values()])
+    assert row[4].value == pytest.approx(want, rel=1e-9)
+    assert row[6] == pytest.approx(want / row[5])
+    assert row[4].low < want < row[4].high
+
+
+def test_quick_tables_say_so_and_list_only_the_variants_run():
+    rows = []
+    rng = np.random.default_rng(0)
+    for variant in ("jaxnav", "late_actions"):
+        for claim in ablation._table_claims("paper_obstacles"):
+            for strategy in ("ebe", "epsilon_greedy"):
+                for seed in range(3):
+                    rows.append(
+                        {
+                            "variant": variant,
+                            "source": claim.source,
+                            "statement": claim.statement,
+                            "mode": "greedy",
+                            "strategy": strategy,
+                            "seed": str(seed),
+                            "task": "0",
+                            "score": str(rng.normal(500, 100)),
+                        }
+                    )
+    md = ablation.ablation_markdown(rows, quick=True)
+    assert "not conclusive" in md
+    assert "| late_actions |" in md and "| gazebo_beams |" not in md
+    iv = stats.mean_ci(np.zeros((3, 1)))
+    assert not math.isnan(iv.value)
+
+
+def test_unknown_variant_is_one_line(capsys):
+    assert ablation.main(["--variants", "jaxnav,nope", "--out", "/tmp/x"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "unknown variant 'nope'" in err and "\n" not in err
