@@ -81,10 +81,12 @@ TRAIN_MAZE = {"paper_no_obstacles": "square4", "paper_obstacles": "square4_obsta
 CSV_COLUMNS = ("variant", "source", "statement", "mode", "strategy", "seed", "task", "score")
 
 
-def run_variant(variant: str, out: Path, sizes: dict, quiet: bool, say) -> float:
-    """Train and test both experiments of one variant; seconds taken."""
+def run_variant(
+    variant: str, out: Path, sizes: dict, experiments: list[str], quiet: bool, say
+) -> float:
+    """Train and test the experiments of one variant; seconds taken."""
     t0 = time.perf_counter()
-    for name, _ in EXPERIMENTS:
+    for name in experiments:
         cfg = experiment_config(name, **sizes, extra=VARIANTS[variant][1])
         run_dir = out / variant / name
         train_stage(f"{variant}/{name}", cfg, run_dir, quiet, say)
@@ -96,7 +98,8 @@ def run_variant(variant: str, out: Path, sizes: dict, quiet: bool, say) -> float
 def score_rows(variant: str, variant_dir: Path) -> list[dict[str, str]]:
     """ablation.csv rows of one variant: every claim's per-seed scores."""
     rows = []
-    for claim, mode, x, y in claim_scores(experiment_files(variant_dir)):
+    names = [name for name, _ in EXPERIMENTS if (variant_dir / name / "eval").is_dir()]
+    for claim, mode, x, y in claim_scores(experiment_files(variant_dir, names)):
         for strategy, scores in ((claim.winner, x), (OTHER[claim.winner], y)):
             scores = scores.reshape(len(scores), -1)
             for seed, per_task in enumerate(scores):
@@ -261,8 +264,16 @@ def ablation_markdown(rows: list[dict[str, str]], quick: bool = False) -> str:
 
 
 def ablation(
-    out: Path, seeds: int, variants: list[str], sizes: dict, quick: bool, resume_ok: bool, quiet
+    out: Path,
+    seeds: int,
+    variants: list[str],
+    sizes: dict,
+    quick: bool,
+    resume_ok: bool,
+    quiet: bool,
+    experiments: list[str] | None = None,
 ) -> Path:
+    experiments = experiments or [name for name, _ in EXPERIMENTS]
     check_request(out, seeds, {}, resume_ok)
     out.mkdir(parents=True, exist_ok=True)
 
@@ -273,12 +284,12 @@ def ablation(
     times = {}
     rows: list[dict[str, str]] = []
     for v in variants:
-        times[v] = run_variant(v, out, dict(sizes, seeds=seeds), quiet, say)
+        times[v] = run_variant(v, out, dict(sizes, seeds=seeds), experiments, quiet, say)
         rows += score_rows(v, out / v)
     atomic_write_text(out / "ablation.csv", rows_to_csv(rows))
     md = ablation_markdown(rows, quick=quick)
     info = machine_info()
-    md += "\n## Wall-clock\n\n| variant | train and test, both experiments |\n|---|---|\n"
+    md += f"\n## Wall-clock\n\n| variant | train and test: {', '.join(experiments)} |\n|---|---|\n"
     md += "".join(f"| {v} | {t:.0f} s |\n" for v, t in times.items())
     md += f"\nMachine: {info['CPU']}; {info['cores']}; JAX {info['JAX']}.\n"
     path = out / "ablation.md"
@@ -300,6 +311,11 @@ def _parser() -> cli.Parser:
         "--variants",
         metavar="A,B",
         help=f"comma-separated subset of {', '.join(VARIANTS)} (default all)",
+    )
+    p.add_argument(
+        "--experiments",
+        metavar="A,B",
+        help=f"comma-separated subset of {', '.join(n for n, _ in EXPERIMENTS)} (default both)",
     )
     p.add_argument(
         "--quick",
@@ -338,9 +354,16 @@ def main(argv: list[str] | None = None) -> int:
         for flag, v in sizes.items():
             if v is not None and v < 1:
                 raise JaxnavError(f"--{flag.replace('_', '-')} must be at least 1")
+        known = [n for n, _ in EXPERIMENTS]
+        experiments = args.experiments.split(",") if args.experiments else known
+        unknown = [e for e in experiments if e not in known]
+        if unknown:
+            raise JaxnavError(f"unknown experiment '{unknown[0]}' (choose from {', '.join(known)})")
         if args.resume and not args.out:
             raise JaxnavError("--resume needs --out DIR")
-        path = ablation(out, seeds, variants, sizes, args.quick, args.resume, args.quiet)
+        path = ablation(
+            out, seeds, variants, sizes, args.quick, args.resume, args.quiet, experiments
+        )
         print(f"ablation: {path}")
 
     return cli.run(p.prog, work, interrupted=f"interrupted; continue with --resume --out {out}")

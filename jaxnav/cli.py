@@ -35,6 +35,11 @@ def os_error_text(e: OSError) -> str:
     return f"{what}: {e.filename}" if e.filename else what
 
 
+def one_line(text: str) -> str:
+    """``text`` on one line: a newline a user typed into a key or path shows as \\n."""
+    return text.replace("\r", "\\r").replace("\n", "\\n")
+
+
 def run(prog: str, work: Callable[[], int | None], interrupted: str = "interrupted") -> int:
     """Call ``work()``; one line and exit status 2 for a user's problem.
 
@@ -45,10 +50,10 @@ def run(prog: str, work: Callable[[], int | None], interrupted: str = "interrupt
     try:
         status = work()
     except JaxnavError as e:
-        print(f"{prog}: error: {e}", file=sys.stderr)
+        print(f"{prog}: error: {one_line(str(e))}", file=sys.stderr)
         return EXIT_ERROR
     except OSError as e:
-        print(f"{prog}: error: {os_error_text(e)}", file=sys.stderr)
+        print(f"{prog}: error: {one_line(os_error_text(e))}", file=sys.stderr)
         return EXIT_ERROR
     except KeyboardInterrupt:
         print(f"\n{prog}: {interrupted}", file=sys.stderr)

@@ -89,6 +89,10 @@ class RunConfig:
     chunk_steps: int = 10_000  # env steps per jitted chunk (progress, checkpoint)
     test_mazes: tuple[str, ...] = ("square4", "square8", "square2", "triangle", "pentagon")
     test_episodes: int = 10
+    # A run whose loss, Q-values or parameters stop being finite: "stop" the command
+    # with an error (the last good checkpoint kept), or "drop" that run (frozen and
+    # listed in summary.json as diverged) and let the others finish.
+    on_divergence: str = "stop"
 
 
 @dataclass(frozen=True)
@@ -285,6 +289,7 @@ _RULES: dict[str, tuple[Any, str]] = {
     "exploration.eps_min": _UNIT,
     "run.chunk_steps": _AT_LEAST_1,
     "run.test_episodes": _AT_LEAST_1,
+    "run.on_divergence": (lambda v: v in ("stop", "drop"), "must be stop or drop"),
 }
 
 
@@ -336,7 +341,7 @@ def build_config(values: dict[str, Any]) -> Config:
         if name not in FIELD_TYPES:
             if name in SECTIONS:
                 raise ConfigError(f"config: {name} must be a mapping of its fields")
-            raise ConfigError(f"config: unknown key '{name}'")
+            raise ConfigError(f"config: unknown key {name!r}")
     typed = {name: _coerce(name, v, FIELD_TYPES[name]) for name, v in merged.items()}
     sections: dict[str, dict[str, Any]] = {}
     top: dict[str, Any] = {}
@@ -377,6 +382,8 @@ def load_config(path: str | None, overrides: list[str] = ()) -> Config:
             mark = getattr(e, "problem_mark", None)
             at = f" at line {mark.line + 1}" if mark is not None else ""
             raise ConfigError(f"config: {path} is not valid YAML{at}") from None
+        except UnicodeDecodeError:
+            raise ConfigError(f"config: {path} is not a text file (not UTF-8)") from None
         if doc is None:
             doc = {}
         if not isinstance(doc, dict):

@@ -191,6 +191,8 @@ class Policy:
                 raise PolicyError(
                     f"policy layer {i} has shape {k.shape}/{b.shape}, expected ({width}, n)"
                 )
+            if not (np.isfinite(k).all() and np.isfinite(b).all()):
+                raise PolicyError(f"policy layer {i} has non-finite weights")
             width = k.shape[1]
         if not self.layers or width != len(self.omegas):
             raise PolicyError(f"policy network has {width} outputs for {len(self.omegas)} actions")

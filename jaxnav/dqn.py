@@ -232,6 +232,10 @@ class TrainState:
     step: chex.Array  # i32[] env steps taken
     episode: chex.Array  # i32[] episodes finished
     metrics: Metrics
+    # i32[] the env step at which the run's loss, Q-values or new parameters were first
+    # not finite; -1 while all are. A diverged run is frozen with its last finite
+    # parameters (the update that would have broken them is not applied).
+    diverged_at: chex.Array
 
 
 class Trainer(NamedTuple):
@@ -268,14 +272,14 @@ def make_trainer(config: Config) -> Trainer:
         return _init_state(env, env_params, network, optimizer, buffer, slots, key, strategy)
 
     def active(ts: TrainState) -> chex.Array:
-        return still_training(ts.episode, ts.step, *limits)
+        return still_training(ts.episode, ts.step, *limits) & (ts.diverged_at < 0)
 
     def step(ts: TrainState, _):
         run = active(ts)
         key, k_act, k_env, k_sample, k_drop = jax.random.split(ts.key, 5)
 
         # ACT: the strategy index picks the exploration probability; one draw serves both.
-        action, explore = _act(network, x, ts, k_act)
+        action, explore, q_finite = _act(network, x, ts, k_act)
 
         # STEP ENV (auto-resets to the start pose after a collision or truncation).
         obs, env_state, reward, terminated, truncated, info = env.step(
@@ -290,9 +294,11 @@ def make_trainer(config: Config) -> Trainer:
 
         # LEARN: one gradient step per environment step once learning has started.
         n_steps = ts.step + 1
-        params, opt_state = _learn(
+        params, opt_state, broke = _learn(
             network, optimizer, d, ts, buffer, n_steps, run, k_sample, k_drop
         )
+        diverged = (ts.diverged_at < 0) & run & (broke | ~q_finite)
+        diverged_at = jnp.where(diverged, n_steps, ts.diverged_at)
 
         # TARGET SYNC
         target_params = _select(run & _target_sync_due(d, n_steps, done), params, ts.target_params)
@@ -311,7 +317,13 @@ def make_trainer(config: Config) -> Trainer:
             step=n_steps,
             episode=ts.episode + done.astype(jnp.int32),
             metrics=metrics,
-        ).replace(params=params, target_params=target_params, opt_state=opt_state, buffer=buffer)
+        ).replace(
+            params=params,
+            target_params=target_params,
+            opt_state=opt_state,
+            buffer=buffer,
+            diverged_at=diverged_at,
+        )
         return held, jnp.where(run, explore, jnp.nan)
 
     def chunk(ts: TrainState):
@@ -337,14 +349,16 @@ def _init_state(env, env_params, network, optimizer, buffer, slots, key, strateg
         step=jnp.zeros((), jnp.int32),
         episode=jnp.zeros((), jnp.int32),
         metrics=Metrics.zeros(slots),
+        diverged_at=jnp.asarray(-1, jnp.int32),
     )
 
 
 def _act(network: QNetwork, x: ExplorationConfig, ts: TrainState, key: chex.PRNGKey):
-    """(action i32[], exploration probability f32[]) of the run's strategy at ``ts.obs``."""
+    """(action i32[], exploration probability f32[], whether the Q-values are finite)
+    of the run's strategy at ``ts.obs``."""
     q = network.apply(ts.params, ts.obs)
     explore = exploration_probability(ts.strategy, q, ts.episode, x)
-    return explore_or_greedy(key, q, explore), explore
+    return explore_or_greedy(key, q, explore), explore, jnp.all(jnp.isfinite(q))
 
 
 def _loss(network: QNetwork, gamma: float, params, target_params, batch: replay.Batch, key):
@@ -355,7 +369,8 @@ def _loss(network: QNetwork, gamma: float, params, target_params, batch: replay.
 
 
 def _learn(network, optimizer, d: DQNConfig, ts, buffer, n_steps, run, k_sample, k_drop):
-    """(params, opt_state) after one gradient step, unchanged before learning starts."""
+    """(params, opt_state, broke) after one gradient step, unchanged before learning starts
+    and where the loss or the new parameters would not be finite (``broke``)."""
     batch = replay.sample(buffer, k_sample, d.batch_size)
     bootstrap = ts.target_params
     if d.target_update != "periodic":  # ROBOTIS: online net gives the targets during warm-up
@@ -365,11 +380,19 @@ def _learn(network, optimizer, d: DQNConfig, ts, buffer, n_steps, run, k_sample,
             ts.target_params,
         )
     loss_fn = functools.partial(_loss, network, d.gamma)
-    _loss_value, grads = jax.value_and_grad(loss_fn)(ts.params, bootstrap, batch, k_drop)
+    loss, grads = jax.value_and_grad(loss_fn)(ts.params, bootstrap, batch, k_drop)
     updates, opt_state = optimizer.update(grads, ts.opt_state, ts.params)
     new_params = optax.apply_updates(ts.params, updates)
-    learn = run & replay.can_sample(buffer, d.learning_starts)
-    return _select(learn, new_params, ts.params), _select(learn, opt_state, ts.opt_state)
+    finite = jnp.isfinite(loss) & all_finite(new_params)
+    due = run & replay.can_sample(buffer, d.learning_starts)
+    learn = due & finite
+    params = _select(learn, new_params, ts.params)
+    return params, _select(learn, opt_state, ts.opt_state), due & ~finite
+
+
+def all_finite(tree) -> chex.Array:
+    """bool[]: every element of every leaf is finite."""
+    return jnp.all(jnp.stack([jnp.all(jnp.isfinite(leaf)) for leaf in jax.tree.leaves(tree)]))
 
 
 def _target_sync_due(d: DQNConfig, n_steps: chex.Array, done: chex.Array) -> chex.Array:

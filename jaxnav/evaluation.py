@@ -13,6 +13,8 @@ layout) stay as trained and only the maze changes. Writes, atomically::
 
 from __future__ import annotations
 
+import json
+import sys
 from collections.abc import Sequence
 from pathlib import Path
 from typing import NamedTuple
@@ -44,10 +46,18 @@ def load_run(run_dir: str | Path) -> LoadedRun:
     env, env_params = from_config(cfg)
     network = QNetwork(env.num_actions, tuple(cfg.dqn.hidden), cfg.dqn.dropout)
     template = network.init(jax.random.PRNGKey(0), jnp.zeros(env.obs_size))
-    labels = cfg.run_labels()
+    dropped = diverged_runs(run_dir)
+    labels = [label for label in cfg.run_labels() if label not in dropped]
+    if dropped:
+        names = ", ".join(f"{s} seed {n}" for s, n in sorted(dropped))
+        print(f"note: not testing the runs that diverged in training: {names}", file=sys.stderr)
+    if not labels:
+        raise RunError(f"{run_dir}: every run diverged in training; nothing to test")
     trees = []
     for strategy, seed in labels:
         tree = rundir.load_params(params_path, strategy, seed)
+        if not all(np.isfinite(a).all() for a in jax.tree.leaves(tree)):
+            raise RunError(f"{params_path}: {strategy} seed {seed} has non-finite parameters")
         try:
             shapes_ok = jax.tree.structure(tree) == jax.tree.structure(template) and all(
                 np.shape(a) == np.shape(b)
@@ -65,6 +75,15 @@ def load_run(run_dir: str | Path) -> LoadedRun:
     episodes = cfg.episodes if cfg.episodes is not None else 2**30
     policies = Policies(labels, params, env, env_params, network, cfg.exploration, episodes)
     return LoadedRun(cfg, policies)
+
+
+def diverged_runs(run_dir: Path) -> set[tuple[str, int]]:
+    """(strategy, seed) of the runs summary.json lists as diverged (dropped in training)."""
+    try:
+        summary = json.loads((run_dir / rundir.SUMMARY).read_text())
+        return {(d["strategy"], int(d["seed"])) for d in summary.get("diverged", [])}
+    except (OSError, ValueError, KeyError, TypeError, AttributeError):
+        return set()
 
 
 def test_setup(

@@ -64,6 +64,7 @@ GOAL_START_CLEARANCE = 0.4  # m, goals are not drawn this close to the start pos
 GOAL_GRID = 0.1  # m, resolution of the admissible goal grid (ROBOTIS used 0.1 m)
 MAX_GOAL_POINTS = 4096  # the grid is coarsened past this many points
 MIN_GOAL_POINTS = 8  # "room left for goals"
+MAX_COORDINATE = 1000.0  # m: a maze file reaching beyond 1 km is refused
 BURGER_RADIUS = 0.105  # m, the burger's footprint (contact with the LiDAR collision rule)
 
 # ROBOTIS' goal sampler (turtlebot3_machine_learning, respawnGoal.py), in the frame of
@@ -404,6 +405,11 @@ def _as_points(value, what: str, where: str) -> np.ndarray:
         raise MazeError(f"{where}: {what} must be a list of [x, y] points") from None
     if arr.ndim != 2 or arr.shape[1] != 2 or not np.isfinite(arr).all():
         raise MazeError(f"{where}: {what} must be a list of finite [x, y] points")
+    if np.abs(arr).max(initial=0.0) > MAX_COORDINATE:
+        raise MazeError(
+            f"{where}: {what} reaches beyond 1 km ({np.abs(arr).max():.3g} m); "
+            "maze coordinates are metres"
+        )
     return arr
 
 
@@ -453,11 +459,13 @@ def _read_maze_yaml(path: str, where: str) -> dict:
         raise MazeError(f"{where}: not valid YAML{at}") from None
     except OSError as e:
         raise MazeError(f"{where}: cannot read ({e.strerror})") from None
+    except UnicodeDecodeError:
+        raise MazeError(f"{where}: not a text file (not UTF-8)") from None
     if not isinstance(doc, dict):
         raise MazeError(f"{where}: expected a mapping with an 'outline' key")
     unknown = set(doc) - {"name", "outline", "obstacles", "start"}
     if unknown:
-        raise MazeError(f"{where}: unknown key '{sorted(unknown)[0]}'")
+        raise MazeError(f"{where}: unknown key {sorted(map(str, unknown))[0]!r}")
     if "outline" not in doc:
         raise MazeError(f"{where}: missing 'outline'")
     return doc

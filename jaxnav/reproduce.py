@@ -327,10 +327,13 @@ def reproduce(
     return write_report(out, info, settings, timings, sections, claims)
 
 
-def experiment_files(out: Path) -> dict[str, tuple[list[dict[str, str]], str]]:
-    """name -> (metrics.csv rows, eval/results.csv text) of each experiment in ``out``."""
+def experiment_files(
+    out: Path, names: list[str] | None = None
+) -> dict[str, tuple[list[dict[str, str]], str]]:
+    """name -> (metrics.csv rows, eval/results.csv text) of each experiment in ``out``
+    (of ``names`` only, if given)."""
     files = {}
-    for name, _ in EXPERIMENTS:
+    for name in names if names is not None else [n for n, _ in EXPERIMENTS]:
         run_dir = out / name
         rows = CsvLog(run_dir / METRICS, ()).read()
         files[name] = (rows, (run_dir / "eval" / "results.csv").read_text())

@@ -41,6 +41,8 @@ def print_summary(out: Path, summary: dict[str, Any]) -> None:
             f"(std over seeds {v['return_std_over_seeds']:.1f}), "
             f"goals/episode {v['goals_per_episode']:.2f}"
         )
+    for d in summary.get("diverged", []):
+        print(f"  dropped: {d['strategy']} seed {d['seed']} diverged at step {d['step']}")
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -72,7 +72,10 @@ def state_from_checkpoint(
     for name, leaf in zip(_leaf_names(template), jax.tree.leaves(template)):
         a = arrays.get("state" + name)
         if a is None:
-            raise RunError(f"checkpoint {path} does not match the run's config (missing {name})")
+            raise RunError(
+                f"checkpoint {path} does not match this run (no {name}: another config or "
+                "another jaxnav version)"
+            )
         if a.shape != leaf.shape:
             if not (_is_buffer_rows(name) and a.shape[1] <= leaf.shape[1]):
                 raise RunError(f"checkpoint {path} does not match the run's config ({name})")
@@ -121,6 +124,7 @@ class Run:
         self.logged = np.zeros(cfg.n_runs, np.int64)  # episodes written per run
         self.recent: dict[tuple[str, int], list[float]] = {label: [] for label in self.labels}
         self.wall = 0.0  # training seconds over all sessions of this run
+        self.diverged: dict[int, int] = {}  # run index -> env step it diverged at
 
     # -- state ---------------------------------------------------------------
 
@@ -137,6 +141,8 @@ class Run:
         ts, host = state_from_checkpoint(arrays, template, self.checkpoint)
         if not {"logged", "wall", "csv_sizes"} <= set(host):
             raise RunError(f"checkpoint {self.checkpoint} was written by another jaxnav version")
+        diverged_at = np.asarray(ts.diverged_at)
+        self.diverged = {int(r): int(diverged_at[r]) for r in np.flatnonzero(diverged_at >= 0)}
         self.logged = host["logged"].astype(np.int64)
         self.wall = float(host["wall"])
         metrics_size, explore_size = (int(x) for x in host["csv_sizes"])
@@ -149,8 +155,26 @@ class Run:
 
     def active(self, ts: TrainState) -> np.ndarray:
         """Which real runs still train (host side, the trainer's own rule)."""
-        episode, step = self.shard.get((ts.episode, ts.step))
-        return np.asarray(still_training(episode, step, *run_limits(self.cfg)))
+        episode, step, diverged_at = self.shard.get((ts.episode, ts.step, ts.diverged_at))
+        running = still_training(episode, step, *run_limits(self.cfg))
+        return np.asarray(running & (diverged_at < 0))
+
+    def check_divergence(self, ts: TrainState) -> list[str]:
+        """Runs that diverged in the last chunk, each described in words."""
+        diverged_at = self.shard.get(ts.diverged_at)
+        new = []
+        for r in np.flatnonzero(diverged_at >= 0):
+            if int(r) not in self.diverged:
+                self.diverged[int(r)] = int(diverged_at[r])
+                strategy, seed = self.labels[r]
+                new.append(f"{strategy} seed {seed} diverged at step {int(diverged_at[r])}")
+        return new
+
+    def diverged_runs(self) -> list[dict[str, Any]]:
+        return [
+            {"strategy": self.labels[r][0], "seed": self.labels[r][1], "step": step}
+            for r, step in sorted(self.diverged.items())
+        ]
 
     # -- per chunk -----------------------------------------------------------
 
@@ -193,7 +217,9 @@ class Run:
                     rows.append((strategy, seed, int(step_before[r]) + b, f"{mean:.6g}"))
         return rows
 
-    def save(self, ts: TrainState, metric_rows: list, explore_rows: list) -> None:
+    def save(
+        self, ts: TrainState, metric_rows: list, explore_rows: list, checkpoint: bool = True
+    ) -> None:
         """Append the chunk's rows, then checkpoint (with the logs' new lengths)."""
         state = self.shard.get(ts)  # every process: a gather across hosts is collective
         if not is_writer():
@@ -201,6 +227,8 @@ class Run:
         sizes = np.asarray(
             [self.metrics.append(metric_rows), self.explore.append(explore_rows)], np.int64
         )
+        if not checkpoint:
+            return
         host = {"logged": self.logged, "wall": np.float64(self.wall), "csv_sizes": sizes}
         arrays = checkpoint_arrays(state, host)
         rundir.atomic_write_bytes(self.checkpoint, rundir.npz_bytes(arrays))
@@ -257,7 +285,22 @@ class Run:
                 dt = time.perf_counter() - t0
                 self.wall += dt
                 steps = int((self.shard.get(ts.step) - step_before).sum())
-                self.save(ts, self.new_episodes(ts), self.explore_blocks(explore, step_before))
+                diverged = self.check_divergence(ts)
+                stop = bool(diverged) and self.cfg.run.on_divergence == "stop"
+                # On a stop the finished episodes are kept and the last checkpoint
+                # (before the divergence) stays: a resume replays this chunk.
+                rows = self.new_episodes(ts), self.explore_blocks(explore, step_before)
+                self.save(ts, *rows, checkpoint=not stop)
+                if stop:
+                    raise RunError(
+                        f"training diverged: {diverged[0]}"
+                        + (f" (and {len(diverged) - 1} more runs)" if len(diverged) > 1 else "")
+                        + " (non-finite loss, Q-values or "
+                        "parameters); finished episodes are in metrics.csv and the last good "
+                        "checkpoint is kept (lower dqn.lr, or set run.on_divergence=drop)"
+                    )
+                for line in diverged:
+                    print(f"warning: {line}; the run is dropped", file=sys.stderr, flush=True)
                 bar.set_postfix_str(self.progress_text(steps / max(dt, 1e-9)), refresh=False)
                 bar.update(self._done(ts) - before)
         finally:
@@ -282,6 +325,7 @@ class Run:
             "devices": self.shard.n_devices,
             "processes": jax.process_count(),
             "last50": last50(self.metrics.read(), self.cfg.strategies) if is_writer() else {},
+            "diverged": self.diverged_runs(),
         }
         params = self.shard.get(ts.params)  # every process: collective across hosts
         if is_writer():
@@ -289,6 +333,8 @@ class Run:
             rundir.atomic_write_bytes(self.out / rundir.PARAMS, rundir.npz_bytes(params))
             text = json.dumps(summary, indent=2) + "\n"
             rundir.atomic_write_text(self.out / rundir.SUMMARY, text)
+        if len(self.diverged) == self.cfg.n_runs:
+            raise RunError("training diverged: every run (summary.json lists them; lower dqn.lr)")
         return summary
 
 

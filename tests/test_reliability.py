@@ -1,0 +1,122 @@
+"""Divergence, absurd mazes and non-finite policies: one line, a non-zero exit, and
+nothing good lost."""
+
+from __future__ import annotations
+
+import json
+import shutil
+
+import numpy as np
+import pytest
+
+from jaxnav import rundir
+from jaxnav.deploy import Policy
+from jaxnav.errors import MazeError, PolicyError
+from jaxnav.evaluate import main as evaluate_main
+from jaxnav.maps import load_maze_file
+from jaxnav.train import main as train_main
+
+# Learning starts at step 64: with this learning rate the first update is not finite.
+DIVERGING = ["configs/smoke.yaml", "dqn.lr=1e9", "episodes=6", "env.max_steps=40"]
+
+
+def _one_line(capsys) -> str:
+    err = capsys.readouterr().err.strip()
+    assert "Traceback" not in err
+    lines = [line for line in err.splitlines() if not line.startswith("warning:")]
+    assert len(lines) == 1, err
+    return lines[0]
+
+
+def test_divergence_stops_with_one_line_and_keeps_the_good_checkpoint(tmp_path, capsys):
+    out = tmp_path / "run"
+    # Chunks of 50 steps: the first ends before learning starts and is checkpointed.
+    assert train_main([*DIVERGING, "run.chunk_steps=50", "--quiet", "--out", str(out)]) == 2
+    line = _one_line(capsys)
+    assert "diverged" in line and "seed" in line and "step 65" in line, line
+    assert not (out / rundir.PARAMS).exists() and not (out / rundir.SUMMARY).exists()
+    ckpt = rundir.read_npz(out / rundir.CHECKPOINT)
+    assert np.all(ckpt["state.step"] == 50)  # the state before the divergence
+    for k, v in ckpt.items():
+        if k.startswith("state.params"):
+            assert np.isfinite(v).all(), k
+    # metrics.csv keeps the episodes finished before the stop (40-step episodes).
+    rows = rundir.CsvLog(out / rundir.METRICS, ()).read()
+    assert len(rows) >= 4 and all(np.isfinite(float(r["return"])) for r in rows)
+
+    # The same directory with a truncated checkpoint, or one from another version.
+    for damage, message in [("truncate", "checkpoint"), ("drop a leaf", "another jaxnav version")]:
+        broken = tmp_path / damage.replace(" ", "_")
+        shutil.copytree(out, broken)
+        path = broken / rundir.CHECKPOINT
+        if damage == "truncate":
+            path.write_bytes(path.read_bytes()[:1000])
+        else:
+            arrays = rundir.read_npz(path)
+            del arrays["state.diverged_at"]
+            path.write_bytes(rundir.npz_bytes(arrays))
+        before = path.read_bytes()
+        assert train_main(["--resume", str(broken), "--quiet"]) == 2
+        assert message in _one_line(capsys)
+        assert path.read_bytes() == before
+
+
+def test_divergence_drop_freezes_runs_and_evaluation_skips_them(tmp_path, capsys):
+    out = tmp_path / "run"
+    argv = [*DIVERGING, "run.on_divergence=drop", "--quiet", "--out", str(out)]
+    assert train_main(argv) == 2  # every run diverged: nothing usable, say so
+    assert "every run" in _one_line(capsys)
+    summary = json.loads((out / rundir.SUMMARY).read_text())
+    assert {(d["strategy"], d["seed"]) for d in summary["diverged"]} == {
+        (s, n) for s in ("ebe", "epsilon_greedy") for n in (0, 1)
+    }
+    assert all(d["step"] == 65 for d in summary["diverged"])
+    params = rundir.read_npz(out / rundir.PARAMS)
+    assert all(np.isfinite(v).all() for v in params.values())  # frozen, last finite
+    assert evaluate_main([str(out)]) == 2
+    assert "every run diverged" in capsys.readouterr().err
+
+
+def test_bad_divergence_setting_is_refused(capsys, tmp_path):
+    assert (
+        train_main(["configs/smoke.yaml", "run.on_divergence=ignore", "--out", str(tmp_path)]) == 2
+    )
+    assert "run.on_divergence must be stop or drop" in _one_line(capsys)
+
+
+def test_policy_with_non_finite_weights_is_refused():
+    k = np.zeros((26, 5))
+    k[3, 2] = np.nan
+    meta = {
+        "n_beams": 24,
+        "obstacle_obs": False,
+        "min_range": 0.12,
+        "max_range": 3.5,
+        "omegas": [-1.5, -0.75, 0.0, 0.75, 1.5],
+        "linear_velocity": 0.15,
+    }
+    with pytest.raises(PolicyError, match="non-finite"):
+        Policy([(k, np.zeros(5))], meta)
+    Policy([(np.zeros((26, 5)), np.zeros(5))], meta)  # the same, finite, loads
+
+
+@pytest.mark.parametrize(
+    "outline",
+    [
+        "[[0, 0], [1e30, 0], [1e30, 1e30], [0, 1e30], [0, 0]]",
+        "[[-2000, -1], [2000, -1], [2000, 1], [-2000, 1], [-2000, -1]]",
+    ],
+)
+def test_absurd_maze_coordinates_are_one_line(tmp_path, outline):
+    f = tmp_path / "big.yaml"
+    f.write_text(f"outline: {outline}\n")
+    with pytest.raises(MazeError, match="1 km") as e:
+        load_maze_file(str(f))
+    assert "\n" not in str(e.value)
+
+
+def test_an_output_that_cannot_be_created_is_one_line(tmp_path, capsys):
+    assert train_main(["configs/smoke.yaml", "--out", "/proc/jaxnav/run"]) == 2
+    line = _one_line(capsys)
+    assert "/proc/jaxnav/run" in line
+    assert not (tmp_path / "run").exists()
