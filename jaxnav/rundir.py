@@ -66,6 +66,15 @@ def atomic_write_text(path: str | os.PathLike, text: str) -> None:
     atomic_write_bytes(path, text.encode())
 
 
+def remove_stale_temps(run_dir: str | os.PathLike) -> int:
+    """Remove the temporary files a killed writer left in a run directory (call it
+    holding the run's lock, so no live writer owns them); how many there were."""
+    stale = [p for p in Path(run_dir).rglob(".*.tmp*") if p.is_file()]
+    for p in stale:
+        p.unlink(missing_ok=True)
+    return len(stale)
+
+
 def npz_bytes(arrays: dict[str, np.ndarray]) -> bytes:
     """An uncompressed ``.npz`` of plain arrays (no pickle), in memory."""
     buf = io.BytesIO()

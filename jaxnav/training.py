@@ -388,6 +388,8 @@ def resume(out: Path, quiet: bool = False) -> dict[str, Any]:
     cfg = load_config(str(out / rundir.CONFIG))
     run = Run(cfg, out, quiet)
     with _writer_lock(out):
+        if is_writer():
+            rundir.remove_stale_temps(out)
         if run.checkpoint.is_file():
             ts = run.restored_state()
         else:  # killed before its first checkpoint: start over

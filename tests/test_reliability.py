@@ -120,3 +120,14 @@ def test_an_output_that_cannot_be_created_is_one_line(tmp_path, capsys):
     line = _one_line(capsys)
     assert "/proc/jaxnav/run" in line
     assert not (tmp_path / "run").exists()
+
+
+def test_resume_removes_the_temporary_files_of_a_killed_writer(tmp_path):
+    (tmp_path / "checkpoints").mkdir()
+    stale = [tmp_path / ".metrics.csv.tmp123", tmp_path / "checkpoints" / ".last.npz.tmp9"]
+    for p in stale:
+        p.write_bytes(b"half")
+    keep = tmp_path / "metrics.csv"
+    keep.write_text("strategy\n")
+    assert rundir.remove_stale_temps(tmp_path) == 2
+    assert not any(p.exists() for p in stale) and keep.exists()

@@ -1,0 +1,120 @@
+"""Kill a training with SIGKILL at random moments, resume after each, and compare.
+
+    python bench/kill_campaign.py [--kills 20] [--seed 0] [--out DIR]
+
+Trains a small config once without interruption (the reference), then trains it
+again, killing the process (SIGKILL, no chance to clean up) at ``--kills`` random
+moments and resuming with ``python -m jaxnav.train --resume`` after each. At the
+end metrics.csv, explore.csv and params.npz must equal the reference's byte for
+byte. Chunks are short (100 steps) so checkpoints are frequent and some kills land
+while a checkpoint or a log is being written; the script counts those by the
+temporary files a killed writer leaves (resume removes them).
+
+Prints one line per kill and a summary; exits 1 if any file differs.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import random
+import shutil
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+CONFIG = [
+    "configs/smoke.yaml",
+    "seeds=2",
+    "episodes=30",
+    "env.max_steps=100",
+    "run.chunk_steps=100",
+    "--quiet",
+]
+FILES = ("metrics.csv", "explore.csv", "params.npz")
+
+
+def _train(args: list[str]) -> subprocess.Popen:
+    return subprocess.Popen(
+        [sys.executable, "-m", "jaxnav.train", *args],
+        cwd=ROOT,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+
+
+def _temps(run: Path) -> int:
+    return sum(1 for p in run.rglob(".*.tmp*"))
+
+
+def main() -> int:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--kills", type=int, default=20)
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--out", help="working directory (default a temporary one)")
+    a = p.parse_args()
+    rng = random.Random(a.seed)
+    work = Path(a.out) if a.out else Path(tempfile.mkdtemp(prefix="jaxnav-kills-"))
+    ref, run = work / "reference", work / "killed"
+    shutil.rmtree(ref, ignore_errors=True)
+    shutil.rmtree(run, ignore_errors=True)
+
+    t0 = time.perf_counter()
+    proc = _train([*CONFIG, "--out", str(ref)])
+    if proc.wait() != 0:
+        print(f"reference run failed: {proc.stderr.read().strip()}")
+        return 1
+    full = time.perf_counter() - t0
+    print(f"reference: {full:.1f} s uninterrupted (compilation included)")
+
+    kills = in_write = 0
+    started = False
+    while kills < a.kills:
+        if not started:
+            shutil.rmtree(run, ignore_errors=True)  # killed before its config was written
+        args = ["--resume", str(run), "--quiet"] if started else [*CONFIG, "--out", str(run)]
+        proc = _train(args)
+        delay = rng.uniform(0.5, 0.8 * full)
+        try:
+            proc.wait(timeout=delay)
+        except subprocess.TimeoutExpired:
+            os.kill(proc.pid, signal.SIGKILL)
+            proc.wait()
+            kills += 1
+            temps = _temps(run)
+            in_write += temps > 0
+            started = started or (run / "config.yaml").is_file()
+            metrics = run / "metrics.csv"
+            done = len(metrics.read_text().splitlines()) - 1 if metrics.exists() else 0
+            print(
+                f"kill {kills:2d} after {delay:5.1f} s: {done} episodes logged"
+                + (", during a write" if temps else "")
+            )
+            continue
+        if proc.returncode != 0:
+            print(f"run failed: {proc.stderr.read().strip()}")
+            return 1
+        print(f"finished before the kill at {delay:.1f} s; starting over")
+        shutil.rmtree(run)
+        started = False
+    # The last resume runs to the end.
+    proc = _train(["--resume", str(run), "--quiet"] if started else [*CONFIG, "--out", str(run)])
+    if proc.wait() != 0:
+        print(f"final resume failed: {proc.stderr.read().strip()}")
+        return 1
+    same = {f: (ref / f).read_bytes() == (run / f).read_bytes() for f in FILES}
+    print(
+        f"{kills} kills ({in_write} during a write); after the last resume: "
+        + ", ".join(f"{f} {'identical' if ok else 'DIFFERS'}" for f, ok in same.items())
+        + f"; {time.perf_counter() - t0:.0f} s in all"
+    )
+    return 0 if all(same.values()) else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
