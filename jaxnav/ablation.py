@@ -272,6 +272,7 @@ def ablation(
     resume_ok: bool,
     quiet: bool,
     experiments: list[str] | None = None,
+    command: str = "",
 ) -> Path:
     experiments = experiments or [name for name, _ in EXPERIMENTS]
     check_request(out, seeds, {}, resume_ok)
@@ -292,6 +293,8 @@ def ablation(
     md += f"\n## Wall-clock\n\n| variant | train and test: {', '.join(experiments)} |\n|---|---|\n"
     md += "".join(f"| {v} | {t:.0f} s |\n" for v, t in times.items())
     md += f"\nMachine: {info['CPU']}; {info['cores']}; JAX {info['JAX']}.\n"
+    if command:
+        md += f"\nCommand: `{command}`\n"
     path = out / "ablation.md"
     atomic_write_text(path, md)
     return path
@@ -361,8 +364,19 @@ def main(argv: list[str] | None = None) -> int:
             raise JaxnavError(f"unknown experiment '{unknown[0]}' (choose from {', '.join(known)})")
         if args.resume and not args.out:
             raise JaxnavError("--resume needs --out DIR")
+        command = "python -m jaxnav.ablation " + " ".join(
+            argv if argv is not None else sys.argv[1:]
+        )
         path = ablation(
-            out, seeds, variants, sizes, args.quick, args.resume, args.quiet, experiments
+            out,
+            seeds,
+            variants,
+            sizes,
+            args.quick,
+            args.resume,
+            args.quiet,
+            experiments,
+            command.strip(),
         )
         print(f"ablation: {path}")
 

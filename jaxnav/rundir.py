@@ -25,6 +25,7 @@ import csv
 import fcntl
 import io
 import os
+import shutil
 from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import Any
@@ -40,6 +41,9 @@ CHECKPOINT = "checkpoints/last.npz"
 PARAMS = "params.npz"
 SUMMARY = "summary.json"
 LOCK = ".lock"
+# What a run directory may hold: its files, and the folders of checkpoints,
+# evaluation and figures. Overwriting a run removes these and nothing else.
+RUN_ENTRIES = (CONFIG, METRICS, EXPLORE, PARAMS, SUMMARY, "checkpoints", "eval", "plots")
 
 
 # ----------------------------------------------------------------------------
@@ -149,11 +153,36 @@ def create(out: str | os.PathLike) -> Path:
     if out.exists() and not out.is_dir():
         raise RunError(f"{out} exists and is not a directory")
     if out.is_dir() and any(out.iterdir()):
-        raise RunError(f"run directory {out} already exists and is not empty (use --resume {out})")
+        raise RunError(
+            f"run directory {out} already exists and is not empty (--resume {out} continues "
+            "it, --overwrite replaces it)"
+        )
     try:
         (out / "checkpoints").mkdir(parents=True, exist_ok=True)
     except OSError as e:
         raise RunError(f"cannot create run directory {out} ({e.strerror or e})") from None
+    return out
+
+
+def clear(out: str | os.PathLike) -> Path:
+    """Empty an existing run directory for a new run (``--overwrite``); call it holding
+    the run's lock. RunError if it holds anything a run does not write."""
+    out = Path(out)
+    if not (out / CONFIG).is_file():
+        raise RunError(f"{out} is not a run directory (no {CONFIG}); not overwriting it")
+    entries = [p for p in out.iterdir() if p.name != LOCK and not p.name.startswith(".")]
+    foreign = sorted(p.name for p in entries if p.name not in RUN_ENTRIES)
+    if foreign:
+        raise RunError(
+            f"{out} holds {foreign[0]!r}, which a run does not write; not overwriting it"
+        )
+    for p in entries:
+        if p.is_dir():
+            shutil.rmtree(p)
+        else:
+            p.unlink()
+    remove_stale_temps(out)
+    (out / "checkpoints").mkdir()
     return out
 
 

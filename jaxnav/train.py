@@ -61,13 +61,18 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument(
         "--resume", metavar="RUN_DIR", help="continue a killed run from its last checkpoint"
     )
+    p.add_argument(
+        "--overwrite",
+        action="store_true",
+        help="replace the run already in --out (refused while another command uses it)",
+    )
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     args = p.parse_args(argv)
 
     def work() -> None:
         initialize()  # multi-host, when jax.distributed's variables are set
         if args.resume:
-            if args.items or args.out:
+            if args.items or args.out or args.overwrite:
                 raise RunError("--resume takes only the run directory (its config.yaml is used)")
             out = Path(args.resume)
             summary = resume(out, args.quiet)
@@ -78,7 +83,7 @@ def main(argv: list[str] | None = None) -> int:
                 config_path = resolve_config_path(overrides.pop(0))
             cfg = load_config(config_path, overrides)
             out = Path(args.out) if args.out else default_out(config_path)
-            summary = train_new(cfg, out, args.quiet)
+            summary = train_new(cfg, out, args.quiet, overwrite=args.overwrite)
         if is_writer():
             print_summary(out, summary)
 

@@ -371,13 +371,19 @@ def _writer_lock(out: Path):
     return rundir.Lock(out) if is_writer() else contextlib.nullcontext()
 
 
-def train_new(cfg: Config, out: Path, quiet: bool = False) -> dict[str, Any]:
-    """Start a new run in ``out`` (absent or empty) and train it to the end."""
+def train_new(
+    cfg: Config, out: Path, quiet: bool = False, overwrite: bool = False
+) -> dict[str, Any]:
+    """Start a new run in ``out`` (absent or empty; with ``overwrite``, an existing run
+    directory is emptied first, under its lock) and train it to the end."""
     run = Run(cfg, out, quiet)  # builds the env first: a bad maze leaves no directory
-    if is_writer():
+    replace = overwrite and (out / rundir.CONFIG).is_file()
+    if is_writer() and not replace:
         rundir.create(out)
     with _writer_lock(out):
         if is_writer():
+            if replace:
+                rundir.clear(out)
             rundir.atomic_write_text(out / rundir.CONFIG, dump_config(cfg))
         return run.finish(run.train(run.fresh_state()))
 

@@ -131,3 +131,25 @@ def test_resume_removes_the_temporary_files_of_a_killed_writer(tmp_path):
     keep.write_text("strategy\n")
     assert rundir.remove_stale_temps(tmp_path) == 2
     assert not any(p.exists() for p in stale) and keep.exists()
+
+
+def test_out_into_a_finished_run_needs_overwrite_and_never_a_busy_one(tmp_path, capsys):
+    out = tmp_path / "run"
+    tiny = ["configs/smoke.yaml", "seeds=1", "episodes=2", "env.max_steps=20"]
+    assert train_main([*tiny, "--quiet", "--out", str(out)]) == 0
+    capsys.readouterr()
+    before = (out / rundir.PARAMS).read_bytes()
+    assert train_main([*tiny, "seed=5", "--quiet", "--out", str(out)]) == 2
+    assert "--overwrite replaces it" in _one_line(capsys)
+    assert (out / rundir.PARAMS).read_bytes() == before
+    with rundir.Lock(out):  # another command is using it
+        assert train_main([*tiny, "seed=5", "--quiet", "--out", str(out), "--overwrite"]) == 2
+        _one_line(capsys)
+    assert (out / rundir.PARAMS).read_bytes() == before
+    (out / "notes.txt").write_text("mine")
+    assert train_main([*tiny, "seed=5", "--quiet", "--out", str(out), "--overwrite"]) == 2
+    assert "'notes.txt'" in _one_line(capsys)
+    (out / "notes.txt").unlink()
+    assert train_main([*tiny, "seed=5", "--quiet", "--out", str(out), "--overwrite"]) == 0
+    assert "seed: 5" in (out / rundir.CONFIG).read_text()
+    assert (out / rundir.PARAMS).read_bytes() != before
