@@ -118,14 +118,22 @@ class CsvLog:
         return self.path.stat().st_size if self.path.exists() else 0
 
     def append(self, rows: Sequence[Sequence[Any]]) -> int:
-        """Append rows (the header first if the file is new), fsync; return its size."""
+        """Append rows (the header first if the file is new), fsync; return its size.
+
+        All or nothing: an append that fails part-way (a full disk) cuts the file back
+        to its size before, then raises."""
+        before = self.size()
         text = csv_text(self.header, rows)
-        if self.size():
+        if before:
             text = text.split("\n", 1)[1]
-        with open(self.path, "a", newline="") as f:
-            f.write(text)
-            f.flush()
-            os.fsync(f.fileno())
+        try:
+            with open(self.path, "a", newline="") as f:
+                f.write(text)
+                f.flush()
+                os.fsync(f.fileno())
+        except BaseException:
+            self.restore(before)
+            raise
         return self.size()
 
     def truncate(self, size: int) -> None:
@@ -134,6 +142,18 @@ class CsvLog:
             raise RunError(f"{self.path} is shorter than its checkpoint says (damaged)")
         with open(self.path, "r+b") as f:
             f.truncate(size)
+
+    def restore(self, size: int) -> None:
+        """Best effort after a failed write: the file as it was at ``size`` bytes (absent
+        at 0). Errors are swallowed: the caller is already raising the first one."""
+        try:
+            if size == 0:
+                self.path.unlink(missing_ok=True)
+            elif self.size() > size:
+                with open(self.path, "r+b") as f:
+                    f.truncate(size)
+        except OSError:
+            pass
 
     def read(self) -> list[dict[str, str]]:
         if not self.path.is_file():

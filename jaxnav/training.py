@@ -220,18 +220,29 @@ class Run:
     def save(
         self, ts: TrainState, metric_rows: list, explore_rows: list, checkpoint: bool = True
     ) -> None:
-        """Append the chunk's rows, then checkpoint (with the logs' new lengths)."""
+        """Append the chunk's rows, then checkpoint (with the logs' new lengths).
+
+        All or nothing: if a write fails (a full disk), both logs are cut back to their
+        lengths before this chunk, so they still match the previous checkpoint, which
+        stays as it was; the error goes on to the command's one-line report."""
         state = self.shard.get(ts)  # every process: a gather across hosts is collective
         if not is_writer():
             return
-        sizes = np.asarray(
-            [self.metrics.append(metric_rows), self.explore.append(explore_rows)], np.int64
-        )
-        if not checkpoint:
-            return
-        host = {"logged": self.logged, "wall": np.float64(self.wall), "csv_sizes": sizes}
-        arrays = checkpoint_arrays(state, host)
-        rundir.atomic_write_bytes(self.checkpoint, rundir.npz_bytes(arrays))
+        logs = (self.metrics, self.explore)
+        before = [log.size() for log in logs]
+        try:
+            sizes = np.asarray(
+                [self.metrics.append(metric_rows), self.explore.append(explore_rows)], np.int64
+            )
+            if not checkpoint:
+                return
+            host = {"logged": self.logged, "wall": np.float64(self.wall), "csv_sizes": sizes}
+            arrays = checkpoint_arrays(state, host)
+            rundir.atomic_write_bytes(self.checkpoint, rundir.npz_bytes(arrays))
+        except OSError:
+            for log, size in zip(logs, before):
+                log.restore(size)
+            raise
 
     def progress_text(self, steps_per_s: float) -> str:
         parts = []

@@ -153,3 +153,52 @@ def test_out_into_a_finished_run_needs_overwrite_and_never_a_busy_one(tmp_path, 
     assert train_main([*tiny, "seed=5", "--quiet", "--out", str(out), "--overwrite"]) == 0
     assert "seed: 5" in (out / rundir.CONFIG).read_text()
     assert (out / rundir.PARAMS).read_bytes() != before
+
+
+@pytest.mark.parametrize("failing", ["checkpoint", "metrics.csv"])
+def test_a_full_disk_mid_training_loses_nothing(tmp_path, capsys, monkeypatch, failing):
+    """A write fails part-way (ENOSPC) in the third chunk: one line, exit 2, the logs
+    and the checkpoint exactly as the second chunk left them; a resume then ends
+    exactly as an uninterrupted run."""
+    tiny = ["configs/smoke.yaml", "seeds=1", "episodes=4", "env.max_steps=30"]
+    tiny += ["run.chunk_steps=30", "--quiet"]
+    ref, out = tmp_path / "ref", tmp_path / "run"
+    assert train_main([*tiny, "--out", str(ref)]) == 0
+
+    saved = []  # the files after each checkpoint written
+    full = OSError(28, "No space left on device")
+    real_atomic, real_append = rundir.atomic_write_bytes, rundir.CsvLog.append
+
+    def atomic(path, data):
+        if path.name == "last.npz" and failing == "checkpoint" and len(saved) == 2:
+            tmp = path.with_name(f".{path.name}.tmp0")
+            tmp.write_bytes(data[: len(data) // 2])  # what a full disk leaves, then cleans
+            tmp.unlink()
+            raise full
+        real_atomic(path, data)
+        if path.name == "last.npz":
+            saved.append(_files(out))
+
+    def append(self, rows):
+        if self.path.name == "metrics.csv" and failing == "metrics.csv" and len(saved) == 2:
+            with open(self.path, "a") as f:
+                f.write("ebe,0,9,12")  # half a row, then the disk is full
+            raise full
+        return real_append(self, rows)
+
+    monkeypatch.setattr(rundir, "atomic_write_bytes", atomic)
+    monkeypatch.setattr(rundir.CsvLog, "append", append)
+    assert train_main([*tiny, "--out", str(out)]) == 2
+    assert "No space left on device" in _one_line(capsys)
+    monkeypatch.undo()
+
+    assert len(saved) == 2 and _files(out) == saved[-1]
+    assert not (out / rundir.PARAMS).exists()
+    assert train_main(["--resume", str(out), "--quiet"]) == 0
+    for name in (rundir.METRICS, rundir.EXPLORE, rundir.PARAMS):
+        assert (out / name).read_bytes() == (ref / name).read_bytes(), name
+
+
+def _files(run_dir) -> dict[str, bytes]:
+    names = (rundir.METRICS, rundir.EXPLORE, rundir.CHECKPOINT)
+    return {name: (run_dir / name).read_bytes() for name in names}
