@@ -30,7 +30,10 @@ import yaml
 from jaxnav.errors import ConfigError
 from jaxnav.settings import PRESETS, env_setting_problem
 
-STRATEGIES = ("ebe", "epsilon_greedy")
+# Every exploration strategy (jaxnav.dqn.EXPLORATION has one function each); the
+# paper compares the first two.
+STRATEGIES = ("ebe", "epsilon_greedy", "boltzmann")
+PAPER_STRATEGIES = ("ebe", "epsilon_greedy")
 CONFIG_DIR = Path(__file__).resolve().parent.parent / "configs"  # the project's configs
 
 
@@ -79,6 +82,8 @@ class DQNConfig:
 @dataclass(frozen=True)
 class ExplorationConfig:
     ebe_temperature: float = 1.0  # softmax temperature of EBE; 1 in the paper
+    ebe_power: float = 1.0  # explore with probability H(s)^power; 1 in the paper
+    boltzmann_temperature: float = 1.0  # Boltzmann samples from softmax(Q / T)
     eps_start: float = 1.0
     eps_decay: float = 0.99  # per episode
     eps_min: float = 0.05
@@ -100,7 +105,7 @@ class Config:
     preset: str = "paper"
     seed: int = 0  # first seed; a run uses seed, seed + 1, ..., seed + seeds - 1
     seeds: int = 8  # seeds per strategy
-    strategies: tuple[str, ...] = STRATEGIES
+    strategies: tuple[str, ...] = PAPER_STRATEGIES
     episodes: int | None = PRESETS[
         "paper"
     ].episodes  # per seed (null: only total_steps limits the run)
@@ -284,6 +289,8 @@ _RULES: dict[str, tuple[Any, str]] = {
     "dqn.dropout": _UNIT_OPEN,
     "dqn.target_update_every": _AT_LEAST_1,
     "exploration.ebe_temperature": _POSITIVE,
+    "exploration.ebe_power": _POSITIVE,
+    "exploration.boltzmann_temperature": _POSITIVE,
     "exploration.eps_start": _UNIT,
     "exploration.eps_decay": _UNIT,
     "exploration.eps_min": _UNIT,

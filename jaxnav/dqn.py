@@ -11,8 +11,8 @@ Paper equations in one place each:
 * Q-network (Table 2): :class:`QNetwork`.
 * TD target ``y = r + gamma * max_b Q(s', b; theta^-)``, squared error: :func:`td_loss`.
 * EBE (Sec. 5): :func:`ebe`; epsilon-greedy baseline: :func:`epsilon_greedy`,
-  :func:`epsilon_schedule`. The trainer picks a strategy's exploration probability
-  from :data:`EXPLORATION` (:func:`exploration_probability`).
+  :func:`epsilon_schedule`; Boltzmann, EBE's control: :func:`boltzmann`. The trainer
+  acts through a strategy's entry in :data:`EXPLORATION` (:func:`explore_action`).
 """
 
 from __future__ import annotations
@@ -72,8 +72,10 @@ def dropout16(key: chex.PRNGKey, x: chex.Array, rate: float) -> chex.Array:
 
 
 # ----------------------------------------------------------------------------
-# Exploration: both strategies act as explore_or_greedy(key, q, prob) and differ
-# only in the probability of a random action.
+# Exploration. A strategy is one pure function in the table EXPLORATION:
+# (key, q f32[A], episode i32[], config) -> (action i32[], exploration f32[]).
+# Adding one is that function and one line in the table (and its name in
+# jaxnav.config.STRATEGIES).
 # ----------------------------------------------------------------------------
 
 
@@ -105,12 +107,15 @@ def explore_or_greedy(key: chex.PRNGKey, q: chex.Array, prob: chex.Array) -> che
     return jnp.where(explore, random_action, jnp.argmax(q, axis=-1))
 
 
-def ebe(key: chex.PRNGKey, q: chex.Array, temperature: float = 1.0):
-    """Entropy-based exploration: random action with probability H(s), else greedy.
+def ebe(key: chex.PRNGKey, q: chex.Array, temperature: float = 1.0, power: float = 1.0):
+    """Entropy-based exploration: random action with probability H(s)^power, else greedy.
 
-    Returns (action i32[], H f32[]).
+    The paper's EBE is power 1; the EBE author's Breakout code raised H to a power.
+    Returns (action i32[], exploration probability f32[]).
     """
     h = normalised_entropy(q, temperature)
+    if power != 1.0:  # a Python constant: power 1 computes exactly the paper's H
+        h = h**power
     return explore_or_greedy(key, q, h), h
 
 
@@ -119,37 +124,64 @@ def epsilon_greedy(key: chex.PRNGKey, q: chex.Array, eps: chex.Array):
     return explore_or_greedy(key, q, eps), jnp.asarray(eps, jnp.float32)
 
 
-def ebe_probability(q: chex.Array, episode: chex.Array, x: ExplorationConfig) -> chex.Array:
-    """EBE's exploration probability: H(s) of the current Q-values (f32[])."""
-    del episode
-    return normalised_entropy(q, x.ebe_temperature)
+def boltzmann(key: chex.PRNGKey, q: chex.Array, temperature: float = 1.0):
+    """Boltzmann exploration: the action is sampled from softmax(Q / T), the softmax
+    EBE takes its entropy from (for EBE's control).
 
-
-def epsilon_probability(q: chex.Array, episode: chex.Array, x: ExplorationConfig) -> chex.Array:
-    """Epsilon-greedy's exploration probability: eps of the current episode (f32[])."""
-    del q
-    return epsilon_schedule(episode, x.eps_start, x.eps_decay, x.eps_min)
-
-
-# Each strategy's exploration probability, (q f32[A], episode i32[], config) -> f32[].
-EXPLORATION: dict[str, Callable[..., chex.Array]] = {
-    "ebe": ebe_probability,
-    "epsilon_greedy": epsilon_probability,
-}
-# In STRATEGIES order, so a run's strategy index picks its entry (KeyError if one is missing).
-_BY_INDEX = tuple(EXPLORATION[name] for name in STRATEGIES)
-
-
-def exploration_probability(
-    strategy: chex.Array, q: chex.Array, episode: chex.Array, x: ExplorationConfig
-) -> chex.Array:
-    """The exploration probability of strategy ``STRATEGIES[strategy]`` (i32[] -> f32[]).
-
-    Branchless: every strategy's probability is computed and one is selected, so one
-    compiled program serves runs of both strategies under ``vmap``.
+    Returns (action i32[], the probability that the sampled action is not the greedy
+    one, 1 - max_a softmax(Q / T)_a, f32[]).
     """
-    probs = [probability(q, episode, x) for probability in _BY_INDEX]
-    return jax.lax.select_n(strategy, *probs)
+    z = (q - jnp.max(q, axis=-1, keepdims=True)) / temperature
+    action = jax.random.categorical(key, z, axis=-1)
+    return action, 1.0 - jnp.max(jax.nn.softmax(z, axis=-1), axis=-1)
+
+
+def _ebe(key, q, episode, x: ExplorationConfig):
+    del episode
+    return ebe(key, q, x.ebe_temperature, x.ebe_power)
+
+
+def _epsilon_greedy(key, q, episode, x: ExplorationConfig):
+    return epsilon_greedy(key, q, epsilon_schedule(episode, x.eps_start, x.eps_decay, x.eps_min))
+
+
+def _boltzmann(key, q, episode, x: ExplorationConfig):
+    del episode
+    return boltzmann(key, q, x.boltzmann_temperature)
+
+
+# Each strategy's act, (key, q f32[A], episode i32[], config) -> (action i32[], f32[]),
+# in STRATEGIES order (an import-time KeyError if one is missing).
+EXPLORATION: dict[str, Callable[..., tuple[chex.Array, chex.Array]]] = {
+    "ebe": _ebe,
+    "epsilon_greedy": _epsilon_greedy,
+    "boltzmann": _boltzmann,
+}
+EXPLORATION = {name: EXPLORATION[name] for name in STRATEGIES}
+
+
+def explore_action(
+    strategy: chex.Array,
+    key: chex.PRNGKey,
+    q: chex.Array,
+    episode: chex.Array,
+    x: ExplorationConfig,
+    strategies: tuple[str, ...] = STRATEGIES,
+) -> tuple[chex.Array, chex.Array]:
+    """(action i32[], exploration f32[]) of strategy ``STRATEGIES[strategy]`` (i32[]).
+
+    Branchless: the act of every strategy in ``strategies`` (those a program can meet)
+    is computed from the same key and one is selected, so one compiled program serves
+    runs of several strategies under ``vmap``. The same key gives EBE and epsilon-greedy
+    the same coin and random action, so only the probability differs between them.
+    """
+    acts = [EXPLORATION[name](key, q, episode, x) for name in strategies]
+    if len(acts) == 1:
+        return acts[0]
+    position = jnp.asarray([strategies.index(s) if s in strategies else 0 for s in STRATEGIES])
+    i = position[strategy]
+    action = jax.lax.select_n(i, *[a.astype(jnp.int32) for a, _ in acts])
+    return action, jax.lax.select_n(i, *[jnp.asarray(p, jnp.float32) for _, p in acts])
 
 
 # ----------------------------------------------------------------------------
@@ -261,7 +293,7 @@ class Trainer(NamedTuple):
 def make_trainer(config: Config) -> Trainer:
     """The run of a config as pure ``init(key, strategy)``, ``step``, ``chunk``, ``active``."""
     env, env_params = from_config(config)
-    d, x = config.dqn, config.exploration
+    d = config.dqn
     network = QNetwork(env.num_actions, tuple(d.hidden), d.dropout)
     optimizer = optax.rmsprop(d.lr, decay=d.rms_decay, eps=d.rms_eps, eps_in_sqrt=False)
     slots = config.episodes if config.episodes is not None else config.run.chunk_steps
@@ -278,8 +310,8 @@ def make_trainer(config: Config) -> Trainer:
         run = active(ts)
         key, k_act, k_env, k_sample, k_drop = jax.random.split(ts.key, 5)
 
-        # ACT: the strategy index picks the exploration probability; one draw serves both.
-        action, explore, q_finite = _act(network, x, ts, k_act)
+        # ACT: the run's strategy explores (its index picks its entry in EXPLORATION).
+        action, explore, q_finite = _act(network, config, ts, k_act)
 
         # STEP ENV (auto-resets to the start pose after a collision or truncation).
         obs, env_state, reward, terminated, truncated, info = env.step(
@@ -353,12 +385,14 @@ def _init_state(env, env_params, network, optimizer, buffer, slots, key, strateg
     )
 
 
-def _act(network: QNetwork, x: ExplorationConfig, ts: TrainState, key: chex.PRNGKey):
-    """(action i32[], exploration probability f32[], whether the Q-values are finite)
-    of the run's strategy at ``ts.obs``."""
+def _act(network: QNetwork, config: Config, ts: TrainState, key: chex.PRNGKey):
+    """(action i32[], exploration f32[], whether the Q-values are finite) of the run's
+    strategy at ``ts.obs``."""
     q = network.apply(ts.params, ts.obs)
-    explore = exploration_probability(ts.strategy, q, ts.episode, x)
-    return explore_or_greedy(key, q, explore), explore, jnp.all(jnp.isfinite(q))
+    action, prob = explore_action(
+        ts.strategy, key, q, ts.episode, config.exploration, config.strategies
+    )
+    return action, prob, jnp.all(jnp.isfinite(q))
 
 
 def _loss(network: QNetwork, gamma: float, params, target_params, batch: replay.Batch, key):

@@ -46,7 +46,7 @@ from jaxnav.errors import ConfigError, JaxnavError, RunError  # noqa: E402
 from jaxnav.maps import Maze, make_maze  # noqa: E402
 from jaxnav.results import STRATEGY_NAMES, read_episodes_npz, robustness_summary  # noqa: E402
 
-COLORS = {"ebe": "tab:blue", "epsilon_greedy": "tab:orange"}
+COLORS = {"ebe": "tab:blue", "epsilon_greedy": "tab:orange", "boltzmann": "tab:green"}
 FOOTPRINT = 0.105  # m, TurtleBot3 burger disc (the 0.13 m collision radius is drawn dashed)
 GIF_MAX_BYTES = 1_000_000
 GIF_MAX_FRAMES = 60
@@ -178,13 +178,15 @@ def plot_training_curves(run_dir: Path, out: Path, window: int | None = None) ->
 
 
 def plot_exploration(run_dir: Path, out: Path, window: int = 10) -> Path:
-    """EBE's entropy H(s) and epsilon per 100-step block over training."""
+    """Each strategy's exploration per 100-step block over training: EBE's entropy
+    H(s), epsilon, Boltzmann's chance of a non-greedy action."""
     curves = _curves(_read_csv(run_dir / "explore.csv"), "step", "explore")
     if not curves:
         raise RunError(f"{run_dir / 'explore.csv'} has no rows")
     labels = {
         "ebe": "EBE: entropy H(s) (= chance of a random action)",
         "epsilon_greedy": "epsilon-greedy: epsilon",
+        "boltzmann": "Boltzmann: chance of a non-greedy action",
     }
     fig, ax = plt.subplots(figsize=(7, 4.2))
     for s, (x, y) in curves.items():

@@ -36,7 +36,7 @@ MODE_NAMES = {
     "greedy": "greedy (argmax Q, no exploration)",
     "exploring": "exploring (each strategy's own exploration as at the end of training)",
 }
-STRATEGY_NAMES = {"ebe": "EBE", "epsilon_greedy": "epsilon-greedy"}
+STRATEGY_NAMES = {"ebe": "EBE", "epsilon_greedy": "epsilon-greedy", "boltzmann": "Boltzmann"}
 # robustness.csv: the same columns, the perturbation in place of the test mode.
 ROBUSTNESS_COLUMNS = tuple("perturbation" if c == "mode" else c for c in RESULT_COLUMNS)
 UNPERTURBED = "none"

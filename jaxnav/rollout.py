@@ -21,7 +21,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from jaxnav.config import STRATEGIES, ExplorationConfig
-from jaxnav.dqn import QNetwork, exploration_probability, explore_or_greedy
+from jaxnav.dqn import QNetwork, explore_action
 from jaxnav.env import EnvParams, NavEnv
 from jaxnav.maps import MAX_GOAL_POINTS, Maze, make_maze, pad_maze
 from jaxnav.sharding import RunSharding
@@ -89,9 +89,9 @@ def make_rollout(
     Greedy (``exploring`` None): dropout off, action = argmax Q. Exploring
     (``exploring = (exploration config, episodes trained)``): each strategy explores
     as at the end of its training, through the trainer's own
-    :func:`jaxnav.dqn.exploration_probability` (EBE with probability H(s), epsilon-
-    greedy with the schedule's last epsilon); the environment's keys are the greedy
-    test's, so both modes start from the same goals.
+    :func:`jaxnav.dqn.explore_action` (EBE with probability H(s), epsilon-greedy with
+    the schedule's last epsilon, Boltzmann sampling softmax(Q / T)); the environment's
+    keys are the greedy test's, so both modes start from the same goals.
     """
     n_steps = n_episodes * max_steps
     E = n_episodes
@@ -103,8 +103,8 @@ def make_rollout(
         if exploring is None:
             return jnp.argmax(q, axis=-1).astype(jnp.int32)
         x, episodes = exploring
-        prob = exploration_probability(strategy, q, jnp.int32(episodes), x)
-        return explore_or_greedy(jax.random.fold_in(key, 1), q, prob).astype(jnp.int32)
+        action, _ = explore_action(strategy, jax.random.fold_in(key, 1), q, jnp.int32(episodes), x)
+        return action.astype(jnp.int32)
 
     def rollout(params, key: chex.PRNGKey, strategy, env_params: EnvParams) -> Rollout:
         k_reset, key = jax.random.split(key)

@@ -8,7 +8,7 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from jaxnav import stats
-from jaxnav.config import STRATEGIES
+from jaxnav.config import PAPER_STRATEGIES, STRATEGIES
 from jaxnav.errors import RunError
 from jaxnav.paper import PAPER_TABLES
 from jaxnav.results import (
@@ -85,7 +85,7 @@ def tables_markdown(
             "",
         ]
         sections = _paper_form_section(t) + _across_seeds_section(t)
-        if set(t.strategies) == set(STRATEGIES):
+        if set(PAPER_STRATEGIES) <= set(t.strategies):
             sections += _improvement_section(t)
         sections += _beside_paper_section(t, train_maze)
         L += [("#" + line) if line.startswith("## ") else line for line in sections]
@@ -201,7 +201,7 @@ def _beside_paper_section(t: _Test, train_maze: str) -> list[str]:
             row = [m, row_name]
             for s in t.strategies:
                 row += [
-                    _pm(*vals[s]),
+                    _pm(*vals[s]) if s in vals else "not in the paper",
                     t.paper_form(m, s, t.seed0),
                     _ci(stats.mean_ci(t.scores(m, s))),
                 ]

@@ -2,7 +2,8 @@
 
 The command that trains every seed of every strategy of a config in one compiled
 program (:mod:`jaxnav.training`) and writes a run directory (:mod:`jaxnav.rundir`
-lists its files). ``--resume`` continues a killed run from its last checkpoint.
+lists its files), ending with its training-curve figure. ``--resume`` continues a
+killed run from its last checkpoint.
 """
 
 from __future__ import annotations
@@ -48,7 +49,7 @@ def print_summary(out: Path, summary: dict[str, Any]) -> None:
 def main(argv: list[str] | None = None) -> int:
     p = cli.Parser(
         prog="python -m jaxnav.train",
-        description="Train DQN with EBE and epsilon-greedy exploration on a maze, "
+        description="Train DQN with EBE, epsilon-greedy or Boltzmann exploration on a maze, "
         "many seeds at once.",
     )
     p.add_argument(
@@ -67,7 +68,7 @@ def main(argv: list[str] | None = None) -> int:
         help="replace the run already in --out (refused while another command uses it)",
     )
     p.add_argument("--quiet", action="store_true", help="no progress bar")
-    args = p.parse_args(argv)
+    args = p.parse_intermixed_args(argv)  # overrides may follow the flags too
 
     def work() -> None:
         initialize()  # multi-host, when jax.distributed's variables are set
@@ -86,6 +87,11 @@ def main(argv: list[str] | None = None) -> int:
             summary = train_new(cfg, out, args.quiet, overwrite=args.overwrite)
         if is_writer():
             print_summary(out, summary)
+            from jaxnav.plots import plot_training_curves  # matplotlib only when done
+
+            (out / "plots").mkdir(exist_ok=True)
+            curves = plot_training_curves(out, out / "plots" / "training_curves.png")
+            print(f"training curves: {curves}")
 
     return cli.run(p.prog, work, interrupted="interrupted; continue with --resume")
 

@@ -11,11 +11,12 @@ from jaxnav.config import STRATEGIES, ExplorationConfig, load_config
 from jaxnav.dqn import (
     EXPLORATION,
     QNetwork,
+    boltzmann,
     dropout16,
     ebe,
     epsilon_greedy,
     epsilon_schedule,
-    exploration_probability,
+    explore_action,
     explore_or_greedy,
     make_train,
     make_trainer,
@@ -100,20 +101,50 @@ def test_epsilon_greedy_rate_and_schedule():
     assert float(got[0]) == 1.0 and float(got[-1]) == pytest.approx(0.05)
 
 
-def test_strategy_table_gives_each_strategy_its_tested_probability():
+def test_strategy_table_gives_each_strategy_its_tested_act():
     assert tuple(EXPLORATION) == STRATEGIES  # a run's strategy index picks its entry
-    x = ExplorationConfig(ebe_temperature=2.0, eps_start=0.8, eps_decay=0.9, eps_min=0.1)
+    x = ExplorationConfig(
+        ebe_temperature=2.0, eps_start=0.8, eps_decay=0.9, eps_min=0.1, boltzmann_temperature=0.5
+    )
     q = jnp.array([0.0, 0.5, 1.5, 0.2, -0.3])
-    episode = jnp.int32(7)
+    episode, key = jnp.int32(7), jax.random.PRNGKey(3)
     want = {
-        "ebe": normalised_entropy(q, 2.0),
-        "epsilon_greedy": epsilon_schedule(episode, 0.8, 0.9, 0.1),
+        "ebe": ebe(key, q, 2.0),
+        "epsilon_greedy": epsilon_greedy(key, q, epsilon_schedule(episode, 0.8, 0.9, 0.1)),
+        "boltzmann": boltzmann(key, q, 0.5),
     }
     for i, name in enumerate(STRATEGIES):
-        assert float(exploration_probability(jnp.int32(i), q, episode, x)) == float(want[name])
-    # vmapped over one strategy index per run, as in the trainer
-    both = jax.vmap(lambda s: exploration_probability(s, q, episode, x))(jnp.arange(2))
-    np.testing.assert_array_equal(both, [want[name] for name in STRATEGIES])
+        action, prob = explore_action(jnp.int32(i), key, q, episode, x)
+        assert int(action) == int(want[name][0]) and float(prob) == float(want[name][1]), name
+    # vmapped over one strategy index per run, as in the trainer; a program that meets
+    # only some strategies computes only theirs, and selects the same
+    for strategies in (STRATEGIES, ("ebe", "epsilon_greedy"), ("boltzmann", "ebe")):
+        index = jnp.asarray([STRATEGIES.index(s) for s in strategies])
+        acts = jax.vmap(lambda i, s=strategies: explore_action(i, key, q, episode, x, s))(index)
+        np.testing.assert_array_equal(acts[0], [want[s][0] for s in strategies])
+        np.testing.assert_array_equal(acts[1], [want[s][1] for s in strategies])
+
+
+def test_boltzmann_samples_from_the_softmax_of_q_over_t():
+    q = jnp.array([0.0, 0.5, 1.5, 0.2, -0.3])
+    for t in (0.3, 1.0, 3.0):
+        p = np.exp(np.asarray(q, np.float64) / t)
+        p /= p.sum()
+        keys = jax.random.split(jax.random.PRNGKey(0), 40_000)
+        actions, not_greedy = jax.vmap(lambda k, t=t: boltzmann(k, q, t))(keys)
+        freq = np.bincount(np.asarray(actions), minlength=5) / len(keys)
+        # 40k draws: each frequency within 5 standard errors of its probability
+        assert np.all(np.abs(freq - p) <= 5 * np.sqrt(p * (1 - p) / len(keys))), (t, freq, p)
+        assert float(not_greedy[0]) == pytest.approx(1.0 - p.max(), rel=1e-5)
+
+
+def test_ebe_power_raises_the_entropy_to_the_power():
+    q = jnp.array([0.0, 0.5, 1.5, 0.2, -0.3])
+    key = jax.random.PRNGKey(1)
+    h = float(normalised_entropy(q))
+    assert float(ebe(key, q, 1.0, 2.0)[1]) == pytest.approx(h**2, rel=1e-6)
+    assert float(ebe(key, q, 1.0, 0.5)[1]) == pytest.approx(h**0.5, rel=1e-6)
+    assert float(ebe(key, q)[1]) == h  # power 1 is the paper's H exactly
 
 
 # -- Network ------------------------------------------------------------------
@@ -249,7 +280,7 @@ def test_dropout16_drops_the_rate_and_rescales_the_rest():
 
 @pytest.mark.parametrize("strategy", STRATEGIES)
 def test_trainer_acts_with_the_tested_exploration_functions(strategy):
-    cfg = _tiny()
+    cfg = _tiny("strategies=[ebe, epsilon_greedy, boltzmann]")  # one program, three strategies
     tr = make_trainer(cfg)
     keys, _ = run_keys(cfg)
     ts = tr.init(keys[0], STRATEGIES.index(strategy))
@@ -261,13 +292,16 @@ def test_trainer_acts_with_the_tested_exploration_functions(strategy):
     x = cfg.exploration
     if strategy == "ebe":
         action, prob = ebe(k_act, q, x.ebe_temperature)
-    else:
+    elif strategy == "epsilon_greedy":
         eps = epsilon_schedule(ts.episode, x.eps_start, x.eps_decay, x.eps_min)
         action, prob = epsilon_greedy(k_act, q, eps)
+    else:
+        action, prob = boltzmann(k_act, q, x.boltzmann_temperature)
     assert float(explore) == pytest.approx(float(prob), rel=1e-6)
     assert int(new.buffer.action[0]) == int(action)
-    # One draw serves both strategies: the same coin and random action for either.
-    np.testing.assert_array_equal(action, explore_or_greedy(k_act, q, prob))
+    if strategy != "boltzmann":
+        # One draw serves EBE and epsilon-greedy: the same coin and random action.
+        np.testing.assert_array_equal(action, explore_or_greedy(k_act, q, prob))
 
 
 def test_still_training_is_one_rule_for_numpy_and_jax():

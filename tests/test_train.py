@@ -159,7 +159,7 @@ def test_resume_after_sigkill_gives_identical_results(tmp_path):
         (["dqn.gama=0.5"], "unknown key 'dqn.gama'"),
         (["dqn.gamma=high"], "dqn.gamma must be a number"),
         (["seeds=2.5"], "seeds must be an integer"),
-        (["strategies=[ebe, boltzmann]"], "unknown strategy 'boltzmann'"),
+        (["strategies=[ebe, softmax]"], "unknown strategy 'softmax'"),
         (["env.maze=nowhere"], "unknown maze 'nowhere'"),
         (["--resume", "/nonexistent/run"], "does not exist"),
         (["/nonexistent/config.yaml"], "no such file"),
@@ -188,3 +188,22 @@ def test_existing_run_directory_is_not_overwritten(smoke_run, capsys):
     assert main(["configs/smoke.yaml", "--out", str(out)]) == 2
     assert "already exists" in capsys.readouterr().err
     assert (out / "metrics.csv").read_bytes() == before
+
+
+def test_three_strategies_train_in_one_program_and_the_command_draws_the_curves(tmp_path, capsys):
+    out = tmp_path / "run"
+    argv = ["configs/smoke.yaml", "seeds=1", "episodes=3", "env.max_steps=30", "--quiet"]
+    argv += ["strategies=[ebe, boltzmann, epsilon_greedy]", "--out", str(out)]
+    assert main(argv) == 0
+    printed = capsys.readouterr().out
+    figure = out / "plots" / "training_curves.png"
+    assert f"training curves: {figure}" in printed
+    assert figure.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    rows = _metrics(out)
+    assert [r["strategy"] for r in rows if r["episode"] == "0"] == [
+        "ebe",
+        "boltzmann",
+        "epsilon_greedy",
+    ]
+    for r in rows:  # each strategy's exploration is a probability
+        assert 0.0 <= float(r["explore"]) <= 1.0
