@@ -407,6 +407,7 @@ def resume(out: Path, quiet: bool = False) -> dict[str, Any]:
     with _writer_lock(out):
         if is_writer():
             rundir.remove_stale_temps(out)
+            run.checkpoint.parent.mkdir(exist_ok=True)  # killed before create() finished
         if run.checkpoint.is_file():
             ts = run.restored_state()
         else:  # killed before its first checkpoint: start over

@@ -202,3 +202,17 @@ def test_a_full_disk_mid_training_loses_nothing(tmp_path, capsys, monkeypatch, f
 def _files(run_dir) -> dict[str, bytes]:
     names = (rundir.METRICS, rundir.EXPLORE, rundir.CHECKPOINT)
     return {name: (run_dir / name).read_bytes() for name in names}
+
+
+def test_resume_of_a_run_with_only_its_config_starts_it(tmp_path, capsys):
+    """A directory holding only config.yaml (and a cut metrics.csv): killed before its
+    first checkpoint, so --resume trains it from the start."""
+    tiny = ["configs/smoke.yaml", "seeds=1", "episodes=2", "env.max_steps=20", "--quiet"]
+    ref, out = tmp_path / "ref", tmp_path / "run"
+    assert train_main([*tiny, "--out", str(ref)]) == 0
+    out.mkdir()
+    shutil.copy(ref / rundir.CONFIG, out / rundir.CONFIG)
+    (out / rundir.METRICS).write_bytes((ref / rundir.METRICS).read_bytes()[:70])
+    assert train_main(["--resume", str(out), "--quiet"]) == 0
+    for name in (rundir.METRICS, rundir.EXPLORE, rundir.PARAMS):
+        assert (out / name).read_bytes() == (ref / name).read_bytes(), name
