@@ -22,10 +22,10 @@ Layout: ``DIR/<variant>/<experiment>/``, each a training run with ``eval/``.
 
 from __future__ import annotations
 
-if __name__ == "__main__":  # before JAX starts: one CPU device per core
-    from jaxnav.cpu import use_all_cores
+if __name__ == "__main__":  # before JAX starts: one CPU device per core, compile cache
+    from jaxnav.startup import before_jax
 
-    use_all_cores()
+    before_jax()
 
 import csv
 import io

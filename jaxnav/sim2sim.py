@@ -51,10 +51,10 @@ module of jaxnav works and this command says how to install it.
 
 from __future__ import annotations
 
-if __name__ == "__main__":  # before JAX starts: one CPU device per core
-    from jaxnav.cpu import use_all_cores
+if __name__ == "__main__":  # before JAX starts: one CPU device per core, compile cache
+    from jaxnav.startup import before_jax
 
-    use_all_cores()
+    before_jax()
 
 import csv
 import io

@@ -8,10 +8,10 @@ killed run from its last checkpoint.
 
 from __future__ import annotations
 
-if __name__ == "__main__":  # before JAX starts: one CPU device per core
-    from jaxnav.cpu import use_all_cores
+if __name__ == "__main__":  # before JAX starts: one CPU device per core, compile cache
+    from jaxnav.startup import before_jax
 
-    use_all_cores()
+    before_jax()
 
 import sys
 import time

@@ -1,0 +1,40 @@
+"""What a command sets before JAX starts: devices and the compilation cache."""
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+from jaxnav.startup import cache_dir
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def test_the_cache_directory_follows_the_users_choice(monkeypatch, tmp_path):
+    monkeypatch.delenv("JAXNAV_CACHE", raising=False)
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
+    assert cache_dir() == tmp_path / "xdg" / "jaxnav" / "jax"
+    monkeypatch.setenv("JAXNAV_CACHE", str(tmp_path / "mine"))
+    assert cache_dir() == tmp_path / "mine"
+    for off in ("off", "0", "OFF"):
+        monkeypatch.setenv("JAXNAV_CACHE", off)
+        assert cache_dir() is None
+
+
+def _cache_seen_by_jax(env: dict) -> str:
+    code = (
+        "from jaxnav.startup import before_jax; before_jax(); import jax; "
+        "print(jax.config.jax_compilation_cache_dir)"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code], env=env, cwd=ROOT, capture_output=True, text=True, check=True
+    )
+    return out.stdout.strip()
+
+
+def test_a_command_starts_jax_with_the_cache_unless_told_otherwise(tmp_path):
+    env = {k: v for k, v in os.environ.items() if not k.startswith(("JAX_", "JAXNAV_"))}
+    assert _cache_seen_by_jax({**env, "JAXNAV_CACHE": str(tmp_path)}) == str(tmp_path)
+    assert _cache_seen_by_jax({**env, "JAXNAV_CACHE": "off"}) in ("", "None")
+    theirs = {**env, "JAXNAV_CACHE": str(tmp_path), "JAX_COMPILATION_CACHE_DIR": "/elsewhere"}
+    assert _cache_seen_by_jax(theirs) == "/elsewhere"
