@@ -21,6 +21,7 @@ from pathlib import Path
 
 from jaxnav.cpu import use_all_cores
 
+
 def cache_dir() -> Path | None:
     """The compilation cache's directory, or None when it is off."""
     chosen = os.environ.get("JAXNAV_CACHE", "")
