@@ -1,9 +1,9 @@
 #!/usr/bin/env python3
 """ROS 2 node: drive a TurtleBot3 to a goal with a policy trained by jaxnav.
 
-UNTESTED ON A ROBOT. It compiles and uses only the adapter that tests/test_deploy.py
-checks against the simulator (jaxnav.deploy.Policy.command), but nobody has run it
-on a TurtleBot3 yet. Keep a hand on the stop button.
+UNTESTED ON A ROBOT, and never run under ROS 2: it compiles, and its decisions are
+jaxnav.deploy.Controller's, which ros1_policy_node.py shares and tests/test_ros1.py
+runs closed-loop through a live ROS 1 master. Keep a hand on the stop button.
 
     # on the training machine
     python -m jaxnav.export runs/paper_no_obstacles_8 --strategy ebe --seed 0 \
@@ -21,26 +21,26 @@ Topics:
              must be in the odometry frame (RViz2's "2D Goal Pose" tool publishes
              this topic; set RViz's fixed frame to odom). A goal stamped with another
              frame is refused (no TF lookup here).
-  /cmd_vel   geometry_msgs/Twist     published at 1/dt = 5 Hz (one action per scan,
-             as in training): linear.x = 0.15 m/s, angular.z = the greedy action's
-             angular velocity. Newer TurtleBot3 stacks that expect TwistStamped need
-             the publisher changed.
+  /cmd_vel   geometry_msgs/Twist     published once per scan (5 Hz on a TurtleBot3, one
+             action per scan, as in training): linear.x = 0.15 m/s, angular.z = the
+             greedy action's angular velocity. Newer TurtleBot3 stacks that expect
+             TwistStamped need the publisher changed.
 
 The node publishes a zero twist (stop) whenever there is no goal, the latest scan
-or odometry is older than ``stale_after`` seconds, the goal is within
-``goal_tolerance`` (then the goal is cleared: send a new one), the scan cannot be
-used (e.g. it does not cover 360 degrees), and on shutdown.
+or odometry is older than ``stale_after`` seconds (a timer keeps stopping the robot
+while no scan arrives), the goal is within ``goal_tolerance`` (then the goal is
+cleared: send a new one), the scan or pose cannot be used (e.g. a scan that does not
+cover 360 degrees), and on shutdown.
 
-Parameters: policy (path of the exported .npz), goal_topic (/goal_pose), rate_hz
-(default 1 / the policy's dt), stale_after (0.5 s), goal_tolerance (default the
-policy's goal radius, 0.2 m), invalid_range (value for 0 / nan readings; negative
-means the policy's max range, the default; see jaxnav/deploy.py).
+Parameters: policy (path of the exported .npz), goal_topic (/goal_pose), stale_after
+(0.5 s), goal_tolerance (default the policy's goal radius, 0.2 m), invalid_range
+(value for 0 / nan readings; negative means the policy's max range, the default;
+see jaxnav/deploy.py).
 """
 
 from __future__ import annotations
 
 import importlib.util
-import math
 import sys
 from pathlib import Path
 
@@ -72,89 +72,81 @@ def _load_deploy():
 
 
 deploy = _load_deploy()
+THROTTLE_S = 2.0  # at most one repeated warning per this many seconds
 
 
 class PolicyNode(Node):
+    """The ROS 2 side of :class:`deploy.Controller`: messages in, twists out (one
+    executor thread, so no lock)."""
+
     def __init__(self):
         super().__init__("jaxnav_policy")
         path = self.declare_parameter("policy", "policy.npz").value
-        self.policy = deploy.Policy.load(path)
-        p = self.policy
+        policy = deploy.Policy.load(path)
         goal_topic = self.declare_parameter("goal_topic", "/goal_pose").value
-        rate_hz = float(self.declare_parameter("rate_hz", 1.0 / p.dt).value)
-        self.stale_after = float(self.declare_parameter("stale_after", 0.5).value)
-        self.goal_tolerance = float(self.declare_parameter("goal_tolerance", p.goal_radius).value)
         invalid = float(self.declare_parameter("invalid_range", -1.0).value)
-        self.invalid = None if invalid < 0 else invalid
-
-        self.scan = None  # (LaserScan, receive time)
-        self.odom = None  # ((x, y, yaw), frame_id, receive time)
-        self.goal = None  # ((x, y), frame_id)
+        self.control = deploy.Controller(
+            policy,
+            stale_after=float(self.declare_parameter("stale_after", 0.5).value),
+            goal_tolerance=float(
+                self.declare_parameter("goal_tolerance", policy.goal_radius).value
+            ),
+            invalid=None if invalid < 0 else invalid,
+        )
         self.cmd_pub = self.create_publisher(Twist, "/cmd_vel", 10)
         self.create_subscription(LaserScan, "/scan", self.on_scan, qos_profile_sensor_data)
         self.create_subscription(Odometry, "/odom", self.on_odom, qos_profile_sensor_data)
         self.create_subscription(PoseStamped, goal_topic, self.on_goal, 10)
-        self.create_timer(1.0 / rate_hz, self.tick)
-        m = p.meta
+        self.create_timer(policy.dt, self.on_timer)
+        m = policy.meta
         self.get_logger().info(
             f"policy {path}: {m.get('strategy')} seed {m.get('seed')} trained on {m.get('maze')}, "
-            f"{p.n_beams} beams{' + obstacle features' if p.obstacle_obs else ''}; "
-            f"{rate_hz:.1f} Hz; waiting for a goal on {goal_topic}"
+            f"{policy.n_beams} beams{' + obstacle features' if policy.obstacle_obs else ''}; "
+            f"one command per scan; waiting for a goal on {goal_topic}"
         )
 
     def now(self) -> float:
         return self.get_clock().now().nanoseconds * 1e-9
 
     def on_scan(self, msg: LaserScan):
-        self.scan = (msg, self.now())
+        now = self.now()
+        self.control.on_scan(msg.ranges, msg.angle_min, msg.angle_increment, now)
+        self.publish(self.control.decide(now))
 
     def on_odom(self, msg: Odometry):
-        q = msg.pose.pose.orientation
-        yaw = deploy.yaw_from_quaternion(q.x, q.y, q.z, q.w)
-        pos = msg.pose.pose.position
-        self.odom = ((pos.x, pos.y, yaw), msg.header.frame_id, self.now())
+        q, p = msg.pose.pose.orientation, msg.pose.pose.position
+        pose = (p.x, p.y, deploy.yaw_from_quaternion(q.x, q.y, q.z, q.w))
+        self.control.on_odom(pose, msg.header.frame_id, self.now())
 
     def on_goal(self, msg: PoseStamped):
-        self.goal = ((msg.pose.position.x, msg.pose.position.y), msg.header.frame_id)
-        self.get_logger().info(f"new goal ({self.goal[0][0]:.2f}, {self.goal[0][1]:.2f})")
+        x, y, frame = msg.pose.position.x, msg.pose.position.y, msg.header.frame_id
+        try:
+            self.control.on_goal((x, y), frame)
+        except ValueError as e:
+            self.get_logger().error(f"goal refused: {e}")
+            return
+        self.get_logger().info(f"new goal ({x:.2f}, {y:.2f}) in frame '{frame}'")
+
+    def on_timer(self):
+        cmd = self.control.watchdog(self.now())
+        if cmd is not None:
+            self.publish(cmd)
+
+    def publish(self, cmd):
+        """Publish a deploy.Command and log why it stops."""
+        twist = Twist()
+        twist.linear.x, twist.angular.z = float(cmd.linear), float(cmd.angular)
+        self.cmd_pub.publish(twist)
+        log = self.get_logger()
+        if cmd.level == "info":
+            log.info(cmd.message)
+        elif cmd.level == "warn":
+            log.warn(cmd.message, throttle_duration_sec=THROTTLE_S)
+        elif cmd.level == "error":
+            log.error(cmd.message, throttle_duration_sec=THROTTLE_S)
 
     def stop(self):
         self.cmd_pub.publish(Twist())
-
-    def tick(self):
-        now, log = self.now(), self.get_logger()
-        if self.goal is None:
-            return self.stop()
-        if self.scan is None or self.odom is None:
-            log.warn("no scan or odometry yet: stopped", throttle_duration_sec=2.0)
-            return self.stop()
-        scan, t_scan = self.scan
-        pose, odom_frame, t_odom = self.odom
-        if now - t_scan > self.stale_after or now - t_odom > self.stale_after:
-            log.warn("scan or odometry is stale: stopped", throttle_duration_sec=2.0)
-            return self.stop()
-        goal, goal_frame = self.goal
-        if goal_frame and odom_frame and goal_frame != odom_frame:
-            log.warn(
-                f"goal is in frame '{goal_frame}', not the odometry frame '{odom_frame}': stopped",
-                throttle_duration_sec=2.0,
-            )
-            return self.stop()
-        if math.hypot(goal[0] - pose[0], goal[1] - pose[1]) < self.goal_tolerance:
-            log.info("goal reached: stopped; waiting for a new goal")
-            self.goal = None
-            return self.stop()
-        try:
-            linear, angular = self.policy.command(
-                scan.ranges, scan.angle_min, scan.angle_increment, pose, goal, self.invalid
-            )
-        except ValueError as e:  # e.g. a scan that does not cover 360 degrees
-            log.error(f"cannot use this scan: {e}", throttle_duration_sec=2.0)
-            return self.stop()
-        cmd = Twist()
-        cmd.linear.x = float(linear)
-        cmd.angular.z = float(angular)
-        self.cmd_pub.publish(cmd)
 
 
 def main(args=None) -> int:

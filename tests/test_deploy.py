@@ -402,5 +402,141 @@ def test_info_prints_the_metadata(runs, tmp_path, capsys):
     assert json.loads(str(np.load(out)["meta"]))["format"] == "jaxnav-policy"
 
 
-def test_ros2_node_example_compiles():
-    py_compile.compile(str(ROOT / "examples" / "ros2_policy_node.py"), doraise=True)
+@pytest.mark.parametrize("node", ["ros1_policy_node.py", "ros2_policy_node.py"])
+def test_ros_node_examples_compile(node):
+    py_compile.compile(str(ROOT / "examples" / node), doraise=True)
+
+
+# ----------------------------------------------------------------------------
+# A node's decisions (Controller)
+# ----------------------------------------------------------------------------
+
+
+def _steering_policy() -> Policy:
+    """A one-layer policy that turns towards the goal: left (1.5 rad/s) when the goal
+    is to the left, right when to the right, straight when ahead."""
+    kernel = np.zeros((26, 5))
+    kernel[24] = [-2.0, -1.0, 0.0, 1.0, 2.0]  # heading
+    bias = np.asarray([0.0, 0.0, 0.1, 0.0, 0.0])
+    meta = {
+        "n_beams": 24,
+        "obstacle_obs": False,
+        "min_range": 0.12,
+        "max_range": 3.5,
+        "omegas": [-1.5, -0.75, 0.0, 0.75, 1.5],
+        "linear_velocity": 0.15,
+    }
+    return Policy([(kernel, bias)], meta)
+
+
+def _fed(control: deploy.Controller, now: float = 10.0, pose=(0.0, 0.0, 0.0)):
+    control.on_scan(np.full(360, 2.0), *LDS01, now)
+    control.on_odom(pose, "odom", now)
+    return control
+
+
+def test_controller_drives_only_with_a_goal_a_scan_and_odometry():
+    control = deploy.Controller(_steering_policy())
+    assert control.decide(0.0) == (0.0, 0.0, "no goal", "")
+    control.on_goal((1.0, 1.0), "odom")  # ahead and to the left
+    cmd = control.decide(0.0)
+    assert (cmd.linear, cmd.angular, cmd.reason, cmd.level) == (0.0, 0.0, "waiting", "warn")
+    control.on_scan(np.full(360, 2.0), *LDS01, 0.0)
+    assert control.decide(0.0).reason == "waiting"  # a scan but no odometry
+    control.on_odom((0.0, 0.0, 0.0), "odom", 0.0)
+    assert control.decide(0.1) == (0.15, 1.5, "drive", "")
+    control.on_goal((1.0, -1.0), "odom")  # a new goal replaces the old one
+    assert control.decide(0.1)[:2] == (0.15, -1.5)
+    assert control.decide(0.1).level == ""
+
+
+def test_controller_gives_what_the_policy_commands(setups):
+    policy = setups["square4_obstacles"].policy
+    control = deploy.Controller(policy)
+    rng = np.random.default_rng(5)
+    for _ in range(20):
+        ranges, pose = rng.uniform(0.2, 3.0, 360), (*rng.uniform(-1, 1, 2), rng.uniform(-3, 3))
+        goal = tuple(rng.uniform(-1.5, 1.5, 2))
+        control.on_goal(goal, "odom")
+        control.on_scan(ranges, *LDS01, 1.0)
+        control.on_odom(pose, "odom", 1.0)
+        cmd = control.decide(1.2)
+        assert cmd[:3] == (*policy.command(ranges, *LDS01, pose, goal), "drive")
+
+
+@pytest.mark.parametrize("stale", ["scan", "odometry"])
+def test_controller_stops_on_stale_data(stale):
+    control = deploy.Controller(_steering_policy(), stale_after=0.5)
+    control.on_goal((1.0, 0.0), "odom")
+
+    def feed(t_old):
+        control.on_scan(np.full(360, 2.0), *LDS01, t_old if stale == "scan" else 10.0)
+        control.on_odom((0.0, 0.0, 0.0), "odom", t_old if stale == "odometry" else 10.0)
+
+    feed(9.4)
+    cmd = control.decide(10.0)
+    assert cmd[:3] == (0.0, 0.0, "stale") and cmd.message.startswith(f"{stale} older than 0.5 s")
+    feed(9.5)
+    assert control.decide(10.0).reason == "drive"  # exactly stale_after old is fresh
+    assert control.decide(9.9).reason == "stale"  # the clock went back: not trusted
+
+
+def test_controller_stops_at_the_goal_and_forgets_it():
+    control = _fed(deploy.Controller(_steering_policy(), goal_tolerance=0.3))
+    control.on_goal((0.25, 0.1), "odom")
+    cmd = control.decide(10.0)
+    assert cmd[:3] == (0.0, 0.0, "reached") and cmd.level == "info"
+    assert "(0.25, 0.10) reached" in cmd.message
+    assert control.goal is None and control.decide(10.0).reason == "no goal"
+    control.on_goal((0.35, 0.0), "odom")  # outside the tolerance
+    assert control.decide(10.0).reason == "drive"
+    # The default tolerance is the policy's goal radius.
+    assert deploy.Controller(_steering_policy()).goal_tolerance == 0.2
+
+
+def test_controller_refuses_a_goal_in_another_frame():
+    control = _fed(deploy.Controller(_steering_policy()))
+    control.on_goal((1.0, 0.0), "map")
+    cmd = control.decide(10.0)
+    assert cmd[:3] == (0.0, 0.0, "frame") and "'map'" in cmd.message and "'odom'" in cmd.message
+    for frame in ("odom", "/odom", ""):  # ROS 1's leading slash; no frame: trusted
+        control.on_goal((1.0, 0.0), frame)
+        assert control.decide(10.0).reason == "drive"
+
+
+def test_controller_stops_on_a_scan_or_pose_it_cannot_use():
+    control = _fed(deploy.Controller(_steering_policy()))
+    control.on_goal((1.0, 0.0), "odom")
+    control.on_scan(np.full(180, 2.0), -math.pi / 2, math.pi / 180, 10.0)  # front half
+    cmd = control.decide(10.0)
+    assert cmd[:3] == (0.0, 0.0, "bad input") and cmd.level == "error"
+    assert "does not cover" in cmd.message
+    _fed(control, pose=(math.nan, 0.0, 0.0))
+    assert control.decide(10.0).reason == "bad input"
+    with pytest.raises(ValueError, match="not finite"):
+        control.on_goal((math.inf, 0.0), "odom")
+
+
+def test_controller_watchdog_stops_only_when_scans_stop():
+    control = deploy.Controller(_steering_policy(), stale_after=0.5)
+    assert control.watchdog(0.0).reason == "no goal"  # no scan yet: a stop
+    _fed(control, now=10.0)
+    control.on_goal((1.0, 0.0), "odom")
+    assert control.watchdog(10.4) is None  # scans drive the robot
+    cmd = control.watchdog(10.6)
+    assert cmd[:3] == (0.0, 0.0, "stale") and cmd.message.startswith("scan and odometry")
+
+
+def test_controller_passes_the_invalid_reading_value_on():
+    kernel = np.zeros((26, 5))
+    kernel[0] = [1.0, 0.0, 0.0, 0.0, 0.0]  # beam 0 far: turn right; near: straight
+    bias = np.asarray([0.0, 0.0, 1.0, 0.0, 0.0])
+    policy = Policy([(kernel, bias)], _steering_policy().meta)
+    for invalid, omega in ((None, -1.5), (0.0, 0.0)):
+        control = deploy.Controller(policy, invalid=invalid)
+        control.on_goal((1.0, 0.0), "odom")
+        ranges = np.full(360, 2.0)
+        ranges[0] = 0.0  # the LDS-01's "no return"
+        control.on_scan(ranges, *LDS01, 10.0)
+        control.on_odom((0.0, 0.0, 0.0), "odom", 10.0)
+        assert control.decide(10.0)[:2] == (0.15, omega)
