@@ -281,7 +281,7 @@ class Trainer(NamedTuple):
     metric_slots: int
     init: Callable[[chex.PRNGKey, chex.Array], TrainState]
     step: Callable[[TrainState, None], tuple[TrainState, chex.Array]]
-    chunk: Callable[[TrainState], tuple[TrainState, chex.Array]]
+    chunk: Callable[..., tuple[TrainState, chex.Array]]  # (state, n_steps=None)
     active: Callable[[TrainState], chex.Array]
 
 
@@ -358,8 +358,23 @@ def make_trainer(config: Config) -> Trainer:
         )
         return held, jnp.where(run, explore, jnp.nan)
 
-    def chunk(ts: TrainState):
-        return jax.lax.scan(step, ts, None, length=config.run.chunk_steps)
+    def chunk(ts: TrainState, n_steps: chex.Array | None = None):
+        """Up to ``run.chunk_steps`` env steps of one run in one compiled loop.
+
+        ``n_steps`` (i32[], the same for every run under vmap) ends the loop early: the
+        host passes the most steps any run can still take, so the last chunk (or all of
+        a short run) does not step runs that have finished to the chunk's end.
+        Returns (state, f32[chunk_steps] exploration per step, NaN where no step was
+        taken or the run had finished)."""
+        length = config.run.chunk_steps
+        n = length if n_steps is None else jnp.minimum(n_steps, length)
+
+        def body(i, carry):
+            ts, explore = carry
+            ts, e = step(ts, None)
+            return ts, explore.at[i].set(e)
+
+        return jax.lax.fori_loop(0, n, body, (ts, jnp.full(length, jnp.nan, jnp.float32)))
 
     return Trainer(config, env, env_params, network, optimizer, slots, init, step, chunk, active)
 

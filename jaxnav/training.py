@@ -116,7 +116,11 @@ class Run:
         self.shard = RunSharding(cfg.n_runs)
         sharding = self.shard.sharding
         self.init = jax.jit(jax.vmap(self.trainer.init), out_shardings=sharding)
-        self.chunk = jax.jit(jax.vmap(self.trainer.chunk), donate_argnums=0, out_shardings=sharding)
+        self.chunk = jax.jit(
+            jax.vmap(self.trainer.chunk, in_axes=(0, None)),
+            donate_argnums=0,
+            out_shardings=sharding,
+        )
         out = Path(".") if out is None else out
         self.metrics = rundir.CsvLog(out / rundir.METRICS, METRIC_COLUMNS)
         self.explore = rundir.CsvLog(out / rundir.EXPLORE, EXPLORE_COLUMNS)
@@ -158,6 +162,16 @@ class Run:
         episode, step, diverged_at = self.shard.get((ts.episode, ts.step, ts.diverged_at))
         running = still_training(episode, step, *run_limits(self.cfg))
         return np.asarray(running & (diverged_at < 0))
+
+    def steps_needed(self, ts: TrainState) -> int:
+        """The most env steps any active run can still take, at most a chunk: a run
+        stops within its step limit and within max_steps per episode left."""
+        cfg = self.cfg
+        episode, step = (np.asarray(a, np.int64) for a in self.shard.get((ts.episode, ts.step)))
+        episodes, steps = run_limits(cfg)
+        left = np.minimum(steps - step, (episodes - episode) * cfg.env.max_steps)
+        active = self.active(ts)
+        return int(min(cfg.run.chunk_steps, left[active].max())) if active.any() else 0
 
     def check_divergence(self, ts: TrainState) -> list[str]:
         """Runs that diverged in the last chunk, each described in words."""
@@ -291,7 +305,7 @@ class Run:
                 before = self._done(ts)
                 step_before = self.shard.get(ts.step).copy()
                 t0 = time.perf_counter()
-                ts, explore = self.chunk(ts)
+                ts, explore = self.chunk(ts, np.int32(self.steps_needed(ts)))
                 explore = self.shard.get(explore)  # waits for the chunk
                 dt = time.perf_counter() - t0
                 self.wall += dt
