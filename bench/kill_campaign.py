@@ -6,9 +6,11 @@ Trains a small config once without interruption (the reference), then trains it
 again, killing the process (SIGKILL, no chance to clean up) at ``--kills`` random
 moments and resuming with ``python -m jaxnav.train --resume`` after each. At the
 end metrics.csv, explore.csv and params.npz must equal the reference's byte for
-byte. Chunks are short (100 steps) so checkpoints are frequent and some kills land
-while a checkpoint or a log is being written; the script counts those by the
-temporary files a killed writer leaves (resume removes them).
+byte. Chunks are short (100 steps) so checkpoints are frequent. Every other kill
+waits for the process's k-th checkpoint write to begin (k random in 1..6; its
+temporary file appears) and kills it right then, so those kills land while a
+checkpoint is being written; the others come at a random moment. The script counts
+the kills that left a temporary file behind (resume removes them).
 
 Prints one line per kill and a summary; exits 1 if any file differs.
 """
@@ -52,6 +54,28 @@ def _temps(run: Path) -> int:
     return sum(1 for p in run.rglob(".*.tmp*"))
 
 
+def _killed(proc: subprocess.Popen, run: Path, delay: float, writes: int) -> bool:
+    """SIGKILL ``proc`` after ``delay`` seconds, or (``writes`` > 0) as soon as its
+    ``writes``-th checkpoint write is under way (its temporary file has appeared);
+    False if it finished first."""
+    deadline = time.perf_counter() + delay
+    seen, writing = 0, False
+    while proc.poll() is None:
+        if writes:
+            now = _temps(run) > 0
+            seen += now and not writing
+            writing = now
+            due = seen >= writes
+        else:
+            due = time.perf_counter() >= deadline
+        if due:
+            os.kill(proc.pid, signal.SIGKILL)
+            proc.wait()
+            return True
+        time.sleep(0.0005 if writes else 0.01)
+    return False
+
+
 def main() -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--kills", type=int, default=20)
@@ -79,21 +103,20 @@ def main() -> int:
             shutil.rmtree(run, ignore_errors=True)  # killed before its config was written
         args = ["--resume", str(run), "--quiet"] if started else [*CONFIG, "--out", str(run)]
         proc = _train(args)
-        delay = rng.uniform(0.5, 0.8 * full)
-        try:
-            proc.wait(timeout=delay)
-        except subprocess.TimeoutExpired:
-            os.kill(proc.pid, signal.SIGKILL)
-            proc.wait()
+        at_write = kills % 2 == 1
+        writes = rng.randint(1, 6) if at_write else 0
+        delay = rng.uniform(0.5, full)
+        if _killed(proc, run, delay, writes):
             kills += 1
             temps = _temps(run)
             in_write += temps > 0
             started = started or (run / "config.yaml").is_file()
             metrics = run / "metrics.csv"
             done = len(metrics.read_text().splitlines()) - 1 if metrics.exists() else 0
+            when = f"in checkpoint write {writes}" if at_write else f"after {delay:5.1f} s"
             print(
-                f"kill {kills:2d} after {delay:5.1f} s: {done} episodes logged"
-                + (", during a write" if temps else "")
+                f"kill {kills:2d} {when}: {done} episodes logged"
+                + (", a temporary file left behind" if temps else "")
             )
             continue
         if proc.returncode != 0:
