@@ -98,6 +98,9 @@ class RunConfig:
     # with an error (the last good checkpoint kept), or "drop" that run (frozen and
     # listed in summary.json as diverged) and let the others finish.
     on_divergence: str = "stop"
+    # Training curves for TensorBoard in RUN_DIR/tensorboard (jaxnav.tblog; needs the
+    # optional extra "tensorboard").
+    tensorboard: bool = False
 
 
 @dataclass(frozen=True)

@@ -270,6 +270,15 @@ class TrainState:
     diverged_at: chex.Array
 
 
+class StepLog(NamedTuple):
+    """What one step reports besides the state, each f32[] (f32[chunk_steps] from a
+    chunk); NaN where there is nothing to report."""
+
+    explore: chex.Array  # the strategy's exploration; NaN once the run has finished
+    loss: chex.Array  # the TD loss of the step's gradient step; NaN when none was taken
+    max_q: chex.Array  # max_a Q(s, a) at the acting state; NaN once the run has finished
+
+
 class Trainer(NamedTuple):
     """The pieces of a run. ``init`` and ``chunk`` are pure; vmap them over runs."""
 
@@ -280,8 +289,8 @@ class Trainer(NamedTuple):
     optimizer: optax.GradientTransformation
     metric_slots: int
     init: Callable[[chex.PRNGKey, chex.Array], TrainState]
-    step: Callable[[TrainState, None], tuple[TrainState, chex.Array]]
-    chunk: Callable[..., tuple[TrainState, chex.Array]]  # (state, n_steps=None)
+    step: Callable[[TrainState, None], tuple[TrainState, StepLog]]
+    chunk: Callable[..., tuple[TrainState, StepLog]]  # (state, n_steps=None)
     active: Callable[[TrainState], chex.Array]
 
 
@@ -311,7 +320,7 @@ def make_trainer(config: Config) -> Trainer:
         key, k_act, k_env, k_sample, k_drop = jax.random.split(ts.key, 5)
 
         # ACT: the run's strategy explores (its index picks its entry in EXPLORATION).
-        action, explore, q_finite = _act(network, config, ts, k_act)
+        action, explore, q_finite, max_q = _act(network, config, ts, k_act)
 
         # STEP ENV (auto-resets to the start pose after a collision or truncation).
         obs, env_state, reward, terminated, truncated, info = env.step(
@@ -326,7 +335,7 @@ def make_trainer(config: Config) -> Trainer:
 
         # LEARN: one gradient step per environment step once learning has started.
         n_steps = ts.step + 1
-        params, opt_state, broke = _learn(
+        params, opt_state, broke, loss = _learn(
             network, optimizer, d, ts, buffer, n_steps, run, k_sample, k_drop
         )
         diverged = (ts.diverged_at < 0) & run & (broke | ~q_finite)
@@ -356,7 +365,12 @@ def make_trainer(config: Config) -> Trainer:
             buffer=buffer,
             diverged_at=diverged_at,
         )
-        return held, jnp.where(run, explore, jnp.nan)
+        log = StepLog(
+            explore=jnp.where(run, explore, jnp.nan),
+            loss=loss,
+            max_q=jnp.where(run, max_q, jnp.nan),
+        )
+        return held, log
 
     def chunk(ts: TrainState, n_steps: chex.Array | None = None):
         """Up to ``run.chunk_steps`` env steps of one run in one compiled loop.
@@ -364,17 +378,18 @@ def make_trainer(config: Config) -> Trainer:
         ``n_steps`` (i32[], the same for every run under vmap) ends the loop early: the
         host passes the most steps any run can still take, so the last chunk (or all of
         a short run) does not step runs that have finished to the chunk's end.
-        Returns (state, f32[chunk_steps] exploration per step, NaN where no step was
-        taken or the run had finished)."""
+        Returns (state, :class:`StepLog` of f32[chunk_steps] per step, NaN where no
+        step was taken)."""
         length = config.run.chunk_steps
         n = length if n_steps is None else jnp.minimum(n_steps, length)
 
         def body(i, carry):
-            ts, explore = carry
-            ts, e = step(ts, None)
-            return ts, explore.at[i].set(e)
+            ts, logs = carry
+            ts, log = step(ts, None)
+            return ts, jax.tree.map(lambda a, x: a.at[i].set(x), logs, log)
 
-        return jax.lax.fori_loop(0, n, body, (ts, jnp.full(length, jnp.nan, jnp.float32)))
+        logs = StepLog(*(jnp.full(length, jnp.nan, jnp.float32) for _ in StepLog._fields))
+        return jax.lax.fori_loop(0, n, body, (ts, logs))
 
     return Trainer(config, env, env_params, network, optimizer, slots, init, step, chunk, active)
 
@@ -401,13 +416,13 @@ def _init_state(env, env_params, network, optimizer, buffer, slots, key, strateg
 
 
 def _act(network: QNetwork, config: Config, ts: TrainState, key: chex.PRNGKey):
-    """(action i32[], exploration f32[], whether the Q-values are finite) of the run's
-    strategy at ``ts.obs``."""
+    """(action i32[], exploration f32[], whether the Q-values are finite, max Q f32[])
+    of the run's strategy at ``ts.obs``."""
     q = network.apply(ts.params, ts.obs)
     action, prob = explore_action(
         ts.strategy, key, q, ts.episode, config.exploration, config.strategies
     )
-    return action, prob, jnp.all(jnp.isfinite(q))
+    return action, prob, jnp.all(jnp.isfinite(q)), jnp.max(q)
 
 
 def _loss(network: QNetwork, gamma: float, params, target_params, batch: replay.Batch, key):
@@ -418,8 +433,9 @@ def _loss(network: QNetwork, gamma: float, params, target_params, batch: replay.
 
 
 def _learn(network, optimizer, d: DQNConfig, ts, buffer, n_steps, run, k_sample, k_drop):
-    """(params, opt_state, broke) after one gradient step, unchanged before learning starts
-    and where the loss or the new parameters would not be finite (``broke``)."""
+    """(params, opt_state, broke, loss) after one gradient step, unchanged before learning
+    starts and where the loss or the new parameters would not be finite (``broke``);
+    ``loss`` is NaN where no gradient step was due."""
     batch = replay.sample(buffer, k_sample, d.batch_size)
     bootstrap = ts.target_params
     if d.target_update != "periodic":  # ROBOTIS: online net gives the targets during warm-up
@@ -436,7 +452,8 @@ def _learn(network, optimizer, d: DQNConfig, ts, buffer, n_steps, run, k_sample,
     due = run & replay.can_sample(buffer, d.learning_starts)
     learn = due & finite
     params = _select(learn, new_params, ts.params)
-    return params, _select(learn, opt_state, ts.opt_state), due & ~finite
+    opt_state = _select(learn, opt_state, ts.opt_state)
+    return params, opt_state, due & ~finite, jnp.where(due, loss, jnp.nan)
 
 
 def all_finite(tree) -> chex.Array:

@@ -10,6 +10,7 @@ and ``reproduce`` read it)::
     params.npz           final Q-network parameters, "<strategy>/seed<k>/<layer>/<name>"
     summary.json         wall-clock, steps, steps/s, last-50-episode means
     eval/, plots/        results of jaxnav.evaluate and jaxnav.plots
+    tensorboard/         training curves for TensorBoard (run.tensorboard: true)
     .lock                held by the process that trains into the directory
 
 Every file is written whole or not at all (:func:`atomic_write_bytes`: a temporary
@@ -43,7 +44,17 @@ SUMMARY = "summary.json"
 LOCK = ".lock"
 # What a run directory may hold: its files, and the folders of checkpoints,
 # evaluation and figures. Overwriting a run removes these and nothing else.
-RUN_ENTRIES = (CONFIG, METRICS, EXPLORE, PARAMS, SUMMARY, "checkpoints", "eval", "plots")
+RUN_ENTRIES = (
+    CONFIG,
+    METRICS,
+    EXPLORE,
+    PARAMS,
+    SUMMARY,
+    "checkpoints",
+    "eval",
+    "plots",
+    "tensorboard",
+)
 
 
 # ----------------------------------------------------------------------------

@@ -23,7 +23,7 @@ from typing import Any
 import jax
 import numpy as np
 
-from jaxnav import replay, rundir
+from jaxnav import replay, rundir, tblog
 from jaxnav.config import Config, dump_config, load_config
 from jaxnav.dqn import TrainState, make_trainer, run_keys, run_limits, still_training
 from jaxnav.errors import RunError
@@ -110,6 +110,8 @@ class Run:
     def __init__(self, cfg: Config, out: Path | None, quiet: bool = False):
         """``out`` None: a run that only computes (tests, benchmarks), no files."""
         self.cfg, self.out, self.quiet = cfg, out, quiet
+        if cfg.run.tensorboard:
+            tblog.check_available()
         self.trainer = make_trainer(cfg)
         self.labels = cfg.run_labels()
         # The run axis of every array is laid over all devices.
@@ -298,15 +300,28 @@ class Run:
             return int(np.minimum(self.shard.get(ts.episode), self.cfg.episodes).sum())
         return int(self.shard.get(ts.step).sum())
 
+    def _tensorboard(self, ts: TrainState) -> tblog.TensorBoardLog | None:
+        """The TensorBoard log when asked for; a resumed run's episode curves are
+        rewritten from metrics.csv and its step curves purged past the checkpoint."""
+        if not (self.cfg.run.tensorboard and self.out is not None and is_writer()):
+            return None
+        step = int(self.shard.get(ts.step).max())
+        resumed = step > 0
+        tb = tblog.TensorBoardLog(self.out, self.labels, resumed, step)
+        if resumed and self.metrics.size():
+            tb.add_episodes([tuple(r[c] for c in METRIC_COLUMNS) for r in self.metrics.read()])
+        return tb
+
     def train(self, ts: TrainState) -> TrainState:
         bar = self._progress_bar(ts)
+        tb = self._tensorboard(ts)
         try:
             while self.active(ts).any():
                 before = self._done(ts)
                 step_before = self.shard.get(ts.step).copy()
                 t0 = time.perf_counter()
-                ts, explore = self.chunk(ts, np.int32(self.steps_needed(ts)))
-                explore = self.shard.get(explore)  # waits for the chunk
+                ts, log = self.chunk(ts, np.int32(self.steps_needed(ts)))
+                log = self.shard.get(log)  # waits for the chunk
                 dt = time.perf_counter() - t0
                 self.wall += dt
                 steps = int((self.shard.get(ts.step) - step_before).sum())
@@ -314,7 +329,11 @@ class Run:
                 stop = bool(diverged) and self.cfg.run.on_divergence == "stop"
                 # On a stop the finished episodes are kept and the last checkpoint
                 # (before the divergence) stays: a resume replays this chunk.
-                rows = self.new_episodes(ts), self.explore_blocks(explore, step_before)
+                rows = self.new_episodes(ts), self.explore_blocks(log.explore, step_before)
+                if tb is not None:  # before the checkpoint: a resume purges it, never misses it
+                    tb.add_episodes(rows[0])
+                    tb.add_steps(log.loss, log.max_q, int(step_before.max()))
+                    tb.flush()
                 self.save(ts, *rows, checkpoint=not stop)
                 if stop:
                     raise RunError(
@@ -330,6 +349,8 @@ class Run:
                 bar.update(self._done(ts) - before)
         finally:
             bar.close()
+            if tb is not None:
+                tb.close()
         return ts
 
     def finish(self, ts: TrainState) -> dict[str, Any]:

@@ -285,7 +285,8 @@ def test_trainer_acts_with_the_tested_exploration_functions(strategy):
     keys, _ = run_keys(cfg)
     ts = tr.init(keys[0], STRATEGIES.index(strategy))
     ts = ts.replace(episode=jnp.int32(2))  # eps below eps_start
-    new, explore = jax.jit(tr.step)(ts, None)
+    new, log = jax.jit(tr.step)(ts, None)
+    explore = log.explore
     # The trainer's own key for acting, and its network's Q-values at the observation.
     _, k_act, _, _, _ = jax.random.split(ts.key, 5)
     q = tr.network.apply(ts.params, ts.obs)

@@ -207,3 +207,20 @@ def test_three_strategies_train_in_one_program_and_the_command_draws_the_curves(
     ]
     for r in rows:  # each strategy's exploration is a probability
         assert 0.0 <= float(r["explore"]) <= 1.0
+
+
+def test_tensorboard_without_its_writer_is_one_line_before_anything_is_written(
+    tmp_path, capsys, monkeypatch
+):
+    import importlib.util
+
+    real = importlib.util.find_spec
+    monkeypatch.setattr(
+        importlib.util,
+        "find_spec",
+        lambda name, *a: None if name == "tensorboardX" else real(name, *a),
+    )
+    assert main(["configs/smoke.yaml", "run.tensorboard=true", "--out", str(tmp_path / "r")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "run.tensorboard needs tensorboardX" in err and "\n" not in err
+    assert not (tmp_path / "r").exists()

@@ -1,0 +1,102 @@
+"""TensorBoard curves while training: read back from the event files."""
+
+import csv
+import struct
+
+import numpy as np
+import pytest
+
+from jaxnav.train import main as train_main
+from jaxnav.training import Run
+
+tensorboardX = pytest.importorskip("tensorboardX", reason="optional extra 'tensorboard'")
+from tensorboardX.proto import event_pb2  # noqa: E402
+
+TINY = ["configs/smoke.yaml", "seeds=2", "episodes=6", "env.max_steps=100"]
+TINY += ["run.chunk_steps=250", "run.tensorboard=true", "--quiet"]
+
+
+def read_scalars(run_dir) -> dict[str, dict[int, float]]:
+    """{tag: {step: value}} of every event file under run_dir (TFRecord framing: a
+    length, its CRC, the Event, its CRC), later files overriding earlier ones, and
+    what a file's purge step starts (a resume) dropping what came before at or above it."""
+    out: dict[str, dict[int, float]] = {}
+    for path in sorted(run_dir.glob("events.out.tfevents.*")):
+        data, pos = path.read_bytes(), 0
+        while pos < len(data):
+            (n,) = struct.unpack("<Q", data[pos : pos + 8])
+            event = event_pb2.Event.FromString(data[pos + 12 : pos + 12 + n])
+            pos += 12 + n + 4
+            if event.HasField("session_log") and event.session_log.status == 1:  # START
+                for steps in out.values():
+                    for s in [s for s in steps if s >= event.step]:
+                        del steps[s]
+            for v in event.summary.value:
+                out.setdefault(v.tag, {})[event.step] = v.simple_value
+    return out
+
+
+def purge_steps(run_dir) -> list[int]:
+    """The steps at which a writer told TensorBoard to drop what came before (resumes)."""
+    starts = []
+    for path in sorted(run_dir.glob("events.out.tfevents.*")):
+        data, pos = path.read_bytes(), 0
+        while pos < len(data):
+            (n,) = struct.unpack("<Q", data[pos : pos + 8])
+            event = event_pb2.Event.FromString(data[pos + 12 : pos + 12 + n])
+            pos += 12 + n + 4
+            if event.HasField("session_log") and event.session_log.status == 1:
+                starts.append(event.step)
+    return starts
+
+
+def test_episode_and_step_curves_are_the_runs_own_numbers(tmp_path):
+    out = tmp_path / "run"
+    assert train_main([*TINY, "--out", str(out)]) == 0
+    episodes = read_scalars(out / "tensorboard" / "episodes")
+    steps = read_scalars(out / "tensorboard" / "steps")
+    rows = list(csv.DictReader((out / "metrics.csv").open()))
+    for strategy in ("ebe", "epsilon_greedy"):
+        for name in ("return", "goals", "length", "collided", "explore"):
+            got = episodes[f"{strategy}/{name}"]
+            assert sorted(got) == list(range(6))
+            for e, value in got.items():
+                want = np.mean(
+                    [
+                        float(r[name])
+                        for r in rows
+                        if r["strategy"] == strategy and r["episode"] == str(e)
+                    ]
+                )
+                assert value == pytest.approx(want, rel=1e-5), (strategy, name, e)
+        loss, max_q = steps[f"{strategy}/loss"], steps[f"{strategy}/max_q"]
+        # blocks of 100 steps within each 250-step chunk; learning starts at step 64
+        assert sorted(loss)[:4] == [0, 100, 200, 250]
+        assert all(np.isfinite(v) and v >= 0 for v in loss.values())
+        assert set(max_q) >= set(loss)
+
+
+def test_a_resumed_run_purges_what_came_after_its_checkpoint(tmp_path, monkeypatch):
+    ref, out = tmp_path / "ref", tmp_path / "run"
+    assert train_main([*TINY, "--out", str(ref)]) == 0
+    saves, real_save = [], Run.save
+
+    def killed_at_second_checkpoint(self, *args, **kwargs):
+        """The second chunk's curves are written; the process dies before its checkpoint."""
+        saves.append(1)
+        if len(saves) == 2:
+            raise KeyboardInterrupt
+        return real_save(self, *args, **kwargs)
+
+    monkeypatch.setattr(Run, "save", killed_at_second_checkpoint)
+    assert train_main([*TINY, "--out", str(out)]) == 130
+    monkeypatch.undo()
+    assert read_scalars(out / "tensorboard" / "steps") != read_scalars(
+        ref / "tensorboard" / "steps"
+    )
+    assert train_main(["--resume", str(out), "--quiet"]) == 0
+    for part in ("episodes", "steps"):
+        assert read_scalars(out / "tensorboard" / part) == read_scalars(ref / "tensorboard" / part)
+    # TensorBoard is told to drop the killed process's curves past the checkpoint
+    assert purge_steps(out / "tensorboard" / "steps") == [250]
+    assert purge_steps(out / "tensorboard" / "episodes") == [0]
