@@ -38,6 +38,7 @@ import numpy as np
 
 from jaxnav import cli, stats
 from jaxnav.claims import CLAIMS, OTHER, Claim, claim_scores, judge
+from jaxnav.config import PAPER_STRATEGIES
 from jaxnav.errors import JaxnavError
 from jaxnav.evaluation import evaluate_to_dir
 from jaxnav.paper import PAPER_TABLES
@@ -168,7 +169,7 @@ def magnitude_rows(scores: dict, variants: list[str]):
         table = PAPER_TABLES[TRAIN_MAZE[experiment]][1]
         claims = _table_claims(experiment)
         for mode in MODE_NAMES:
-            for strategy in STRATEGY_NAMES:
+            for strategy in PAPER_STRATEGIES:
                 paper = np.mean([table[c.mazes[0]][1][strategy][0] for c in claims])
                 for v in variants:
                     cols = [scores.get((v, c.source, c.statement, mode, strategy)) for c in claims]
@@ -218,17 +219,17 @@ def ablation_markdown(rows: list[dict[str, str]], quick: bool = False) -> str:
                 "| variant | "
                 + " | ".join(
                     f"{STRATEGY_NAMES[s]} (paper {sel[[r[3] for r in sel].index(s)][5]:.0f})"
-                    for s in STRATEGY_NAMES
+                    for s in PAPER_STRATEGIES
                 )
                 + " | ratio EBE | ratio epsilon-greedy |",
                 "|---|---|---|---|---|",
             ]
             for v in variants:
                 by = {r[3]: r for r in sel if r[0] == v}
-                if len(by) < len(STRATEGY_NAMES):
+                if len(by) < len(PAPER_STRATEGIES):
                     continue
-                cells = [_fmt(by[s][4]) for s in STRATEGY_NAMES]
-                ratios = [f"{by[s][6]:.2f}" for s in STRATEGY_NAMES]
+                cells = [_fmt(by[s][4]) for s in PAPER_STRATEGIES]
+                ratios = [f"{by[s][6]:.2f}" for s in PAPER_STRATEGIES]
                 L.append(f"| {v} | " + " | ".join(cells + ratios) + " |")
             L.append("")
     L += [
