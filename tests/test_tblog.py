@@ -16,38 +16,39 @@ TINY = ["configs/smoke.yaml", "seeds=2", "episodes=6", "env.max_steps=100"]
 TINY += ["run.chunk_steps=250", "run.tensorboard=true", "--quiet"]
 
 
-def read_scalars(run_dir) -> dict[str, dict[int, float]]:
-    """{tag: {step: value}} of every event file under run_dir (TFRecord framing: a
-    length, its CRC, the Event, its CRC), later files overriding earlier ones, and
-    what a file's purge step starts (a resume) dropping what came before at or above it."""
-    out: dict[str, dict[int, float]] = {}
+def events(run_dir):
+    """Every Event of every event file under run_dir, in order (TFRecord framing: a
+    length, its CRC, the Event, its CRC)."""
     for path in sorted(run_dir.glob("events.out.tfevents.*")):
         data, pos = path.read_bytes(), 0
         while pos < len(data):
             (n,) = struct.unpack("<Q", data[pos : pos + 8])
-            event = event_pb2.Event.FromString(data[pos + 12 : pos + 12 + n])
+            yield event_pb2.Event.FromString(data[pos + 12 : pos + 12 + n])
             pos += 12 + n + 4
-            if event.HasField("session_log") and event.session_log.status == 1:  # START
-                for steps in out.values():
-                    for s in [s for s in steps if s >= event.step]:
-                        del steps[s]
-            for v in event.summary.value:
-                out.setdefault(v.tag, {})[event.step] = v.simple_value
+
+
+def _purges(event) -> bool:
+    """A writer's start at a purge step: TensorBoard drops what came before at or above it."""
+    return event.HasField("session_log") and event.session_log.status == 1  # START
+
+
+def read_scalars(run_dir) -> dict[str, dict[int, float]]:
+    """{tag: {step: value}} as TensorBoard shows them: later values override earlier
+    ones, and a purge (a resume) drops what came before at or above its step."""
+    out: dict[str, dict[int, float]] = {}
+    for event in events(run_dir):
+        if _purges(event):
+            for steps in out.values():
+                for s in [s for s in steps if s >= event.step]:
+                    del steps[s]
+        for v in event.summary.value:
+            out.setdefault(v.tag, {})[event.step] = v.simple_value
     return out
 
 
 def purge_steps(run_dir) -> list[int]:
     """The steps at which a writer told TensorBoard to drop what came before (resumes)."""
-    starts = []
-    for path in sorted(run_dir.glob("events.out.tfevents.*")):
-        data, pos = path.read_bytes(), 0
-        while pos < len(data):
-            (n,) = struct.unpack("<Q", data[pos : pos + 8])
-            event = event_pb2.Event.FromString(data[pos + 12 : pos + 12 + n])
-            pos += 12 + n + 4
-            if event.HasField("session_log") and event.session_log.status == 1:
-                starts.append(event.step)
-    return starts
+    return [event.step for event in events(run_dir) if _purges(event)]
 
 
 def test_episode_and_step_curves_are_the_runs_own_numbers(tmp_path):
