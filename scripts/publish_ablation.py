@@ -26,7 +26,7 @@ def main(*srcs: str, dst: str = "docs/ablation") -> int:
             owner[v] = src
         rows += part
         md = (src / "ablation.md").read_text()
-        made.append(md[md.index("## Wall-clock") :].replace("## Wall-clock", "###", 1))
+        made.append(md[md.index("## Wall-clock") :].replace("## Wall-clock", "### Wall-clock", 1))
     out = Path(dst)
     out.mkdir(parents=True, exist_ok=True)
     (out / "ablation.csv").write_text(rows_to_csv(rows))

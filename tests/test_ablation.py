@@ -88,3 +88,19 @@ def test_unknown_variant_is_one_line(capsys):
     assert ablation.main(["--variants", "jaxnav,nope", "--out", "/tmp/x"]) == 2
     err = capsys.readouterr().err.strip()
     assert "unknown variant 'nope'" in err and "\n" not in err
+
+
+def test_the_committed_ablation_is_computed_from_its_scores():
+    doc = ROOT / "docs" / "ablation"
+    if not (doc / "ablation.md").is_file():
+        pytest.skip("no committed ablation")
+    rows = list(csv.DictReader((doc / "ablation.csv").open()))
+    tables = ablation.ablation_markdown(rows)
+    committed = (doc / "ablation.md").read_text()
+    assert committed.startswith(tables)
+    readme = (ROOT / "README.md").read_text()
+    quoted = [line for line in readme.splitlines() if line.startswith("| jaxnav |")]
+    assert quoted, "the README quotes the ablation's reference rows"
+    for line in readme.splitlines():
+        if line.startswith("| ") and any(line.startswith(f"| {v} |") for v in ablation.VARIANTS):
+            assert line in tables, line
