@@ -114,7 +114,7 @@ def save_policy(arrays: dict[str, np.ndarray], out: str | os.PathLike) -> None:
     if not out.parent.is_dir():
         raise PolicyError(f"cannot write {out}: directory {out.parent} does not exist")
     try:
-        rundir.atomic_write_bytes(out, rundir.npz_bytes(arrays))
+        rundir.atomic_write_npz(out, arrays)
     except OSError as e:
         raise PolicyError(f"cannot write {out} ({e.strerror or type(e).__name__})") from None
 

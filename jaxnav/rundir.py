@@ -13,7 +13,7 @@ and ``reproduce`` read it)::
     tensorboard/         training curves for TensorBoard (run.tensorboard: true)
     .lock                held by the process that trains into the directory
 
-Every file is written whole or not at all (:func:`atomic_write_bytes`: a temporary
+Every file is written whole or not at all (:func:`atomic_write`: a temporary
 file, fsync, rename); the CSV logs grow by appending, and the checkpoint records
 their lengths, so a resumed run first cuts them back to what the checkpoint
 covers (:meth:`CsvLog.truncate`). Every ``.npz`` is read with
@@ -27,9 +27,9 @@ import fcntl
 import io
 import os
 import shutil
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, BinaryIO
 
 import numpy as np
 
@@ -62,19 +62,30 @@ RUN_ENTRIES = (
 # ----------------------------------------------------------------------------
 
 
-def atomic_write_bytes(path: str | os.PathLike, data: bytes) -> None:
-    """Write a whole file or nothing: a temporary file beside it, fsync, rename."""
+def atomic_write(path: str | os.PathLike, write: Callable[[BinaryIO], Any]) -> None:
+    """Write a whole file or nothing: ``write(f)`` into a temporary file beside it,
+    fsync, rename."""
     path = Path(path)
     tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
     try:
         with open(tmp, "wb") as f:
-            f.write(data)
+            write(f)
             f.flush()
             os.fsync(f.fileno())
         os.replace(tmp, path)
     except BaseException:
         tmp.unlink(missing_ok=True)
         raise
+
+
+def atomic_write_bytes(path: str | os.PathLike, data: bytes) -> None:
+    atomic_write(path, lambda f: f.write(data))
+
+
+def atomic_write_npz(path: str | os.PathLike, arrays: dict[str, np.ndarray]) -> None:
+    """An uncompressed ``.npz`` of plain arrays written straight to its file, whole or
+    not at all (no second copy in memory: a checkpoint holds the replay buffers)."""
+    atomic_write(path, lambda f: np.savez(f, **arrays))
 
 
 def atomic_write_text(path: str | os.PathLike, text: str) -> None:

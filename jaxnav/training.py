@@ -254,7 +254,7 @@ class Run:
                 return
             host = {"logged": self.logged, "wall": np.float64(self.wall), "csv_sizes": sizes}
             arrays = checkpoint_arrays(state, host)
-            rundir.atomic_write_bytes(self.checkpoint, rundir.npz_bytes(arrays))
+            rundir.atomic_write_npz(self.checkpoint, arrays)
         except OSError:
             for log, size in zip(logs, before):
                 log.restore(size)
@@ -376,7 +376,7 @@ class Run:
         params = self.shard.get(ts.params)  # every process: collective across hosts
         if is_writer():
             params = params_arrays(self.cfg, params)
-            rundir.atomic_write_bytes(self.out / rundir.PARAMS, rundir.npz_bytes(params))
+            rundir.atomic_write_npz(self.out / rundir.PARAMS, params)
             text = json.dumps(summary, indent=2) + "\n"
             rundir.atomic_write_text(self.out / rundir.SUMMARY, text)
         if len(self.diverged) == self.cfg.n_runs:

@@ -167,15 +167,18 @@ def test_a_full_disk_mid_training_loses_nothing(tmp_path, capsys, monkeypatch, f
 
     saved = []  # the files after each checkpoint written
     full = OSError(28, "No space left on device")
-    real_atomic, real_append = rundir.atomic_write_bytes, rundir.CsvLog.append
+    real_atomic, real_append = rundir.atomic_write, rundir.CsvLog.append
 
-    def atomic(path, data):
+    def atomic(path, write):
         if path.name == "last.npz" and failing == "checkpoint" and len(saved) == 2:
-            tmp = path.with_name(f".{path.name}.tmp0")
-            tmp.write_bytes(data[: len(data) // 2])  # what a full disk leaves, then cleans
-            tmp.unlink()
-            raise full
-        real_atomic(path, data)
+
+            def half_then_full(f, whole=write):  # what a full disk does to the temporary file
+                whole(f)
+                f.truncate(f.tell() // 2)
+                raise full
+
+            write = half_then_full
+        real_atomic(path, write)
         if path.name == "last.npz":
             saved.append(_files(out))
 
@@ -186,7 +189,7 @@ def test_a_full_disk_mid_training_loses_nothing(tmp_path, capsys, monkeypatch, f
             raise full
         return real_append(self, rows)
 
-    monkeypatch.setattr(rundir, "atomic_write_bytes", atomic)
+    monkeypatch.setattr(rundir, "atomic_write", atomic)
     monkeypatch.setattr(rundir.CsvLog, "append", append)
     assert train_main([*tiny, "--out", str(out)]) == 2
     assert "No space left on device" in _one_line(capsys)
