@@ -34,8 +34,13 @@ EXPLORE_COLUMNS = ("strategy", "seed", "step", "explore")
 EXPLORE_BLOCK = 100  # env steps averaged per row of explore.csv
 PROGRESS_EPISODES = 20  # episodes per seed in the progress bar's mean return
 
-# Replay rows beyond the filled ones are zeros: a checkpoint leaves them out.
+# The replay buffer's per-slot arrays. A checkpoint stores them incrementally: each
+# chunk's checkpoint writes the slots written in that chunk to a segment file of its
+# own (ROW_SEGMENT), and checkpoints/last.npz, the rest of the state, says how many
+# segments it covers; restoring applies them in order. So a checkpoint costs what its
+# chunk added, not the whole buffer, which grows to 28 MB per run in a paper run.
 _BUFFER_ROWS = ("obs", "action", "reward", "terminated", "truncated", "final_index")
+ROW_SEGMENT = "checkpoints/rows-{:05d}.npz"
 
 
 # ----------------------------------------------------------------------------
@@ -52,24 +57,55 @@ def _is_buffer_rows(name: str) -> bool:
     return any(name == f".buffer.{r}" for r in _BUFFER_ROWS)
 
 
-def checkpoint_arrays(ts: TrainState, host: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
-    """Host copies of the training state (replay rows cut to the filled ones) and
-    the host loop's own counters."""
-    size = int(np.max(np.asarray(ts.buffer.size)))
-    arrays: dict[str, np.ndarray] = {}
-    for name, leaf in zip(_leaf_names(ts), jax.tree.leaves(ts)):
-        a = np.asarray(leaf)
-        arrays["state" + name] = a[:, :size] if _is_buffer_rows(name) else a
+def without_rows(ts: TrainState) -> TrainState:
+    """The training state without the replay buffer's per-slot arrays."""
+    return ts.replace(buffer=ts.buffer.replace(**{r: None for r in _BUFFER_ROWS}))
+
+
+def rows_at(ts: TrainState, slots: jax.Array) -> dict[str, jax.Array]:
+    """The replay buffer's per-slot arrays at ``slots`` (i32[n]) of every run."""
+    return {r: getattr(ts.buffer, r)[:, slots] for r in _BUFFER_ROWS}
+
+
+def chunk_slots(step_before: np.ndarray, step_after: np.ndarray, capacity: int) -> np.ndarray:
+    """The buffer slots a chunk wrote (i32[n]): runs that step, step together, each
+    adding slot ``step % capacity`` per step, so they are those of the steps from the
+    most advanced run's step before the chunk to its step after (the last
+    ``capacity`` of them)."""
+    first, last = int(step_before.max()), int(step_after.max())
+    steps = np.arange(max(first, last - capacity), last)
+    return (steps % capacity).astype(np.int32)
+
+
+def checkpoint_arrays(state: TrainState, host: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """Host copies of the training state without its per-slot replay arrays
+    (:func:`without_rows`), and the host loop's own counters."""
+    arrays = {
+        "state" + n: np.asarray(a) for n, a in zip(_leaf_names(state), jax.tree.leaves(state))
+    }
     arrays.update({"host." + k: v for k, v in host.items()})
     return arrays
 
 
 def state_from_checkpoint(
-    arrays: dict[str, np.ndarray], template: TrainState, path: Path
+    arrays: dict[str, np.ndarray],
+    segments: list[dict[str, np.ndarray]],
+    template: TrainState,
+    path: Path,
 ) -> tuple[TrainState, dict[str, np.ndarray]]:
-    """Inverse of :func:`checkpoint_arrays` against a template of the right shapes."""
+    """Inverse of :func:`checkpoint_arrays` and the row segments (each ``slots`` and
+    one array per per-slot field), against a template of the right shapes."""
     leaves = []
     for name, leaf in zip(_leaf_names(template), jax.tree.leaves(template)):
+        if _is_buffer_rows(name):
+            a = np.zeros(leaf.shape, leaf.dtype)
+            for seg in segments:
+                rows = seg.get("rows" + name)
+                if rows is None or rows.shape[0] != a.shape[0] or seg["slots"].max() >= a.shape[1]:
+                    raise RunError(f"checkpoint {path} does not match the run's config ({name})")
+                a[:, seg["slots"]] = rows
+            leaves.append(a)
+            continue
         a = arrays.get("state" + name)
         if a is None:
             raise RunError(
@@ -77,11 +113,7 @@ def state_from_checkpoint(
                 "another jaxnav version)"
             )
         if a.shape != leaf.shape:
-            if not (_is_buffer_rows(name) and a.shape[1] <= leaf.shape[1]):
-                raise RunError(f"checkpoint {path} does not match the run's config ({name})")
-            full = np.zeros(leaf.shape, leaf.dtype)
-            full[:, : a.shape[1]] = a
-            a = full
+            raise RunError(f"checkpoint {path} does not match the run's config ({name})")
         leaves.append(np.asarray(a, leaf.dtype))
     ts = jax.tree.unflatten(jax.tree.structure(template), leaves)
     host = {k[5:]: v for k, v in arrays.items() if k.startswith("host.")}
@@ -123,6 +155,8 @@ class Run:
             donate_argnums=0,
             out_shardings=sharding,
         )
+        self.rows_at = jax.jit(rows_at)
+        self.segments = 0  # row segments the last checkpoint covers
         out = Path(".") if out is None else out
         self.metrics = rundir.CsvLog(out / rundir.METRICS, METRIC_COLUMNS)
         self.explore = rundir.CsvLog(out / rundir.EXPLORE, EXPLORE_COLUMNS)
@@ -144,9 +178,15 @@ class Run:
         template = jax.eval_shape(jax.vmap(self.trainer.init), *run_keys(cfg))
         template = jax.tree.map(lambda s: np.zeros((cfg.n_runs, *s.shape[1:]), s.dtype), template)
         arrays = rundir.read_npz(self.checkpoint, f"checkpoint {self.checkpoint}")
-        ts, host = state_from_checkpoint(arrays, template, self.checkpoint)
-        if not {"logged", "wall", "csv_sizes"} <= set(host):
+        host = {k[5:]: v for k, v in arrays.items() if k.startswith("host.")}
+        if not {"logged", "wall", "csv_sizes", "segments"} <= set(host):
             raise RunError(f"checkpoint {self.checkpoint} was written by another jaxnav version")
+        self.segments = int(host["segments"])
+        segments = [
+            rundir.read_npz(self.out / ROW_SEGMENT.format(k), f"checkpoint segment {k}")
+            for k in range(self.segments)
+        ]
+        ts, host = state_from_checkpoint(arrays, segments, template, self.checkpoint)
         diverged_at = np.asarray(ts.diverged_at)
         self.diverged = {int(r): int(diverged_at[r]) for r in np.flatnonzero(diverged_at >= 0)}
         self.logged = host["logged"].astype(np.int64)
@@ -234,14 +274,23 @@ class Run:
         return rows
 
     def save(
-        self, ts: TrainState, metric_rows: list, explore_rows: list, checkpoint: bool = True
+        self,
+        ts: TrainState,
+        metric_rows: list,
+        explore_rows: list,
+        slots: np.ndarray,
+        checkpoint: bool = True,
     ) -> None:
-        """Append the chunk's rows, then checkpoint (with the logs' new lengths).
+        """Append the chunk's rows, then checkpoint (with the logs' new lengths): the
+        replay slots the chunk wrote (``slots``) to a new segment, then the rest.
 
         All or nothing: if a write fails (a full disk), both logs are cut back to their
         lengths before this chunk, so they still match the previous checkpoint, which
-        stays as it was; the error goes on to the command's one-line report."""
-        state = self.shard.get(ts)  # every process: a gather across hosts is collective
+        stays as it was (a segment it does not count is never read); the error goes on
+        to the command's one-line report."""
+        # every process: a gather across hosts is collective
+        state = self.shard.get(without_rows(ts))
+        rows = self.shard.get(self.rows_at(ts, slots)) if checkpoint else None
         if not is_writer():
             return
         logs = (self.metrics, self.explore)
@@ -252,9 +301,16 @@ class Run:
             )
             if not checkpoint:
                 return
-            host = {"logged": self.logged, "wall": np.float64(self.wall), "csv_sizes": sizes}
-            arrays = checkpoint_arrays(state, host)
-            rundir.atomic_write_npz(self.checkpoint, arrays)
+            segment = {"slots": slots, **{f"rows.buffer.{r}": a for r, a in rows.items()}}
+            rundir.atomic_write_npz(self.out / ROW_SEGMENT.format(self.segments), segment)
+            host = {
+                "logged": self.logged,
+                "wall": np.float64(self.wall),
+                "csv_sizes": sizes,
+                "segments": np.int64(self.segments + 1),
+            }
+            rundir.atomic_write_npz(self.checkpoint, checkpoint_arrays(state, host))
+            self.segments += 1
         except OSError:
             for log, size in zip(logs, before):
                 log.restore(size)
@@ -334,7 +390,8 @@ class Run:
                     tb.add_episodes(rows[0])
                     tb.add_steps(log.loss, log.max_q, int(step_before.max()))
                     tb.flush()
-                self.save(ts, *rows, checkpoint=not stop)
+                slots = chunk_slots(step_before, self.shard.get(ts.step), self.cfg.buffer_capacity)
+                self.save(ts, *rows, slots, checkpoint=not stop)
                 if stop:
                     raise RunError(
                         f"training diverged: {diverged[0]}"

@@ -12,11 +12,12 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
+from jaxnav import rundir
 from jaxnav.config import load_config
 from jaxnav.dqn import make_train, run_keys
 from jaxnav.env import from_config
 from jaxnav.train import main
-from jaxnav.training import train_new
+from jaxnav.training import Run, chunk_slots, train_new
 
 ROOT = Path(__file__).resolve().parent.parent
 TINY = ["seeds=2", "episodes=8", "env.max_steps=100", "run.chunk_steps=100", "dqn.batch_size=16"]
@@ -224,3 +225,23 @@ def test_tensorboard_without_its_writer_is_one_line_before_anything_is_written(
     err = capsys.readouterr().err.strip()
     assert "run.tensorboard needs tensorboardX" in err and "\n" not in err
     assert not (tmp_path / "r").exists()
+
+
+@pytest.mark.parametrize("buffer_size", [1_000_000, 150])  # 150: the ring wraps in a chunk
+def test_a_checkpoint_restores_the_whole_state_from_its_row_segments(tmp_path, buffer_size):
+    cfg = load_config(None, [*TINY, "episodes=3", f"dqn.buffer_size={buffer_size}"])
+    out = tmp_path / "run"
+    run = Run(cfg, out, quiet=True)
+    rundir.create(out)
+    ts = run.fresh_state()
+    for _ in range(3):  # three chunks of 100 steps, one segment each
+        before = run.shard.get(ts.step).copy()
+        ts, _ = run.chunk(ts, np.int32(run.steps_needed(ts)))
+        slots = chunk_slots(before, run.shard.get(ts.step), cfg.buffer_capacity)
+        run.save(ts, [], [], slots)
+    live = run.shard.get(ts)
+    again = Run(cfg, out, quiet=True)
+    restored = again.shard.get(again.restored_state())
+    assert again.segments == 3 and len(list((out / "checkpoints").glob("rows-*.npz"))) == 3
+    for a, b in zip(jax.tree.leaves(live), jax.tree.leaves(restored), strict=True):
+        np.testing.assert_array_equal(a, b)
