@@ -6,7 +6,9 @@ and ``reproduce`` read it)::
     config.yaml          the resolved config (every field)
     metrics.csv          one row per strategy, seed and episode
     explore.csv          mean exploration probability per strategy, seed and 100 steps
-    checkpoints/last.npz training state after the last finished chunk
+    checkpoints/last.npz training state after the last finished chunk, but the
+                         replay slots: those are in rows-00000.npz, rows-00001.npz,
+                         ..., one per chunk, as many as last.npz says
     params.npz           final Q-network parameters, "<strategy>/seed<k>/<layer>/<name>"
     summary.json         wall-clock, steps, steps/s, last-50-episode means
     eval/, plots/        results of jaxnav.evaluate and jaxnav.plots
