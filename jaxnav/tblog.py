@@ -26,7 +26,7 @@ from jaxnav.errors import ConfigError
 
 DIR = "tensorboard"
 BLOCK = 100  # env steps per point of the step curves
-EPISODE_COLUMNS = {"return": 3, "length": 4, "goals": 5, "collided": 6, "explore": 7}
+EPISODE_CURVES = ("return", "length", "goals", "collided", "explore")  # metrics.csv columns
 
 
 def check_available() -> None:
@@ -48,6 +48,7 @@ class TensorBoardLog:
 
     Args:
       labels: (strategy, seed) of each run, the run axis's order.
+      columns: the names of a metrics row's fields (metrics.csv's header).
       resumed: training goes on from a checkpoint at env step ``first_step``: what was
         written before is purged, the episode curves from episode 0 (the caller adds
         metrics.csv's rows again), the step curves from ``first_step``.
@@ -57,10 +58,13 @@ class TensorBoardLog:
         self,
         run_dir: Path,
         labels: Sequence[tuple[str, int]],
+        columns: Sequence[str],
         resumed: bool = False,
         first_step: int = 0,
     ):
         self.labels = list(labels)
+        self.column = {name: list(columns).index(name) for name in ("strategy", "episode")}
+        self.column.update({name: list(columns).index(name) for name in EPISODE_CURVES})
         self.seeds: dict[str, int] = {}
         for strategy, _ in self.labels:
             self.seeds[strategy] = self.seeds.get(strategy, 0) + 1
@@ -69,15 +73,16 @@ class TensorBoardLog:
         self.steps = _writer(run_dir / DIR / "steps", first_step if resumed else None)
 
     def add_episodes(self, rows: Sequence[tuple]) -> None:
-        """metrics.csv rows (strategy, seed, episode, return, length, goals, collided,
-        explore) of a chunk; an episode's means are written once every seed has it."""
+        """metrics.csv rows of a chunk (fields in ``columns`` order); an episode's means
+        are written once every seed has it."""
+        c = self.column
         for row in rows:
-            key = (row[0], int(row[2]))
+            key = (row[c["strategy"]], int(row[c["episode"]]))
             got = self.pending.setdefault(key, [])
             got.append(row)
             if len(got) == self.seeds[key[0]]:
-                for name, col in EPISODE_COLUMNS.items():
-                    mean = float(np.mean([float(r[col]) for r in got]))
+                for name in EPISODE_CURVES:
+                    mean = float(np.mean([float(r[c[name]]) for r in got]))
                     self.episodes.add_scalar(f"{key[0]}/{name}", mean, key[1])
                 del self.pending[key]
 

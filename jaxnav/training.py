@@ -363,7 +363,7 @@ class Run:
             return None
         step = int(self.shard.get(ts.step).max())
         resumed = step > 0
-        tb = tblog.TensorBoardLog(self.out, self.labels, resumed, step)
+        tb = tblog.TensorBoardLog(self.out, self.labels, METRIC_COLUMNS, resumed, step)
         if resumed and self.metrics.size():
             tb.add_episodes([tuple(r[c] for c in METRIC_COLUMNS) for r in self.metrics.read()])
         return tb
