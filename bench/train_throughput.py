@@ -37,7 +37,7 @@ def run_case(seeds: int, beams: int, steps: int, reps: int, capacity: int) -> di
     import numpy as np
 
     from jaxnav.config import load_config
-    from jaxnav.dqn import make_trainer, run_keys
+    from jaxnav.dqn import make_trainer, run_inputs
     from jaxnav.replay import nbytes as buffer_bytes
     from jaxnav.sharding import RunSharding
 
@@ -55,7 +55,7 @@ def run_case(seeds: int, beams: int, steps: int, reps: int, capacity: int) -> di
     shard = RunSharding(cfg.n_runs)
     init = jax.jit(jax.vmap(tr.init), out_shardings=shard.sharding)
     chunk = jax.jit(jax.vmap(tr.chunk), donate_argnums=0, out_shardings=shard.sharding)
-    ts = init(*shard.put(jax.tree.map(np.asarray, run_keys(cfg))))
+    ts = init(*shard.put(jax.tree.map(np.asarray, run_inputs(cfg))))
     t0 = time.perf_counter()
     ts, _ = chunk(ts)
     jax.block_until_ready(ts)

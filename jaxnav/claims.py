@@ -28,7 +28,8 @@ from typing import NamedTuple
 import numpy as np
 
 from jaxnav import stats
-from jaxnav.results import MODE_NAMES, STRATEGY_NAMES, per_seed_scores, read_results
+from jaxnav.results import MODE_NAMES, display_name, per_seed_scores, read_results
+from jaxnav.sweep import row_arm
 
 FINAL_EPISODES = 50  # the "final training return" window, per seed
 OTHER = {"ebe": "epsilon_greedy", "epsilon_greedy": "ebe"}
@@ -49,7 +50,7 @@ def _test_claims(source: str, experiment: str, table: dict[str, str]) -> list[Cl
     return [
         Claim(
             source,
-            f"{STRATEGY_NAMES[w]} scores higher on {maze}",
+            f"{display_name(w)} scores higher on {maze}",
             experiment,
             "test",
             (maze,),
@@ -137,20 +138,14 @@ class Verdict(NamedTuple):
 
 def verdict(p: stats.Interval) -> str:
     """The declared rule: where the 95% interval of P(winner > other) lies."""
-    if math.isnan(p.low):
-        return "inconclusive"
-    if p.low > 0.5:
-        return "supported"
-    if p.high < 0.5:
-        return "contradicted"
-    return "inconclusive"
+    return {1: "supported", -1: "contradicted", 0: "inconclusive"}[stats.side(p)]
 
 
 def training_scores(metrics_rows: list[dict[str, str]], measure: str) -> dict[str, np.ndarray]:
     """Per-seed training scores {strategy: f[seeds]} (seeds in ascending order)."""
     by: dict[str, dict[int, list[tuple[int, float]]]] = {}
     for r in metrics_rows:
-        by.setdefault(r["strategy"], {}).setdefault(int(r["seed"]), []).append(
+        by.setdefault(row_arm(r), {}).setdefault(int(r["seed"]), []).append(
             (int(r["episode"]), float(r["return"]))
         )
     out = {}

@@ -27,6 +27,7 @@ from typing import Any
 
 import yaml
 
+from jaxnav import sweep as sweeps
 from jaxnav.errors import ConfigError
 from jaxnav.settings import PRESETS, env_setting_problem
 
@@ -117,14 +118,61 @@ class Config:
     dqn: DQNConfig = field(default_factory=DQNConfig)
     exploration: ExplorationConfig = field(default_factory=ExplorationConfig)
     run: RunConfig = field(default_factory=RunConfig)
+    # ((dotted key, (value, ...)), ...): the settings this run varies across its runs,
+    # their grid trained in the same program (jaxnav.sweep); () for none.
+    sweep: tuple[tuple[str, tuple[Any, ...]], ...] = ()
 
     @property
     def n_runs(self) -> int:
-        return self.seeds * len(self.strategies)
+        return self.seeds * len(self.arms())
+
+    def points(self, strategy: str | None = None) -> list[sweeps.Point]:
+        """The sweep's grid (of the keys ``strategy`` reads), ``[()]`` without a sweep."""
+        return sweeps.grid(self.sweep, strategy)
+
+    def arms(self) -> list[tuple[str, sweeps.Point]]:
+        """(strategy, sweep point) of each arm, strategy-major; a strategy's points
+        vary only the swept keys it reads (jaxnav.sweep.EXPLORATION_KEYS)."""
+        return [(s, p) for s in self.strategies for p in self.points(s)]
+
+    def arm_names(self) -> list[str]:
+        """Each arm's name (the strategy's, without a sweep), in :meth:`arms` order."""
+        return [sweeps.arm_name(s, p) for s, p in self.arms()]
+
+    def run_arms(self) -> list[tuple[str, sweeps.Point, int]]:
+        """(strategy, sweep point, seed) of each run: strategy, then point, then seed
+        (the order of every run axis)."""
+        return [(s, p, self.seed + i) for s, p in self.arms() for i in range(self.seeds)]
 
     def run_labels(self) -> list[tuple[str, int]]:
-        """(strategy, seed) of each run, strategy-major (the order of every run axis)."""
-        return [(s, self.seed + i) for s in self.strategies for i in range(self.seeds)]
+        """(arm name, seed) of each run, in :meth:`run_arms` order; the arm name is the
+        strategy's without a sweep."""
+        return [(sweeps.arm_name(s, p), seed) for s, p, seed in self.run_arms()]
+
+    def run_fields(self) -> list[tuple]:
+        """Each run's leading fields in its logs and results: (strategy, the value of
+        each swept key, seed); a swept key the strategy does not read is empty."""
+        keys = [k for k, _ in self.sweep]
+        out = []
+        for strategy, point, seed in self.run_arms():
+            values = dict(point)
+            swept = [sweeps.value_text(values[k]) if k in values else "" for k in keys]
+            out.append((strategy, *swept, seed))
+        return out
+
+    def at(self, point: sweeps.Point) -> Config:
+        """This config at one sweep point: the point's values set, no sweep."""
+        sections: dict[str, dict[str, Any]] = {}
+        top: dict[str, Any] = {"sweep": ()}
+        for key, value in point:
+            if "." in key:
+                sec, name = key.split(".", 1)
+                sections.setdefault(sec, {})[name] = value
+            else:
+                top[key] = value
+        for sec, kv in sections.items():
+            top[sec] = dataclasses.replace(getattr(self, sec), **kv)
+        return dataclasses.replace(self, **top)
 
     @property
     def max_total_steps(self) -> int:
@@ -172,6 +220,8 @@ def _field_types(cls, prefix: str = "") -> dict[str, Any]:
     hints = typing.get_type_hints(cls)
     out = {}
     for f in dataclasses.fields(cls):
+        if f.name == "sweep":  # a mapping of other fields' values (_sweep)
+            continue
         t = hints[f.name]
         if dataclasses.is_dataclass(t):
             out.update(_field_types(t, f"{prefix}{f.name}."))
@@ -340,8 +390,36 @@ def _check(cfg: Config) -> Config:
     return cfg
 
 
+def _sweep(values: dict[str, Any]) -> tuple[tuple[str, tuple[Any, ...]], ...]:
+    """Take the ``sweep.KEY`` entries out of ``values``: ((KEY, values), ...), each
+    value typed as KEY's field; a key that cannot be swept is a ConfigError."""
+    out = []
+    bare = values.pop("sweep", None)
+    if bare is not None:
+        raise ConfigError("config: sweep must be a mapping of dotted keys to lists of values")
+    for name in [n for n in values if n.startswith("sweep.")]:
+        key, raw = name[len("sweep.") :], values.pop(name)
+        if key not in FIELD_TYPES:
+            raise ConfigError(f"config: unknown key {key!r} in sweep")
+        why = sweeps.refusal(key)
+        if why:
+            raise ConfigError(f"config: {why}")
+        if raw is None:  # sweep.KEY=null (or an empty YAML entry) removes the key
+            continue
+        if isinstance(raw, str) or not isinstance(raw, (list, tuple)) or not raw:
+            raise ConfigError(f"config: {name} must be a non-empty list of values, got {raw!r}")
+        typed = tuple(_coerce(name, v, FIELD_TYPES[key]) for v in raw)
+        if len(set(typed)) != len(typed):
+            raise ConfigError(f"config: {name} lists a value twice")
+        out.append((key, typed))
+    return tuple(out)
+
+
 def build_config(values: dict[str, Any]) -> Config:
-    """A validated Config from flat dotted ``{"dqn.gamma": 0.9, ...}`` values."""
+    """A validated Config from flat dotted ``{"dqn.gamma": 0.9, ...}`` values; the
+    ``sweep.KEY`` entries are the sweep's values of KEY."""
+    values = dict(values)
+    sweep = _sweep(values)
     preset = values.get("preset", "paper")
     merged: dict[str, Any] = {}
     if isinstance(preset, str) and preset in PRESETS:
@@ -364,7 +442,13 @@ def build_config(values: dict[str, Any]) -> Config:
     hints = typing.get_type_hints(Config)
     for sec, kv in sections.items():
         top[sec] = hints[sec](**kv)
-    return _check(Config(**top))
+    cfg = _check(Config(**top, sweep=sweep))
+    for point in cfg.points() if sweep else ():  # every point obeys the field rules
+        try:
+            _check(cfg.at(point))
+        except ConfigError as e:
+            raise ConfigError(str(e).replace("config: ", "config: sweep.", 1)) from None
+    return cfg
 
 
 def resolve_config_path(name: str) -> str:
@@ -410,7 +494,12 @@ def config_to_dict(cfg: Config) -> dict[str, Any]:
 
     def conv(x):
         if dataclasses.is_dataclass(x):
-            return {f.name: conv(getattr(x, f.name)) for f in dataclasses.fields(x)}
+            out = {f.name: conv(getattr(x, f.name)) for f in dataclasses.fields(x)}
+            if "sweep" in out:  # written as a mapping, key -> list of values, when set
+                out["sweep"] = {k: conv(v) for k, v in x.sweep}
+                if not out["sweep"]:
+                    del out["sweep"]
+            return out
         if isinstance(x, tuple):
             return [conv(v) for v in x]
         return x

@@ -26,6 +26,7 @@ import chex
 import flax.linen as nn
 import jax
 import jax.numpy as jnp
+import numpy as np
 import optax
 from flax import struct
 
@@ -47,27 +48,32 @@ class QNetwork(nn.Module):
     dropout: float = 0.2
 
     @nn.compact
-    def __call__(self, obs: chex.Array, train: bool = False) -> chex.Array:
+    def __call__(self, obs: chex.Array, train: bool = False, dropout=None) -> chex.Array:
+        """``dropout``: the rate as data (f32[]); None takes ``self.dropout``."""
         x = obs
         init = nn.initializers.lecun_uniform()  # ROBOTIS' Keras initialiser
         for width in self.hidden:
             x = nn.relu(nn.Dense(width, kernel_init=init)(x))
-        if train and self.dropout > 0.0:
-            x = dropout16(self.make_rng("dropout"), x, self.dropout)
+        if train and (dropout is not None or self.dropout > 0.0):
+            rate = self.dropout if dropout is None else dropout
+            x = dropout16(self.make_rng("dropout"), x, rate)
         return nn.Dense(self.num_actions, kernel_init=init)(x)
 
 
-def dropout16(key: chex.PRNGKey, x: chex.Array, rate: float) -> chex.Array:
+def dropout16(key: chex.PRNGKey, x: chex.Array, rate) -> chex.Array:
     """Inverted dropout whose mask takes 16 random bits per unit, two per 32-bit draw.
 
     A unit is dropped when its 16 bits fall below round(rate * 2^16), so the rate is
     quantised to 1/65536 (0.2 -> 0.199997). Half the random bits of
     ``flax.linen.Dropout``: the mask is a large share of a small network's step.
+    ``rate`` may be data; rate 0 keeps every unit unchanged.
     """
     n = x.size
     words = jax.random.bits(key, ((n + 1) // 2,), jnp.uint32)
     halves = jnp.stack([words & 0xFFFF, words >> 16], axis=-1).reshape(-1)[:n]
-    keep = halves.reshape(x.shape) >= jnp.uint32(round(rate * 65536))
+    rate = jnp.asarray(rate, jnp.float32)
+    threshold = jnp.round(rate * 65536).astype(jnp.uint32)
+    keep = halves.reshape(x.shape) >= threshold
     return jnp.where(keep, x / (1.0 - rate), 0.0)
 
 
@@ -114,8 +120,7 @@ def ebe(key: chex.PRNGKey, q: chex.Array, temperature: float = 1.0, power: float
     Returns (action i32[], exploration probability f32[]).
     """
     h = normalised_entropy(q, temperature)
-    if power != 1.0:  # a Python constant: power 1 computes exactly the paper's H
-        h = h**power
+    h = jnp.where(power == 1.0, h, h**power)  # power 1 is exactly the paper's H
     return explore_or_greedy(key, q, h), h
 
 
@@ -136,22 +141,24 @@ def boltzmann(key: chex.PRNGKey, q: chex.Array, temperature: float = 1.0):
     return action, 1.0 - jnp.max(jax.nn.softmax(z, axis=-1), axis=-1)
 
 
-def _ebe(key, q, episode, x: ExplorationConfig):
+def _ebe(key, q, episode, x: ExplorationConfig | Hyper):
     del episode
     return ebe(key, q, x.ebe_temperature, x.ebe_power)
 
 
-def _epsilon_greedy(key, q, episode, x: ExplorationConfig):
+def _epsilon_greedy(key, q, episode, x: ExplorationConfig | Hyper):
     return epsilon_greedy(key, q, epsilon_schedule(episode, x.eps_start, x.eps_decay, x.eps_min))
 
 
-def _boltzmann(key, q, episode, x: ExplorationConfig):
+def _boltzmann(key, q, episode, x: ExplorationConfig | Hyper):
     del episode
     return boltzmann(key, q, x.boltzmann_temperature)
 
 
-# Each strategy's act, (key, q f32[A], episode i32[], config) -> (action i32[], f32[]),
-# in STRATEGIES order (an import-time KeyError if one is missing).
+# Each strategy's act, (key, q f32[A], episode i32[], settings) -> (action i32[], f32[]),
+# in STRATEGIES order (an import-time KeyError if one is missing). The settings are an
+# ExplorationConfig or a run's Hyper (the same names, as data); jaxnav.sweep's
+# EXPLORATION_KEYS lists the ones each function reads.
 EXPLORATION: dict[str, Callable[..., tuple[chex.Array, chex.Array]]] = {
     "ebe": _ebe,
     "epsilon_greedy": _epsilon_greedy,
@@ -165,7 +172,7 @@ def explore_action(
     key: chex.PRNGKey,
     q: chex.Array,
     episode: chex.Array,
-    x: ExplorationConfig,
+    x: ExplorationConfig | Hyper,
     strategies: tuple[str, ...] = STRATEGIES,
 ) -> tuple[chex.Array, chex.Array]:
     """(action i32[], exploration f32[]) of strategy ``STRATEGIES[strategy]`` (i32[]).
@@ -182,6 +189,93 @@ def explore_action(
     i = position[strategy]
     action = jax.lax.select_n(i, *[a.astype(jnp.int32) for a, _ in acts])
     return action, jax.lax.select_n(i, *[jnp.asarray(p, jnp.float32) for _, p in acts])
+
+
+# ----------------------------------------------------------------------------
+# Settings as data: what a sweep varies between the runs of one program
+# ----------------------------------------------------------------------------
+
+
+@struct.dataclass
+class Hyper:
+    """A run's settings that are data in the compiled step, one field per key of
+    :data:`jaxnav.sweep.SWEEPABLE` (its last component), each a scalar per run.
+
+    Every run carries them, with or without a sweep, so the runs of a sweep and a run
+    without one are the same program (PureJaxRL's hyperparameters-as-data). The
+    environment's settings are None (not carried, so range noise 0 draws no noise)
+    unless swept.
+    """
+
+    gamma: chex.Array
+    lr: chex.Array
+    rms_decay: chex.Array
+    rms_eps: chex.Array
+    dropout: chex.Array
+    target_update_every: chex.Array  # i32
+    learning_starts: chex.Array  # i32
+    ebe_temperature: chex.Array
+    ebe_power: chex.Array
+    boltzmann_temperature: chex.Array
+    eps_start: chex.Array
+    eps_decay: chex.Array
+    eps_min: chex.Array
+    lidar_noise_std: chex.Array | None = None
+    R_plus: chex.Array | None = None
+    R_minus: chex.Array | None = None
+    reward_span: chex.Array | None = None
+
+    def env_params(self, params: EnvParams) -> EnvParams:
+        """``params`` with the run's swept environment settings."""
+        new = {k: getattr(self, k) for k in ENV_HYPER if getattr(self, k) is not None}
+        return params.replace(**new) if new else params
+
+
+ENV_HYPER = ("lidar_noise_std", "R_plus", "R_minus", "reward_span")
+
+
+def hyper(config: Config, env_params: EnvParams, env_keys: tuple[str, ...] = ()) -> Hyper:
+    """A run's :class:`Hyper` (NumPy scalars) from its config and environment params;
+    ``env_keys``: the environment settings to carry (the swept ones)."""
+    d, x = config.dqn, config.exploration
+    f32 = np.float32
+    return Hyper(
+        gamma=f32(d.gamma),
+        lr=f32(d.lr),
+        rms_decay=f32(d.rms_decay),
+        rms_eps=f32(d.rms_eps),
+        dropout=f32(d.dropout),
+        target_update_every=np.int32(d.target_update_every),
+        learning_starts=np.int32(d.learning_starts),
+        ebe_temperature=f32(x.ebe_temperature),
+        ebe_power=f32(x.ebe_power),
+        boltzmann_temperature=f32(x.boltzmann_temperature),
+        eps_start=f32(x.eps_start),
+        eps_decay=f32(x.eps_decay),
+        eps_min=f32(x.eps_min),
+        **{k: f32(getattr(env_params, k)) for k in env_keys},
+    )
+
+
+def swept_env_keys(config: Config) -> tuple[str, ...]:
+    """The environment settings a config sweeps (carried in its runs' Hyper)."""
+    swept = {key.split(".", 1)[1] for key, _ in config.sweep if key.startswith("env.")}
+    return tuple(k for k in ENV_HYPER if k in swept)
+
+
+def arm_hypers(config: Config) -> list[Hyper]:
+    """The :class:`Hyper` of each arm of a config (jaxnav.config.Config.arms)."""
+    env_keys = swept_env_keys(config)
+    out = []
+    for _, point in config.arms():
+        at = config.at(point)
+        out.append(hyper(at, from_config(at)[1] if env_keys else None, env_keys))
+    return out
+
+
+def stack(trees: list) -> chex.ArrayTree:
+    """NumPy pytrees of equal structure stacked along a new leading axis."""
+    return jax.tree.map(lambda *xs: np.stack(xs), *trees)
 
 
 # ----------------------------------------------------------------------------
@@ -261,6 +355,7 @@ class TrainState:
     obs: chex.Array
     key: chex.PRNGKey
     strategy: chex.Array  # i32[] index into STRATEGIES
+    hyper: Hyper  # the run's settings that are data (a sweep point's values)
     step: chex.Array  # i32[] env steps taken
     episode: chex.Array  # i32[] episodes finished
     metrics: Metrics
@@ -288,7 +383,7 @@ class Trainer(NamedTuple):
     network: QNetwork
     optimizer: optax.GradientTransformation
     metric_slots: int
-    init: Callable[[chex.PRNGKey, chex.Array], TrainState]
+    init: Callable[[chex.PRNGKey, chex.Array, Hyper], TrainState]
     step: Callable[[TrainState, None], tuple[TrainState, StepLog]]
     chunk: Callable[..., tuple[TrainState, StepLog]]  # (state, n_steps=None)
     active: Callable[[TrainState], chex.Array]
@@ -300,23 +395,28 @@ class Trainer(NamedTuple):
 
 
 def make_trainer(config: Config) -> Trainer:
-    """The run of a config as pure ``init(key, strategy)``, ``step``, ``chunk``, ``active``."""
-    env, env_params = from_config(config)
+    """The run of a config as pure ``init(key, strategy, hyper)``, ``step``, ``chunk``,
+    ``active``; the settings of :class:`Hyper` are read from the run's state, so the
+    runs of a sweep (:func:`run_inputs`) share the program."""
+    env, base_params = from_config(config)
     d = config.dqn
     network = QNetwork(env.num_actions, tuple(d.hidden), d.dropout)
-    optimizer = optax.rmsprop(d.lr, decay=d.rms_decay, eps=d.rms_eps, eps_in_sqrt=False)
+    optimizer = optimizer_of(d)  # the state's layout; a step uses the run's settings
     slots = config.episodes if config.episodes is not None else config.run.chunk_steps
     limits = run_limits(config)
 
-    def init(key: chex.PRNGKey, strategy: chex.Array) -> TrainState:
-        buffer = replay.init(config.buffer_capacity, env.obs_size, env_params.max_steps)
-        return _init_state(env, env_params, network, optimizer, buffer, slots, key, strategy)
+    def init(key: chex.PRNGKey, strategy: chex.Array, hyper: Hyper) -> TrainState:
+        buffer = replay.init(config.buffer_capacity, env.obs_size, base_params.max_steps)
+        env_params = hyper.env_params(base_params)
+        return _init_state(env, env_params, network, optimizer, buffer, slots, key, strategy, hyper)
 
     def active(ts: TrainState) -> chex.Array:
         return still_training(ts.episode, ts.step, *limits) & (ts.diverged_at < 0)
 
     def step(ts: TrainState, _):
         run = active(ts)
+        h = ts.hyper
+        env_params = h.env_params(base_params)
         key, k_act, k_env, k_sample, k_drop = jax.random.split(ts.key, 5)
 
         # ACT: the run's strategy explores (its index picks its entry in EXPLORATION).
@@ -336,13 +436,14 @@ def make_trainer(config: Config) -> Trainer:
         # LEARN: one gradient step per environment step once learning has started.
         n_steps = ts.step + 1
         params, opt_state, broke, loss = _learn(
-            network, optimizer, d, ts, buffer, n_steps, run, k_sample, k_drop
+            network, d, ts, buffer, n_steps, run, k_sample, k_drop
         )
         diverged = (ts.diverged_at < 0) & run & (broke | ~q_finite)
         diverged_at = jnp.where(diverged, n_steps, ts.diverged_at)
 
         # TARGET SYNC
-        target_params = _select(run & _target_sync_due(d, n_steps, done), params, ts.target_params)
+        sync = run & _target_sync_due(d, h, n_steps, done)
+        target_params = _select(sync, params, ts.target_params)
 
         # EPISODE METRICS
         metrics = _record_episode(ts, slots, reward, terminated, done, info, explore, run & done)
@@ -391,10 +492,12 @@ def make_trainer(config: Config) -> Trainer:
         logs = StepLog(*(jnp.full(length, jnp.nan, jnp.float32) for _ in StepLog._fields))
         return jax.lax.fori_loop(0, n, body, (ts, logs))
 
-    return Trainer(config, env, env_params, network, optimizer, slots, init, step, chunk, active)
+    return Trainer(config, env, base_params, network, optimizer, slots, init, step, chunk, active)
 
 
-def _init_state(env, env_params, network, optimizer, buffer, slots, key, strategy) -> TrainState:
+def _init_state(
+    env, env_params, network, optimizer, buffer, slots, key, strategy, hyper
+) -> TrainState:
     """A fresh run: network from the first key, first episode from the second."""
     k_net, k_env, k_run = jax.random.split(key, 3)
     obs, env_state = env.reset(k_env, env_params)
@@ -408,6 +511,7 @@ def _init_state(env, env_params, network, optimizer, buffer, slots, key, strateg
         obs=obs,
         key=k_run,
         strategy=jnp.asarray(strategy, jnp.int32),
+        hyper=hyper,
         step=jnp.zeros((), jnp.int32),
         episode=jnp.zeros((), jnp.int32),
         metrics=Metrics.zeros(slots),
@@ -419,37 +523,42 @@ def _act(network: QNetwork, config: Config, ts: TrainState, key: chex.PRNGKey):
     """(action i32[], exploration f32[], whether the Q-values are finite, max Q f32[])
     of the run's strategy at ``ts.obs``."""
     q = network.apply(ts.params, ts.obs)
-    action, prob = explore_action(
-        ts.strategy, key, q, ts.episode, config.exploration, config.strategies
-    )
+    action, prob = explore_action(ts.strategy, key, q, ts.episode, ts.hyper, config.strategies)
     return action, prob, jnp.all(jnp.isfinite(q)), jnp.max(q)
 
 
-def _loss(network: QNetwork, gamma: float, params, target_params, batch: replay.Batch, key):
-    q = network.apply(params, batch.obs, train=True, rngs={"dropout": key})
+def _loss(network: QNetwork, h: Hyper, params, target_params, batch: replay.Batch, key):
+    q = network.apply(params, batch.obs, train=True, dropout=h.dropout, rngs={"dropout": key})
     next_q = network.apply(target_params, batch.next_obs)  # dropout off, as Keras predict
-    y = td_target(batch.reward, batch.terminated, next_q, gamma)
+    y = td_target(batch.reward, batch.terminated, next_q, h.gamma)
     return td_loss(q, batch.action, y)
 
 
-def _learn(network, optimizer, d: DQNConfig, ts, buffer, n_steps, run, k_sample, k_drop):
+def optimizer_of(h: Hyper | DQNConfig) -> optax.GradientTransformation:
+    """RMSprop as ROBOTIS' Keras uses it (eps outside the root), its settings a
+    config's or a run's (data): optax takes traced hyperparameters as they are."""
+    return optax.rmsprop(h.lr, decay=h.rms_decay, eps=h.rms_eps, eps_in_sqrt=False)
+
+
+def _learn(network, d: DQNConfig, ts, buffer, n_steps, run, k_sample, k_drop):
     """(params, opt_state, broke, loss) after one gradient step, unchanged before learning
     starts and where the loss or the new parameters would not be finite (``broke``);
     ``loss`` is NaN where no gradient step was due."""
+    h = ts.hyper
     batch = replay.sample(buffer, k_sample, d.batch_size)
     bootstrap = ts.target_params
     if d.target_update != "periodic":  # ROBOTIS: online net gives the targets during warm-up
         bootstrap = jax.tree.map(
-            lambda o, t: jnp.where(n_steps <= d.target_update_every, o, t),
+            lambda o, t: jnp.where(n_steps <= h.target_update_every, o, t),
             ts.params,
             ts.target_params,
         )
-    loss_fn = functools.partial(_loss, network, d.gamma)
+    loss_fn = functools.partial(_loss, network, h)
     loss, grads = jax.value_and_grad(loss_fn)(ts.params, bootstrap, batch, k_drop)
-    updates, opt_state = optimizer.update(grads, ts.opt_state, ts.params)
+    updates, opt_state = optimizer_of(h).update(grads, ts.opt_state, ts.params)
     new_params = optax.apply_updates(ts.params, updates)
     finite = jnp.isfinite(loss) & all_finite(new_params)
-    due = run & replay.can_sample(buffer, d.learning_starts)
+    due = run & replay.can_sample(buffer, h.learning_starts)
     learn = due & finite
     params = _select(learn, new_params, ts.params)
     opt_state = _select(learn, opt_state, ts.opt_state)
@@ -461,12 +570,12 @@ def all_finite(tree) -> chex.Array:
     return jnp.all(jnp.stack([jnp.all(jnp.isfinite(leaf)) for leaf in jax.tree.leaves(tree)]))
 
 
-def _target_sync_due(d: DQNConfig, n_steps: chex.Array, done: chex.Array) -> chex.Array:
+def _target_sync_due(d: DQNConfig, h: Hyper, n_steps: chex.Array, done: chex.Array):
     """Paper: every target_update_every steps. ROBOTIS: at every episode end (during
     the warm-up too, so the first target the network bootstraps from after it is the
     last episode's copy, never the initial network)."""
     if d.target_update == "periodic":
-        return n_steps % d.target_update_every == 0
+        return n_steps % h.target_update_every == 0
     return done
 
 
@@ -500,33 +609,41 @@ def _where_running(run: chex.Array, ts: TrainState, **new) -> TrainState:
     return ts.replace(**{k: _select(run, v, getattr(ts, k)) for k, v in new.items()})
 
 
-def run_keys(config: Config) -> tuple[chex.Array, chex.Array]:
-    """Per-run PRNG keys and strategy indices, strategy-major.
+class RunInputs(NamedTuple):
+    """What ``Trainer.init`` takes, one entry per run along the leading axis."""
 
-    Run r trains strategy ``config.strategies[r // seeds]`` on seed
-    ``config.seed + r % seeds``. Both strategies of one seed share the seed's key
-    (same initial network and goals), so their comparison is paired.
+    keys: chex.Array  # u32[runs, 2]
+    strategy: chex.Array  # i32[runs] index into STRATEGIES
+    hyper: Hyper  # each field [runs]
+
+
+def run_inputs(config: Config) -> RunInputs:
+    """Per-run PRNG keys, strategy indices and settings, in ``config.run_arms()`` order:
+    strategy, then sweep point, then seed.
+
+    Every arm of one seed shares the seed's key (same initial network and goals), so
+    comparisons between strategies and between sweep points are paired.
     """
-    seeds = jnp.arange(config.seeds) + config.seed
-    keys = jax.vmap(jax.random.PRNGKey)(seeds)
-    keys = jnp.concatenate([keys] * len(config.strategies))
-    strat = jnp.repeat(
-        jnp.asarray([STRATEGIES.index(s) for s in config.strategies], jnp.int32), config.seeds
-    )
-    return keys, strat
+    seeds = np.arange(config.seeds) + config.seed
+    seed_keys = np.asarray(jax.vmap(jax.random.PRNGKey)(jnp.asarray(seeds)))
+    arms = config.arms()
+    keys = np.concatenate([seed_keys] * len(arms))
+    strat = np.repeat(np.asarray([STRATEGIES.index(s) for s, _ in arms], np.int32), config.seeds)
+    hypers = [h for h in arm_hypers(config) for _ in range(config.seeds)]
+    return RunInputs(keys, strat, stack(hypers))
 
 
-def make_train(config: Config) -> Callable[[chex.PRNGKey, chex.Array], TrainState]:
-    """A pure ``train(key, strategy) -> TrainState`` that runs one seed to the end.
+def make_train(config: Config) -> Callable[[chex.PRNGKey, chex.Array, Hyper], TrainState]:
+    """A pure ``train(key, strategy, hyper) -> TrainState`` that runs one seed to the end.
 
     Built on the same :class:`Trainer` as ``jaxnav.train``: chunks until inactive.
-    ``jax.jit(jax.vmap(make_train(cfg)))(*run_keys(cfg))`` trains every seed and
-    strategy of the config in one compiled program.
+    ``jax.jit(jax.vmap(make_train(cfg)))(*run_inputs(cfg))`` trains every seed,
+    strategy and sweep point of the config in one compiled program.
     """
     trainer = make_trainer(config)
 
-    def train(key: chex.PRNGKey, strategy: chex.Array) -> TrainState:
-        ts = trainer.init(key, strategy)
+    def train(key: chex.PRNGKey, strategy: chex.Array, hyper: Hyper) -> TrainState:
+        ts = trainer.init(key, strategy, hyper)
         return jax.lax.while_loop(trainer.active, lambda s: trainer.chunk(s)[0], ts)
 
     return train

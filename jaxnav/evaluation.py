@@ -25,11 +25,12 @@ import numpy as np
 
 from jaxnav import rundir
 from jaxnav.config import Config, load_config
-from jaxnav.dqn import QNetwork
+from jaxnav.dqn import QNetwork, run_inputs
 from jaxnav.env import from_config
 from jaxnav.errors import JaxnavError, RunError
 from jaxnav.results import RESULT_COLUMNS, Episodes, episode_rows, episodes_npz
 from jaxnav.rollout import MODES, Policies, first_episode, padded_mazes, run_tests
+from jaxnav.sweep import with_swept
 from jaxnav.tables import tables_markdown
 
 
@@ -47,7 +48,8 @@ def load_run(run_dir: str | Path) -> LoadedRun:
     network = QNetwork(env.num_actions, tuple(cfg.dqn.hidden), cfg.dqn.dropout)
     template = network.init(jax.random.PRNGKey(0), jnp.zeros(env.obs_size))
     dropped = diverged_runs(run_dir)
-    labels = [label for label in cfg.run_labels() if label not in dropped]
+    kept = [r for r, label in enumerate(cfg.run_labels()) if label not in dropped]
+    labels = [cfg.run_labels()[r] for r in kept]
     if dropped:
         names = ", ".join(f"{s} seed {n}" for s, n in sorted(dropped))
         print(f"note: not testing the runs that diverged in training: {names}", file=sys.stderr)
@@ -73,7 +75,11 @@ def load_run(run_dir: str | Path) -> LoadedRun:
     params = jax.tree.map(lambda *xs: jnp.asarray(np.stack(xs), jnp.float32), *trees)
     # A run limited by total_steps ends at different episodes: epsilon at its floor.
     episodes = cfg.episodes if cfg.episodes is not None else 2**30
-    policies = Policies(labels, params, env, env_params, network, cfg.exploration, episodes)
+    inputs = run_inputs(cfg)
+    strategy = inputs.strategy[kept]
+    hyper = jax.tree.map(lambda a: a[kept], inputs.hyper)
+    fields = [cfg.run_fields()[r] for r in kept]
+    policies = Policies(labels, fields, params, env, env_params, network, strategy, hyper, episodes)
     return LoadedRun(cfg, policies)
 
 
@@ -114,14 +120,15 @@ def evaluate(
     rows = []
     for mode in MODES:
         results = run_tests(run.policies, mazes, n_episodes, record=mode == "greedy", mode=mode)
-        rows += episode_rows(labels, names, results, n_episodes, mode)
+        rows += episode_rows(run.policies.fields, names, results, n_episodes, mode)
         if mode == "greedy":
             first = [i for i, (_, seed) in enumerate(labels) if seed == run.config.seed]
             episodes = {
                 name: {labels[i][0]: first_episode(res, i) for i in first}
                 for name, res in zip(names, results)
             }
-    return run, names, rundir.csv_text(RESULT_COLUMNS, rows), episodes
+    columns = with_swept(RESULT_COLUMNS, run.config.sweep)
+    return run, names, rundir.csv_text(columns, rows), episodes
 
 
 def evaluate_to_dir(

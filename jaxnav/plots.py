@@ -25,12 +25,14 @@ runs the environment or a network.
 
 from __future__ import annotations
 
+import csv
 import io
 import math
 import re
 import sys
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 import matplotlib
 
@@ -41,12 +43,35 @@ from matplotlib.patches import Circle  # noqa: E402
 from PIL import Image  # noqa: E402
 
 from jaxnav import cli, drawing, rundir, stats  # noqa: E402
-from jaxnav.config import STRATEGIES, load_config  # noqa: E402
+from jaxnav.config import load_config  # noqa: E402
 from jaxnav.errors import ConfigError, JaxnavError, RunError  # noqa: E402
 from jaxnav.maps import Maze, make_maze  # noqa: E402
-from jaxnav.results import STRATEGY_NAMES, read_episodes_npz, robustness_summary  # noqa: E402
+from jaxnav.results import (  # noqa: E402
+    arm_strategy,
+    arms_in,
+    display_name,
+    read_episodes_npz,
+    robustness_summary,
+)
+from jaxnav.sweep import row_arm, swept_columns
 
 COLORS = {"ebe": "tab:blue", "epsilon_greedy": "tab:orange", "boltzmann": "tab:green"}
+COLORMAPS = {"ebe": "Blues", "epsilon_greedy": "Oranges", "boltzmann": "Greens"}
+
+
+def arm_colors(arms) -> dict[str, Any]:
+    """A colour per arm: its strategy's colour, or, where a strategy has several sweep
+    points, shades of the strategy's colour map from light to dark in point order."""
+    out: dict[str, Any] = {}
+    for s in COLORS:
+        mine = [a for a in arms if arm_strategy(a) == s]
+        if len(mine) == 1:
+            out[mine[0]] = COLORS[s]
+        for i, a in enumerate(mine if len(mine) > 1 else []):
+            out[a] = plt.get_cmap(COLORMAPS[s])(0.35 + 0.6 * i / (len(mine) - 1))
+    return out
+
+
 FOOTPRINT = 0.105  # m, TurtleBot3 burger disc (the 0.13 m collision radius is drawn dashed)
 GIF_MAX_BYTES = 1_000_000
 GIF_MAX_FRAMES = 60
@@ -89,16 +114,14 @@ def _read_csv(path: Path) -> list[dict[str, str]]:
 
 
 def _curves(rows, x_col: str, y_col: str) -> dict[str, tuple[np.ndarray, np.ndarray]]:
-    """{strategy: (x f[T], y f[seeds, T])}, cut to the x values every seed reached."""
+    """{arm: (x f[T], y f[seeds, T])}, cut to the x values every seed reached."""
     by: dict[str, dict[int, dict[float, float]]] = {}
     for r in rows:
-        by.setdefault(r["strategy"], {}).setdefault(int(r["seed"]), {})[float(r[x_col])] = float(
+        by.setdefault(row_arm(r), {}).setdefault(int(r["seed"]), {})[float(r[x_col])] = float(
             r[y_col]
         )
     out = {}
-    for s in STRATEGIES:
-        if s not in by:
-            continue
+    for s in arms_in(by):
         seeds = sorted(by[s])
         common = sorted(set.intersection(*(set(by[s][k]) for k in seeds)))
         if not common:
@@ -151,6 +174,7 @@ def _band(ax, x, y, color, label):
 def plot_training_curves(run_dir: Path, out: Path, window: int | None = None) -> Path:
     """Episode return vs episode, smoothed, mean and 95% interval over seeds."""
     curves = _curves(_read_csv(run_dir / "metrics.csv"), "episode", "return")
+    colors = arm_colors(list(curves))
     if not curves:
         raise RunError(f"{run_dir / 'metrics.csv'} has no episodes")
     n_ep = max(len(x) for x, _ in curves.values())
@@ -161,8 +185,8 @@ def plot_training_curves(run_dir: Path, out: Path, window: int | None = None) ->
             ax,
             x + 1,
             stats.moving_average(y, w),
-            COLORS[s],
-            f"{STRATEGY_NAMES[s]} ({y.shape[0]} seeds)",
+            colors[s],
+            f"{display_name(s)} ({y.shape[0]} seeds)",
         )
     ax.set_xlabel("episode")
     ax.set_ylabel("episode return")
@@ -181,6 +205,7 @@ def plot_exploration(run_dir: Path, out: Path, window: int = 10) -> Path:
     """Each strategy's exploration per 100-step block over training: EBE's entropy
     H(s), epsilon, Boltzmann's chance of a non-greedy action."""
     curves = _curves(_read_csv(run_dir / "explore.csv"), "step", "explore")
+    colors = arm_colors(list(curves))
     if not curves:
         raise RunError(f"{run_dir / 'explore.csv'} has no rows")
     labels = {
@@ -190,7 +215,10 @@ def plot_exploration(run_dir: Path, out: Path, window: int = 10) -> Path:
     }
     fig, ax = plt.subplots(figsize=(7, 4.2))
     for s, (x, y) in curves.items():
-        _band(ax, x, stats.moving_average(y, window), COLORS[s], f"{labels[s]}, {y.shape[0]} seeds")
+        label = labels[arm_strategy(s)]
+        if s != arm_strategy(s):  # a sweep point: its values after the strategy's text
+            label = f"{label} ({s.partition(' ')[2]})"
+        _band(ax, x, stats.moving_average(y, window), colors[s], f"{label}, {y.shape[0]} seeds")
     ax.set_xlabel("environment step (per seed)")
     ax.set_ylabel("exploration probability")
     ax.set_ylim(0, 1.02)
@@ -235,7 +263,7 @@ def plot_trajectory(
 
 def _draw_path(ax, strategy: str, ep: dict, goal_radius: float) -> None:
     """One policy's path, the goals it reached, the goal it was heading for, a crash."""
-    c = COLORS[strategy]
+    c = COLORS[arm_strategy(strategy)]
     pos = ep["pos"]
     end = "collided" if ep["collided"] else "no collision"
     ax.plot(
@@ -245,7 +273,7 @@ def _draw_path(ax, strategy: str, ep: dict, goal_radius: float) -> None:
         lw=1.3,
         alpha=0.9,
         zorder=5,
-        label=f"{STRATEGY_NAMES[strategy]}: return {ep['return']:.0f}, {ep['goals']} goals, {end}",
+        label=f"{display_name(strategy)}: return {ep['return']:.0f}, {ep['goals']} goals, {end}",
     )
     hit = ep["reached"]
     if hit.any():
@@ -338,7 +366,7 @@ def _episode_figure(maze: Maze, name: str, ep: dict, strategy: str, seed: int, g
     y0, _ = ax.get_ylim()
     ax.plot([x0 + 0.02 * (x1 - x0), x0 + 0.02 * (x1 - x0) + 1.0], [y0, y0], color="black", lw=2)
     ax.text(x0 + 0.02 * (x1 - x0) + 0.5, y0, "1 m", ha="center", va="bottom", fontsize=7)
-    color = COLORS[strategy]
+    color = COLORS[arm_strategy(strategy)]
     (trail,) = ax.plot([], [], color=color, lw=1.0, alpha=0.7, zorder=4)
     beams = [ax.plot([], [], color="tab:red", lw=0.5, alpha=0.5, zorder=2)[0] for _ in beam_idx]
     body = Circle((0, 0), FOOTPRINT, facecolor=color, edgecolor="black", lw=0.8, zorder=6)
@@ -363,7 +391,7 @@ def _episode_figure(maze: Maze, name: str, ep: dict, strategy: str, seed: int, g
         goal.center = tuple(ep["goal"][t])
         crash = " - collision" if ep["collided"] and t == n - 1 else ""
         title.set_text(
-            f"{name}, {STRATEGY_NAMES[strategy]} seed {seed}: step {t + 1}/{n}\n"
+            f"{name}, {display_name(strategy)} seed {seed}: step {t + 1}/{n}\n"
             f"return {cum_ret[t]:.0f}, goals {int(cum_goals[t])}{crash}"
         )
 
@@ -382,7 +410,7 @@ def first_episodes(run_dir: Path, maze_names: Sequence[str] | None = None):
         episodes, goal_radius = read_episodes_npz(saved)
     except (OSError, ValueError, KeyError) as e:
         raise RunError(f"{saved} cannot be read ({type(e).__name__})") from None
-    if not all(n in episodes and set(episodes[n]) == set(cfg.strategies) for n in names):
+    if not all(n in episodes and set(episodes[n]) == set(cfg.arm_names()) for n in names):
         return None
     return cfg, names, [make_maze(n) for n in names], goal_radius, episodes
 
@@ -400,7 +428,8 @@ def plot_test_episodes(
     for name, maze in zip(names, mazes):
         out = out_dir / f"trajectory_{safe_name(name)}.png"
         written.append(plot_trajectory(maze, name, episodes[name], cfg.seed, goal_radius, out))
-    strategy = "ebe" if "ebe" in cfg.strategies else cfg.strategies[0]
+    arms = cfg.arm_names()
+    strategy = next((a for a in arms if arm_strategy(a) == "ebe"), arms[0])
     ep = episodes[names[0]][strategy]
     written.append(
         animate_episode(
@@ -421,7 +450,8 @@ def plot_robustness(robustness_csv: str, out: Path, title: str = "Robustness") -
     rows = robustness_summary(robustness_csv)
     mazes = list(dict.fromkeys(r.maze for r in rows))
     perts = list(dict.fromkeys(r.perturbation for r in rows))
-    strategies = [s for s in STRATEGIES if any(r.strategy == s for r in rows)]
+    strategies = arms_in(r.strategy for r in rows)
+    colors = arm_colors(strategies)
     width = 0.8 / len(strategies)
     fig, axes = plt.subplots(
         len(mazes), 1, figsize=(max(6.0, 0.9 * len(perts) + 1.5), 3.6 * len(mazes)), squeeze=False
@@ -444,8 +474,8 @@ def plot_robustness(robustness_csv: str, out: Path, title: str = "Robustness") -
                 width,
                 yerr=yerr,
                 capsize=3,
-                color=COLORS[s],
-                label=f"{STRATEGY_NAMES[s]} ({n} seeds)",
+                color=colors[s],
+                label=f"{display_name(s)} ({n} seeds)",
             )
         ax.axhline(0.0, color="0.3", lw=0.8)
         ax.set_xticks(range(len(perts)))
@@ -456,6 +486,84 @@ def plot_robustness(robustness_csv: str, out: Path, title: str = "Robustness") -
         ax.legend(fontsize=8)
     fig.tight_layout()
     return _save_fig(fig, out, dpi=110)
+
+
+def plot_sweep(results_csv: str, out: Path, title: str = "Sweep") -> Path | None:
+    """A swept run's test return against the swept values, one panel per test mode:
+    per strategy the mean over seeds of the per-seed score (averaged over the test
+    mazes) with its 95% bootstrap interval; a strategy with one point (not reading the
+    swept key) is a horizontal band. None without a swept column."""
+    rows = list(csv.DictReader(io.StringIO(results_csv)))
+    keys = swept_columns(list(rows[0])) if rows else []
+    if not keys:
+        return None
+    modes = list(dict.fromkeys(r["mode"] for r in rows))
+    fig, axes = plt.subplots(1, len(modes), figsize=(5.2 * len(modes), 4.0), squeeze=False)
+    for ax, mode in zip(axes[0], modes):
+        # per arm: per seed: per maze: [episode returns]
+        by: dict[str, dict[int, dict[str, list[float]]]] = {}
+        point: dict[str, str] = {}
+        for r in (r for r in rows if r["mode"] == mode):
+            arm = row_arm(r)
+            point[arm] = ", ".join(r[k] for k in keys if r[k] != "")
+            by.setdefault(arm, {}).setdefault(int(r["seed"]), {}).setdefault(r["maze"], [])
+            by[arm][int(r["seed"])][r["maze"]].append(float(r["return"]))
+        score = {
+            a: np.asarray([np.mean([np.mean(v) for v in seeds[k].values()]) for k in sorted(seeds)])
+            for a, seeds in by.items()
+        }
+        ticks = list(dict.fromkeys(p for p in point.values() if p))
+        numeric = all(_is_number(t) for t in ticks)
+        xs = {t: float(t) if numeric else i for i, t in enumerate(ticks)}
+        colors = COLORS
+        for s in COLORS:
+            arms = [a for a in arms_in(by) if arm_strategy(a) == s]
+            if not arms:
+                continue
+            ivs = [stats.mean_ci(score[a]) for a in arms]
+            n = len(score[arms[0]])
+            if len(arms) == 1 and not point[arms[0]]:
+                iv = ivs[0]
+                ax.axhline(
+                    iv.value, color=colors[s], lw=1.4, label=f"{display_name(s)} ({n} seeds)"
+                )
+                if not np.isnan(iv.low):
+                    ax.axhspan(iv.low, iv.high, color=colors[s], alpha=0.15, lw=0)
+                continue
+            x = np.asarray([xs[point[a]] for a in arms])
+            mean = np.asarray([iv.value for iv in ivs])
+            low, high = np.asarray([iv.low for iv in ivs]), np.asarray([iv.high for iv in ivs])
+            yerr = None if np.isnan(low).any() else np.stack([mean - low, high - mean])
+            ax.errorbar(
+                x,
+                mean,
+                yerr=yerr,
+                color=colors[s],
+                marker="o",
+                capsize=3,
+                lw=1.4,
+                label=f"{display_name(s)} ({n} seeds)",
+            )
+        if numeric and ticks and min(xs.values()) > 0 and max(xs.values()) / min(xs.values()) >= 10:
+            ax.set_xscale("log")
+        if not numeric:
+            ax.set_xticks(range(len(ticks)))
+            ax.set_xticklabels(ticks, rotation=30, ha="right", fontsize=8)
+        ax.set_xlabel(", ".join(keys))
+        ax.set_ylabel("test return (mean over mazes and episodes)")
+        ax.set_title(f"{title}: {mode} test\nmean over seeds, 95% bootstrap interval", fontsize=10)
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8)
+    fig.tight_layout()
+    return _save_fig(fig, out, dpi=110)
+
+
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
 
 
 def make_plots(
@@ -474,6 +582,10 @@ def make_plots(
         plot_training_curves(run_dir, out / "training_curves.png", window),
         plot_exploration(run_dir, out / "exploration.png"),
     ]
+    results = run_dir / "eval" / "results.csv"
+    if results.is_file():
+        swept = plot_sweep(results.read_text(), out / "sweep.png", f"Sweep of {run_dir.name}")
+        written += [swept] if swept is not None else []
     tests = plot_test_episodes(run_dir, out, maze_names)
     if not tests:
         print(

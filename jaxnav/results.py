@@ -18,6 +18,7 @@ import numpy as np
 from jaxnav import stats
 from jaxnav.config import STRATEGIES
 from jaxnav.errors import RunError
+from jaxnav.sweep import row_arm
 
 RESULT_COLUMNS = (
     "strategy",
@@ -37,20 +38,41 @@ MODE_NAMES = {
     "exploring": "exploring (each strategy's own exploration as at the end of training)",
 }
 STRATEGY_NAMES = {"ebe": "EBE", "epsilon_greedy": "epsilon-greedy", "boltzmann": "Boltzmann"}
+
+
+def arm_strategy(arm: str) -> str:
+    """The strategy of an arm (``ebe`` of ``ebe ebe_temperature=0.1``)."""
+    return arm.split(" ", 1)[0]
+
+
+def arms_in(arms) -> list[str]:
+    """The distinct arms among ``arms`` (strategies, or strategies at sweep points),
+    strategy by strategy in STRATEGIES order, each strategy's points in the order met."""
+    found = [a for a in ordered_unique(arms) if arm_strategy(a) in STRATEGIES]
+    return sorted(found, key=lambda a: STRATEGIES.index(arm_strategy(a)))
+
+
+def display_name(arm: str) -> str:
+    """An arm as tables and figures name it: ``EBE``, ``EBE ebe_temperature=0.1``."""
+    strategy, _, point = arm.partition(" ")
+    return " ".join(x for x in (STRATEGY_NAMES[strategy], point) if x)
+
+
 # robustness.csv: the same columns, the perturbation in place of the test mode.
 ROBUSTNESS_COLUMNS = tuple("perturbation" if c == "mode" else c for c in RESULT_COLUMNS)
 UNPERTURBED = "none"
 
 
-def episode_rows(labels, names, results, n_episodes, tag: str):
-    """CSV rows (strategy, seed, tag, maze, episode, return, goals, collided, length) of
-    run_tests() results; the tag is the test mode or the perturbation."""
+def episode_rows(fields, names, results, n_episodes, tag: str):
+    """CSV rows (strategy, [swept values,] seed, tag, maze, episode, return, goals,
+    collided, length) of run_tests() results; ``fields`` holds each policy's leading
+    fields, (strategy, seed) or jaxnav.config.Config.run_fields()'s; the tag is the
+    test mode or the perturbation."""
     for name, res in zip(names, results):
-        for r, (strategy, seed) in enumerate(labels):
+        for r, lead in enumerate(fields):
             for e in range(n_episodes):
                 yield (
-                    strategy,
-                    seed,
+                    *lead,
                     tag,
                     name,
                     e,
@@ -77,12 +99,13 @@ def result_modes(text: str) -> list[str]:
 def _read_episodes(
     text: str, key_columns: Sequence[str], where: dict[str, str] | None = None
 ) -> dict[tuple, dict[str, np.ndarray]]:
-    """Episode rows (those matching ``where``) -> {key (seed as int): {column:
-    per-episode array, by episode}}."""
+    """Episode rows (those matching ``where``) -> {key (seed as int, the arm as
+    "strategy"): {column: per-episode array, by episode}}."""
     out: dict[tuple, dict[str, list]] = {}
     for row in csv.DictReader(io.StringIO(text)):
         if where and any(row.get(k) != v for k, v in where.items()):
             continue
+        row["strategy"] = row_arm(row)
         key = tuple(int(row[c]) if c == "seed" else row[c] for c in key_columns)
         d = out.setdefault(
             key, {"episode": [], "return": [], "goals": [], "collided": [], "length": []}
@@ -145,7 +168,7 @@ def robustness_summary(text: str) -> list[RobustnessRow]:
         raise RunError("robustness.csv has no rows")
     perts = ordered_unique(k[0] for k in res)
     mazes = ordered_unique(k[1] for k in res)
-    strategies = [s for s in STRATEGIES if any(k[2] == s for k in res)]
+    strategies = arms_in(k[2] for k in res)
     out = []
     for m in mazes:
         for s in strategies:

@@ -29,6 +29,7 @@ from jaxnav.evaluation import LoadedRun, load_run, test_setup
 from jaxnav.results import ROBUSTNESS_COLUMNS, UNPERTURBED, episode_rows
 from jaxnav.rollout import padded_mazes, run_tests
 from jaxnav.settings import REALISM
+from jaxnav.sweep import with_swept
 from jaxnav.tables import robustness_markdown
 
 # The sweep: name -> settings that replace the training environment's; every other
@@ -95,10 +96,13 @@ def robustness(
     rows = []
     for p, (env, env_params) in settings.items():
         # record=True: the same program as evaluate()'s, so "none" repeats it exactly.
-        perturbed = pol._replace(env=env, env_params=env_params)
+        # A perturbed setting replaces the run's own where it swept it.
+        hyper = pol.hyper.replace(**{k: None for k in perturbations[p] if hasattr(pol.hyper, k)})
+        perturbed = pol._replace(env=env, env_params=env_params, hyper=hyper)
         results = run_tests(perturbed, mazes, n_episodes, record=True)
-        rows += episode_rows(pol.labels, names, results, n_episodes, p)
-    return run, names, rundir.csv_text(ROBUSTNESS_COLUMNS, rows)
+        rows += episode_rows(pol.fields, names, results, n_episodes, p)
+    columns = with_swept(ROBUSTNESS_COLUMNS, run.config.sweep)
+    return run, names, rundir.csv_text(columns, rows)
 
 
 def robustness_to_dir(

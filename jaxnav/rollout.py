@@ -20,8 +20,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from jaxnav.config import STRATEGIES, ExplorationConfig
-from jaxnav.dqn import QNetwork, explore_action
+from jaxnav.dqn import Hyper, QNetwork, explore_action
 from jaxnav.env import EnvParams, NavEnv
 from jaxnav.maps import MAX_GOAL_POINTS, Maze, make_maze, pad_maze
 from jaxnav.sharding import RunSharding
@@ -35,12 +34,14 @@ MODES = ("greedy", "exploring")  # how a policy acts in a test (see make_rollout
 class Policies(NamedTuple):
     """Trained policies and the environment they were trained in."""
 
-    labels: list[tuple[str, int]]  # (strategy, seed) per policy, the params' leading axis
+    labels: list[tuple[str, int]]  # (arm, seed) per policy, the params' leading axis
+    fields: list[tuple]  # (strategy, swept values, seed) per policy, as results.csv writes
     params: Any  # flax params, every leaf with a leading policy axis
     env: NavEnv  # the training env (static settings)
     env_params: EnvParams  # the training env's params
     network: QNetwork
-    exploration: ExplorationConfig  # the strategies' settings in training
+    strategy: np.ndarray  # i32[policies] index into STRATEGIES
+    hyper: Hyper  # each policy's settings in training (a sweep point's), [policies]
     episodes_trained: int  # episodes each policy trained for (epsilon's last value)
 
 
@@ -78,16 +79,18 @@ def make_rollout(
     n_episodes: int,
     max_steps: int,
     record: bool = False,
-    exploring: tuple[ExplorationConfig, int] | None = None,
+    exploring: int | None = None,
 ):
-    """A pure ``rollout(params, key, strategy, env_params) -> Rollout`` of one policy.
+    """A pure ``rollout(params, key, strategy, hyper, env_params) -> Rollout`` of one
+    policy; ``hyper`` is its settings in training (its swept environment settings
+    apply to the test too).
 
     Plays ``n_episodes`` consecutive episodes in one environment with auto-reset.
     Each episode lasts at most ``max_steps`` steps, so a scan of
     ``n_episodes * max_steps`` steps always completes them; later steps are ignored.
 
     Greedy (``exploring`` None): dropout off, action = argmax Q. Exploring
-    (``exploring = (exploration config, episodes trained)``): each strategy explores
+    (``exploring`` = the episodes trained): each strategy explores
     as at the end of its training, through the trainer's own
     :func:`jaxnav.dqn.explore_action` (EBE with probability H(s), epsilon-greedy with
     the schedule's last epsilon, Boltzmann sampling softmax(Q / T)); the environment's
@@ -98,15 +101,16 @@ def make_rollout(
 
     # One scan body over one explicit carry, read top to bottom: ACT, STEP ENV, RECORD.
 
-    def act(params, obs, key, strategy):
+    def act(params, obs, key, strategy, hyper):
         q = network.apply(params, obs)  # dropout off (Keras predict)
         if exploring is None:
             return jnp.argmax(q, axis=-1).astype(jnp.int32)
-        x, episodes = exploring
-        action, _ = explore_action(strategy, jax.random.fold_in(key, 1), q, jnp.int32(episodes), x)
+        k_act, episodes = jax.random.fold_in(key, 1), jnp.int32(exploring)
+        action, _ = explore_action(strategy, k_act, q, episodes, hyper)
         return action.astype(jnp.int32)
 
-    def rollout(params, key: chex.PRNGKey, strategy, env_params: EnvParams) -> Rollout:
+    def rollout(params, key: chex.PRNGKey, strategy, hyper: Hyper, env_params: EnvParams):
+        env_params = hyper.env_params(env_params)
         k_reset, key = jax.random.split(key)
         obs, state = env.reset(k_reset, env_params)
         zeros_f = jnp.zeros(E, jnp.float32)
@@ -125,7 +129,7 @@ def make_rollout(
             obs, state, key, ep, cur_ret, cur_goals, (rets, goals, coll, lens) = carry
             key, k_step = jax.random.split(key)
             # ACT: greedy, or the strategy's own exploration.
-            action = act(params, obs, k_step, strategy)
+            action = act(params, obs, k_step, strategy, hyper)
             # STEP ENV (auto-reset keeps the goal, restarts at the start pose).
             obs2, state2, reward, terminated, truncated, info = env.step(
                 k_step, state, action, env_params
@@ -197,7 +201,7 @@ def _compiled_rollout(
 ):
     """jit(vmap(rollout)) over runs, one per setting: equal shapes never recompile."""
     rollout = make_rollout(env, network, n_episodes, max_steps, record, exploring)
-    return jax.jit(jax.vmap(rollout, in_axes=(0, 0, 0, None)))
+    return jax.jit(jax.vmap(rollout, in_axes=(0, 0, 0, 0, None)))
 
 
 def run_tests(
@@ -210,19 +214,18 @@ def run_tests(
     """One vmapped rollout of every policy per maze in a test ``mode``; NumPy results."""
     if mode not in MODES:
         raise ValueError(f"unknown test mode {mode!r}")
-    exploring = None
-    if mode == "exploring":
-        exploring = (policies.exploration, policies.episodes_trained)
+    exploring = policies.episodes_trained if mode == "exploring" else None
     # The run axis is laid over every device, as in training.
     shard = RunSharding(len(policies.labels))
     params = shard.put(jax.tree.map(np.asarray, policies.params))
     keys = shard.put(np.asarray(eval_keys(policies.labels)))
-    strategy = shard.put(np.asarray([STRATEGIES.index(s) for s, _ in policies.labels], np.int32))
+    strategy = shard.put(np.asarray(policies.strategy, np.int32))
+    hyper = shard.put(jax.tree.map(np.asarray, policies.hyper))
     max_steps = int(policies.env_params.max_steps)
     fn = _compiled_rollout(policies.env, policies.network, n_episodes, max_steps, record, exploring)
     out = []
     for maze in mazes:
-        res = fn(params, keys, strategy, policies.env_params.replace(maze=maze))
+        res = fn(params, keys, strategy, hyper, policies.env_params.replace(maze=maze))
         out.append(shard.get(res))
     return out
 

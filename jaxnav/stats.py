@@ -116,6 +116,14 @@ def probability_of_improvement_ci(x, y, confidence: float = CONFIDENCE) -> Inter
     return Interval(value, *_percentile_ci(bs, _p_greater, confidence))
 
 
+def side(p: Interval) -> int:
+    """Where the interval of P(X > Y) lies: 1 above 0.5 (X better), -1 below (Y
+    better), 0 across it or without an interval (no detectable difference)."""
+    if math.isnan(p.low):
+        return 0
+    return 1 if p.low > 0.5 else -1 if p.high < 0.5 else 0
+
+
 def seeds_to_resolve(p: Interval, n_seeds: int) -> float:
     """Seeds per strategy at which an interval like ``p`` would exclude 0.5.
 

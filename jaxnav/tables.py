@@ -8,14 +8,16 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from jaxnav import stats
-from jaxnav.config import PAPER_STRATEGIES, STRATEGIES
+from jaxnav.config import PAPER_STRATEGIES
 from jaxnav.errors import RunError
 from jaxnav.paper import PAPER_TABLES
 from jaxnav.results import (
     MODE_NAMES,
-    STRATEGY_NAMES,
     UNPERTURBED,
     RobustnessRow,
+    arm_strategy,
+    arms_in,
+    display_name,
     ordered_unique,
     per_seed_scores,
     read_results,
@@ -23,6 +25,7 @@ from jaxnav.results import (
     result_modes,
     robustness_summary,
 )
+from jaxnav.sweep import row_arm
 
 
 def _pm(mean: float, std: float) -> str:
@@ -84,7 +87,7 @@ def tables_markdown(
             "in the training environment's settings (dropout off).",
             "",
         ]
-        sections = _paper_form_section(t) + _across_seeds_section(t)
+        sections = _paper_form_section(t) + _across_seeds_section(t) + _sweep_section(t)
         if set(PAPER_STRATEGIES) <= set(t.strategies):
             sections += _improvement_section(t)
         sections += _beside_paper_section(t, train_maze)
@@ -94,7 +97,7 @@ def tables_markdown(
 
 
 def _test(results: dict, first_seed: int) -> _Test:
-    strategies = [s for s in STRATEGIES if any(k[1] == s for k in results)]
+    strategies = arms_in(k[1] for k in results)
     seeds = sorted({k[2] for k in results})
     return _Test(
         results=results,
@@ -102,7 +105,7 @@ def _test(results: dict, first_seed: int) -> _Test:
         strategies=strategies,
         seeds=seeds,
         seed0=first_seed if first_seed in seeds else seeds[0],
-        names=[STRATEGY_NAMES[s] for s in strategies],
+        names=[display_name(s) for s in strategies],
     )
 
 
@@ -150,7 +153,7 @@ def _across_seeds_section(t: _Test) -> list[str]:
             rows.append(
                 [
                     m,
-                    STRATEGY_NAMES[s],
+                    display_name(s),
                     _ci(stats.mean_ci(x)),
                     _ci(stats.iqm_ci(x)),
                     f"{goals.mean():.2f}",
@@ -162,6 +165,151 @@ def _across_seeds_section(t: _Test) -> list[str]:
         rows,
     )
     return L
+
+
+class SweepComparison(NamedTuple):
+    """P(x > y) over seeds of two arms' scores, with the verdict of its interval."""
+
+    x: str
+    y: str
+    p: stats.Interval
+    side: int  # stats.side: 1 x better, -1 y better, 0 no detectable difference
+
+
+class SweepSummary(NamedTuple):
+    """A swept run's test in one mode: per arm the per-seed scores (mean return over
+    the test episodes, averaged over the mazes), each strategy's best arm, each arm
+    against epsilon-greedy, and the strategies' best arms against each other."""
+
+    arms: list[str]
+    scores: dict[str, np.ndarray]
+    best: dict[str, str]  # strategy -> its arm with the highest mean score
+    against_eps: dict[str, SweepComparison]  # arm -> it against epsilon-greedy
+    best_against_best: list[SweepComparison]
+
+
+def sweep_summary(t: _Test) -> SweepSummary | None:
+    """The summary of a swept run's test (None without a sweep)."""
+    if all(s == arm_strategy(s) for s in t.strategies):
+        return None
+    score = {s: np.mean([t.scores(m, s) for m in t.mazes], axis=0) for s in t.strategies}
+    best: dict[str, str] = {}
+    for s in t.strategies:
+        strategy = arm_strategy(s)
+        if strategy not in best or score[s].mean() > score[best[strategy]].mean():
+            best[strategy] = s
+
+    def compare(x: str, y: str) -> SweepComparison:
+        p = stats.probability_of_improvement_ci(score[x], score[y])
+        return SweepComparison(x, y, p, stats.side(p))
+
+    eps = best.get("epsilon_greedy")
+    against = {s: compare(s, eps) for s in t.strategies if eps and arm_strategy(s) != eps}
+    bests = [a for s, a in best.items() if s != "epsilon_greedy"]
+    pairs = [compare(a, b) for i, a in enumerate(bests) for b in bests[i + 1 :]]
+    return SweepSummary(list(t.strategies), score, best, against, pairs)
+
+
+def sweep_answers(summary: SweepSummary) -> list[str]:
+    """The questions a sweep answers, in sentences computed from ``summary``: at which
+    points each strategy beats epsilon-greedy (or loses to it), and how the
+    strategies' best points compare."""
+    lines = []
+    for strategy in (s for s in summary.best if s != "epsilon_greedy"):
+        arms = [a for a in summary.arms if arm_strategy(a) == strategy]
+        if not summary.against_eps:
+            break
+        won = [_point(a) for a in arms if summary.against_eps[a].side == 1]
+        lost = [_point(a) for a in arms if summary.against_eps[a].side == -1]
+        name = display_name(strategy)
+        text = f"{name} beats epsilon-greedy at " + (
+            ", ".join(won) if won else "none of its points"
+        )
+        if lost:
+            text += f"; epsilon-greedy beats it at {', '.join(lost)}"
+        others = len(arms) - len(won) - len(lost)
+        if others:
+            text += f"; no detectable difference at {'the other ' if won or lost else ''}{others}"
+            text += " point" + ("s" if others > 1 else "")
+        lines.append(text + ".")
+    for c in summary.best_against_best:
+        verdict = {1: "is better than", -1: "is worse than", 0: "is not detectably different from"}
+        p = _ci(c.p, 2)
+        lines.append(
+            f"{display_name(c.x)} (the best {display_name(arm_strategy(c.x))} point) "
+            f"{verdict[c.side]} {display_name(c.y)} (the best "
+            f"{display_name(arm_strategy(c.y))} point): P = {p}."
+        )
+    return lines
+
+
+def _point(arm: str) -> str:
+    return arm.partition(" ")[2] or arm
+
+
+def _sweep_section(t: _Test) -> list[str]:
+    """A swept run: each strategy's return at each sweep point, its best point, and
+    each point against epsilon-greedy and the strategies' best points against each
+    other (empty without a sweep)."""
+    summary = sweep_summary(t)
+    if summary is None:
+        return []
+    mazes = t.mazes if len(t.mazes) > 1 else []
+    L = [
+        "",
+        "## Sweep: return at each point",
+        "",
+        "Mean over seeds of the per-seed score [95% CI]"
+        + (" on each maze and averaged over the mazes" if mazes else "")
+        + "; the best point of each strategy (highest mean) in bold. P(point > epsilon-"
+        "greedy): rliable's probability of improvement with its bootstrap CI; the verdict "
+        "says which is better when the interval excludes 0.5, else no detectable difference.",
+        "",
+    ]
+    rows = []
+    for s in t.strategies:
+        mark = "**" if summary.best[arm_strategy(s)] == s and s != arm_strategy(s) else ""
+        row = [f"{mark}{display_name(s)}{mark}"]
+        row += [_ci(stats.mean_ci(t.scores(m, s))) for m in mazes]
+        row.append(_ci(stats.mean_ci(summary.scores[s])))
+        if summary.against_eps:
+            c = summary.against_eps.get(s)
+            row += ["", ""] if c is None else [_ci(c.p, 2), _better(c)]
+        rows.append(row)
+    header = ["arm"] + mazes + ["all mazes" if mazes else "mean [95% CI]"]
+    if summary.against_eps:
+        header += ["P(arm > epsilon-greedy) [95% CI]", "verdict"]
+    L += _table(header, rows)
+    if summary.best_against_best:
+        L += [
+            "",
+            "Best points against each other (each chosen as the best of its strategy on "
+            "these same seeds, which flatters both):",
+            "",
+        ]
+        rows = [
+            [display_name(c.x), display_name(c.y), _ci(c.p, 2), _better(c)]
+            for c in summary.best_against_best
+        ]
+        L += _table(["X", "Y", "P(X > Y) [95% CI]", "verdict"], rows)
+    return L + ["", "In words:", ""] + [f"- {line}" for line in sweep_answers(summary)]
+
+
+def sweep_markdown(results_csv: str, first_seed: int) -> list[str]:
+    """The sweep section of every test mode of results.csv text, each under a
+    ``### Test mode`` heading (empty without a sweep)."""
+    L: list[str] = []
+    for mode in result_modes(results_csv):
+        section = _sweep_section(_test(read_results(results_csv, mode), first_seed))
+        if section:
+            L += ["", f"### Test mode: {MODE_NAMES[mode]}"]
+            L += [line for line in section[3:]]  # without its own heading
+    return L
+
+
+def _better(c: SweepComparison) -> str:
+    x, y = display_name(c.x), display_name(c.y)
+    return {1: f"{x} better", -1: f"{y} better", 0: "no detectable difference"}[c.side]
 
 
 def _improvement_section(t: _Test) -> list[str]:
@@ -228,9 +376,9 @@ def training_markdown(metrics_rows: list[dict[str, str]], last: int = 50) -> str
     each a mean over seeds with a 95% bootstrap CI."""
     by: dict[str, dict[int, list[dict[str, str]]]] = {}
     for r in metrics_rows:
-        by.setdefault(r["strategy"], {}).setdefault(int(r["seed"]), []).append(r)
+        by.setdefault(row_arm(r), {}).setdefault(int(r["seed"]), []).append(r)
     rows = []
-    for s in (s for s in STRATEGIES if s in by):
+    for s in arms_in(by):
         per_seed = [sorted(eps, key=lambda r: int(r["episode"])) for eps in by[s].values()]
 
         def mean_of(column, eps_of, per_seed=per_seed):
@@ -239,7 +387,7 @@ def training_markdown(metrics_rows: list[dict[str, str]], last: int = 50) -> str
         tail = lambda e: e[-last:]  # noqa: E731
         rows.append(
             [
-                STRATEGY_NAMES[s],
+                display_name(s),
                 str(len(per_seed)),
                 _ci(stats.mean_ci(mean_of("return", tail)), 0),
                 _ci(stats.mean_ci(mean_of("goals", tail)), 2),
@@ -340,7 +488,7 @@ def _robustness_row(r: RobustnessRow, perturbations: dict[str, dict[str, Any]]) 
     return [
         r.perturbation,
         setting,
-        STRATEGY_NAMES[r.strategy],
+        display_name(r.strategy),
         _ci(r.mean),
         "" if r.change is None else _signed_ci(r.change),
         "" if np.isnan(r.change_pct) else f"{r.change_pct:+.0f}%",

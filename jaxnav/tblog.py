@@ -23,6 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from jaxnav.errors import ConfigError
+from jaxnav.sweep import row_arm
 
 DIR = "tensorboard"
 BLOCK = 100  # env steps per point of the step curves
@@ -47,7 +48,8 @@ class TensorBoardLog:
     """Per-strategy curves, aggregated over seeds, into ``run_dir/tensorboard``.
 
     Args:
-      labels: (strategy, seed) of each run, the run axis's order.
+      labels: (arm, seed) of each run, the run axis's order; an arm is a strategy, or
+        a strategy at a sweep point (curves are tagged and averaged per arm).
       columns: the names of a metrics row's fields (metrics.csv's header).
       resumed: training goes on from a checkpoint at env step ``first_step``: what was
         written before is purged, the episode curves from episode 0 (the caller adds
@@ -63,6 +65,7 @@ class TensorBoardLog:
         first_step: int = 0,
     ):
         self.labels = list(labels)
+        self.columns = list(columns)
         self.column = {name: list(columns).index(name) for name in ("strategy", "episode")}
         self.column.update({name: list(columns).index(name) for name in EPISODE_CURVES})
         self.seeds: dict[str, int] = {}
@@ -77,7 +80,7 @@ class TensorBoardLog:
         are written once every seed has it."""
         c = self.column
         for row in rows:
-            key = (row[c["strategy"]], int(row[c["episode"]]))
+            key = (row_arm(dict(zip(self.columns, row))), int(row[c["episode"]]))
             got = self.pending.setdefault(key, [])
             got.append(row)
             if len(got) == self.seeds[key[0]]:

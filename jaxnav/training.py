@@ -23,14 +23,17 @@ from typing import Any
 import jax
 import numpy as np
 
-from jaxnav import replay, rundir, tblog
+from jaxnav import replay, rundir, sweep, tblog
 from jaxnav.config import Config, dump_config, load_config
-from jaxnav.dqn import TrainState, make_trainer, run_keys, run_limits, still_training
+from jaxnav.dqn import TrainState, make_trainer, run_inputs, run_limits, still_training
 from jaxnav.errors import RunError
 from jaxnav.sharding import RunSharding, is_writer
 
+# A swept run's logs have one more column per swept key, named by it, after "strategy"
+# (jaxnav.sweep.with_swept).
 METRIC_COLUMNS = ("strategy", "seed", "episode", "return", "length", "goals", "collided", "explore")
 EXPLORE_COLUMNS = ("strategy", "seed", "step", "explore")
+
 EXPLORE_BLOCK = 100  # env steps averaged per row of explore.csv
 PROGRESS_EPISODES = 20  # episodes per seed in the progress bar's mean return
 
@@ -145,11 +148,13 @@ class Run:
         if cfg.run.tensorboard:
             tblog.check_available()
         self.trainer = make_trainer(cfg)
-        self.labels = cfg.run_labels()
+        self.labels = cfg.run_labels()  # (arm name, seed)
+        self.fields = cfg.run_fields()  # the logs' leading fields of each run
         # The run axis of every array is laid over all devices.
         self.shard = RunSharding(cfg.n_runs)
         sharding = self.shard.sharding
         self.init = jax.jit(jax.vmap(self.trainer.init), out_shardings=sharding)
+        self.metric_columns = sweep.with_swept(METRIC_COLUMNS, cfg.sweep)
         self.chunk = jax.jit(
             jax.vmap(self.trainer.chunk, in_axes=(0, None)),
             donate_argnums=0,
@@ -158,8 +163,10 @@ class Run:
         self.rows_at = jax.jit(rows_at)
         self.segments = 0  # row segments the last checkpoint covers
         out = Path(".") if out is None else out
-        self.metrics = rundir.CsvLog(out / rundir.METRICS, METRIC_COLUMNS)
-        self.explore = rundir.CsvLog(out / rundir.EXPLORE, EXPLORE_COLUMNS)
+        self.metrics = rundir.CsvLog(out / rundir.METRICS, self.metric_columns)
+        self.explore = rundir.CsvLog(
+            out / rundir.EXPLORE, sweep.with_swept(EXPLORE_COLUMNS, cfg.sweep)
+        )
         self.checkpoint = out / rundir.CHECKPOINT
         self.logged = np.zeros(cfg.n_runs, np.int64)  # episodes written per run
         self.recent: dict[tuple[str, int], list[float]] = {label: [] for label in self.labels}
@@ -169,13 +176,12 @@ class Run:
     # -- state ---------------------------------------------------------------
 
     def fresh_state(self) -> TrainState:
-        keys, strat = self.shard.put(jax.tree.map(np.asarray, run_keys(self.cfg)))
-        return self.init(keys, strat)
+        return self.init(*self.shard.put(tuple(run_inputs(self.cfg))))
 
     def restored_state(self) -> TrainState:
         """The last checkpoint's state, the logs cut back to what it covers."""
         cfg = self.cfg
-        template = jax.eval_shape(jax.vmap(self.trainer.init), *run_keys(cfg))
+        template = jax.eval_shape(jax.vmap(self.trainer.init), *run_inputs(cfg))
         template = jax.tree.map(lambda s: np.zeros((cfg.n_runs, *s.shape[1:]), s.dtype), template)
         arrays = rundir.read_npz(self.checkpoint, f"checkpoint {self.checkpoint}")
         host = {k[5:]: v for k, v in arrays.items() if k.startswith("host.")}
@@ -196,7 +202,7 @@ class Run:
             self.metrics.truncate(metrics_size)
             self.explore.truncate(explore_size)
         for row in self.metrics.read():
-            self.recent[(row["strategy"], int(row["seed"]))].append(float(row["return"]))
+            self.recent[(sweep.row_arm(row), int(row["seed"]))].append(float(row["return"]))
         return self.shard.put(ts)
 
     def active(self, ts: TrainState) -> np.ndarray:
@@ -239,15 +245,14 @@ class Run:
         m, episodes = self.shard.get((ts.metrics, ts.episode))
         slots = self.trainer.metric_slots
         rows = []
-        for r, (strategy, seed) in enumerate(self.labels):
+        for r, label in enumerate(self.labels):
             for e in range(self.logged[r], episodes[r]):
                 i = e % slots
                 ret = float(m.ep_return[r, i])
-                self.recent[(strategy, seed)].append(ret)
+                self.recent[label].append(ret)
                 rows.append(
                     (
-                        strategy,
-                        seed,
+                        *self.fields[r],
                         e,
                         f"{ret:.6g}",
                         int(m.ep_length[r, i]),
@@ -263,14 +268,14 @@ class Run:
         """explore.csv rows: mean exploration per block of steps; ``explore`` is
         [n_runs, chunk_steps], NaN once a run has finished."""
         rows = []
-        for r, (strategy, seed) in enumerate(self.labels):
+        for r, fields in enumerate(self.fields):
             col = explore[r]
             for b in range(0, col.shape[0], EXPLORE_BLOCK):
                 block = col[b : b + EXPLORE_BLOCK]
                 block = block[~np.isnan(block)]
                 if len(block):
                     mean = float(block.mean())
-                    rows.append((strategy, seed, int(step_before[r]) + b, f"{mean:.6g}"))
+                    rows.append((*fields, int(step_before[r]) + b, f"{mean:.6g}"))
         return rows
 
     def save(
@@ -318,11 +323,11 @@ class Run:
 
     def progress_text(self, steps_per_s: float) -> str:
         parts = []
-        for s in self.cfg.strategies:
+        for s in self.cfg.arm_names():
             recent = [
                 x
-                for (strategy, _), returns in self.recent.items()
-                if strategy == s
+                for (arm, _), returns in self.recent.items()
+                if arm == s
                 for x in returns[-PROGRESS_EPISODES:]
             ]
             if recent:
@@ -363,9 +368,10 @@ class Run:
             return None
         step = int(self.shard.get(ts.step).max())
         resumed = step > 0
-        tb = tblog.TensorBoardLog(self.out, self.labels, METRIC_COLUMNS, resumed, step)
+        columns = self.metric_columns
+        tb = tblog.TensorBoardLog(self.out, self.labels, columns, resumed, step)
         if resumed and self.metrics.size():
-            tb.add_episodes([tuple(r[c] for c in METRIC_COLUMNS) for r in self.metrics.read()])
+            tb.add_episodes([tuple(r[c] for c in columns) for r in self.metrics.read()])
         return tb
 
     def train(self, ts: TrainState) -> TrainState:
@@ -427,7 +433,7 @@ class Run:
             f"on {jax.default_backend()}",
             "devices": self.shard.n_devices,
             "processes": jax.process_count(),
-            "last50": last50(self.metrics.read(), self.cfg.strategies) if is_writer() else {},
+            "last50": last50(self.metrics.read(), self.cfg.arm_names()) if is_writer() else {},
             "diverged": self.diverged_runs(),
         }
         params = self.shard.get(ts.params)  # every process: collective across hosts
@@ -441,13 +447,14 @@ class Run:
         return summary
 
 
-def last50(rows: list[dict[str, str]], strategies) -> dict[str, dict[str, float]]:
-    """Mean over seeds of each seed's last 50 training episodes (from metrics.csv)."""
+def last50(rows: list[dict[str, str]], arms) -> dict[str, dict[str, float]]:
+    """Mean over seeds of each seed's last 50 training episodes (from metrics.csv), per
+    arm (strategy, or strategy at a sweep point)."""
     out = {}
-    for s in strategies:
+    for s in arms:
         per_seed: dict[int, list[tuple[int, float, float]]] = {}
         for r in rows:
-            if r["strategy"] == s:
+            if sweep.row_arm(r) == s:
                 per_seed.setdefault(int(r["seed"]), []).append(
                     (int(r["episode"]), float(r["return"]), float(r["goals"]))
                 )

@@ -21,7 +21,7 @@ from jaxnav.dqn import (
     make_train,
     make_trainer,
     normalised_entropy,
-    run_keys,
+    run_inputs,
     run_limits,
     still_training,
     td_loss,
@@ -184,11 +184,15 @@ def _tiny(*overrides):
     )
 
 
+def _run(inputs, r: int):
+    """Trainer.init's arguments of run r."""
+    return jax.tree.map(lambda a: a[r], tuple(inputs))
+
+
 def test_target_sync_every_n_steps():
     cfg = _tiny("dqn.target_update_every=5", "dqn.learning_starts=1")
     tr = make_trainer(cfg)
-    keys, strat = run_keys(cfg)
-    ts = tr.init(keys[0], strat[0])
+    ts = tr.init(*_run(run_inputs(cfg), 0))
     step = jax.jit(tr.step)
     for n in range(1, 12):
         ts, _ = step(ts, None)
@@ -211,8 +215,7 @@ def test_robotis_target_is_the_online_net_in_warm_up_then_last_episode_ends_copy
         "episodes=100",
     )
     tr = make_trainer(cfg)
-    keys, strat = run_keys(cfg)
-    ts = tr.init(keys[0], strat[0])
+    ts = tr.init(*_run(run_inputs(cfg), 0))
     init_params = ts.target_params
     step = jax.jit(tr.step)
     copies = 0
@@ -243,8 +246,7 @@ def test_robotis_target_is_the_online_net_in_warm_up_then_last_episode_ends_copy
 def test_learning_starts_after_enough_transitions():
     cfg = _tiny("dqn.learning_starts=4")
     tr = make_trainer(cfg)
-    keys, strat = run_keys(cfg)
-    ts0 = tr.init(keys[0], strat[0])
+    ts0 = tr.init(*_run(run_inputs(cfg), 0))
     step = jax.jit(tr.step)
     ts = ts0
     for n in range(1, 6):
@@ -258,9 +260,9 @@ def test_learning_starts_after_enough_transitions():
 def test_seeds_differ_and_strategies_share_the_seed_init():
     cfg = _tiny()
     tr = make_trainer(cfg)
-    keys, strat = run_keys(cfg)
-    assert list(np.asarray(strat)) == [0, 0, 1, 1]
-    ts = jax.vmap(tr.init)(keys, strat)
+    inputs = run_inputs(cfg)
+    assert list(np.asarray(inputs.strategy)) == [0, 0, 1, 1]
+    ts = jax.vmap(tr.init)(*inputs)
     k = ts.params["params"]["Dense_0"]["kernel"]
     assert not np.allclose(k[0], k[1])  # seed 0 vs seed 1
     np.testing.assert_array_equal(k[0], k[2])  # ebe and epsilon-greedy on seed 0
@@ -268,7 +270,7 @@ def test_seeds_differ_and_strategies_share_the_seed_init():
 
 def test_dropout16_drops_the_rate_and_rescales_the_rest():
     x = jnp.ones((64, 64 * 64 + 1))  # odd size: the last 32-bit draw is half used
-    y = np.asarray(jax.jit(dropout16, static_argnums=2)(jax.random.PRNGKey(0), x, 0.2))
+    y = np.asarray(jax.jit(dropout16)(jax.random.PRNGKey(0), x, 0.2))
     dropped = y == 0.0
     assert abs(dropped.mean() - 0.2) < 0.005  # 262k units: 4 standard deviations ~ 0.003
     np.testing.assert_allclose(y[~dropped], 1.0 / 0.8, rtol=1e-6)
@@ -282,8 +284,8 @@ def test_dropout16_drops_the_rate_and_rescales_the_rest():
 def test_trainer_acts_with_the_tested_exploration_functions(strategy):
     cfg = _tiny("strategies=[ebe, epsilon_greedy, boltzmann]")  # one program, three strategies
     tr = make_trainer(cfg)
-    keys, _ = run_keys(cfg)
-    ts = tr.init(keys[0], STRATEGIES.index(strategy))
+    r = [s for s, _ in cfg.run_labels()].index(strategy)
+    ts = tr.init(*_run(run_inputs(cfg), r))
     ts = ts.replace(episode=jnp.int32(2))  # eps below eps_start
     new, log = jax.jit(tr.step)(ts, None)
     explore = log.explore
@@ -315,17 +317,16 @@ def test_still_training_is_one_rule_for_numpy_and_jax():
     assert run_limits(_tiny()) == (3, never)
     assert run_limits(_tiny("episodes=null", "total_steps=100")) == (never, 100)
     tr = make_trainer(_tiny())
-    keys, strat = run_keys(tr.config)
-    ts = tr.init(keys[0], strat[0]).replace(episode=jnp.int32(3))
+    ts = tr.init(*_run(run_inputs(tr.config), 0)).replace(episode=jnp.int32(3))
     assert not bool(tr.active(ts))
 
 
 def test_make_train_gives_the_state_of_repeated_chunks():
     cfg = _tiny("seeds=1", "episodes=2", "env.max_steps=20", "run.chunk_steps=16")
     tr = make_trainer(cfg)
-    keys, strat = run_keys(cfg)
-    final = jax.jit(jax.vmap(make_train(cfg)))(keys, strat)
-    ts = jax.jit(jax.vmap(tr.init))(keys, strat)
+    inputs = run_inputs(cfg)
+    final = jax.jit(jax.vmap(make_train(cfg)))(*inputs)
+    ts = jax.jit(jax.vmap(tr.init))(*inputs)
     chunk, chunks = jax.jit(jax.vmap(tr.chunk)), 0
     while np.asarray(jax.vmap(tr.active)(ts)).any():
         ts, _ = chunk(ts)

@@ -14,7 +14,7 @@ import pytest
 
 from jaxnav import rundir
 from jaxnav.config import load_config
-from jaxnav.dqn import make_train, run_keys
+from jaxnav.dqn import make_train, run_inputs
 from jaxnav.env import from_config
 from jaxnav.train import main
 from jaxnav.training import Run, chunk_slots, train_new
@@ -123,7 +123,7 @@ def test_same_seed_same_numbers_and_seeds_differ(smoke_run, tmp_path):
 def test_compiled_train_function_matches_the_host_loop(tmp_path):
     cfg = load_config(None, TINY)
     train_new(cfg, tmp_path / "run", quiet=True)
-    final = jax.jit(jax.vmap(make_train(cfg)))(*run_keys(cfg))
+    final = jax.jit(jax.vmap(make_train(cfg)))(*run_inputs(cfg))
     assert np.all(np.asarray(final.episode) == cfg.episodes)
     p = _params(tmp_path / "run")
     k = np.asarray(final.params["params"]["Dense_2"]["kernel"])

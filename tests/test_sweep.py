@@ -1,0 +1,311 @@
+"""Sweeps: a grid of settings trained as data in one compiled program."""
+
+import csv
+import dataclasses
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from jaxnav import dqn, sweep
+from jaxnav.config import STRATEGIES, load_config
+from jaxnav.errors import ConfigError
+from jaxnav.evaluation import evaluate_to_dir
+from jaxnav.plots import make_plots
+from jaxnav.training import Run, resume, train_new
+
+TINY = [
+    "seeds=2",
+    "episodes=6",
+    "env.max_steps=80",
+    "run.chunk_steps=120",
+    "dqn.batch_size=16",
+    "run.test_mazes=[square4]",
+    "run.test_episodes=2",
+]
+
+
+def _rows(path):
+    with open(path) as f:
+        return list(csv.DictReader(f))
+
+
+def _params(run_dir):
+    with np.load(run_dir / "params.npz") as d:
+        return {k: d[k] for k in d.files}
+
+
+# ----------------------------------------------------------------------------
+# The config
+# ----------------------------------------------------------------------------
+
+
+def test_several_keys_form_their_grid_first_key_slowest():
+    cfg = load_config(None, ["sweep.dqn.lr=[1e-3, 1e-4]", "sweep.dqn.gamma=[0.9, 0.99, 0.5]"])
+    points = cfg.points()
+    assert len(points) == 6
+    assert points[0] == (("dqn.lr", 1e-3), ("dqn.gamma", 0.9))
+    assert points[1] == (("dqn.lr", 1e-3), ("dqn.gamma", 0.99))
+    assert points[3] == (("dqn.lr", 1e-4), ("dqn.gamma", 0.9))
+    assert cfg.n_runs == 6 * 2 * cfg.seeds  # two strategies
+    assert cfg.at(points[4]).dqn.lr == 1e-4 and cfg.at(points[4]).dqn.gamma == 0.99
+
+
+def test_a_strategy_varies_only_the_swept_keys_it_reads():
+    cfg = load_config(
+        None,
+        [
+            "seeds=3",
+            "strategies=[ebe, boltzmann, epsilon_greedy]",
+            "sweep.exploration.ebe_temperature=[0.1, 1]",
+            "sweep.exploration.boltzmann_temperature=[0.3, 3]",
+            "sweep.dqn.lr=[1e-3, 1e-4]",
+        ],
+    )
+    arms = cfg.arm_names()
+    assert arms == [
+        "ebe ebe_temperature=0.1 lr=0.001",
+        "ebe ebe_temperature=0.1 lr=0.0001",
+        "ebe ebe_temperature=1 lr=0.001",
+        "ebe ebe_temperature=1 lr=0.0001",
+        "boltzmann boltzmann_temperature=0.3 lr=0.001",
+        "boltzmann boltzmann_temperature=0.3 lr=0.0001",
+        "boltzmann boltzmann_temperature=3 lr=0.001",
+        "boltzmann boltzmann_temperature=3 lr=0.0001",
+        "epsilon_greedy lr=0.001",
+        "epsilon_greedy lr=0.0001",
+    ]
+    assert cfg.n_runs == 10 * 3
+    # The logs leave the keys a strategy does not read empty, and name the arm back.
+    fields = cfg.run_fields()
+    header = sweep.with_swept(("strategy", "seed"), cfg.sweep)
+    for (arm, seed), f in zip(cfg.run_labels(), fields):
+        assert sweep.row_arm(dict(zip(header, map(str, f)))) == arm
+        assert f[-1] == seed
+
+
+class _Reads:
+    """An exploration settings object that records which names are read."""
+
+    def __init__(self):
+        self.read = set()
+
+    def __getattr__(self, name):
+        self.read.add(name)
+        return getattr(load_config(None).exploration, name)
+
+
+@pytest.mark.parametrize("strategy", STRATEGIES)
+def test_each_strategy_reads_exactly_its_listed_settings(strategy):
+    reads = _Reads()
+    q = jnp.asarray([0.1, 0.5, 0.2, 0.0, 0.3])
+    dqn.EXPLORATION[strategy](jax.random.PRNGKey(0), q, jnp.int32(3), reads)
+    listed = {k.split(".", 1)[1] for k in sweep.EXPLORATION_KEYS[strategy]}
+    assert reads.read == listed
+
+
+def test_every_sweepable_key_is_one_field_of_the_run_settings():
+    fields = {f.name for f in dataclasses.fields(dqn.Hyper)}
+    assert {k.rsplit(".", 1)[1] for k in sweep.SWEEPABLE} == fields
+
+
+@pytest.mark.parametrize(
+    "item, message",
+    [
+        ("sweep.dqn.batch_size=[16, 32]", "sweep.dqn.batch_size cannot be swept"),
+        ("sweep.dqn.hidden=[[32], [64]]", "sweep.dqn.hidden cannot be swept"),
+        ("sweep.env.n_beams=[24, 360]", "sweep.env.n_beams cannot be swept"),
+        ("sweep.env.maze=[square4, square2]", "sweep.env.maze cannot be swept"),
+        ("sweep.env.beam_dropout=[0, 0.1]", "sweep.env.beam_dropout cannot be swept"),
+        ("sweep.seed=[0, 1]", "sweep.seed is not a sweep key"),
+        ("sweep.dqn.lr=0.001", "sweep.dqn.lr must be a non-empty list"),
+        ("sweep.dqn.lr=[]", "sweep.dqn.lr must be a non-empty list"),
+        ("sweep.dqn.lr=[0.001, -1]", "sweep.dqn.lr must be positive"),
+        ("sweep.dqn.lr=[0.1, 0.1]", "sweep.dqn.lr lists a value twice"),
+        ("sweep.dqn.lr=[fast]", "sweep.dqn.lr must be a number"),
+        ("sweep.dqn.lrr=[0.1]", "unknown key 'dqn.lrr' in sweep"),
+        ("sweep=3", "sweep must be a mapping"),
+    ],
+)
+def test_a_key_that_cannot_be_swept_is_refused_in_one_line(item, message):
+    with pytest.raises(ConfigError, match=message.replace("[", r"\[")) as e:
+        load_config(None, [item])
+    assert "\n" not in str(e.value)
+
+
+def test_a_swept_config_survives_its_config_yaml(tmp_path):
+    from jaxnav.config import dump_config
+
+    cfg = load_config(
+        None, ["sweep.exploration.ebe_temperature=[0.1, 1]", "sweep.env.R_plus=[500]"]
+    )
+    path = tmp_path / "config.yaml"
+    path.write_text(dump_config(cfg))
+    assert load_config(str(path)) == cfg
+    nested = tmp_path / "nested.yaml"  # the sweep may also be written as nested mappings
+    nested.write_text("sweep:\n  exploration:\n    ebe_temperature: [0.1, 1]\n")
+    assert load_config(str(nested)).sweep == (("exploration.ebe_temperature", (0.1, 1.0)),)
+
+
+# ----------------------------------------------------------------------------
+# Training
+# ----------------------------------------------------------------------------
+
+
+def test_a_sweep_of_one_value_equals_the_run_without_a_sweep_bit_for_bit(tmp_path):
+    plain = load_config(None, TINY)
+    swept = load_config(None, [*TINY, f"sweep.exploration.ebe_temperature=[{1.0}]"])
+    train_new(plain, tmp_path / "plain", quiet=True)
+    train_new(swept, tmp_path / "swept", quiet=True)
+    a, b = _rows(tmp_path / "plain" / "metrics.csv"), _rows(tmp_path / "swept" / "metrics.csv")
+    assert [r.pop("exploration.ebe_temperature") for r in b][:1] == ["1"]
+    assert a == b
+    pa, pb = _params(tmp_path / "plain"), _params(tmp_path / "swept")
+    renamed = {k.replace("ebe ebe_temperature=1/", "ebe/"): v for k, v in pb.items()}
+    assert pa.keys() == renamed.keys()
+    assert all(np.array_equal(pa[k], renamed[k]) for k in pa)
+
+
+def test_each_point_of_a_sweep_trains_as_the_run_of_its_values(tmp_path):
+    """Runs are independent along the run axis: a point of a 3-point sweep gives the
+    numbers of a separate run at that point's values (same seeds)."""
+    swept = load_config(None, [*TINY, "sweep.dqn.lr=[1e-3, 3e-4, 1e-4]", "sweep.env.R_plus=[500]"])
+    alone = load_config(None, [*TINY, "dqn.lr=3e-4", "env.R_plus=500"])
+    run, ts_swept = _train_state(swept)
+    assert run.chunk._cache_size() == 1  # one program for every point, no recompiling
+    _, ts_alone = _train_state(alone)
+    arms = swept.run_labels()
+    for r, (arm, seed) in enumerate(alone.run_labels()):
+        s = arms.index((f"{arm} lr=0.0003 R_plus=500", seed))
+        for a, b in zip(jax.tree.leaves(ts_alone.metrics), jax.tree.leaves(ts_swept.metrics)):
+            np.testing.assert_array_equal(np.asarray(a)[r], np.asarray(b)[s])
+    # and the points differ from each other
+    ret = np.asarray(ts_swept.metrics.ep_return)
+    assert not np.array_equal(ret[0], ret[swept.seeds])
+
+
+def _train_state(cfg):
+    """(the Run, its final state) of a run trained in memory, without files."""
+    run = Run(cfg, None, quiet=True)
+    ts = run.fresh_state()
+    while run.active(ts).any():
+        ts, _ = run.chunk(ts, np.int32(run.steps_needed(ts)))
+    return run, ts
+
+
+def test_the_command_trains_strategies_and_points_in_one_program(tmp_path, capsys):
+    from jaxnav.train import main
+
+    out = tmp_path / "run"
+    argv = [
+        *TINY,
+        "strategies=[ebe,boltzmann,epsilon_greedy]",
+        "sweep.exploration.ebe_temperature=[0.1,1.0]",
+        "--out",
+        str(out),
+        "--quiet",
+    ]
+    assert main(argv) == 0
+    text = capsys.readouterr().out
+    assert "ebe ebe_temperature=0.1" in text and "training curves:" in text
+    metrics = _rows(out / "metrics.csv")
+    assert list(metrics[0])[:3] == ["strategy", "exploration.ebe_temperature", "seed"]
+    arms = {(r["strategy"], r["exploration.ebe_temperature"]) for r in metrics}
+    assert arms == {("ebe", "0.1"), ("ebe", "1"), ("boltzmann", ""), ("epsilon_greedy", "")}
+    explore = _rows(out / "explore.csv")
+    assert list(explore[0])[:3] == ["strategy", "exploration.ebe_temperature", "seed"]
+    params = _params(out)
+    assert {k.split("/")[0] for k in params} == {
+        "ebe ebe_temperature=0.1",
+        "ebe ebe_temperature=1",
+        "boltzmann",
+        "epsilon_greedy",
+    }
+
+
+def test_a_swept_run_resumes_to_the_uninterrupted_result(tmp_path, monkeypatch):
+    cfg = load_config(None, [*TINY, "sweep.dqn.gamma=[0.9, 0.99]"])
+    train_new(cfg, tmp_path / "ref", quiet=True)
+    saves = []
+    save = Run.save
+
+    def save_then_die(self, *args, **kwargs):
+        save(self, *args, **kwargs)
+        saves.append(1)
+        if len(saves) == 2:
+            raise KeyboardInterrupt
+
+    monkeypatch.setattr(Run, "save", save_then_die)
+    with pytest.raises(KeyboardInterrupt):
+        train_new(cfg, tmp_path / "killed", quiet=True)
+    monkeypatch.undo()
+    assert not (tmp_path / "killed" / "params.npz").exists()
+    resume(tmp_path / "killed", quiet=True)
+    for name in ("metrics.csv", "explore.csv"):
+        ref = (tmp_path / "ref" / name).read_bytes()
+        assert (tmp_path / "killed" / name).read_bytes() == ref
+    a, b = _params(tmp_path / "ref"), _params(tmp_path / "killed")
+    assert a.keys() == b.keys() and all(np.array_equal(a[k], b[k]) for k in a)
+
+
+def test_a_swept_environment_setting_changes_the_reward_of_its_runs():
+    cfg = load_config(None, [*TINY, "sweep.env.R_minus=[-150, -1000]", "strategies=[ebe]"])
+    _, ts = _train_state(cfg)
+    m = ts.metrics
+    collided = np.asarray(m.ep_collided)
+    ret = np.asarray(m.ep_return)
+    # A collision's reward is the run's own R-: the -1000 runs lose ~850 more per crash.
+    mild, harsh = (ret[r][collided[r]] for r in (slice(0, cfg.seeds), slice(cfg.seeds, None)))
+    assert len(mild) and len(harsh)
+    assert harsh.mean() < mild.mean() - 400
+
+
+# ----------------------------------------------------------------------------
+# Testing, tables and figures
+# ----------------------------------------------------------------------------
+
+
+def test_evaluate_tables_and_plots_understand_a_sweep(tmp_path):
+    cfg = load_config(
+        None,
+        [
+            *TINY,
+            "strategies=[ebe, epsilon_greedy]",
+            "sweep.exploration.ebe_temperature=[0.1, 1]",
+        ],
+    )
+    out = tmp_path / "run"
+    train_new(cfg, out, quiet=True)
+    evaluate_to_dir(out)
+    results = _rows(out / "eval" / "results.csv")
+    assert list(results[0])[:3] == ["strategy", "exploration.ebe_temperature", "seed"]
+    assert {r["mode"] for r in results} == {"greedy", "exploring"}
+    tables = (out / "eval" / "tables.md").read_text()
+    assert "Sweep: return at each point" in tables
+    assert "EBE ebe_temperature=0.1" in tables and "P(arm > epsilon-greedy)" in tables
+    written = make_plots(out)
+    assert out / "plots" / "sweep.png" in written
+
+
+def test_exploring_test_uses_each_points_own_temperature(tmp_path):
+    """The exploring test of a point explores with that point's temperature: at a tiny
+    temperature EBE's entropy is near 0, so it acts almost greedily."""
+    from jaxnav.evaluation import load_run
+    from jaxnav.maps import make_maze
+    from jaxnav.rollout import run_tests
+
+    cfg = load_config(
+        None, [*TINY, "strategies=[ebe]", "sweep.exploration.ebe_temperature=[1e-4, 100]"]
+    )
+    out = tmp_path / "run"
+    train_new(cfg, out, quiet=True)
+    run = load_run(out)
+    hyper = run.policies.hyper
+    np.testing.assert_allclose(hyper.ebe_temperature, [1e-4, 1e-4, 100, 100], rtol=1e-6)
+    maze = [make_maze("square4")]
+    greedy = run_tests(run.policies, maze, 2, mode="greedy")[0]
+    exploring = run_tests(run.policies, maze, 2, mode="exploring")[0]
+    # T = 1e-4: the same episodes as greedy; T = 100: near-uniform random actions.
+    np.testing.assert_array_equal(exploring.ret[:2], greedy.ret[:2])
+    assert not np.array_equal(exploring.ret[2:], greedy.ret[2:])
