@@ -302,7 +302,7 @@ def sweep_markdown(results_csv: str, first_seed: int) -> list[str]:
     for mode in result_modes(results_csv):
         section = _sweep_section(_test(read_results(results_csv, mode), first_seed))
         if section:
-            L += ["", f"### Test mode: {MODE_NAMES[mode]}"]
+            L += ["", f"### Test mode: {MODE_NAMES[mode]}", ""]
             L += [line for line in section[3:]]  # without its own heading
     return L
 

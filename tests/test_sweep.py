@@ -11,8 +11,6 @@ import pytest
 from jaxnav import dqn, sweep
 from jaxnav.config import STRATEGIES, load_config
 from jaxnav.errors import ConfigError
-from jaxnav.evaluation import evaluate_to_dir
-from jaxnav.plots import make_plots
 from jaxnav.training import Run, resume, train_new
 
 TINY = [
@@ -266,26 +264,39 @@ def test_a_swept_environment_setting_changes_the_reward_of_its_runs():
 # ----------------------------------------------------------------------------
 
 
-def test_evaluate_tables_and_plots_understand_a_sweep(tmp_path):
-    cfg = load_config(
-        None,
-        [
-            *TINY,
-            "strategies=[ebe, epsilon_greedy]",
-            "sweep.exploration.ebe_temperature=[0.1, 1]",
-        ],
-    )
-    out = tmp_path / "run"
-    train_new(cfg, out, quiet=True)
-    evaluate_to_dir(out)
-    results = _rows(out / "eval" / "results.csv")
-    assert list(results[0])[:3] == ["strategy", "exploration.ebe_temperature", "seed"]
+def test_the_study_command_tests_tabulates_and_draws_a_sweep(tmp_path, capsys):
+    from jaxnav.study import main
+
+    out, doc = tmp_path / "study", tmp_path / "docs" / "temperature.md"
+    argv = [
+        "configs/temperature.yaml",
+        *TINY,
+        "sweep.exploration.ebe_temperature=[0.1, 1]",
+        "sweep.exploration.boltzmann_temperature=[0.3]",
+        "--out",
+        str(out),
+        "--doc",
+        str(doc),
+        "--quiet",
+    ]
+    assert main(argv) == 0
+    assert f"study: {out / 'study.md'}" in capsys.readouterr().out
+    results = _rows(out / "run" / "eval" / "results.csv")
+    columns = ["strategy", "exploration.ebe_temperature", "exploration.boltzmann_temperature"]
+    assert list(results[0])[:4] == [*columns, "seed"]
     assert {r["mode"] for r in results} == {"greedy", "exploring"}
-    tables = (out / "eval" / "tables.md").read_text()
-    assert "Sweep: return at each point" in tables
-    assert "EBE ebe_temperature=0.1" in tables and "P(arm > epsilon-greedy)" in tables
-    written = make_plots(out)
-    assert out / "plots" / "sweep.png" in written
+    tables = (out / "run" / "eval" / "tables.md").read_text()
+    assert "Sweep: return at each point" in tables and "P(arm > epsilon-greedy)" in tables
+    text = doc.read_text()
+    for mode in ("greedy", "exploring"):
+        assert f"### Test mode: {mode}" in text
+    assert "EBE ebe_temperature=0.1" in text and "Best points against each other" in text
+    assert "EBE beats epsilon-greedy at" in text  # the answers, in words
+    assert "![" in text and (doc.parent / "temperature-sweep.png").is_file()
+    assert (out / "sweep.png").is_file() and (out / "training_curves.png").is_file()
+    # A config without a sweep is refused in one line.
+    assert main(["configs/smoke.yaml", "--out", str(tmp_path / "none")]) == 2
+    assert "has no sweep" in capsys.readouterr().err
 
 
 def test_exploring_test_uses_each_points_own_temperature(tmp_path):
