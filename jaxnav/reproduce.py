@@ -191,7 +191,9 @@ def check_request(out: Path, seeds: int, sizes: dict[str, int | None], resume_ok
 def train_stage(name: str, cfg: Config, run_dir: Path, quiet: bool, say) -> tuple[float, str]:
     """Train (or reuse, or resume) one experiment; (seconds, note) for the report."""
     t0 = time.perf_counter()
-    note = f"{cfg.seeds} seeds x {len(cfg.strategies)} strategies on {cfg.env.maze}"
+    arms = len(cfg.arms())
+    what = f"{arms} arms" if cfg.sweep else f"{arms} strategies"
+    note = f"{cfg.seeds} seeds x {what} on {cfg.env.maze}"
     started = (run_dir / "config.yaml").is_file()
     if started and load_config(str(run_dir / "config.yaml")) != cfg:
         what = "trained" if (run_dir / "params.npz").is_file() else "started"

@@ -44,6 +44,12 @@ def _writer(path: Path, purge_step: int | None):
     return SummaryWriter(str(path), purge_step=purge_step, flush_secs=10)
 
 
+def tag(arm: str) -> str:
+    """An arm's name in TensorBoard's tag alphabet: ``ebe`` or, at a sweep point,
+    ``ebe/ebe_temperature_0.1`` (a group per strategy)."""
+    return arm.replace(" ", "/").replace("=", "_")
+
+
 class TensorBoardLog:
     """Per-strategy curves, aggregated over seeds, into ``run_dir/tensorboard``.
 
@@ -86,7 +92,7 @@ class TensorBoardLog:
             if len(got) == self.seeds[key[0]]:
                 for name in EPISODE_CURVES:
                     mean = float(np.mean([float(r[c[name]]) for r in got]))
-                    self.episodes.add_scalar(f"{key[0]}/{name}", mean, key[1])
+                    self.episodes.add_scalar(f"{tag(key[0])}/{name}", mean, key[1])
                 del self.pending[key]
 
     def add_steps(self, loss: np.ndarray, max_q: np.ndarray, first_step: int) -> None:
@@ -99,7 +105,7 @@ class TensorBoardLog:
                     block = values[rows, b : b + BLOCK]
                     if np.isfinite(block).any():
                         mean = float(np.nanmean(block))
-                        self.steps.add_scalar(f"{strategy}/{name}", mean, first_step + b)
+                        self.steps.add_scalar(f"{tag(strategy)}/{name}", mean, first_step + b)
 
     def flush(self) -> None:
         self.episodes.flush()

@@ -322,7 +322,9 @@ class Run:
             raise
 
     def progress_text(self, steps_per_s: float) -> str:
-        parts = []
+        """Each arm's mean return over its seeds' last episodes; with more than four
+        arms, the lowest and the highest."""
+        means = {}
         for s in self.cfg.arm_names():
             recent = [
                 x
@@ -331,7 +333,11 @@ class Run:
                 for x in returns[-PROGRESS_EPISODES:]
             ]
             if recent:
-                parts.append(f"{s} R={np.mean(recent):.0f}")
+                means[s] = float(np.mean(recent))
+        if len(means) > 4:
+            lo, hi = min(means, key=means.get), max(means, key=means.get)
+            means = {f"{len(means)} arms, lowest {lo}": means[lo], f"highest {hi}": means[hi]}
+        parts = [f"{s} R={m:.0f}" for s, m in means.items()]
         parts.append(f"{steps_per_s / 1000:.1f}k steps/s")
         return " ".join(parts)
 

@@ -101,3 +101,17 @@ def test_a_resumed_run_purges_what_came_after_its_checkpoint(tmp_path, monkeypat
     # TensorBoard is told to drop the killed process's curves past the checkpoint
     assert purge_steps(out / "tensorboard" / "steps") == [250]
     assert purge_steps(out / "tensorboard" / "episodes") == [0]
+
+
+def test_a_swept_run_has_one_curve_per_arm_averaged_over_its_seeds(tmp_path):
+    out = tmp_path / "run"
+    argv = [*TINY, "strategies=[ebe]", "sweep.exploration.ebe_temperature=[0.1,1]"]
+    assert train_main([*argv, "--out", str(out)]) == 0
+    episodes = read_scalars(out / "tensorboard" / "episodes")
+    rows = list(csv.DictReader((out / "metrics.csv").open()))
+    for temperature in ("0.1", "1"):
+        got = episodes[f"ebe/ebe_temperature_{temperature}/return"]
+        assert sorted(got) == list(range(6))
+        mine = [r for r in rows if r["exploration.ebe_temperature"] == temperature]
+        want = np.mean([float(r["return"]) for r in mine if r["episode"] == "3"])
+        assert got[3] == pytest.approx(want, rel=1e-5)
