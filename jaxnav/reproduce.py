@@ -34,10 +34,12 @@ if __name__ == "__main__":  # before JAX starts: one CPU device per core, compil
 
     before_jax()
 
+import importlib.util
 import json
 import os
 import platform
 import re
+import subprocess
 import sys
 import time
 from pathlib import Path
@@ -218,9 +220,10 @@ def train_stage(name: str, cfg: Config, run_dir: Path, quiet: bool, say) -> tupl
 
 
 def _experiment(
-    name: str, title: str, cfg: Config, out: Path, quiet: bool, say
+    name: str, title: str, cfg: Config, out: Path, quiet: bool, say, sim_seeds: int = 0
 ) -> tuple[list[tuple[str, float, str]], list[str]]:
-    """Train, test, plot and perturb one experiment: (timings, report section)."""
+    """Train, test, plot and perturb one experiment, and test its first ``sim_seeds``
+    seeds in MuJoCo: (timings, report section)."""
     run_dir = out / name
     timings = [(f"train {name}", *train_stage(name, cfg, run_dir, quiet, say))]
 
@@ -242,7 +245,33 @@ def _experiment(
         lambda _: f"on {cfg.env.maze}",
         lambda: robustness_to_dir(run_dir, out=run_dir / "eval"),
     )
-    return timings, _section(name, title, cfg, out, written, eval_dir, rob_dir)
+    sec = _section(name, title, cfg, out, written, eval_dir, rob_dir)
+    if sim_seeds:
+        seeds = [cfg.seed + k for k in range(min(sim_seeds, cfg.seeds))]
+        say(f"{name}: testing seeds {seeds[0]}..{seeds[-1]} in MuJoCo physics")
+        n = f"{len(seeds)} seeds x {len(cfg.strategies)} strategies x {len(cfg.run.test_mazes)}"
+        table = stage("sim2sim", lambda _: f"{n} mazes", lambda: sim_to_sim(run_dir, seeds))
+        sec += [_demote(table.read_text()).rstrip(), ""]
+    return timings, sec
+
+
+def sim_to_sim(run_dir: Path, seeds: list[int]) -> Path:
+    """``python -m jaxnav.sim2sim RUN_DIR --seeds ...`` (its own process: only that
+    command imports MuJoCo); the path of its markdown table."""
+    cmd = [sys.executable, "-m", "jaxnav.sim2sim", str(run_dir), "--seeds", *map(str, seeds)]
+    done = subprocess.run(cmd, capture_output=True, text=True)
+    if done.returncode != 0:
+        last = (done.stderr.strip().splitlines() or ["no output"])[-1]
+        raise JaxnavError(f"the sim-to-sim stage failed: {last}")
+    return run_dir / "sim2sim" / "sim2sim.md"
+
+
+def check_mujoco(sim_seeds: int) -> None:
+    """Say at once, before any training, if --sim2sim cannot run."""
+    if sim_seeds and importlib.util.find_spec("mujoco") is None:
+        raise JaxnavError(
+            "--sim2sim needs MuJoCo: pip install -e \".[sim]\" (the optional extra 'sim')"
+        )
 
 
 def _section(name, title, cfg, out: Path, written, eval_dir: Path, rob_dir: Path) -> list[str]:
@@ -293,9 +322,15 @@ def reproduce(
     resume_ok: bool,
     quiet: bool,
     command: str,
+    sim_seeds: int = 0,
 ) -> Path:
+    """Both experiments end to end into ``out``; ``sim_seeds``: test that many seeds
+    of each in MuJoCo too. Returns report.md."""
     sizes = {"--episodes": episodes, "--max-steps": max_steps, "--test-episodes": test_episodes}
     check_request(out, seeds, sizes, resume_ok)
+    if sim_seeds < 0:
+        raise JaxnavError("--sim2sim must not be negative")
+    check_mujoco(sim_seeds)
     cfgs = {
         name: experiment_config(name, seeds, episodes, max_steps, test_episodes)
         for name, _ in EXPERIMENTS
@@ -310,7 +345,7 @@ def reproduce(
     timings: list[tuple[str, float, str]] = []
     sections: list[str] = []
     for name, title in EXPERIMENTS:
-        t, sec = _experiment(name, title, cfgs[name], out, quiet, say)
+        t, sec = _experiment(name, title, cfgs[name], out, quiet, say, sim_seeds)
         timings += t
         sections += sec
     t0 = time.perf_counter()
@@ -386,6 +421,15 @@ def _parser() -> cli.Parser:
         help="continue an interrupted reproduction in --out: reuse finished trainings, "
         "resume the rest",
     )
+    p.add_argument(
+        "--sim2sim",
+        type=int,
+        default=0,
+        metavar="K",
+        help="also test the first K seeds of each experiment in MuJoCo physics "
+        "(python -m jaxnav.sim2sim; needs the extra 'sim'; about 6 s per policy and maze "
+        "at 10 test episodes of 500 steps) and add the sim-to-sim gap to the report",
+    )
     p.add_argument("--quiet", action="store_true", help="no progress output")
     return p
 
@@ -407,7 +451,9 @@ def main(argv: list[str] | None = None) -> int:
         if args.resume and not args.out:
             raise JaxnavError("--resume needs --out DIR")
         sizes = (seeds, episodes, max_steps, test_episodes)
-        report = reproduce(out, *sizes, args.quick, args.resume, args.quiet, command.strip())
+        report = reproduce(
+            out, *sizes, args.quick, args.resume, args.quiet, command.strip(), args.sim2sim
+        )
         print(f"report: {report}")
 
     return cli.run(p.prog, work, interrupted=f"interrupted; continue with --resume --out {out}")

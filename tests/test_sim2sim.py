@@ -7,6 +7,7 @@ import csv
 import io
 import json
 import math
+import shutil
 from pathlib import Path
 
 import jax.numpy as jnp
@@ -276,3 +277,36 @@ def test_bad_input_is_one_line_and_exit_2(run, tmp_path, capsys, argv, words):
     err = capsys.readouterr().err
     assert err.startswith("jaxnav.sim2sim: error: ") and err.count("\n") == 1
     assert words in err
+
+
+def test_the_reproduction_adds_the_sim_to_sim_gap_of_its_first_seeds(run, tmp_path):
+    from jaxnav import reproduce
+
+    cfg, src = run
+    out = tmp_path / "repro"
+    out.mkdir()
+    shutil.copytree(src, out / "paper_no_obstacles", ignore=shutil.ignore_patterns("eval", "plots"))
+    timings, section = reproduce._experiment(
+        "paper_no_obstacles", "No obstacles", cfg, out, True, lambda _: None, sim_seeds=1
+    )
+    stages = [name for name, _, _ in timings]
+    assert stages[-1] == "sim2sim paper_no_obstacles"
+    text = "\n".join(section)
+    assert "Sim-to-sim gap of paper_no_obstacles" in text and "MuJoCo" in text
+    rows = list(csv.DictReader((out / "paper_no_obstacles" / "sim2sim" / "sim2sim.csv").open()))
+    assert {r["seed"] for r in rows} == {str(cfg.seed)}  # the first seed only
+
+
+def test_the_reproduction_says_at_once_when_mujoco_is_missing(monkeypatch, tmp_path, capsys):
+    import importlib.util
+
+    from jaxnav import reproduce
+
+    real = importlib.util.find_spec
+    monkeypatch.setattr(
+        importlib.util, "find_spec", lambda name, *a: None if name == "mujoco" else real(name, *a)
+    )
+    out = tmp_path / "repro"
+    assert reproduce.main(["--quick", "--out", str(out), "--sim2sim", "1", "--quiet"]) == 2
+    assert "--sim2sim needs MuJoCo" in capsys.readouterr().err
+    assert not out.exists() or not any(out.iterdir())
