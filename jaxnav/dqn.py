@@ -234,9 +234,11 @@ class Hyper:
 ENV_HYPER = ("lidar_noise_std", "R_plus", "R_minus", "reward_span")
 
 
-def hyper(config: Config, env_params: EnvParams, env_keys: tuple[str, ...] = ()) -> Hyper:
-    """A run's :class:`Hyper` (NumPy scalars) from its config and environment params;
-    ``env_keys``: the environment settings to carry (the swept ones)."""
+def hyper(
+    config: Config, env_params: EnvParams | None = None, env_keys: tuple[str, ...] = ()
+) -> Hyper:
+    """A run's :class:`Hyper` (NumPy scalars) from its config; ``env_keys``: the
+    environment settings to carry (the swept ones), read from ``env_params``."""
     d, x = config.dqn, config.exploration
     f32 = np.float32
     return Hyper(
