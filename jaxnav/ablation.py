@@ -195,8 +195,9 @@ def ablation_markdown(rows: list[dict[str, str]], quick: bool = False) -> str:
     ]
     if quick:
         L += ["**A quick run on few seeds: these numbers are not conclusive.**", ""]
-    L += ["| variant | what it changes |", "|---|---|"]
-    L += [f"| {v} | {VARIANTS[v][0]} |" for v in variants]
+    n_seeds = {v: max(a.shape[0] for k, a in scores.items() if k[0] == v) for v in variants}
+    L += ["| variant | seeds | what it changes |", "|---|---|---|"]
+    L += [f"| {v} | {n_seeds[v]} | {VARIANTS[v][0]} |" for v in variants]
     L += [
         "",
         "## Test return beside the paper's",
