@@ -4,8 +4,9 @@ A sweep study end to end: train a config's sweep (every strategy, point and seed
 one program), test every arm in both test modes (``jaxnav.evaluate``) and write
 ``DIR/study.md``: the sweep's tables and the answers they give, computed from the
 results (:func:`jaxnav.tables.sweep_markdown`), its figures, the wall-clock of each
-stage and the machine. ``--doc PATH`` writes the same study to PATH, its figures
-beside it (``<name>-sweep.png``, ``<name>-training_curves.png``), for committing.
+stage and the machine. ``--doc PATH`` writes the same study to PATH, its figures and
+its test results beside it (``<name>-sweep.png``, ``<name>-training_curves.png``,
+``<name>-results.csv.gz``), for committing.
 
 ``configs/temperature.yaml`` is EBE's and Boltzmann's softmax temperature against
 epsilon-greedy (``docs/studies/temperature.md``).
@@ -23,6 +24,7 @@ if __name__ == "__main__":  # before JAX starts: one CPU device per core, compil
 
     before_jax()
 
+import gzip
 import shutil
 import sys
 import time
@@ -33,7 +35,7 @@ from jaxnav.config import Config, load_config, resolve_config_path
 from jaxnav.errors import JaxnavError
 from jaxnav.evaluation import evaluate_to_dir
 from jaxnav.reproduce import check_request, machine_info, train_stage
-from jaxnav.rundir import atomic_write_text
+from jaxnav.rundir import atomic_write_bytes, atomic_write_text
 from jaxnav.sweep import short_names, value_text
 from jaxnav.tables import sweep_markdown
 
@@ -133,6 +135,10 @@ def study(
         for p in figures.values():
             shutil.copyfile(p, doc.parent / f"{doc.stem}-{p.name}")
             text = text.replace(f"]({p.name})", f"]({doc.stem}-{p.name})")
+        # The data behind every number: results.csv, gzipped (mtime 0: same bytes, same file).
+        packed = gzip.compress(results.encode(), mtime=0)
+        atomic_write_bytes(doc.parent / f"{doc.stem}-results.csv.gz", packed)
+        text += f"\nThe test results behind every number above: `{doc.stem}-results.csv.gz`.\n"
         atomic_write_text(doc, text)
     return path
 

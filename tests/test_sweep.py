@@ -2,6 +2,7 @@
 
 import csv
 import dataclasses
+import gzip
 
 import jax
 import jax.numpy as jnp
@@ -293,6 +294,8 @@ def test_the_study_command_tests_tabulates_and_draws_a_sweep(tmp_path, capsys):
     assert "EBE ebe_temperature=0.1" in text and "Best points against each other" in text
     assert "EBE beats epsilon-greedy at" in text  # the answers, in words
     assert "![" in text and (doc.parent / "temperature-sweep.png").is_file()
+    packed = (doc.parent / "temperature-results.csv.gz").read_bytes()
+    assert gzip.decompress(packed).decode() == (out / "run" / "eval" / "results.csv").read_text()
     assert (out / "sweep.png").is_file() and (out / "training_curves.png").is_file()
     # A config without a sweep is refused in one line.
     assert main(["configs/smoke.yaml", "--out", str(tmp_path / "none")]) == 2
@@ -320,3 +323,26 @@ def test_exploring_test_uses_each_points_own_temperature(tmp_path):
     # T = 1e-4: the same episodes as greedy; T = 100: near-uniform random actions.
     np.testing.assert_array_equal(exploring.ret[:2], greedy.ret[:2])
     assert not np.array_equal(exploring.ret[2:], greedy.ret[2:])
+
+
+def test_the_committed_temperature_study_is_computed_from_its_results():
+    from pathlib import Path
+
+    from jaxnav.tables import sweep_markdown
+
+    root = Path(__file__).resolve().parent.parent
+    doc = root / "docs" / "studies" / "temperature.md"
+    if not doc.is_file():
+        pytest.skip("no committed temperature study")
+    packed = (doc.parent / "temperature-results.csv.gz").read_bytes()
+    results = gzip.decompress(packed).decode()
+    cfg = load_config(str(root / "configs" / "temperature.yaml"))
+    text = doc.read_text()
+    assert "\n".join(sweep_markdown(results, cfg.seed)) in text
+    # What the README says of the study is the study's own words.
+    readme = (root / "README.md").read_text()
+    begin, end = "<!-- temperature study: begin -->", "<!-- temperature study: end -->"
+    quoted = readme[readme.index(begin) + len(begin) : readme.index(end)].strip().splitlines()
+    assert quoted
+    for line in (q for q in quoted if q.startswith("- ")):
+        assert line in text, line
