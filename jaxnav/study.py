@@ -25,6 +25,7 @@ if __name__ == "__main__":  # before JAX starts: one CPU device per core, compil
     before_jax()
 
 import gzip
+import shlex
 import shutil
 import sys
 import time
@@ -76,8 +77,10 @@ def study_markdown(
         "- A seed's score is its mean test return; intervals are 95% percentile bootstraps "
         "over seeds (rliable). A verdict names the better arm when the interval of P(X > Y) "
         "excludes 0.5, else there is no detectable difference. The best point of a strategy "
-        "is chosen on the same seeds that score it, which flatters it: a best-against-best "
-        "verdict needs a fresh set of seeds to confirm.",
+        "is chosen on the same seeds that score it, which flatters it, and with "
+        f"{max(n_arms - 1, 1)} arms compared with epsilon-greedy one verdict in twenty "
+        "names a winner by chance: a verdict at one point of several is a hypothesis "
+        "until a fresh set of seeds confirms it (`seed=` another range).",
         "",
         "## Results",
     ]
@@ -156,7 +159,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--resume", action="store_true", help="continue the study in --out")
     p.add_argument("--quiet", action="store_true", help="no progress output")
     args = p.parse_intermixed_args(argv)
-    command = "python -m jaxnav.study " + " ".join(argv if argv is not None else sys.argv[1:])
+    command = "python -m jaxnav.study " + shlex.join(argv if argv is not None else sys.argv[1:])
 
     def work() -> None:
         items = list(args.items)
