@@ -36,21 +36,23 @@ from jaxnav.config import Config, load_config, resolve_config_path
 from jaxnav.errors import JaxnavError
 from jaxnav.evaluation import evaluate_to_dir
 from jaxnav.reproduce import check_request, machine_info, train_stage
-from jaxnav.rundir import atomic_write_bytes, atomic_write_text
+from jaxnav.rundir import METRICS, CsvLog, atomic_write_bytes, atomic_write_text
 from jaxnav.sweep import short_names, value_text
-from jaxnav.tables import sweep_markdown
+from jaxnav.tables import sweep_markdown, training_markdown
 
 
 def study_markdown(
     cfg: Config,
     title: str,
     results_csv: str,
+    metrics_rows: list[dict[str, str]],
     timings: list[tuple[str, float, str]],
     command: str,
     figures: dict[str, str],
 ) -> str:
-    """The study's text: setup, results per test mode with their answers, figures
-    (``figures``: caption -> file name), time and machine."""
+    """The study's text: setup, results per test mode with their answers, training
+    (from metrics.csv rows), figures (``figures``: caption -> file name), time and
+    machine."""
     n_arms = len(cfg.arms())
     sweep = "; ".join(
         f"`{k}` in {{{', '.join(value_text(v) for v in vals)}}}" for k, vals in cfg.sweep
@@ -85,6 +87,7 @@ def study_markdown(
         "## Results",
     ]
     L += sweep_markdown(results_csv, cfg.seed)
+    L += ["", "## Training", "", training_markdown(metrics_rows).rstrip()]
     L += ["", "## Figures", ""]
     for caption, name in figures.items():
         L += [f"![{caption}]({name})", "", f"*{caption}*", ""]
@@ -128,9 +131,9 @@ def study(
         "with 95% bootstrap intervals (strategies that do not read the key: a band).",
         "training_curves": "Training return per arm: mean over seeds with 95% bootstrap band.",
     }
-    text = study_markdown(
-        cfg, title, results, timings, command, {captions[k]: p.name for k, p in figures.items()}
-    )
+    metrics = CsvLog(run_dir / METRICS, ()).read()
+    figure_names = {captions[k]: p.name for k, p in figures.items()}
+    text = study_markdown(cfg, title, results, metrics, timings, command, figure_names)
     path = out / "study.md"
     atomic_write_text(path, text)
     if doc is not None:

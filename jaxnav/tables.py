@@ -377,6 +377,7 @@ def training_markdown(metrics_rows: list[dict[str, str]], last: int = 50) -> str
     by: dict[str, dict[int, list[dict[str, str]]]] = {}
     for r in metrics_rows:
         by.setdefault(row_arm(r), {}).setdefault(int(r["seed"]), []).append(r)
+    explore = bool(metrics_rows) and all("explore" in r for r in metrics_rows)
     rows = []
     for s in arms_in(by):
         per_seed = [sorted(eps, key=lambda r: int(r["episode"])) for eps in by[s].values()]
@@ -394,6 +395,7 @@ def training_markdown(metrics_rows: list[dict[str, str]], last: int = 50) -> str
                 _ci(stats.mean_ci(mean_of("collided", tail)), 2),
                 _ci(stats.mean_ci(mean_of("return", lambda e: e)), 0),
             ]
+            + ([_ci(stats.mean_ci(mean_of("explore", tail)), 2)] if explore else [])
         )
     header = [
         "strategy",
@@ -402,10 +404,16 @@ def training_markdown(metrics_rows: list[dict[str, str]], last: int = 50) -> str
         "goals per episode",
         "share ending in a collision",
         "return, all episodes (learning speed)",
-    ]
+    ] + ([f"exploration, last {last} episodes"] if explore else [])
     intro = (
         f"Training episodes (exploration on). Per seed: the mean over its last {last} "
         "episodes, and over all its episodes; then the mean over seeds [95% bootstrap CI]."
+        + (
+            " Exploration: the strategy's chance of a random (EBE, epsilon-greedy) or "
+            "non-greedy (Boltzmann) action, averaged over each episode's steps."
+            if explore
+            else ""
+        )
     )
     return "\n".join([intro, "", *_table(header, rows)]) + "\n"
 

@@ -325,23 +325,23 @@ def test_exploring_test_uses_each_points_own_temperature(tmp_path):
     assert not np.array_equal(exploring.ret[2:], greedy.ret[2:])
 
 
-def test_the_committed_temperature_study_is_computed_from_its_results():
+@pytest.mark.parametrize("name, seed", [("temperature", 0), ("temperature-confirm", 100)])
+def test_the_committed_temperature_studies_are_computed_from_their_results(name, seed):
     from pathlib import Path
 
     from jaxnav.tables import sweep_markdown
 
     root = Path(__file__).resolve().parent.parent
-    doc = root / "docs" / "studies" / "temperature.md"
+    doc = root / "docs" / "studies" / f"{name}.md"
     if not doc.is_file():
-        pytest.skip("no committed temperature study")
-    packed = (doc.parent / "temperature-results.csv.gz").read_bytes()
+        pytest.skip(f"no committed {name} study")
+    packed = (doc.parent / f"{name}-results.csv.gz").read_bytes()
     results = gzip.decompress(packed).decode()
-    cfg = load_config(str(root / "configs" / "temperature.yaml"))
     text = doc.read_text()
-    assert "\n".join(sweep_markdown(results, cfg.seed)) in text
-    # What the README says of the study is the study's own words.
+    assert "\n".join(sweep_markdown(results, seed)) in text
+    # What the README says of the studies is their own words.
     readme = (root / "README.md").read_text()
-    begin, end = "<!-- temperature study: begin -->", "<!-- temperature study: end -->"
+    begin, end = f"<!-- {name} study: begin -->", f"<!-- {name} study: end -->"
     quoted = readme[readme.index(begin) + len(begin) : readme.index(end)].strip().splitlines()
     assert quoted
     for line in (q for q in quoted if q.startswith("- ")):
