@@ -127,7 +127,14 @@ def main() -> None:
             f"{label:<34} {r['runs']:>5} {med(case, 'transitions_per_s'):>14,.0f} "
             f"{med(case, 'first_chunk_s'):>14.1f} {r['programs_compiled']:>9}"
         )
-    print(f"sweep / seeds transitions per s: {sweep_tps / seeds_tps:.2f}")
+    per_round = [
+        a["transitions_per_s"] / b["transitions_per_s"]
+        for a, b in zip(results["sweep"], results["seeds"])
+    ]
+    print(
+        f"sweep / seeds transitions per s: {sweep_tps / seeds_tps:.2f} "
+        f"(each round, side by side: {', '.join(f'{r:.2f}' for r in per_round)})"
+    )
     # POINTS separate programs, one after another: each compiles, then steps its runs.
     separate_s = POINTS * sep_first + POINTS * (args.reps - 1) * sep_chunk
     together_s = med("sweep", "first_chunk_s") + (args.reps - 1) * med("sweep", "chunk_s")
