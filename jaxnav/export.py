@@ -32,10 +32,13 @@ def export_policy(
     """
     run_dir = rundir.existing(run_dir, finished=True)
     cfg_path, params_path = run_dir / rundir.CONFIG, run_dir / rundir.PARAMS
-    if strategy not in STRATEGIES:
+    if strategy.split(" ", 1)[0] not in STRATEGIES:
         raise PolicyError(f"unknown strategy '{strategy}' (choose from {', '.join(STRATEGIES)})")
     runs = rundir.runs_in(params_path)
     cfg = load_config(str(cfg_path))
+    arms = dict(zip(cfg.arm_names(), cfg.arms()))
+    if strategy in arms:  # a swept run's arm ("ebe ebe_temperature=0.1"): its own settings
+        cfg = cfg.at(arms[strategy][1])
     seed = cfg.seed if seed is None else int(seed)
     if seed not in runs.get(strategy, []):
         have = "; ".join(f"{s} seeds {', '.join(map(str, v))}" for s, v in runs.items())
@@ -126,7 +129,12 @@ def main(argv: list[str] | None = None) -> int:
         "or (--info) print an exported policy's metadata.",
     )
     p.add_argument("run_dir", metavar="RUN_DIR", nargs="?", help="a finished training run")
-    p.add_argument("--strategy", default="ebe", help="ebe (default) or epsilon_greedy")
+    p.add_argument(
+        "--strategy",
+        default="ebe",
+        help="ebe (default), epsilon_greedy or boltzmann; in a swept run, the arm as params.npz "
+        "names it ('ebe ebe_temperature=0.1')",
+    )
     p.add_argument("--seed", type=int, default=None, help="which seed (default: the run's first)")
     p.add_argument(
         "--out", default=None, help="output file (default policy-<strategy>-seed<k>.npz)"
@@ -145,7 +153,8 @@ def main(argv: list[str] | None = None) -> int:
         arrays = export_policy(args.run_dir, args.strategy, args.seed)
         Policy.from_arrays(arrays)  # what the robot will load must load
         meta = json.loads(str(arrays["meta"]))
-        out = Path(args.out or f"policy-{meta['strategy']}-seed{meta['seed']}.npz")
+        arm = meta["strategy"].replace(" ", "-").replace("=", "")
+        out = Path(args.out or f"policy-{arm}-seed{meta['seed']}.npz")
         save_policy(arrays, out)
         features = ", obstacle features" if meta["obstacle_obs"] else ""
         print(

@@ -297,6 +297,14 @@ def test_the_study_command_tests_tabulates_and_draws_a_sweep(tmp_path, capsys):
     packed = (doc.parent / "temperature-results.csv.gz").read_bytes()
     assert gzip.decompress(packed).decode() == (out / "run" / "eval" / "results.csv").read_text()
     assert (out / "sweep.png").is_file() and (out / "training_curves.png").is_file()
+    # An arm exports as a robot policy, with its own settings in its metadata.
+    from jaxnav.deploy import Policy
+    from jaxnav.export import export_policy
+
+    arrays = export_policy(out / "run", "ebe ebe_temperature=0.1", 0)
+    policy = Policy.from_arrays(arrays)
+    assert policy.meta["strategy"] == "ebe ebe_temperature=0.1"
+    assert "ebe_temperature: 0.1" in policy.meta["config"]
     # A config without a sweep is refused in one line.
     assert main(["configs/smoke.yaml", "--out", str(tmp_path / "none")]) == 2
     assert "has no sweep" in capsys.readouterr().err
