@@ -48,8 +48,9 @@ def load_run(run_dir: str | Path) -> LoadedRun:
     network = QNetwork(env.num_actions, tuple(cfg.dqn.hidden), cfg.dqn.dropout)
     template = network.init(jax.random.PRNGKey(0), jnp.zeros(env.obs_size))
     dropped = diverged_runs(run_dir)
-    kept = [r for r, label in enumerate(cfg.run_labels()) if label not in dropped]
-    labels = [cfg.run_labels()[r] for r in kept]
+    all_labels = cfg.run_labels()
+    kept = [r for r, label in enumerate(all_labels) if label not in dropped]
+    labels = [all_labels[r] for r in kept]
     if dropped:
         names = ", ".join(f"{s} seed {n}" for s, n in sorted(dropped))
         print(f"note: not testing the runs that diverged in training: {names}", file=sys.stderr)
@@ -78,7 +79,8 @@ def load_run(run_dir: str | Path) -> LoadedRun:
     inputs = run_inputs(cfg)
     strategy = inputs.strategy[kept]
     hyper = jax.tree.map(lambda a: a[kept], inputs.hyper)
-    fields = [cfg.run_fields()[r] for r in kept]
+    all_fields = cfg.run_fields()
+    fields = [all_fields[r] for r in kept]
     policies = Policies(labels, fields, params, env, env_params, network, strategy, hyper, episodes)
     return LoadedRun(cfg, policies)
 

@@ -51,7 +51,10 @@ from jaxnav.results import (  # noqa: E402
     arms_in,
     display_name,
     read_episodes_npz,
+    read_results,
+    result_modes,
     robustness_summary,
+    scores_over_mazes,
 )
 from jaxnav.sweep import row_arm, swept_columns
 
@@ -493,25 +496,20 @@ def plot_sweep(results_csv: str, out: Path, title: str = "Sweep") -> Path | None
     per strategy the mean over seeds of the per-seed score (averaged over the test
     mazes) with its 95% bootstrap interval; a strategy with one point (not reading the
     swept key) is a horizontal band. None without a swept column."""
-    rows = list(csv.DictReader(io.StringIO(results_csv)))
-    keys = swept_columns(list(rows[0])) if rows else []
+    header = next(csv.reader(io.StringIO(results_csv)), [])
+    keys = swept_columns(header)
     if not keys:
         return None
-    modes = list(dict.fromkeys(r["mode"] for r in rows))
+    modes = result_modes(results_csv)
     fig, axes = plt.subplots(1, len(modes), figsize=(5.2 * len(modes), 4.0), squeeze=False)
     for ax, mode in zip(axes[0], modes):
-        # per arm: per seed: per maze: [episode returns]
-        by: dict[str, dict[int, dict[str, list[float]]]] = {}
-        point: dict[str, str] = {}
-        for r in (r for r in rows if r["mode"] == mode):
-            arm = row_arm(r)
-            point[arm] = ", ".join(r[k] for k in keys if r[k] != "")
-            by.setdefault(arm, {}).setdefault(int(r["seed"]), {}).setdefault(r["maze"], [])
-            by[arm][int(r["seed"])][r["maze"]].append(float(r["return"]))
-        score = {
-            a: np.asarray([np.mean([np.mean(v) for v in seeds[k].values()]) for k in sorted(seeds)])
-            for a, seeds in by.items()
-        }
+        results = read_results(results_csv, mode)  # (maze, arm, seed) -> episodes
+        mazes = list(dict.fromkeys(k[0] for k in results))
+        by = arms_in(k[1] for k in results)
+        seeds = sorted({k[2] for k in results})
+        score = {a: scores_over_mazes(results, mazes, a, seeds) for a in by}
+        # an arm's point: its swept values ("ebe ebe_temperature=0.1" -> "0.1")
+        point = {a: ", ".join(p.split("=", 1)[1] for p in a.split(" ")[1:]) for a in by}
         ticks = list(dict.fromkeys(p for p in point.values() if p))
         numeric = all(_is_number(t) for t in ticks)
         xs = {t: float(t) if numeric else i for i, t in enumerate(ticks)}

@@ -134,6 +134,14 @@ def per_seed_scores(
     return np.asarray([results[(maze, strategy, s)][column].mean() for s in seeds])
 
 
+def scores_over_mazes(
+    results, mazes: Sequence[str], strategy: str, seeds: Sequence[int]
+) -> np.ndarray:
+    """Per-seed score averaged over ``mazes`` (every maze tests the same network, so a
+    seed keeps its scores together) -> f[len(seeds)]."""
+    return np.mean([per_seed_scores(results, m, strategy, seeds) for m in mazes], axis=0)
+
+
 def read_robustness(text: str) -> dict[tuple[str, str, str, int], dict[str, np.ndarray]]:
     """robustness.csv text -> {(perturbation, maze, strategy, seed): {column: episodes}}."""
     return _read_episodes(text, ("perturbation", "maze", "strategy", "seed"))

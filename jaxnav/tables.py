@@ -24,6 +24,7 @@ from jaxnav.results import (
     read_robustness,
     result_modes,
     robustness_summary,
+    scores_over_mazes,
 )
 from jaxnav.sweep import row_arm
 
@@ -192,7 +193,7 @@ def sweep_summary(t: _Test) -> SweepSummary | None:
     """The summary of a swept run's test (None without a sweep)."""
     if all(s == arm_strategy(s) for s in t.strategies):
         return None
-    score = {s: np.mean([t.scores(m, s) for m in t.mazes], axis=0) for s in t.strategies}
+    score = {s: scores_over_mazes(t.results, t.mazes, s, t.seeds) for s in t.strategies}
     best: dict[str, str] = {}
     for s in t.strategies:
         strategy = arm_strategy(s)
