@@ -10,7 +10,8 @@ and ``reproduce`` read it)::
                          replay slots: those are in rows-00000.npz, rows-00001.npz,
                          ..., one per chunk, as many as last.npz says
     params.npz           final Q-network parameters, "<strategy>/seed<k>/<layer>/<name>"
-    summary.json         wall-clock, steps, steps/s, last-50-episode means
+    summary.json         wall-clock, steps, steps/s, start-up and compile seconds,
+                         lockstep share, last-50-episode means
     eval/, plots/        results of jaxnav.evaluate and jaxnav.plots
     tensorboard/         training curves for TensorBoard (run.tensorboard: true)
     .lock                held by the process that trains into the directory

@@ -17,9 +17,24 @@ from __future__ import annotations
 
 import os
 import sys
+import time
 from pathlib import Path
 
 from jaxnav.cpu import use_all_cores
+
+_IMPORTED = time.monotonic()  # fallback start where /proc is missing
+
+
+def process_age() -> float:
+    """Seconds since this process started: from /proc on Linux (interpreter start-up
+    included), elsewhere since this module was imported."""
+    try:
+        with open("/proc/self/stat") as f:  # field 22: start time in clock ticks since boot
+            start = int(f.read().rsplit(")", 1)[1].split()[19]) / os.sysconf("SC_CLK_TCK")
+        with open("/proc/uptime") as f:
+            return max(float(f.read().split()[0]) - start, 0.0)
+    except (OSError, ValueError, IndexError):
+        return time.monotonic() - _IMPORTED
 
 
 def cache_dir() -> Path | None:

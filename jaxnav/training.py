@@ -28,6 +28,7 @@ from jaxnav.config import Config, dump_config, load_config
 from jaxnav.dqn import TrainState, make_trainer, run_inputs, run_limits, still_training
 from jaxnav.errors import RunError
 from jaxnav.sharding import RunSharding, is_writer
+from jaxnav.startup import process_age
 
 # A swept run's logs have one more column per swept key, named by it, after "strategy"
 # (jaxnav.sweep.with_swept).
@@ -171,6 +172,10 @@ class Run:
         self.logged = np.zeros(cfg.n_runs, np.int64)  # episodes written per run
         self.recent: dict[tuple[str, int], list[float]] = {label: [] for label in self.labels}
         self.wall = 0.0  # training seconds over all sessions of this run
+        # run-steps the compiled chunks computed over all sessions: every run of the
+        # batch takes each chunk's steps, finished runs as no-ops (lockstep)
+        self.computed = 0
+        self.compile_s = self.startup_s = None  # this session's, see compile_chunk
         self.diverged: dict[int, int] = {}  # run index -> env step it diverged at
 
     # -- state ---------------------------------------------------------------
@@ -197,6 +202,7 @@ class Run:
         self.diverged = {int(r): int(diverged_at[r]) for r in np.flatnonzero(diverged_at >= 0)}
         self.logged = host["logged"].astype(np.int64)
         self.wall = float(host["wall"])
+        self.computed = int(host.get("computed", 0))  # absent in older checkpoints
         metrics_size, explore_size = (int(x) for x in host["csv_sizes"])
         if is_writer():
             self.metrics.truncate(metrics_size)
@@ -313,6 +319,7 @@ class Run:
                 "wall": np.float64(self.wall),
                 "csv_sizes": sizes,
                 "segments": np.int64(self.segments + 1),
+                "computed": np.int64(self.computed),
             }
             rundir.atomic_write_npz(self.checkpoint, checkpoint_arrays(state, host))
             self.segments += 1
@@ -380,18 +387,31 @@ class Run:
             tb.add_episodes([tuple(r[c] for c in columns) for r in self.metrics.read()])
         return tb
 
+    def compile_chunk(self, ts: TrainState):
+        """The chunk program, compiled before its first call (loaded from JAX's
+        persistent cache when it is there), timed: ``compile_s``, and ``startup_s``,
+        the process's age when training can begin (imports, set-up and compilation)."""
+        t0 = time.perf_counter()
+        compiled = self.chunk.lower(ts, np.int32(0)).compile()
+        self.compile_s = time.perf_counter() - t0
+        self.startup_s = process_age()
+        return compiled
+
     def train(self, ts: TrainState) -> TrainState:
         bar = self._progress_bar(ts)
         tb = self._tensorboard(ts)
+        chunk = self.compile_chunk(ts) if self.active(ts).any() else None
         try:
             while self.active(ts).any():
                 before = self._done(ts)
                 step_before = self.shard.get(ts.step).copy()
+                n = self.steps_needed(ts)
                 t0 = time.perf_counter()
-                ts, log = self.chunk(ts, np.int32(self.steps_needed(ts)))
+                ts, log = chunk(ts, np.int32(n))
                 log = self.shard.get(log)  # waits for the chunk
                 dt = time.perf_counter() - t0
                 self.wall += dt
+                self.computed += n * self.cfg.n_runs
                 steps = int((self.shard.get(ts.step) - step_before).sum())
                 diverged = self.check_divergence(ts)
                 stop = bool(diverged) and self.cfg.run.on_divergence == "stop"
@@ -429,6 +449,10 @@ class Run:
             "wall_clock_s": round(self.wall, 2),
             "env_steps": steps,
             "steps_per_s": round(steps / max(self.wall, 1e-9), 1),
+            # the share of the run-steps computed in lockstep that were real steps
+            "lockstep_useful": round(steps / self.computed, 4) if self.computed else None,
+            "compile_s": None if self.compile_s is None else round(self.compile_s, 2),
+            "startup_s": None if self.startup_s is None else round(self.startup_s, 2),
             "buffer_capacity": self.cfg.buffer_capacity,
             "buffer_bytes_per_seed": replay.nbytes(
                 self.cfg.buffer_capacity,

@@ -1,6 +1,7 @@
 """The training command end to end: learning, determinism, resume, bad input."""
 
 import csv
+import json
 import signal
 import subprocess
 import sys
@@ -89,6 +90,11 @@ def test_smoke_run_writes_the_run_directory(smoke_run):
         "epsilon_greedy/seed0/params/Dense_0/bias",
     }
     assert load_config(str(out / "config.yaml")) == cfg  # the snapshot resolves to the same config
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["env_steps"] == sum(int(r["length"]) for r in rows)
+    # runs end at different steps, and the finished ones wait in lockstep
+    assert 0.5 < summary["lockstep_useful"] < 1
+    assert 0 < summary["compile_s"] < summary["startup_s"]
 
 
 def test_smoke_run_beats_a_random_policy(smoke_run):
@@ -152,6 +158,8 @@ def test_resume_after_sigkill_gives_identical_results(tmp_path):
     assert (killed / "explore.csv").read_bytes() == (ref / "explore.csv").read_bytes()
     a, b = _params(ref), _params(killed)
     assert a.keys() == b.keys() and all(np.array_equal(a[k], b[k]) for k in a)
+    share = [json.loads((d / "summary.json").read_text())["lockstep_useful"] for d in (ref, killed)]
+    assert share[0] == share[1]  # the lockstep count is checkpointed with the state
 
 
 @pytest.mark.parametrize(
