@@ -419,27 +419,34 @@ def make_trainer(config: Config) -> Trainer:
         run = active(ts)
         h = ts.hyper
         env_params = h.env_params(base_params)
-        key, k_act, k_env, k_sample, k_drop = jax.random.split(ts.key, 5)
+        # Each part is a named scope: the compiled program's operations carry its name
+        # (bench/profile_train.py sums the time per part).
+        with jax.named_scope("keys"):
+            key, k_act, k_env, k_sample, k_drop = jax.random.split(ts.key, 5)
 
         # ACT: the run's strategy explores (its index picks its entry in EXPLORATION).
-        action, explore, q_finite, max_q = _act(network, config, ts, k_act)
+        with jax.named_scope("act"):
+            action, explore, q_finite, max_q = _act(network, config, ts, k_act)
 
         # STEP ENV (auto-resets to the start pose after a collision or truncation).
-        obs, env_state, reward, terminated, truncated, info = env.step(
-            k_env, ts.env_state, action, env_params
-        )
+        with jax.named_scope("env_step"):
+            obs, env_state, reward, terminated, truncated, info = env.step(
+                k_env, ts.env_state, action, env_params
+            )
         done = terminated | truncated
 
         # STORE
-        buffer = replay.add(
-            ts.buffer, ts.obs, action, reward, terminated, truncated, info["final_obs"], run
-        )
+        with jax.named_scope("replay_add"):
+            buffer = replay.add(
+                ts.buffer, ts.obs, action, reward, terminated, truncated, info["final_obs"], run
+            )
 
         # LEARN: one gradient step per environment step once learning has started.
         n_steps = ts.step + 1
-        params, opt_state, broke, loss = _learn(
-            network, d, ts, buffer, n_steps, run, k_sample, k_drop
-        )
+        with jax.named_scope("learn"):
+            params, opt_state, broke, loss = _learn(
+                network, d, ts, buffer, n_steps, run, k_sample, k_drop
+            )
         diverged = (ts.diverged_at < 0) & run & (broke | ~q_finite)
         diverged_at = jnp.where(diverged, n_steps, ts.diverged_at)
 
@@ -547,7 +554,8 @@ def _learn(network, d: DQNConfig, ts, buffer, n_steps, run, k_sample, k_drop):
     starts and where the loss or the new parameters would not be finite (``broke``);
     ``loss`` is NaN where no gradient step was due."""
     h = ts.hyper
-    batch = replay.sample(buffer, k_sample, d.batch_size)
+    with jax.named_scope("replay_sample"):
+        batch = replay.sample(buffer, k_sample, d.batch_size)
     bootstrap = ts.target_params
     if d.target_update != "periodic":  # ROBOTIS: online net gives the targets during warm-up
         bootstrap = jax.tree.map(
