@@ -149,6 +149,29 @@ def test_point_estimates_are_rlibables():
     assert stats.mean_ci(x).value == pytest.approx(metrics.aggregate_mean(x))
 
 
+@settings(max_examples=200, deadline=None)
+@given(
+    st.lists(st.integers(-3, 3).map(float) | st.floats(-1e4, 1e4), min_size=1, max_size=60),
+    st.integers(1, 5),
+)
+def test_the_bootstraps_iqm_is_rlibables_bit_for_bit(values, tasks):
+    from rliable import metrics
+
+    n = len(values) // tasks * tasks or len(values)
+    x = np.asarray(values[:n]).reshape(-1, tasks if n % tasks == 0 else 1)
+    assert stats._iqm_resampled(x) == metrics.aggregate_iqm(x)  # ties, odd sizes, one seed
+
+
+def test_iqm_interval_equals_the_one_with_rlibables_statistic():
+    from arch.bootstrap import IIDBootstrap
+    from rliable import metrics
+
+    x = np.random.default_rng(5).normal(size=(12, 5))
+    bs = IIDBootstrap(x, seed=stats.BOOTSTRAP_SEED)
+    ci = bs.conf_int(metrics.aggregate_iqm, reps=stats.N_RESAMPLES, method="percentile")
+    assert stats.iqm_ci(x)[1:] == (ci[0, 0], ci[1, 0])
+
+
 def test_pooled_interval_resamples_each_seed_jointly_over_mazes():
     """All mazes test the same networks: a resample draws seeds, not (seed, maze) cells.
 
