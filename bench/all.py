@@ -8,7 +8,11 @@ Runs, each script in its own process, ``--runs`` times (medians over the runs):
    wrapper alone, and ours at 1 and 32 seeds;
 4. bench/peers_rejax.py: rejax's DQN (JAX) on our environment and ours, 1 and 32 seeds;
 5. bench/roofline.py: this CPU's float32 matmul peak, the learner's FLOPs and ours at
-   32 seeds.
+   32 seeds;
+
+and then, once, bench/end_to_end.py: whole commands as a user waits for them
+(compilation included) beside the steady state, and a second table of the speed
+targets, each beside its measured figure.
 
 Each ratio is taken from one script, whose two figures are measured back to back:
 on a shared machine the load moves within minutes. The trainer settings (steps per
@@ -36,6 +40,8 @@ import time
 from pathlib import Path
 
 from common import BENCH, child_env, find_python, machine
+from end_to_end import markdown as targets_markdown
+from end_to_end import targets
 
 README = BENCH / "README.md"
 BEGIN, END = "<!-- bench/all.py table: begin -->", "<!-- bench/all.py table: end -->"
@@ -254,6 +260,8 @@ def main(argv=None) -> int:
         log(f"== run {i + 1} of {runs}")
         figs.append(one_run(args.quick, log))
     f = median_figures(figs)
+    log("== whole commands")
+    e2e = run_script(sys.executable, "end_to_end.py", ["--quick"] if args.quick else [], log)
     load1 = os.getloadavg()[0]
     header = (
         f"`python bench/all.py{' --quick' if args.quick else ''}`, "
@@ -261,11 +269,15 @@ def main(argv=None) -> int:
         f"{(time.time() - t0) / 60:.0f} min; machine: {m0} (load before), load after {load1:.1f}."
     )
     text = table(f, args.quick, runs, header)
+    q = " --quick" if args.quick else ""
+    text += f"\n\nThe speed targets, from `python bench/end_to_end.py{q}` in the same run:\n\n" + (
+        targets_markdown(targets(e2e)) if e2e else "bench/end_to_end.py failed (log above)"
+    )
     print()
     print(text)
     if args.json:
         with open(args.json, "w") as fh:
-            json.dump({"runs": figs, "median": f}, fh, indent=1)
+            json.dump({"runs": figs, "median": f, "end_to_end": e2e}, fh, indent=1)
     if args.write_readme:
         write_readme(text)
         print(f"\n(written to {README})")
