@@ -36,12 +36,15 @@ def print_summary(out: Path, summary: dict[str, Any]) -> None:
         f"trained {summary['env_steps']} env steps in {summary['wall_clock_s']} s "
         f"({summary['steps_per_s']:.0f} steps/s)"
     )
-    if summary.get("startup_s") is not None:
+    if summary.get("startup_s") is not None:  # None: nothing was left to train
         print(
             f"training began {summary['startup_s']:.1f} s after the command started "
-            f"(compilation {summary['compile_s']:.1f} s); "
-            f"{100 * summary['lockstep_useful']:.0f}% of the steps computed in lockstep "
-            "were real steps (the rest: finished runs waiting for the others)"
+            f"(compilation {summary['compile_s']:.1f} s)"
+        )
+    if summary.get("lockstep_useful") is not None:
+        print(
+            f"{100 * summary['lockstep_useful']:.0f}% of the steps computed in lockstep were "
+            "real steps (the rest: finished runs waiting for the others)"
         )
     for s, v in summary["last50"].items():
         print(

@@ -202,7 +202,8 @@ class Run:
         self.diverged = {int(r): int(diverged_at[r]) for r in np.flatnonzero(diverged_at >= 0)}
         self.logged = host["logged"].astype(np.int64)
         self.wall = float(host["wall"])
-        self.computed = int(host.get("computed", 0))  # absent in older checkpoints
+        # -1: unknown (a checkpoint of an earlier version did not count)
+        self.computed = int(host.get("computed", -1))
         metrics_size, explore_size = (int(x) for x in host["csv_sizes"])
         if is_writer():
             self.metrics.truncate(metrics_size)
@@ -411,7 +412,8 @@ class Run:
                 log = self.shard.get(log)  # waits for the chunk
                 dt = time.perf_counter() - t0
                 self.wall += dt
-                self.computed += n * self.cfg.n_runs
+                if self.computed >= 0:
+                    self.computed += n * self.cfg.n_runs
                 steps = int((self.shard.get(ts.step) - step_before).sum())
                 diverged = self.check_divergence(ts)
                 stop = bool(diverged) and self.cfg.run.on_divergence == "stop"
@@ -450,7 +452,7 @@ class Run:
             "env_steps": steps,
             "steps_per_s": round(steps / max(self.wall, 1e-9), 1),
             # the share of the run-steps computed in lockstep that were real steps
-            "lockstep_useful": round(steps / self.computed, 4) if self.computed else None,
+            "lockstep_useful": round(steps / self.computed, 4) if self.computed > 0 else None,
             "compile_s": None if self.compile_s is None else round(self.compile_s, 2),
             "startup_s": None if self.startup_s is None else round(self.startup_s, 2),
             "buffer_capacity": self.cfg.buffer_capacity,
