@@ -9,9 +9,10 @@ In one run, one measurement after the other (never two at once):
    to exit; its transitions/s (real env steps over the whole wall-clock) as a share
    of (1), its peak RSS (``wait4``), and from its ``summary.json`` the share of the
    steps computed in lockstep that were real steps;
-3. **the same command again**, with the cache the first one filled: how long after
-   launch the second run starts training (``summary.json``'s ``startup_s``: imports,
-   set-up, and the compiled program loaded from the cache);
+3. **the same command again**, with the cache the first one filled; and how long
+   after launch a second run starts training (``summary.json``'s ``startup_s``:
+   imports, set-up, and the compiled program loaded from the cache), as the median
+   of three one-episode runs after one that fills the cache for them;
 4. **against Stable-Baselines3, whole processes**: ``jaxnav.train`` with 16 seeds x 2
    strategies for E2 episodes (cold cache), against SB3's DQN
    (``bench/peers_sb3.py``'s model: same network, loss and hyperparameters) doing the
@@ -38,6 +39,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import statistics
 import subprocess
 import sys
 import tempfile
@@ -178,6 +180,10 @@ def measure(
         res["cold"] = train_command(32, episodes, d / "cold", d / "cache", log)
         res["warm"] = train_command(32, episodes, d / "warm", d / "cache", log)
         res["whole_over_steady"] = res["cold"]["transitions_per_s"] / steady["transitions_per_s"]
+        starts = [
+            train_command(32, 1, d / f"start{i}", d / "cache", log)["startup_s"] for i in range(4)
+        ]
+        res["second_start_s"] = statistics.median(starts[1:])
         sb3_py = find_python("stable_baselines3")
         if sb3_py:
             ours = train_command(16, sb3_episodes, d / "vs_sb3", d / "cache_sb3", log)
@@ -234,9 +240,9 @@ def targets(res: dict) -> list[tuple[str, str, str, str]]:
         add(">= 30x SB3 end to end", "SB3 not installed", None, "")
     add(
         "a second run starts training within 3 s",
-        f"{res['warm']['startup_s']:.1f} s (first run: {cold['startup_s']:.1f} s)",
-        res["warm"]["startup_s"] <= 3,
-        "launch to first chunk, warm compilation cache",
+        f"{res['second_start_s']:.1f} s (first run, cold cache: {cold['startup_s']:.1f} s)",
+        res["second_start_s"] <= 3,
+        "launch to first chunk, warm cache; median of 3, 64 runs",
     )
     full = cold["episodes"] >= 500  # a short run has not touched most replay pages
     add(
