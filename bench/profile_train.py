@@ -148,6 +148,12 @@ def profile(args) -> int:
         f"step wall-clock, {total / args.reps / args.steps:.0f} us of XLA operations per step "
         f"summed over {shard.n_devices} device(s)"
     )
+    cover = total / (sum(walls) * 1e6 * shard.n_devices)
+    print(
+        f"# the operations the trace names cover {100 * cover:.0f}% of the devices' wall-clock; "
+        "the rest is XLA's CPU runtime around them (ThunkExecutor), which the trace does "
+        "not split by operation"
+    )
     print("\n| part of the step | share of operation time |\n|---|--:|")
     for g, us in groups.most_common():
         print(f"| {g} | {100 * us / total:.1f}% |")
