@@ -104,3 +104,15 @@ def test_the_committed_ablation_is_computed_from_its_scores():
     for line in readme.splitlines():
         if line.startswith("| ") and any(line.startswith(f"| {v} |") for v in ablation.VARIANTS):
             assert line in tables, line
+
+
+def test_the_robotis_goals_confirmation_is_computed_from_its_results():
+    import gzip
+
+    from jaxnav.tables import tables_markdown
+
+    d = Path(__file__).resolve().parent.parent / "docs" / "ablation" / "robotis_goals-confirm"
+    text = gzip.decompress((d / "results.csv.gz").read_bytes()).decode()
+    tables = tables_markdown(text, "square4", 100, title="Test results of confirm_goals")
+    assert tables == (d / "tables.md").read_text()
+    assert "| all mazes | 0.57 [0.46, 0.67] |" in tables  # quoted in its README
