@@ -96,8 +96,7 @@ def profile(args) -> int:
     import numpy as np
 
     from jaxnav.config import load_config
-    from jaxnav.dqn import make_trainer, run_inputs
-    from jaxnav.sharding import RunSharding
+    from jaxnav.training import Run
 
     cfg = load_config(
         "configs/paper_no_obstacles.yaml",
@@ -108,23 +107,20 @@ def profile(args) -> int:
             f"run.chunk_steps={args.steps}",
         ],
     )
-    tr = make_trainer(cfg)
-    shard = RunSharding(cfg.n_runs)
-    init = jax.jit(jax.vmap(tr.init), out_shardings=shard.sharding)
-    chunk = jax.jit(jax.vmap(tr.chunk), donate_argnums=0, out_shardings=shard.sharding)
-    ts = init(*shard.put(jax.tree.map(np.asarray, run_inputs(cfg))))
-    lowered = chunk.lower(ts)
-    compiled = lowered.compile()
+    run = Run(cfg, None, quiet=True)  # jaxnav.train's own programs, no files
+    shard, n = run.shard, np.int32(args.steps)
+    ts = run.fresh_state()
+    compiled = run.chunk.lower(ts, n).compile()
     sources = _op_sources(compiled.as_text())
     for _ in range(2):  # past learning_starts, warm
-        ts, _ = compiled(ts)
+        ts, _ = compiled(ts, n)
     jax.block_until_ready(ts)
     walls = []
     with tempfile.TemporaryDirectory() as d:
         with jax.profiler.trace(d, create_perfetto_trace=True):
             for _ in range(args.reps):
                 t0 = time.perf_counter()
-                ts, _ = compiled(ts)
+                ts, _ = compiled(ts, n)
                 jax.block_until_ready(ts)
                 walls.append(time.perf_counter() - t0)
         (path,) = glob.glob(f"{d}/**/*.trace.json.gz", recursive=True)

@@ -36,8 +36,7 @@ def run_case(case: str, seeds: int, steps: int, reps: int) -> dict:
     import numpy as np
 
     from jaxnav.config import load_config
-    from jaxnav.dqn import make_trainer, run_inputs
-    from jaxnav.sharding import RunSharding
+    from jaxnav.training import Run
 
     base = [
         "strategies=[ebe,epsilon_greedy]",
@@ -51,13 +50,9 @@ def run_case(case: str, seeds: int, steps: int, reps: int) -> dict:
     }[case]
     t0 = time.perf_counter()
     cfg = load_config(None, items)
-    tr = make_trainer(cfg)
-    shard = RunSharding(cfg.n_runs)
-    init = jax.jit(jax.vmap(tr.init), out_shardings=shard.sharding)
-    chunk = jax.jit(
-        jax.vmap(tr.chunk, in_axes=(0, None)), donate_argnums=0, out_shardings=shard.sharding
-    )
-    ts = init(*shard.put(tuple(run_inputs(cfg))))
+    run = Run(cfg, None, quiet=True)  # jaxnav.train's own programs, no files
+    chunk = run.chunk
+    ts = run.fresh_state()
     ts, _ = chunk(ts, np.int32(steps))
     jax.block_until_ready(ts)
     first_s = time.perf_counter() - t0  # what a user waits for before steady state
