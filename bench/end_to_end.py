@@ -66,12 +66,15 @@ def train_command(seeds: int, episodes: int, out: Path, cache: Path, log) -> dic
     ]
     env = child_env({"JAXNAV_CACHE": str(cache)})
     log("$ " + " ".join(["python", *cmd[1:]]))
-    t0 = time.perf_counter()
-    p = subprocess.Popen(cmd, cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
-    _, status, usage = os.wait4(p.pid, 0)
-    wall = time.perf_counter() - t0
-    err = p.stderr.read().decode(errors="replace")
-    p.stdout.close(), p.stderr.close()
+    # stderr to a file, not a pipe: wait4 (for the child's own peak RSS) reads nothing
+    # while the child runs, and a full pipe would block it
+    with tempfile.TemporaryFile() as errf:
+        t0 = time.perf_counter()
+        p = subprocess.Popen(cmd, cwd=ROOT, env=env, stdout=subprocess.DEVNULL, stderr=errf)
+        _, status, usage = os.wait4(p.pid, 0)
+        wall = time.perf_counter() - t0
+        errf.seek(0)
+        err = errf.read().decode(errors="replace")
     if os.waitstatus_to_exitcode(status) != 0:
         raise RuntimeError(f"jaxnav.train failed: {(err.strip().splitlines() or ['?'])[-1]}")
     summary = json.loads((out / "summary.json").read_text())
