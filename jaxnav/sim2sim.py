@@ -132,6 +132,7 @@ SUMMARY_COLUMNS = (
     "collision_rate",
     "length",
 )
+REALISM_COLUMNS = ("option", *SUMMARY_COLUMNS)  # several runs' sim2sim CSVs in one
 
 
 def _mujoco():
@@ -722,6 +723,84 @@ def gap_markdown(text: str, title: str = "Sim-to-sim gap") -> str:
             )
     lines += _table(header, rows)
     return "\n".join(lines) + "\n"
+
+
+def realism_markdown(text: str, baseline: str = "plain") -> str:
+    """Markdown table of which training options help in MuJoCo. ``text`` is the sim2sim
+    CSVs of several runs of one config, each trained with one option, in one CSV
+    with an ``option`` column first (:data:`REALISM_COLUMNS`; the same mazes,
+    strategies and seeds for every option); ``baseline`` names the run trained
+    without any.
+
+    Per option and strategy, over all test mazes: MuJoCo's return, and the chance
+    that a seed trained with the option scores more in MuJoCo than a seed trained
+    without (rliable's probability of improvement, mazes as tasks, with its
+    bootstrap interval, seeds of the two runs resampled independently); then the
+    gap, MuJoCo minus jaxnav, signed and as the mean size of a seed's per-maze gap,
+    with the chance that the option's gaps are smaller than the baseline's."""
+    res: dict[str, dict] = {}
+    for row in csv.DictReader(io.StringIO(text)):
+        key = (row["simulator"], row["maze"], row["strategy"], int(row["seed"]))
+        res.setdefault(row["option"], {})[key] = {c: float(row[c]) for c in SUMMARY_COLUMNS[4:]}
+    if baseline not in res:
+        raise ValueError(f"no run named {baseline!r} to compare with")
+    keys = [k for k in res[baseline] if k[0] == "mujoco"]
+    mazes = ordered_unique(k[1] for k in keys)
+    strategies = ordered_unique(k[2] for k in keys)
+    seeds = sorted({k[3] for k in keys})
+    for name, r in res.items():
+        have = {k for k in r if k[0] == "mujoco"}
+        if have != set(keys):
+            raise ValueError(f"{name}'s mazes, strategies or seeds differ from {baseline}'s")
+
+    def scores(name, sim, strategy):  # f[seeds, mazes]
+        r = res[name]
+        return np.asarray([[r[(sim, m, strategy, s)]["return"] for m in mazes] for s in seeds])
+
+    def verdict(p: stats.Interval, better: str, worse: str) -> str:
+        return {1: better, -1: worse, 0: "no difference"}[stats.side(p)]
+
+    header = ["option", "strategy", "MuJoCo return", "P(MuJoCo return > plain's)"]
+    header += ["gap", "size of gap", "P(gap smaller than plain's)", "narrows the gap?"]
+    rows = []
+    for name in [baseline, *(n for n in res if n != baseline)]:
+        for strategy in strategies:
+            mj, jx = scores(name, "mujoco", strategy), scores(name, "jaxnav", strategy)
+            size = np.abs(mj - jx)
+            row = [name, STRATEGY_NAMES.get(strategy, strategy), _ci(stats.mean_ci(mj), 1)]
+            if name == baseline:
+                row += ["", _ci(stats.mean_ci(mj - jx), 1, "+"), _ci(stats.mean_ci(size), 1)]
+                row += ["", ""]
+            else:
+                base_mj = scores(baseline, "mujoco", strategy)
+                base_size = np.abs(base_mj - scores(baseline, "jaxnav", strategy))
+                p_return = stats.probability_of_improvement_ci(mj, base_mj)
+                p_gap = stats.probability_of_improvement_ci(-size, -base_size)
+                row += [
+                    f"{_ci(p_return, 2)} {verdict(p_return, 'higher', 'lower')}",
+                    _ci(stats.mean_ci(mj - jx), 1, "+"),
+                    _ci(stats.mean_ci(size), 1),
+                    _ci(p_gap, 2),
+                    verdict(p_gap, "yes", "widens it"),
+                ]
+            rows.append(row)
+    n_eps = ordered_unique(
+        int(v["episodes"]) for r in res.values() for k, v in r.items() if k[0] == "mujoco"
+    )
+    lines = [
+        f"Every policy greedy, {len(seeds)} seeds per strategy and option, test mazes "
+        f"{', '.join(mazes)}, {'/'.join(map(str, n_eps))} MuJoCo episodes per policy and "
+        "maze. Return: mean over seeds and mazes with a 95% bootstrap interval over "
+        f"seeds. P(MuJoCo return > {baseline}'s): the chance that a seed trained with the "
+        f"option scores more in MuJoCo than a seed trained without (rliable's probability "
+        "of improvement over the mazes; 95% interval, the two runs' seeds resampled "
+        "independently). Gap: a seed's MuJoCo return minus its jaxnav return on the same "
+        "maze, averaged (signed) and as its size (mean absolute gap per seed and maze); "
+        "jaxnav's column is tested in the run's own training settings. A verdict needs "
+        "its interval to exclude 0.5.",
+        "",
+    ]
+    return "\n".join(lines + _table(header, rows)) + "\n"
 
 
 def _table(header: Sequence[str], rows: Sequence[Sequence[Any]]) -> list[str]:

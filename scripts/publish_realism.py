@@ -1,0 +1,81 @@
+"""Merge the runs of ``scripts/sim2sim_realism.sh OUT`` into docs/sim2sim_realism.
+
+Reads OUT/<option>/sim2sim/sim2sim.csv for every option the campaign trains and
+writes docs/sim2sim_realism.csv (those rows, an ``option`` column first) and
+docs/sim2sim_realism.md (the table, recomputed from that CSV alone by
+``jaxnav.sim2sim.realism_markdown``, then how it was made: the options' overrides,
+the commit that ran them and the wall-clock of each step from its files). Run from the
+repository root: ``python scripts/publish_realism.py OUT``.
+"""
+
+import csv
+import json
+import sys
+from pathlib import Path
+
+from jaxnav.rundir import csv_text
+from jaxnav.sim2sim import REALISM_COLUMNS, realism_markdown
+
+# The campaign's options (scripts/sim2sim_realism.sh), by the name of their directory.
+OPTIONS = {
+    "plain": "none (configs/paper_no_obstacles.yaml as it is)",
+    "action_delay": "env.action_delay=true",
+    "maze_scale": "env.maze_scale=[0.75,1.5]",
+    "random_start": "env.random_start=true",
+    "odom_noise": "env.odom_noise=[0.02,0.02]",
+    "beam_dropout": "env.beam_dropout=0.05",
+    "lidar_noise_std": "env.lidar_noise_std=0.02",
+}
+
+
+def main(src: str, dst: str = "docs/sim2sim_realism") -> int:
+    src_dir = Path(src)
+    rows, made = [], []
+    for name, override in OPTIONS.items():
+        path = src_dir / name / "sim2sim" / "sim2sim.csv"
+        if not path.is_file():
+            print(f"no {path}: run scripts/sim2sim_realism.sh {src} first")
+            return 2
+        rows += [[name, *r.values()] for r in csv.DictReader(path.open())]
+        log = (src_dir / name / "sim2sim.log").read_text().strip().splitlines()
+        mujoco_s = sum(int(line.rsplit(", ", 1)[1].removesuffix(" s")) for line in log)
+        summary = src_dir / name / "summary.json"
+        train = (
+            f"{json.loads(summary.read_text())['wall_clock_s'] / 60:.1f} min of training"
+            if summary.is_file()
+            else "the plain run of the report (its first seeds)"
+        )
+        made.append(f"| {name} | `{override}` | {train} | {mujoco_s / 60:.1f} min |")
+    text = csv_text(REALISM_COLUMNS, rows)
+    commit = (src_dir / "commit").read_text().strip()
+    md = "\n".join(
+        [
+            "# Which realism options narrow the sim-to-sim gap",
+            "",
+            realism_markdown(text),
+            "## How it was made",
+            "",
+            "`scripts/sim2sim_realism.sh OUT 16 5` trains configs/paper_no_obstacles.yaml "
+            "once per option (16 seeds per strategy, 500 episodes), tests every policy "
+            "greedily in jaxnav and in MuJoCo (`python -m jaxnav.sim2sim RUN --seeds 0 .. "
+            f"15 --episodes 5`), all with the code at {commit}; `python "
+            "scripts/publish_realism.py OUT` wrote this page and the per-seed CSV beside "
+            "it. Each MuJoCo test ran beside "
+            "the next option's training on the same 2 cores, so the times below are "
+            "slower than either alone.",
+            "",
+            "| option | override | training | MuJoCo test |",
+            "|---|---|---|---|",
+            *made,
+            "",
+        ]
+    )
+    out = Path(dst)
+    out.with_suffix(".csv").write_text(text)
+    out.with_suffix(".md").write_text(md)
+    print(f"wrote {out}.md and {out}.csv")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(*sys.argv[1:]))

@@ -1,0 +1,95 @@
+"""The realism table (which training options help in MuJoCo) is computed from the
+per-seed CSV alone, with rliable's probability of improvement, and the committed
+table is that computation of the committed CSV."""
+
+from __future__ import annotations
+
+import csv
+import io
+from pathlib import Path
+
+import numpy as np
+import pytest
+from rliable import metrics
+
+from jaxnav import stats
+from jaxnav.rundir import csv_text
+from jaxnav.sim2sim import REALISM_COLUMNS, realism_markdown
+
+ROOT = Path(__file__).resolve().parent.parent
+MAZES = ("square4", "triangle")
+STRATEGIES = ("ebe", "epsilon_greedy")
+SEEDS = range(8)
+
+
+def _rows(option: str, jaxnav: np.ndarray, mujoco: np.ndarray) -> list[list]:
+    """CSV rows of one option from returns f[strategies, seeds, mazes] per simulator."""
+    rows = []
+    for sim, ret in (("jaxnav", jaxnav), ("mujoco", mujoco)):
+        for i, strategy in enumerate(STRATEGIES):
+            for s in SEEDS:
+                for j, maze in enumerate(MAZES):
+                    rows.append([option, sim, strategy, s, maze, 5, ret[i, s, j], 1.0, 0.2, 300.0])
+    return rows
+
+
+def _table(md: str) -> dict[tuple[str, str], dict[str, str]]:
+    """{(option, strategy): {column: cell}} of the markdown table."""
+    lines = [line for line in md.splitlines() if line.startswith("|")]
+    header = [c.strip() for c in lines[0].strip("|").split("|")]
+    cells = [[c.strip() for c in line.strip("|").split("|")] for line in lines[2:]]
+    return {(r[0], r[1]): dict(zip(header, r)) for r in cells}
+
+
+@pytest.fixture(scope="module")
+def synthetic():
+    rng = np.random.default_rng(0)
+    shape = (len(STRATEGIES), len(SEEDS), len(MAZES))
+    jx = rng.normal(6000, 1500, shape)
+    plain_mj = jx + rng.normal(0, 800, shape)  # a gap of about 800 per seed and maze
+    better_jx = rng.normal(6000, 1500, shape)
+    better_mj = better_jx + 3000 + rng.normal(0, 10, shape)  # better in MuJoCo, gap +3000
+    same_jx = rng.normal(6000, 1500, shape)
+    same_mj = same_jx + rng.normal(0, 800, shape)
+    rows = _rows("plain", jx, plain_mj)
+    rows += _rows("better", better_jx, better_mj)
+    rows += _rows("same", same_jx, same_mj)
+    text = csv_text(REALISM_COLUMNS, rows)
+    return text, {"plain": (jx, plain_mj), "better": (better_jx, better_mj)}
+
+
+def test_the_realism_table_uses_rliables_probability_of_improvement(synthetic):
+    text, data = synthetic
+    table = _table(realism_markdown(text))
+    assert [k[0] for k in table] == ["plain", "plain", "better", "better", "same", "same"]
+    for i, strategy in enumerate(STRATEGIES):
+        name = {"ebe": "EBE", "epsilon_greedy": "epsilon-greedy"}[strategy]
+        jx, mj = data["plain"][0][i], data["plain"][1][i]
+        b_jx, b_mj = data["better"][0][i], data["better"][1][i]
+        row = table[("better", name)]
+        p = metrics.probability_of_improvement(b_mj, mj)  # rliable's own function
+        assert row["P(MuJoCo return > plain's)"].startswith(f"{p:.2f} [")
+        assert row["P(MuJoCo return > plain's)"].endswith("higher")
+        assert row["MuJoCo return"].startswith(f"{b_mj.mean():.1f} [")
+        assert row["gap"].startswith(f"{(b_mj - b_jx).mean():+.1f} [")
+        # A constant +3000 gap is larger than plain's noise of 800: it widens.
+        size = np.abs(b_mj - b_jx)
+        assert row["size of gap"].startswith(f"{size.mean():.1f} [")
+        assert row["narrows the gap?"] == "widens it"
+        plain = table[("plain", name)]
+        iv = stats.mean_ci(mj)
+        assert plain["MuJoCo return"] == f"{iv.value:.1f} [{iv.low:.1f}, {iv.high:.1f}]"
+        assert plain["P(MuJoCo return > plain's)"] == ""
+        assert plain["gap"].startswith(f"{(mj - jx).mean():+.1f} [")
+        # Equally distributed runs: no verdict either way.
+        assert table[("same", name)]["P(MuJoCo return > plain's)"].endswith("no difference")
+
+
+def test_the_realism_table_refuses_runs_that_do_not_match(synthetic):
+    text, _ = synthetic
+    rows = list(csv.reader(io.StringIO(text)))
+    short = [r for r in rows if not (r[0] == "better" and r[3] == "7")]
+    with pytest.raises(ValueError, match="better"):
+        realism_markdown("\n".join(",".join(r) for r in short) + "\n")
+    with pytest.raises(ValueError, match="no run named .none."):
+        realism_markdown(text, baseline="none")
