@@ -10,6 +10,11 @@ after compilation, median of ``--reps`` repetitions.
     python bench/train_throughput.py --seeds 8 --beams 24
     python bench/train_throughput.py --seeds 32 --beams 24 --devices 1 2 4   # sharding
 
+``--xla-flags`` measures each case once per set of extra XLA flags, one after the
+other, each set its flags' names without the leading dashes, comma-separated, or
+``none``: ``--xla-flags none xla_cpu_use_xnnpack=true none`` measures the default,
+XNNPACK, then the default again.
+
 ``--devices`` forces that many CPU devices (XLA_FLAGS) and lays the seeds over them
 with jaxnav's run sharding. The default is one device per core, as ``jaxnav.train``
 runs; ``--devices 1 2 4`` shows what the layout gains (devices beyond the core
@@ -99,6 +104,14 @@ def main() -> None:
         default=[cores()],
         help="CPU device counts (default: one per core, as jaxnav.train)",
     )
+    p.add_argument(
+        "--xla-flags",
+        nargs="+",
+        default=["none"],
+        metavar="FLAGS",
+        help="measure every case under each of these sets of extra XLA flags: "
+        "names without the leading --, comma-separated, or none",
+    )
     p.add_argument("--json", help="also write the results here")
     p.add_argument("--case", help=argparse.SUPPRESS)
     args = p.parse_args()
@@ -120,15 +133,27 @@ def main() -> None:
         f"# {args.steps} steps per chunk, median of {args.reps}, "
         f"replay capacity {args.capacity}/seed"
     )
+    flagged = args.xla_flags != ["none"]
     print(
-        "| devices | seeds | beams | transitions/s | per seed | compile s | buffer MB/seed "
+        ("| XLA flags " if flagged else "")
+        + "| devices | seeds | beams | transitions/s | per seed | compile s | buffer MB/seed "
         "| peak RSS MB |"
     )
-    print("|" + "---|" * 8)
+    print("|" + "---|" * (8 + flagged))
     results = []
-    cases = [(d, b, s) for d in args.devices for b in args.beams for s in args.seeds]
-    for devices, beams, seeds in cases:
+    cases = [
+        (d, b, s, f)
+        for d in args.devices
+        for b in args.beams
+        for s in args.seeds
+        for f in args.xla_flags
+    ]
+    for devices, beams, seeds, flags in cases:
         env = device_env(devices)
+        if flags != "none":
+            extra = " ".join("--" + f for f in flags.split(","))
+            env["XLA_FLAGS"] = f"{env.get('XLA_FLAGS', '')} {extra}".strip()
+        first = f"| {flags} " if flagged else ""
         cmd = [
             sys.executable,
             __file__,
@@ -144,13 +169,14 @@ def main() -> None:
         out = subprocess.run(cmd, capture_output=True, text=True, env=env)
         if out.returncode != 0:
             print(
-                f"| {devices} | {seeds} | {beams} | failed: {out.stderr.strip().splitlines()[-1]} |"
+                f"{first}| {devices} | {seeds} | {beams} "
+                f"| failed: {out.stderr.strip().splitlines()[-1]} |"
             )
             continue
-        r = json.loads(out.stdout.strip().splitlines()[-1])
+        r = json.loads(out.stdout.strip().splitlines()[-1]) | {"xla_flags": flags}
         results.append(r)
         print(
-            f"| {devices} | {seeds} | {beams} | {r['transitions_per_s']:,.0f} "
+            f"{first}| {devices} | {seeds} | {beams} | {r['transitions_per_s']:,.0f} "
             f"| {r['transitions_per_s'] / seeds:,.0f} "
             f"| {r['compile_s']:.1f} | {r['buffer_mb_per_seed']:.1f} | {r['peak_rss_mb']:,.0f} |",
             flush=True,
