@@ -21,8 +21,15 @@ out (they are O(width) or not learner arithmetic). The fraction printed is the
 share of the machine's dense float32 rate that goes into network arithmetic;
 everything else in a training step counts as overhead against it.
 
+The learner alone is also measured: the same gradient step (``jaxnav.dqn``'s loss,
+dropout and RMSprop update, vmapped over the runs and laid over the devices as
+``jaxnav.train`` lays them) on a fixed batch per run, with no environment, acting
+or replay. Its rate bounds what the whole trainer can reach on this machine with
+this arithmetic: whatever else a step does only adds to it.
+
     python bench/roofline.py               # 32 seeds, 24 and 360 beams
     python bench/roofline.py --quick
+    python bench/roofline.py --seeds 64 --beams 24      # the speed target's case
     python bench/roofline.py --no-ours --json r.json   # peak and FLOP counts only
 """
 
@@ -31,10 +38,11 @@ from __future__ import annotations
 import argparse
 import json
 import statistics
+import subprocess
 import sys
 import time
 
-from common import machine, ours_train
+from common import cores, device_env, machine, ours_train
 
 
 def matmul_peak(n: int = 2048, reps: int = 5) -> dict:
@@ -100,6 +108,75 @@ def learner_flops(beams: int, overrides: tuple[str, ...] = ()) -> dict:
     }
 
 
+def learner_alone(seeds: int, beams: int, steps: int, reps: int) -> dict:
+    """Gradient steps per second of the learner by itself for ``seeds`` runs (of EBE,
+    as ``train_throughput.py`` counts them): ``steps`` steps in one compiled loop,
+    median of ``reps`` after a compiling call."""
+    import functools
+
+    import jax
+    import jax.numpy as jnp
+    import numpy as np
+    import optax
+
+    from jaxnav import dqn
+    from jaxnav.config import load_config
+    from jaxnav.env import from_config
+    from jaxnav.replay import Batch
+    from jaxnav.sharding import RunSharding
+
+    cfg = load_config(None, [f"seeds={seeds}", "strategies=[ebe]", f"env.n_beams={beams}"])
+    env, _ = from_config(cfg)
+    d = cfg.dqn
+    network = dqn.QNetwork(env.num_actions, tuple(d.hidden), d.dropout)
+    inputs = dqn.run_inputs(cfg)
+
+    def init(key, hyper):
+        k_net, k_batch = jax.random.split(key)
+        params = network.init(k_net, jnp.zeros((1, env.obs_size)))
+        ko, kn, ka, kr = jax.random.split(k_batch, 4)
+        batch = Batch(
+            obs=jax.random.uniform(ko, (d.batch_size, env.obs_size)),
+            action=jax.random.randint(ka, (d.batch_size,), 0, env.num_actions),
+            reward=jax.random.normal(kr, (d.batch_size,)),
+            next_obs=jax.random.uniform(kn, (d.batch_size, env.obs_size)),
+            terminated=jnp.zeros(d.batch_size, bool),
+        )
+        opt_state = dqn.optimizer_of(hyper).init(params)
+        return params, params, opt_state, batch, key
+
+    def learn(state, hyper):
+        def body(_, carry):
+            params, target, opt_state, batch, key = carry
+            key, k_drop = jax.random.split(key)
+            loss_fn = functools.partial(dqn._loss, network, hyper)
+            _, grads = jax.value_and_grad(loss_fn)(params, target, batch, k_drop)
+            updates, opt_state = dqn.optimizer_of(hyper).update(grads, opt_state, params)
+            return optax.apply_updates(params, updates), target, opt_state, batch, key
+
+        return jax.lax.fori_loop(0, steps, body, state)
+
+    shard = RunSharding(cfg.n_runs)
+    keys, _, hypers = shard.put(jax.tree.map(np.asarray, inputs))
+    state = jax.jit(jax.vmap(init), out_shardings=shard.sharding)(keys, hypers)
+    run = jax.jit(jax.vmap(learn), donate_argnums=0, out_shardings=shard.sharding)
+    state = jax.block_until_ready(run(state, hypers))
+    times = []
+    for _ in range(reps):
+        t0 = time.perf_counter()
+        state = jax.block_until_ready(run(state, hypers))
+        times.append(time.perf_counter() - t0)
+    med = statistics.median(times)
+    return {"runs": cfg.n_runs, "beams": beams, "steps_per_s": cfg.n_runs * steps / med}
+
+
+def learner_alone_child(seeds: int, beams: int, steps: int, reps: int) -> dict:
+    """:func:`learner_alone` in its own process, on one CPU device per core."""
+    cmd = [sys.executable, __file__, "--learner-case", f"{seeds},{beams},{steps},{reps}"]
+    out = subprocess.run(cmd, capture_output=True, text=True, env=device_env(cores()), check=True)
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--beams", type=int, nargs="+", default=[24, 360])
@@ -116,7 +193,11 @@ def main(argv=None) -> int:
     )
     ap.add_argument("--no-ours", action="store_true", help="peak and FLOP counts only")
     ap.add_argument("--json", help="also write the results here")
+    ap.add_argument("--learner-case", help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
+    if args.learner_case:  # child process: the learner alone, JSON on stdout
+        print(json.dumps(learner_alone(*map(int, args.learner_case.split(",")))))
+        return 0
     if args.quick:
         args.n, args.peak_reps, args.steps, args.reps, args.capacity = [2048], 3, 500, 2, 20_000
 
@@ -140,6 +221,15 @@ def main(argv=None) -> int:
             flush=True,
         )
         if not args.no_ours:
+            alone = learner_alone_child(args.seeds, beams, args.steps, args.reps)
+            alone_gflops = alone["steps_per_s"] * f["flops_per_transition"] / 1e9
+            row.update(learner_alone_per_s=alone["steps_per_s"], learner_alone_gflops=alone_gflops)
+            print(
+                f"  the learner alone, {alone['runs']} runs: {alone['steps_per_s']:,.0f} "
+                f"gradient steps/s = {alone_gflops:,.2f} GFLOP/s = "
+                f"{100 * alone_gflops / peak:.1f}% of {peak:,.0f} GFLOP/s",
+                flush=True,
+            )
             tps = ours_train(args.seeds, beams, args.steps, args.reps, args.capacity)[
                 "transitions_per_s"
             ]
