@@ -1,6 +1,7 @@
-"""The realism table (which training options help in MuJoCo) is computed from the
-per-seed CSV alone, with rliable's probability of improvement, and the committed
-table is that computation of the committed CSV."""
+"""The sim-to-sim tables are computed from their per-seed CSVs alone: the gap table
+and the realism table (which training options help in MuJoCo, with rliable's
+probability of improvement), and the committed tables are that computation of the
+committed CSVs."""
 
 from __future__ import annotations
 
@@ -14,7 +15,7 @@ from rliable import metrics
 
 from jaxnav import stats
 from jaxnav.rundir import csv_text
-from jaxnav.sim2sim import REALISM_COLUMNS, realism_markdown
+from jaxnav.sim2sim import REALISM_COLUMNS, gap_markdown, realism_markdown
 
 ROOT = Path(__file__).resolve().parent.parent
 MAZES = ("square4", "triangle")
@@ -93,3 +94,10 @@ def test_the_realism_table_refuses_runs_that_do_not_match(synthetic):
         realism_markdown("\n".join(",".join(r) for r in short) + "\n")
     with pytest.raises(ValueError, match="no run named .none."):
         realism_markdown(text, baseline="none")
+
+
+def test_the_committed_gap_table_is_computed_from_its_csv():
+    title = "Sim-to-sim gap of paper_no_obstacles: jaxnav and MuJoCo"
+    md = gap_markdown((ROOT / "docs" / "sim2sim.csv").read_text(), title)
+    one_level_down = "\n".join("#" + ln if ln.startswith("#") else ln for ln in md.splitlines())
+    assert one_level_down in (ROOT / "docs" / "sim2sim.md").read_text()
