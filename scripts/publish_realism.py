@@ -38,12 +38,16 @@ def main(src: str, dst: str = "docs/sim2sim_realism") -> int:
             return 2
         rows += [[name, *r.values()] for r in csv.DictReader(path.open())]
         log = (src_dir / name / "sim2sim.log").read_text().strip().splitlines()
-        mujoco_s = sum(int(line.rsplit(", ", 1)[1].removesuffix(" s")) for line in log)
+        mujoco_s = sum(
+            int(line.rsplit(", ", 1)[1].removesuffix(" s"))
+            for line in log
+            if " in MuJoCo, " in line
+        )
         summary = src_dir / name / "summary.json"
         train = (
             f"{json.loads(summary.read_text())['wall_clock_s'] / 60:.1f} min of training"
             if summary.is_file()
-            else "the plain run of the report (its first seeds)"
+            else "the report's run"
         )
         made.append(f"| {name} | `{override}` | {train} | {mujoco_s / 60:.1f} min |")
     text = csv_text(REALISM_COLUMNS, rows)
@@ -58,7 +62,9 @@ def main(src: str, dst: str = "docs/sim2sim_realism") -> int:
             "`scripts/sim2sim_realism.sh OUT 16 5` trains configs/paper_no_obstacles.yaml "
             "once per option (16 seeds per strategy, 500 episodes), tests every policy "
             "greedily in jaxnav and in MuJoCo (`python -m jaxnav.sim2sim RUN --seeds 0 .. "
-            f"15 --episodes 5`), all with the code at {commit}; `python "
+            f"15 --episodes 5`), with the code at {commit}. The plain arm (`PLAIN=RUN_DIR`) "
+            "is the first 16 seeds of the reproduction report's no-obstacle run (docs/report), "
+            "trained a few commits earlier by the same training code. `python "
             "scripts/publish_realism.py OUT` wrote this page and the per-seed CSV beside "
             "it. Each MuJoCo test ran beside "
             "the next option's training on the same 2 cores, so the times below are "

@@ -101,3 +101,24 @@ def test_the_committed_gap_table_is_computed_from_its_csv():
     md = gap_markdown((ROOT / "docs" / "sim2sim.csv").read_text(), title)
     one_level_down = "\n".join("#" + ln if ln.startswith("#") else ln for ln in md.splitlines())
     assert one_level_down in (ROOT / "docs" / "sim2sim.md").read_text()
+
+
+def test_the_committed_realism_table_is_computed_from_its_csv():
+    md = realism_markdown((ROOT / "docs" / "sim2sim_realism.csv").read_text())
+    assert md in (ROOT / "docs" / "sim2sim_realism.md").read_text()
+    table = md[md.index("| option |") :]
+    assert table in (ROOT / "docs" / "sim2sim.md").read_text()
+    # One row per option and strategy: the plain run and the six options.
+    options = [row.split("|")[1].strip() for row in table.splitlines()[2:]]
+    assert options == [o for o in OPTIONS for _ in STRATEGIES]
+
+
+OPTIONS = (
+    "plain",
+    "action_delay",
+    "maze_scale",
+    "random_start",
+    "odom_noise",
+    "beam_dropout",
+    "lidar_noise_std",
+)
