@@ -640,13 +640,16 @@ METRICS = (
 )
 
 
-def read_summary(text: str) -> dict[tuple[str, str, str, int], dict[str, float]]:
-    """sim2sim CSV text -> {(simulator, maze, strategy, seed): {metric: value}}."""
-    out = {}
+def _summary_entries(text: str):
+    """(row, (simulator, maze, strategy, seed), {metric: value}) of each CSV row."""
     for row in csv.DictReader(io.StringIO(text)):
         key = (row["simulator"], row["maze"], row["strategy"], int(row["seed"]))
-        out[key] = {c: float(row[c]) for c in SUMMARY_COLUMNS[4:]}
-    return out
+        yield row, key, {c: float(row[c]) for c in SUMMARY_COLUMNS[4:]}
+
+
+def read_summary(text: str) -> dict[tuple[str, str, str, int], dict[str, float]]:
+    """sim2sim CSV text -> {(simulator, maze, strategy, seed): {metric: value}}."""
+    return {key: values for _, key, values in _summary_entries(text)}
 
 
 def _ci(iv: stats.Interval, digits: int, sign: str = "") -> str:
@@ -739,9 +742,8 @@ def realism_markdown(text: str, baseline: str = "plain") -> str:
     gap, MuJoCo minus jaxnav, signed and as the mean size of a seed's per-maze gap,
     with the chance that the option's gaps are smaller than the baseline's."""
     res: dict[str, dict] = {}
-    for row in csv.DictReader(io.StringIO(text)):
-        key = (row["simulator"], row["maze"], row["strategy"], int(row["seed"]))
-        res.setdefault(row["option"], {})[key] = {c: float(row[c]) for c in SUMMARY_COLUMNS[4:]}
+    for row, key, values in _summary_entries(text):
+        res.setdefault(row["option"], {})[key] = values
     if baseline not in res:
         raise ValueError(f"no run named {baseline!r} to compare with")
     keys = [k for k in res[baseline] if k[0] == "mujoco"]
@@ -760,8 +762,8 @@ def realism_markdown(text: str, baseline: str = "plain") -> str:
     def verdict(p: stats.Interval, better: str, worse: str) -> str:
         return {1: better, -1: worse, 0: "no difference"}[stats.side(p)]
 
-    header = ["option", "strategy", "MuJoCo return", "P(MuJoCo return > plain's)"]
-    header += ["gap", "size of gap", "P(gap smaller than plain's)", "narrows the gap?"]
+    header = ["option", "strategy", "MuJoCo return", f"P(MuJoCo return > {baseline}'s)"]
+    header += ["gap", "size of gap", f"P(gap smaller than {baseline}'s)", "narrows the gap?"]
     rows = []
     for name in [baseline, *(n for n in res if n != baseline)]:
         for strategy in strategies:
