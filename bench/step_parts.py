@@ -119,29 +119,27 @@ def _remove(parts: tuple[str, ...]) -> None:
 
 
 def run_case(parts: tuple[str, ...], runs: int, steps: int, reps: int) -> list[float]:
-    """Seconds per step of ``reps`` chunks of ``steps`` steps, after a compiling one."""
+    """Seconds per step of ``reps`` chunks of ``steps`` steps, after a warm-up one."""
     _remove(parts)
     import jax
     import numpy as np
 
     from jaxnav.config import load_config
-    from jaxnav.dqn import make_trainer, run_inputs
-    from jaxnav.sharding import RunSharding
+    from jaxnav.training import Run
 
     cfg = load_config(
         None,
         [f"seeds={runs // 2}", f"run.chunk_steps={steps}", "dqn.buffer_size=250000"],
     )
-    tr = make_trainer(cfg)
-    shard = RunSharding(cfg.n_runs)
-    init = jax.jit(jax.vmap(tr.init), out_shardings=shard.sharding)
-    chunk = jax.jit(jax.vmap(tr.chunk), donate_argnums=0, out_shardings=shard.sharding)
-    ts = init(*shard.put(jax.tree.map(np.asarray, run_inputs(cfg))))
-    ts = jax.block_until_ready(chunk(ts)[0])
+    run = Run(cfg, None, quiet=True)  # jaxnav.train's own programs, no files
+    n = np.int32(steps)
+    ts = run.fresh_state()
+    chunk = run.chunk.lower(ts, n).compile()
+    ts = jax.block_until_ready(chunk(ts, n)[0])  # warm-up, past learning_starts
     times = []
     for _ in range(reps):
         t0 = time.perf_counter()
-        ts = jax.block_until_ready(chunk(ts)[0])
+        ts = jax.block_until_ready(chunk(ts, n)[0])
         times.append((time.perf_counter() - t0) / steps)
     return times
 
