@@ -5,9 +5,10 @@ writes docs/sim2sim_realism.csv (those rows, an ``option`` column first) and
 docs/sim2sim_realism.md (the table, recomputed from that CSV alone by
 ``jaxnav.sim2sim.realism_markdown``, then how it was made: the options' overrides,
 the commit that ran them and the wall-clock of each step from its files). Run from the
-repository root: ``python scripts/publish_realism.py OUT``.
+repository root: ``python scripts/publish_realism.py OUT [--dst PATH]``.
 """
 
+import argparse
 import csv
 import json
 import sys
@@ -31,11 +32,15 @@ OPTIONS = {
 def main(src: str, dst: str = "docs/sim2sim_realism") -> int:
     src_dir = Path(src)
     rows, made = [], []
+    needed = [src_dir / "commit"]
+    for name in OPTIONS:
+        needed += [src_dir / name / "sim2sim" / "sim2sim.csv", src_dir / name / "sim2sim.log"]
+    missing = [p for p in needed if not p.is_file()]
+    if missing:
+        print(f"no {missing[0]}: run scripts/sim2sim_realism.sh {src} first", file=sys.stderr)
+        return 2
     for name, override in OPTIONS.items():
         path = src_dir / name / "sim2sim" / "sim2sim.csv"
-        if not path.is_file():
-            print(f"no {path}: run scripts/sim2sim_realism.sh {src} first")
-            return 2
         rows += [[name, *r.values()] for r in csv.DictReader(path.open())]
         log = (src_dir / name / "sim2sim.log").read_text().strip().splitlines()
         mujoco_s = sum(
@@ -84,4 +89,8 @@ def main(src: str, dst: str = "docs/sim2sim_realism") -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main(*sys.argv[1:]))
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("out", metavar="OUT", help="the campaign's directory")
+    p.add_argument("--dst", default="docs/sim2sim_realism", help="the pages' path, no suffix")
+    args = p.parse_args()
+    sys.exit(main(args.out, args.dst))
