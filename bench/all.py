@@ -4,7 +4,7 @@ Runs, each script in its own process, ``--runs`` times (medians over the runs):
 
 1. bench/train_throughput.py: our trainer alone, 1 and 32 seeds, 24 and 360 beams;
 2. bench/env_throughput.py: environment steps/s, ours and JaxMARL's JaxNav;
-3. bench/peers_sb3.py: Stable-Baselines3 DQN (PyTorch CPU) on jaxnav.gym, the
+3. bench/peers_sb3.py: Stable-Baselines3 DQN (PyTorch CPU) on jaxnav.interop.gym, the
    wrapper alone, and ours at 1 and 32 seeds;
 4. bench/peers_rejax.py: rejax's DQN (JAX) on our environment and ours, 1 and 32 seeds;
 5. bench/roofline.py: this CPU's float32 matmul peak, the learner's FLOPs and ours at
@@ -171,7 +171,7 @@ def table(f: dict, quick: bool, runs: int, header: str) -> str:
     if "wrapper" in f:
         rows.append(
             (
-                "jaxnav.gym wrapper alone, steps/s (random actions)",
+                "jaxnav.interop.gym wrapper alone, steps/s (random actions)",
                 f"= {100 * f['sb3_env_share']:.0f}% of SB3's time per transition",
                 fmt(f["wrapper"]),
                 "—",

@@ -107,7 +107,7 @@ def sb3_whole(processes: int, runs: int, transitions: int, capacity: int, python
     code = (
         "import sys, time; sys.path.insert(0, {bench!r}); "
         "from peers_sb3 import make_sb3; import torch; torch.set_num_threads(1); "
-        "from jaxnav.gym import NavGymEnv; "
+        "from jaxnav.interop.gym import NavGymEnv; "
         "env = NavGymEnv('square4', n_beams=24); "
         "m = make_sb3(env, {cap}, 2000, {n}, seed=int(sys.argv[1])); "
         "t0 = time.perf_counter(); m.learn(total_timesteps={n}); "

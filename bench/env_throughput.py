@@ -407,7 +407,7 @@ def _step_parts(env, params, b: int) -> dict:
     import jax
     import jax.numpy as jnp
 
-    from jaxnav.geometry import path_clearance, ray_distances
+    from jaxnav.world.geometry import path_clearance, ray_distances
 
     angles = jnp.arange(b, dtype=jnp.float32) * (2 * jnp.pi / b)
     return {

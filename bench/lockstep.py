@@ -12,7 +12,7 @@ run-steps that were real steps:
 * **compacted**: at each chunk boundary, the finished runs moved out of the batch,
   each device's share shrunk to the smallest power-of-two fraction that holds its
   runs still training (one compiled program per size, runs laid over the devices
-  in blocks, as ``jaxnav.sharding`` does);
+  in blocks, as ``jaxnav.agent.sharding`` does);
 
 and the run-steps compacting would save, which bounds the time it would save (a
 smaller batch costs more per run-step, and each new size compiles once).

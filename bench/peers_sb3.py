@@ -1,7 +1,7 @@
-"""CPU peer: Stable-Baselines3's DQN (PyTorch) on jaxnav.gym, against our trainer.
+"""CPU peer: Stable-Baselines3's DQN (PyTorch) on jaxnav.interop.gym, against our trainer.
 
 The same task and the same learner, the way most people would run it on a CPU:
-SB3's DQN on the Gymnasium wrapper of our environment (``jaxnav.gym``, one robot,
+SB3's DQN on the Gymnasium wrapper of our environment (``jaxnav.interop.gym``, one robot,
 NumPy in and out), one gradient step per environment step.
 
 Matched to ours (paper Table 2):
@@ -129,7 +129,7 @@ def run_sb3(
     import torch
     from stable_baselines3.common.callbacks import BaseCallback
 
-    from jaxnav.gym import NavGymEnv
+    from jaxnav.interop.gym import NavGymEnv
 
     torch.set_num_threads(threads)
     total = warmup + segments * steps
@@ -159,7 +159,7 @@ def run_wrapper(beams: int, steps: int, segments: int, maze: str = "square4") ->
     """The Gymnasium wrapper alone: random actions, reset after every episode end."""
     import numpy as np
 
-    from jaxnav.gym import NavGymEnv
+    from jaxnav.interop.gym import NavGymEnv
 
     env = NavGymEnv(maze, n_beams=beams)
     rng = np.random.default_rng(0)

@@ -95,8 +95,8 @@ def profile(args) -> int:
     import jax
     import numpy as np
 
-    from jaxnav.config import load_config
-    from jaxnav.training import Run
+    from jaxnav.core.config import load_config
+    from jaxnav.run.training import Run
 
     cfg = load_config(
         "configs/paper_no_obstacles.yaml",

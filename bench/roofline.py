@@ -72,7 +72,7 @@ def matmul_peak(n: int = 2048, reps: int = 5) -> dict:
 
 def learner_flops(beams: int, overrides: tuple[str, ...] = ()) -> dict:
     """FLOPs per transition of the learner for the default config at ``beams`` beams."""
-    from jaxnav.config import load_config
+    from jaxnav.core.config import load_config
     from jaxnav.env import from_config
 
     cfg = load_config(None, [f"env.n_beams={beams}", *overrides])
@@ -120,10 +120,10 @@ def learner_alone(seeds: int, beams: int, steps: int, reps: int) -> dict:
     import optax
 
     from jaxnav import dqn
-    from jaxnav.config import load_config
+    from jaxnav.agent.replay import Batch
+    from jaxnav.agent.sharding import RunSharding
+    from jaxnav.core.config import load_config
     from jaxnav.env import from_config
-    from jaxnav.replay import Batch
-    from jaxnav.sharding import RunSharding
 
     cfg = load_config(None, [f"seeds={seeds}", "strategies=[ebe]", f"env.n_beams={beams}"])
     env, _ = from_config(cfg)

@@ -61,7 +61,8 @@ def _remove(parts: tuple[str, ...]) -> None:
     import jax.numpy as jnp
     import optax
 
-    from jaxnav import dqn, replay
+    from jaxnav import dqn
+    from jaxnav.agent import replay
     from jaxnav.env import NavEnv
 
     if "learner" in parts:
@@ -124,8 +125,8 @@ def run_case(parts: tuple[str, ...], runs: int, steps: int, reps: int) -> list[f
     import jax
     import numpy as np
 
-    from jaxnav.config import load_config
-    from jaxnav.training import Run
+    from jaxnav.core.config import load_config
+    from jaxnav.run.training import Run
 
     cfg = load_config(
         None,

@@ -35,8 +35,8 @@ def run_case(case: str, seeds: int, steps: int, reps: int) -> dict:
     import jax
     import numpy as np
 
-    from jaxnav.config import load_config
-    from jaxnav.training import Run
+    from jaxnav.core.config import load_config
+    from jaxnav.run.training import Run
 
     base = [
         "strategies=[ebe,epsilon_greedy]",

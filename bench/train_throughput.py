@@ -41,10 +41,10 @@ def run_case(seeds: int, beams: int, steps: int, reps: int, capacity: int) -> di
     import jax
     import numpy as np
 
-    from jaxnav.config import load_config
+    from jaxnav.agent.replay import nbytes as buffer_bytes
+    from jaxnav.agent.sharding import RunSharding
+    from jaxnav.core.config import load_config
     from jaxnav.dqn import make_trainer, run_inputs
-    from jaxnav.replay import nbytes as buffer_bytes
-    from jaxnav.sharding import RunSharding
 
     cfg = load_config(
         None,

@@ -30,13 +30,13 @@ The node publishes a zero twist (stop) when there is no goal, the scan or odomet
 is older than ~stale_after seconds (a timer keeps stopping the robot while no scan
 arrives), the goal is within ~goal_tolerance (then the goal is cleared: send a new
 one), the scan or pose cannot be used (e.g. a scan that does not cover 360 degrees),
-and on shutdown. The decisions are jaxnav.deploy.Controller's, shared with
+and on shutdown. The decisions are jaxnav.robot.deploy.Controller's, shared with
 ros2_policy_node.py.
 
 Private parameters: ~policy (path of the exported .npz), ~goal_topic
 (/move_base_simple/goal), ~stale_after (0.5 s), ~goal_tolerance (default the
 policy's goal radius, 0.2 m), ~invalid_range (value for 0 / nan readings; negative
-means the policy's max range, the default; see jaxnav/deploy.py).
+means the policy's max range, the default; see jaxnav/robot/deploy.py).
 """
 
 from __future__ import annotations
@@ -54,9 +54,9 @@ from sensor_msgs.msg import LaserScan
 
 
 def _load_deploy():
-    """jaxnav.deploy, or deploy.py by path where jaxnav (or JAX) is not installed."""
+    """jaxnav.robot.deploy, or deploy.py by path where jaxnav (or JAX) is not installed."""
     try:
-        from jaxnav import deploy
+        from jaxnav.robot import deploy
 
         return deploy
     except ImportError:
@@ -68,7 +68,7 @@ def _load_deploy():
                 spec.loader.exec_module(module)
                 return module
         raise ImportError(
-            "cannot find jaxnav.deploy: install jaxnav or copy deploy.py next to this file"
+            "cannot find jaxnav.robot.deploy: install jaxnav or copy deploy.py next to this file"
         ) from None
 
 

@@ -2,7 +2,7 @@
 """ROS 2 node: drive a TurtleBot3 to a goal with a policy trained by jaxnav.
 
 UNTESTED ON A ROBOT, and never run under ROS 2: it compiles, and its decisions are
-jaxnav.deploy.Controller's, which ros1_policy_node.py shares and tests/test_ros1.py
+jaxnav.robot.deploy.Controller's, which ros1_policy_node.py shares and tests/test_ros1.py
 runs closed-loop through a live ROS 1 master. Keep a hand on the stop button.
 
     # on the training machine
@@ -35,7 +35,7 @@ cover 360 degrees), and on shutdown.
 Parameters: policy (path of the exported .npz), goal_topic (/goal_pose), stale_after
 (0.5 s), goal_tolerance (default the policy's goal radius, 0.2 m), invalid_range
 (value for 0 / nan readings; negative means the policy's max range, the default;
-see jaxnav/deploy.py).
+see jaxnav/robot/deploy.py).
 """
 
 from __future__ import annotations
@@ -53,9 +53,9 @@ from sensor_msgs.msg import LaserScan
 
 
 def _load_deploy():
-    """jaxnav.deploy, or deploy.py by path where jaxnav (or JAX) is not installed."""
+    """jaxnav.robot.deploy, or deploy.py by path where jaxnav (or JAX) is not installed."""
     try:
-        from jaxnav import deploy
+        from jaxnav.robot import deploy
 
         return deploy
     except ImportError:
@@ -67,7 +67,7 @@ def _load_deploy():
                 spec.loader.exec_module(module)
                 return module
         raise ImportError(
-            "cannot find jaxnav.deploy: install jaxnav or copy deploy.py next to this file"
+            "cannot find jaxnav.robot.deploy: install jaxnav or copy deploy.py next to this file"
         ) from None
 
 

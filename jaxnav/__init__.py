@@ -1,6 +1,6 @@
 """jaxnav: TurtleBot3 maze navigation and DQN with entropy-based exploration, in JAX.
 
-Names are imported lazily, so ``jaxnav.deploy`` (NumPy only) loads on a robot's
+Names are imported lazily, so ``jaxnav.robot.deploy`` (NumPy only) loads on a robot's
 computer without JAX.
 """
 
@@ -12,12 +12,12 @@ _EXPORTS = {
     "EnvParams": "jaxnav.env",
     "EnvState": "jaxnav.env",
     "NavEnv": "jaxnav.env",
-    "lidar_scan": "jaxnav.sensor",
+    "lidar_scan": "jaxnav.world.sensor",
     "make": "jaxnav.env",
-    "Maze": "jaxnav.maps",
-    "MazeError": "jaxnav.errors",
-    "make_maze": "jaxnav.maps",
-    "stack_mazes": "jaxnav.maps",
+    "Maze": "jaxnav.world.maps",
+    "MazeError": "jaxnav.core.errors",
+    "make_maze": "jaxnav.world.maps",
+    "stack_mazes": "jaxnav.world.maps",
 }
 
 __all__ = sorted(_EXPORTS)

@@ -4,7 +4,7 @@ One ``lax.scan`` step does everything for one environment step of one run: act,
 step the environment, store the transition, sample a batch, take one gradient
 step and sync the target network. ``jax.vmap`` runs many seeds and both
 exploration strategies (a strategy index in the carry) in the same call. The replay
-memory is :mod:`jaxnav.replay`.
+memory is :mod:`jaxnav.agent.replay`.
 
 Paper equations in one place each:
 
@@ -30,10 +30,10 @@ import numpy as np
 import optax
 from flax import struct
 
-from jaxnav import replay
-from jaxnav.config import STRATEGIES, Config, DQNConfig, ExplorationConfig
+from jaxnav.agent import replay
+from jaxnav.agent.replay import Buffer
+from jaxnav.core.config import STRATEGIES, Config, DQNConfig, ExplorationConfig
 from jaxnav.env import EnvParams, EnvState, NavEnv, from_config
-from jaxnav.replay import Buffer
 
 # ----------------------------------------------------------------------------
 # Network
@@ -81,7 +81,7 @@ def dropout16(key: chex.PRNGKey, x: chex.Array, rate) -> chex.Array:
 # Exploration. A strategy is one pure function in the table EXPLORATION:
 # (key, q f32[A], episode i32[], config) -> (action i32[], exploration f32[]).
 # Adding one is that function and one line in the table (and its name in
-# jaxnav.config.STRATEGIES).
+# jaxnav.core.config.STRATEGIES).
 # ----------------------------------------------------------------------------
 
 
@@ -157,7 +157,7 @@ def _boltzmann(key, q, episode, x: ExplorationConfig | Hyper):
 
 # Each strategy's act, (key, q f32[A], episode i32[], settings) -> (action i32[], f32[]),
 # in STRATEGIES order (an import-time KeyError if one is missing). The settings are an
-# ExplorationConfig or a run's Hyper (the same names, as data); jaxnav.sweep's
+# ExplorationConfig or a run's Hyper (the same names, as data); jaxnav.core.sweep's
 # EXPLORATION_KEYS lists the ones each function reads.
 EXPLORATION: dict[str, Callable[..., tuple[chex.Array, chex.Array]]] = {
     "ebe": _ebe,
@@ -199,7 +199,7 @@ def explore_action(
 @struct.dataclass
 class Hyper:
     """A run's settings that are data in the compiled step, one field per key of
-    :data:`jaxnav.sweep.SWEEPABLE` (its last component), each a scalar per run.
+    :data:`jaxnav.core.sweep.SWEEPABLE` (its last component), each a scalar per run.
 
     Every run carries them, with or without a sweep, so the runs of a sweep and a run
     without one are the same program (PureJaxRL's hyperparameters-as-data). The
@@ -266,7 +266,7 @@ def swept_env_keys(config: Config) -> tuple[str, ...]:
 
 
 def arm_hypers(config: Config) -> list[Hyper]:
-    """The :class:`Hyper` of each arm of a config (jaxnav.config.Config.arms)."""
+    """The :class:`Hyper` of each arm of a config (jaxnav.core.config.Config.arms)."""
     env_keys = swept_env_keys(config)
     out = []
     for _, point in config.arms():

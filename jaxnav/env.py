@@ -4,17 +4,17 @@
 ``env, params = jaxnav.make("square4")`` then ``env.reset(key, params)`` and
 ``env.step(key, state, action, params)``. ``EnvParams`` and ``EnvState`` are
 immutable pytrees, so everything jits and vmaps, over keys and over params (a
-batch of different mazes in one call, see :func:`jaxnav.maps.stack_mazes`).
+batch of different mazes in one call, see :func:`jaxnav.world.maps.stack_mazes`).
 
 What is simulated (numbers from the spec):
 
 * Motion: constant 0.15 m/s, 5 angular velocities (paper Table 1), exact unicycle
   integration over dt = 0.2 s (the robot moves on a circular arc).
-* LiDAR (:mod:`jaxnav.sensor`): analytic ray-segment and ray-circle intersection
-  (:mod:`jaxnav.geometry`), branchless, clipped to [0.12, 3.5] m; optional
+* LiDAR (:mod:`jaxnav.world.sensor`): analytic ray-segment and ray-circle intersection
+  (:mod:`jaxnav.world.geometry`), branchless, clipped to [0.12, 3.5] m; optional
   Gaussian range noise applied by the env, not by the caster.
 * Collision: the 0.13 m robot disc against every wall and obstacle, exactly, along
-  the whole arc of the step (:func:`jaxnav.geometry.path_clearance`), so no step
+  the whole arc of the step (:func:`jaxnav.world.geometry.path_clearance`), so no step
   can cross a wall unnoticed.
 
 ROBOTIS' own simulation differs from this in four ways, each a switch of
@@ -24,8 +24,8 @@ ROBOTIS' own simulation differs from this in four ways, each a switch of
 * Goals: reaching within 0.2 m pays R+ and draws a new goal, the episode goes on; a
   collision pays R- and terminates the episode; 500 steps truncate it. After either,
   the robot restarts at the maze's start pose and keeps its goal (as TurtleBot3).
-  The reward is :func:`jaxnav.reward.reward_fn`.
-* Observation (ROBOTIS state, :func:`jaxnav.sensor.observation`): beam ranges,
+  The reward is :func:`jaxnav.world.reward.reward_fn`.
+* Observation (ROBOTIS state, :func:`jaxnav.world.sensor.observation`): beam ranges,
   heading to goal, distance to goal, and for mazes with obstacles also the smallest
   range and its beam index.
 """
@@ -42,15 +42,16 @@ import jax.numpy as jnp
 import numpy as np
 from flax import struct
 
-from jaxnav import sensor
-from jaxnav.geometry import (
+from jaxnav.core.settings import PRESETS, env_setting_problem
+from jaxnav.world import sensor
+from jaxnav.world.geometry import (
     displacement,
     hypot,
     norm2,
     path_clearance,
     wrap_angle,
 )
-from jaxnav.maps import (
+from jaxnav.world.maps import (
     BURGER_RADIUS,
     ROBOT_RADIUS,
     ROBOTIS_FIRST_GOAL,
@@ -58,13 +59,12 @@ from jaxnav.maps import (
     Maze,
     make_maze,
 )
-from jaxnav.reward import reward_fn
-from jaxnav.sensor import goal_heading_distance
-from jaxnav.settings import PRESETS, env_setting_problem
-from jaxnav.spaces import Box, Discrete
+from jaxnav.world.reward import reward_fn
+from jaxnav.world.sensor import goal_heading_distance
+from jaxnav.world.spaces import Box, Discrete
 
 if TYPE_CHECKING:
-    from jaxnav.config import Config
+    from jaxnav.core.config import Config
 
 # Paper Table 1: action -> angular velocity (rad/s), positive = counter-clockwise.
 PAPER_OMEGAS = (-1.5, -0.75, 0.0, 0.75, 1.5)
@@ -166,7 +166,7 @@ class NavEnv:
     action_delay: bool = False
 
     def __post_init__(self):
-        for f in dataclasses.fields(self):  # the rules of jaxnav.settings, as for a config
+        for f in dataclasses.fields(self):  # the rules of jaxnav.core.settings, as for a config
             problem = env_setting_problem(f.name, getattr(self, f.name))
             if problem:
                 raise ValueError(f"{f.name} {problem}")
@@ -432,7 +432,7 @@ def make(
     Args:
       maze: a built-in maze name, a path to a maze YAML file, or a ``Maze``.
       preset: ``"paper"`` (default) or ``"robotis"`` reward constants
-        (:data:`jaxnav.settings.PRESETS`; ROBOTIS' R- depends on obstacles).
+        (:data:`jaxnav.core.settings.PRESETS`; ROBOTIS' R- depends on obstacles).
       **overrides: any ``EnvParams`` field (``R_plus=200``, ``lidar_noise_std=0.01``)
         or ``NavEnv`` field (``n_beams=360``, ``obstacle_obs=True``).
     """

@@ -2,24 +2,24 @@
 
 The paper's test protocol (Sec. 6, Tables 3 and 4) for every trained policy of a
 run: N consecutive greedy test episodes on each test maze, tables with the mean ±
-std of the episode return and statistics over seeds (:mod:`jaxnav.evaluation`).
+std of the episode return and statistics over seeds (:mod:`jaxnav.experiments.evaluation`).
 ``--robustness`` plays the same test under sensor perturbations instead
-(:mod:`jaxnav.robustness`).
+(:mod:`jaxnav.experiments.robustness`).
 """
 
 from __future__ import annotations
 
 if __name__ == "__main__":  # before JAX starts: one CPU device per core, compile cache
-    from jaxnav.startup import before_jax
+    from jaxnav.core.startup import before_jax
 
     before_jax()
 
 import sys
 
-from jaxnav import cli
-from jaxnav.evaluation import evaluate_to_dir
-from jaxnav.robustness import PERTURBATIONS, robustness_to_dir
-from jaxnav.tables import setting_text
+from jaxnav.core import cli
+from jaxnav.experiments.evaluation import evaluate_to_dir
+from jaxnav.experiments.robustness import PERTURBATIONS, robustness_to_dir
+from jaxnav.report.tables import setting_text
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -2,91 +2,17 @@
 
 A picture of a maze (built-in name or YAML file): walls, obstacles, the robot at
 its start pose, a goal drawn by ``reset``, and what its LiDAR beams see (cast by
-the environment's own sensor). The drawing itself is :mod:`jaxnav.drawing`.
+the environment's own sensor). The drawing itself is :mod:`jaxnav.report.drawing`.
 """
 
 from __future__ import annotations
 
-import os
 import sys
 from collections.abc import Sequence
 
-import jax
-import numpy as np
-
-from jaxnav import cli, drawing
-from jaxnav.env import make
-from jaxnav.errors import JaxnavError
-from jaxnav.maps import ROBOT_RADIUS, Maze, make_maze
-from jaxnav.sensor import lidar_scan
-
-
-def draw_maze(ax, maze: Maze, *, n_beams: int = 0, min_range: float = 0.12, **kw):
-    """:func:`jaxnav.drawing.draw_maze` with ``n_beams`` LiDAR beams cast from the pose."""
-    pose = kw.get("pose")
-    if pose is None and np.ndim(maze.segments) == 2:
-        pose = np.asarray(maze.start, np.float64)
-    if n_beams > 0 and pose is not None and len(pose):
-        x, y, yaw = (float(v) for v in pose)
-        scan = jax.jit(lidar_scan, static_argnums=3)  # one compile beats op-by-op dispatch
-        max_range = kw.get("max_range", 3.5)
-        pos, yaw32 = np.array([x, y], np.float32), np.float32(yaw)
-        kw["ranges"] = np.asarray(scan(maze, pos, yaw32, n_beams, min_range, max_range))
-    return drawing.draw_maze(ax, maze, **kw)
-
-
-def render_maze(maze_name: str, out: str, n_beams: int = 24, seed: int = 0, dpi: int = 100) -> None:
-    """Draw a maze with its start pose, a goal drawn by ``reset(seed)``, and the beams."""
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
-
-    maze = make_maze(maze_name)
-    env, params = make(maze, n_beams=max(n_beams, 1))
-    _, state = jax.jit(env.reset)(jax.random.PRNGKey(seed), params)
-    fig = Figure(figsize=(6, 6), dpi=dpi)
-    FigureCanvasAgg(fig)
-    ax = fig.add_subplot()
-    xmin, ymin, xmax, ymax = (float(v) for v in np.asarray(maze.bounds))
-    n_obs = int(maze.n_obstacles)
-    title = (
-        f"{_display_name(maze_name)}: {xmax - xmin:.2f} m x {ymax - ymin:.2f} m, "
-        f"{n_obs} obstacle{'s' if n_obs != 1 else ''}"
-    )
-    draw_maze(ax, maze, goal=np.asarray(state.goal), n_beams=n_beams, title=title)
-    _legend(ax, n_beams, float(params.goal_radius))
-    fig.tight_layout()
-    fig.savefig(out)
-
-
-def _legend(ax, n_beams: int, goal_radius: float) -> None:
-    from matplotlib.lines import Line2D
-
-    def marker(m, color, label, **kw):
-        return Line2D([], [], ls="", marker=m, color=color, label=label, **kw)
-
-    handles = [
-        marker("o", drawing.ROBOT_COLOR, f"robot at start (r = {ROBOT_RADIUS} m)", ms=9),
-        marker("*", drawing.GOAL_COLOR, f"goal (reached within {goal_radius} m)", ms=12),
-    ]
-    if n_beams:
-        handles.append(
-            Line2D([], [], color=drawing.BEAM_COLOR, lw=1, label=f"{n_beams} LiDAR beams")
-        )
-    ax.legend(
-        handles=handles,
-        loc="upper center",
-        bbox_to_anchor=(0.5, -0.09),
-        ncol=3,
-        fontsize=8,
-        frameon=False,
-        handletextpad=0.3,
-        columnspacing=1.2,
-    )
-
-
-def _display_name(name: str) -> str:
-    base = os.path.basename(name)
-    return os.path.splitext(base)[0] if base.endswith((".yaml", ".yml")) else name
+from jaxnav.core import cli
+from jaxnav.core.errors import JaxnavError
+from jaxnav.experiments.scene import render_maze
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -1,7 +1,7 @@
 """``python -m jaxnav.train CONFIG [key=value ...] [--out RUN_DIR] [--resume RUN_DIR]``
 
 The command that trains every seed of every strategy of a config in one compiled
-program (:mod:`jaxnav.training`) and writes a run directory (:mod:`jaxnav.rundir`
+program (:mod:`jaxnav.run.training`) and writes a run directory (:mod:`jaxnav.core.rundir`
 lists its files), ending with its training-curve figure. ``--resume`` continues a
 killed run from its last checkpoint.
 """
@@ -9,7 +9,7 @@ killed run from its last checkpoint.
 from __future__ import annotations
 
 if __name__ == "__main__":  # before JAX starts: one CPU device per core, compile cache
-    from jaxnav.startup import before_jax
+    from jaxnav.core.startup import before_jax
 
     before_jax()
 
@@ -18,11 +18,11 @@ import time
 from pathlib import Path
 from typing import Any
 
-from jaxnav import cli
-from jaxnav.config import load_config, resolve_config_path
-from jaxnav.errors import RunError
-from jaxnav.sharding import initialize, is_writer
-from jaxnav.training import resume, train_new
+from jaxnav.agent.sharding import initialize, is_writer
+from jaxnav.core import cli
+from jaxnav.core.config import load_config, resolve_config_path
+from jaxnav.core.errors import RunError
+from jaxnav.run.training import resume, train_new
 
 
 def default_out(config_path: str | None) -> Path:
@@ -97,7 +97,7 @@ def main(argv: list[str] | None = None) -> int:
             summary = train_new(cfg, out, args.quiet, overwrite=args.overwrite)
         if is_writer():
             print_summary(out, summary)
-            from jaxnav.plots import plot_training_curves  # matplotlib only when done
+            from jaxnav.report.plots import plot_training_curves  # matplotlib only when done
 
             (out / "plots").mkdir(exist_ok=True)
             curves = plot_training_curves(out, out / "plots" / "training_curves.png")

@@ -3,7 +3,7 @@
 Reads each DIR/ablation.csv (the per-seed scores) and the wall-clock section of
 each DIR/ablation.md, and writes docs/ablation/ablation.csv and
 docs/ablation/ablation.md: the tables recomputed from the merged scores
-(``jaxnav.ablation.ablation_markdown``), then how each part was made. A variant may
+(``jaxnav.experiments.ablation.ablation_markdown``), then how each part was made. A variant may
 come from one DIR only. Run from the repository root:
 ``python scripts/publish_ablation.py DIR [DIR ...]``.
 """
@@ -12,7 +12,7 @@ import csv
 import sys
 from pathlib import Path
 
-from jaxnav.ablation import ablation_markdown, rows_to_csv
+from jaxnav.experiments.ablation import ablation_markdown, rows_to_csv
 
 
 def main(*srcs: str, dst: str = "docs/ablation") -> int:

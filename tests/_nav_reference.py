@@ -1,10 +1,10 @@
 """Independent float64 NumPy geometry for the tests (no jaxnav internals).
 
-Formulas here are deliberately different from the ones in ``jaxnav.geometry`` (line
+Formulas here are deliberately different from the ones in ``jaxnav.world.geometry`` (line
 equations instead of cross-product Cramer solves, perpendicular-foot circle
 intersection, dense sampling of the arc instead of closed-form arc distances, the
 integral of the velocity instead of the chord formula), so an agreement means
-something. Each primitive of ``jaxnav.geometry`` has its counterpart here
+something. Each primitive of ``jaxnav.world.geometry`` has its counterpart here
 (``ray_wall``, ``ray_cylinder``, ``point_wall``, ``displacement``, ``arc_wall_distance``,
 ``arc_cylinder_distance``, ``wrap``).
 """

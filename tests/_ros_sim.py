@@ -37,9 +37,9 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from jaxnav import sensor
-from jaxnav.geometry import displacement, path_clearance, wrap_angle
-from jaxnav.maps import ROBOT_RADIUS, make_maze
+from jaxnav.world import sensor
+from jaxnav.world.geometry import displacement, path_clearance, wrap_angle
+from jaxnav.world.maps import ROBOT_RADIUS, make_maze
 
 DEBIAN_PYTHON = "/usr/lib/python3/dist-packages"
 N_RAYS = 360  # the LDS-01: ray i at i degrees, counter-clockwise from ahead
@@ -106,7 +106,7 @@ def offline_mission(
     """The mission without ROS: the node's Controller called directly, one command per
     scan, each applied for one period. Returns the steps to each goal reached and how it
     ended: "ok", "collision" or "timeout"."""
-    from jaxnav.deploy import Controller
+    from jaxnav.robot.deploy import Controller
 
     world, control = World(maze, no_return, noise, seed), Controller(policy)
     steps: list[int] = []

@@ -7,8 +7,8 @@ evaluation of it shares one compiled rollout: compiling dominates these tests.
 
 from __future__ import annotations
 
-from jaxnav.reproduce import experiment_config
-from jaxnav.training import train_new
+from jaxnav.experiments.reproduce import experiment_config
+from jaxnav.run.training import train_new
 
 REPRODUCE_TINY = [
     "--quick",

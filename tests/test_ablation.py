@@ -10,8 +10,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from jaxnav import ablation, stats
-from jaxnav.paper import PAPER_TABLES
+from jaxnav.experiments import ablation
+from jaxnav.report import stats
+from jaxnav.report.paper import PAPER_TABLES
 
 ROOT = Path(__file__).resolve().parent.parent
 REPORT = ROOT / "docs" / "report"
@@ -109,7 +110,7 @@ def test_the_committed_ablation_is_computed_from_its_scores():
 def test_the_robotis_goals_confirmation_is_computed_from_its_results():
     import gzip
 
-    from jaxnav.tables import tables_markdown
+    from jaxnav.report.tables import tables_markdown
 
     d = Path(__file__).resolve().parent.parent / "docs" / "ablation" / "robotis_goals-confirm"
     text = gzip.decompress((d / "results.csv.gz").read_bytes()).decode()

@@ -7,9 +7,9 @@ import math
 import numpy as np
 import pytest
 
-from jaxnav import claims, stats
-from jaxnav.claims import CLAIMS, claims_markdown, evaluate_claims, training_scores, verdict
-from jaxnav.results import RESULT_COLUMNS
+from jaxnav.report import claims, stats
+from jaxnav.report.claims import CLAIMS, claims_markdown, evaluate_claims, training_scores, verdict
+from jaxnav.report.results import RESULT_COLUMNS
 
 SEEDS = 6
 NO_OBSTACLE_MAZES = ("square4", "square8", "square2", "triangle", "pentagon")
@@ -110,7 +110,7 @@ def test_every_claim_is_judged_by_name_in_both_test_modes():
 
 
 def test_the_pooled_claim_draws_each_seed_over_all_mazes():
-    """The Table 3 average is P over f[seeds, mazes] rows, as jaxnav.stats resamples it."""
+    """The Table 3 average is P over f[seeds, mazes] rows, as jaxnav.report.stats resamples it."""
 
     def score(mode, maze, strategy, seed):
         return 100.0 + seed * (1 if strategy == "ebe" else -1) * (
@@ -136,7 +136,7 @@ def test_the_pooled_claim_draws_each_seed_over_all_mazes():
 
 
 def test_training_table_is_computed_from_metrics_rows():
-    from jaxnav.tables import training_markdown
+    from jaxnav.report.tables import training_markdown
 
     rows = []
     for seed, (early, late) in enumerate([(0.0, 100.0), (0.0, 300.0)]):

@@ -2,8 +2,8 @@
 
 import pytest
 
-from jaxnav.config import ConfigError, load_config
-from jaxnav.settings import PRESETS
+from jaxnav.core.config import ConfigError, load_config
+from jaxnav.core.settings import PRESETS
 
 
 @pytest.mark.parametrize(

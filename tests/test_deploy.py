@@ -16,16 +16,16 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from jaxnav import deploy, export
-from jaxnav.config import dump_config, load_config
-from jaxnav.deploy import Policy, nearest_rays
+from jaxnav.core.config import dump_config, load_config
+from jaxnav.core.rundir import atomic_write_bytes, atomic_write_text, load_params, npz_bytes
 from jaxnav.dqn import QNetwork
 from jaxnav.env import from_config
-from jaxnav.geometry import ray_distances_dir
-from jaxnav.maps import ROBOT_RADIUS, clearance
-from jaxnav.rundir import atomic_write_bytes, atomic_write_text, load_params, npz_bytes
-from jaxnav.sensor import beam_angles, beam_directions
-from jaxnav.training import params_arrays
+from jaxnav.robot import deploy, export
+from jaxnav.robot.deploy import Policy, nearest_rays
+from jaxnav.run.training import params_arrays
+from jaxnav.world.geometry import ray_distances_dir
+from jaxnav.world.maps import ROBOT_RADIUS, clearance
+from jaxnav.world.sensor import beam_angles, beam_directions
 
 ROOT = Path(__file__).resolve().parent.parent
 N_STATES = 150

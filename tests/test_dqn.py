@@ -7,7 +7,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from jaxnav.config import STRATEGIES, ExplorationConfig, load_config
+from jaxnav.core.config import STRATEGIES, ExplorationConfig, load_config
 from jaxnav.dqn import (
     EXPLORATION,
     QNetwork,

@@ -16,10 +16,10 @@ from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
 import jaxnav
-from jaxnav.config import build_config
+from jaxnav.core.config import build_config
 from jaxnav.env import EnvParams, EnvState, NavEnv, from_config
-from jaxnav.maps import BUILTIN_MAZES, GOAL_CLEARANCE, make_maze, stack_mazes
-from jaxnav.reward import psi, reward_fn
+from jaxnav.world.maps import BUILTIN_MAZES, GOAL_CLEARANCE, make_maze, stack_mazes
+from jaxnav.world.reward import psi, reward_fn
 
 CORRIDOR = str(Path(__file__).resolve().parents[1] / "configs" / "mazes" / "corridor.yaml")
 NAMES = (*BUILTIN_MAZES, "corridor")
@@ -626,7 +626,7 @@ def test_make_rejects_an_unknown_keyword_by_name():
 
 
 def test_make_takes_the_reward_constants_from_the_one_preset_table():
-    from jaxnav.settings import PRESETS
+    from jaxnav.core.settings import PRESETS
 
     for preset in PRESETS:
         for maze in ("square4", "square4_obstacles"):

@@ -11,13 +11,13 @@ import numpy as np
 import pytest
 from _tiny_run import tiny_run
 
-from jaxnav import stats
 from jaxnav.dqn import ebe, epsilon_greedy, epsilon_schedule
 from jaxnav.evaluate import main
-from jaxnav.evaluation import evaluate, evaluate_to_dir, load_run
-from jaxnav.results import RESULT_COLUMNS
-from jaxnav.rollout import eval_keys, padded_mazes, run_tests
-from jaxnav.tables import tables_markdown
+from jaxnav.experiments.evaluation import evaluate, evaluate_to_dir, load_run
+from jaxnav.experiments.rollout import eval_keys, padded_mazes, run_tests
+from jaxnav.report import stats
+from jaxnav.report.results import RESULT_COLUMNS
+from jaxnav.report.tables import tables_markdown
 
 ROOT = Path(__file__).resolve().parent.parent
 

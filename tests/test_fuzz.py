@@ -13,10 +13,10 @@ import yaml
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from jaxnav.cli import one_line
-from jaxnav.config import Config, load_config
-from jaxnav.errors import ConfigError, MazeError
-from jaxnav.maps import Maze, load_maze_file
+from jaxnav.core.cli import one_line
+from jaxnav.core.config import Config, load_config
+from jaxnav.core.errors import ConfigError, MazeError
+from jaxnav.world.maps import Maze, load_maze_file
 
 
 def _keys() -> list[str]:

@@ -17,7 +17,7 @@ import pytest
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
-from jaxnav.geometry import (
+from jaxnav.world.geometry import (
     arc,
     arc_circle_clearance,
     arc_segment_clearance,
@@ -29,7 +29,7 @@ from jaxnav.geometry import (
     ray_segment,
     wrap_angle,
 )
-from jaxnav.maps import BUILTIN_MAZES, make_maze, stack_mazes
+from jaxnav.world.maps import BUILTIN_MAZES, make_maze, stack_mazes
 
 PI32 = float(np.float32(np.pi))  # float32's pi is a hair above the real one
 HYP = dict(deadline=None, suppress_health_check=[HealthCheck.too_slow], derandomize=True)

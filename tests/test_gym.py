@@ -10,8 +10,8 @@ import pytest
 gym = pytest.importorskip("gymnasium")
 
 import jaxnav  # noqa: E402
-from jaxnav.gym import ENV_IDS, NavGymEnv, env_id  # noqa: E402
-from jaxnav.maps import BUILTIN_MAZES, MazeError  # noqa: E402
+from jaxnav.interop.gym import ENV_IDS, NavGymEnv, env_id  # noqa: E402
+from jaxnav.world.maps import BUILTIN_MAZES, MazeError  # noqa: E402
 
 # Range noise makes every observation depend on its key, so equal trajectories
 # mean the wrapper spends keys exactly as documented; a short step limit brings
@@ -58,7 +58,7 @@ def test_make_passes_overrides_to_the_jax_env():
 
 
 def test_module_prefixed_id_imports_the_module():
-    env = gym.make("jaxnav.gym:jaxnav/Triangle-v0")
+    env = gym.make("jaxnav.interop.gym:jaxnav/Triangle-v0")
     assert env.spec.id == "jaxnav/Triangle-v0"
     assert env.spec.kwargs == {"maze": "triangle"}
 

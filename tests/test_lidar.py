@@ -17,8 +17,8 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from jaxnav.maps import BUILTIN_MAZES, make_maze, stack_mazes
-from jaxnav.sensor import lidar_scan
+from jaxnav.world.maps import BUILTIN_MAZES, make_maze, stack_mazes
+from jaxnav.world.sensor import lidar_scan
 
 TOL = 1e-4  # m
 CORRIDOR = str(Path(__file__).resolve().parents[1] / "configs" / "mazes" / "corridor.yaml")

@@ -13,10 +13,10 @@ import numpy as np
 import pytest
 
 import jaxnav
-import jaxnav.errors
-from jaxnav.geometry import path_clearance
-from jaxnav.maps import BUILTIN_MAZES, Maze, MazeError, load_maze_file, make_maze, stack_mazes
-from jaxnav.sensor import lidar_scan
+import jaxnav.core.errors
+from jaxnav.world.geometry import path_clearance
+from jaxnav.world.maps import BUILTIN_MAZES, Maze, MazeError, load_maze_file, make_maze, stack_mazes
+from jaxnav.world.sensor import lidar_scan
 
 ROOT = Path(__file__).resolve().parents[1]
 CORRIDOR = ROOT / "configs" / "mazes" / "corridor.yaml"
@@ -251,5 +251,5 @@ def test_a_missing_file_or_unknown_name_is_one_line():
     assert "unknown maze 'sqaure4'" in str(err.value) and "square4" in str(err.value)
     assert "\n" not in str(err.value)
     assert issubclass(MazeError, ValueError)
-    assert MazeError is jaxnav.errors.MazeError  # the one error type, caught by every command
-    assert issubclass(MazeError, jaxnav.errors.JaxnavError)
+    assert MazeError is jaxnav.core.errors.MazeError  # the one error type, caught by every command
+    assert issubclass(MazeError, jaxnav.core.errors.JaxnavError)

@@ -8,8 +8,9 @@ import pytest
 from _tiny_run import REPRODUCE_TINY, tiny_run
 from PIL import Image
 
-from jaxnav import plots, reproduce
-from jaxnav.evaluation import evaluate_to_dir
+from jaxnav.experiments import reproduce
+from jaxnav.experiments.evaluation import evaluate_to_dir
+from jaxnav.report import plots
 
 PNG = b"\x89PNG\r\n\x1a\n"
 

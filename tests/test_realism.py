@@ -6,8 +6,8 @@ import pytest
 
 import jaxnav
 from jaxnav.env import scale_maze
-from jaxnav.maps import clearance
-from jaxnav.sensor import lidar_scan
+from jaxnav.world.maps import clearance
+from jaxnav.world.sensor import lidar_scan
 
 
 def _rollout(env, params, key, n=200):

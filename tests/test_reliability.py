@@ -9,12 +9,12 @@ import shutil
 import numpy as np
 import pytest
 
-from jaxnav import rundir
-from jaxnav.deploy import Policy
-from jaxnav.errors import MazeError, PolicyError
+from jaxnav.core import rundir
+from jaxnav.core.errors import MazeError, PolicyError
 from jaxnav.evaluate import main as evaluate_main
-from jaxnav.maps import load_maze_file
+from jaxnav.robot.deploy import Policy
 from jaxnav.train import main as train_main
+from jaxnav.world.maps import load_maze_file
 
 # Learning starts at step 64: with this learning rate the first update is not finite.
 DIVERGING = ["configs/smoke.yaml", "dqn.lr=1e9", "episodes=6", "env.max_steps=40"]

@@ -11,8 +11,9 @@ import numpy as np
 import pytest
 from matplotlib.figure import Figure
 
-from jaxnav.maps import make_maze, stack_mazes
-from jaxnav.render import draw_maze, main
+from jaxnav.experiments.scene import draw_maze
+from jaxnav.render import main
+from jaxnav.world.maps import make_maze, stack_mazes
 
 ROOT = Path(__file__).resolve().parents[1]
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"

@@ -7,7 +7,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from jaxnav import replay
+from jaxnav.agent import replay
 
 
 def _fill(buf, n, trunc_at=(), term_at=()):

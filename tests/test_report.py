@@ -10,8 +10,8 @@ from pathlib import Path
 
 import pytest
 
-from jaxnav.claims import claims_markdown, evaluate_claims
-from jaxnav.reproduce import EXPERIMENTS, experiment_files
+from jaxnav.experiments.reproduce import EXPERIMENTS, experiment_files
+from jaxnav.report.claims import claims_markdown, evaluate_claims
 
 ROOT = Path(__file__).resolve().parent.parent
 REPORT = ROOT / "docs" / "report"

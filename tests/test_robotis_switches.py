@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 from _nav_reference import lidar, maze_geometry, ray_distances
 
-from jaxnav.deploy import nearest_rays
 from jaxnav.env import ROBOTIS_SWITCHES, STRAIGHT, EnvState, make
-from jaxnav.maps import load_maze_file, make_maze, robotis_goal_grid
+from jaxnav.robot.deploy import nearest_rays
+from jaxnav.world.maps import load_maze_file, make_maze, robotis_goal_grid
 
 
 def _respawn_goal_support(draws: int = 20000) -> set[tuple[float, float]]:

@@ -8,12 +8,12 @@ import numpy as np
 import pytest
 from _tiny_run import tiny_run
 
-from jaxnav.errors import JaxnavError
+from jaxnav.core.errors import JaxnavError
 from jaxnav.evaluate import main
-from jaxnav.evaluation import evaluate_to_dir, load_run
-from jaxnav.results import UNPERTURBED, robustness_summary
-from jaxnav.robustness import perturb, realism_settings, robustness_to_dir
-from jaxnav.tables import robustness_markdown
+from jaxnav.experiments.evaluation import evaluate_to_dir, load_run
+from jaxnav.experiments.robustness import perturb, realism_settings, robustness_to_dir
+from jaxnav.report.results import UNPERTURBED, robustness_summary
+from jaxnav.report.tables import robustness_markdown
 
 SWEEP = {UNPERTURBED: {}, "noisy": {"lidar_noise_std": 0.1}, "dropout": {"beam_dropout": 0.3}}
 

@@ -73,10 +73,10 @@ def ros1():
 @pytest.fixture(scope="module")
 def policy_file(ros1, tmp_path_factory) -> Path:
     """A trained policy that reaches GOALS and LAST_GOAL without ROS, exactly and with noise."""
-    from jaxnav.config import load_config
-    from jaxnav.deploy import Policy
-    from jaxnav.export import export_policy, save_policy
-    from jaxnav.training import train_new
+    from jaxnav.core.config import load_config
+    from jaxnav.robot.deploy import Policy
+    from jaxnav.robot.export import export_policy, save_policy
+    from jaxnav.run.training import train_new
 
     root = tmp_path_factory.mktemp("ros1")
     cfg = load_config(str(ROOT / "configs" / "paper_no_obstacles.yaml"), TRAIN)

@@ -8,8 +8,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from jaxnav import cli, rundir
-from jaxnav.errors import ConfigError, JaxnavError, MazeError, PolicyError, RunError
+from jaxnav.core import cli, rundir
+from jaxnav.core.errors import ConfigError, JaxnavError, MazeError, PolicyError, RunError
 
 ROOT = Path(__file__).resolve().parent.parent
 

@@ -13,8 +13,8 @@ TINY = ["episodes=6", "env.max_steps=80", "run.chunk_steps=100", "dqn.batch_size
 
 _PROBE = """
 import sys, jax
-from jaxnav.config import load_config
-from jaxnav.training import Run
+from jaxnav.core.config import load_config
+from jaxnav.run.training import Run
 cfg = load_config(None, sys.argv[1:])
 run = Run(cfg, None, quiet=True)
 ts = run.fresh_state()

@@ -15,19 +15,20 @@ import numpy as np
 import pytest
 
 mujoco = pytest.importorskip(
-    "mujoco", reason="MuJoCo is not installed (pip install mujoco): jaxnav.sim2sim needs it"
+    "mujoco",
+    reason="MuJoCo is not installed (pip install mujoco): jaxnav.experiments.sim2sim needs it",
 )
 
 from _tiny_run import tiny_run  # noqa: E402
 
-from jaxnav import sim2sim  # noqa: E402
-from jaxnav.config import load_config  # noqa: E402
-from jaxnav.deploy import FORMAT, FORMAT_VERSION, Policy, clean_ranges  # noqa: E402
+from jaxnav.core.config import load_config  # noqa: E402
 from jaxnav.env import from_config  # noqa: E402
-from jaxnav.maps import make_maze  # noqa: E402
-from jaxnav.reward import reward_fn  # noqa: E402
-from jaxnav.sensor import lidar_scan  # noqa: E402
-from jaxnav.sim2sim import SUMMARY_COLUMNS, Burger, wheel_speeds  # noqa: E402
+from jaxnav.experiments import sim2sim  # noqa: E402
+from jaxnav.experiments.sim2sim import SUMMARY_COLUMNS, Burger, wheel_speeds  # noqa: E402
+from jaxnav.robot.deploy import FORMAT, FORMAT_VERSION, Policy, clean_ranges  # noqa: E402
+from jaxnav.world.maps import make_maze  # noqa: E402
+from jaxnav.world.reward import reward_fn  # noqa: E402
+from jaxnav.world.sensor import lidar_scan  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
 DT = 0.2
@@ -280,7 +281,7 @@ def test_bad_input_is_one_line_and_exit_2(run, tmp_path, capsys, argv, words):
 
 
 def test_the_reproduction_adds_the_sim_to_sim_gap_of_its_first_seeds(run, tmp_path):
-    from jaxnav import reproduce
+    from jaxnav.experiments import reproduce
 
     cfg, src = run
     out = tmp_path / "repro"
@@ -300,7 +301,7 @@ def test_the_reproduction_adds_the_sim_to_sim_gap_of_its_first_seeds(run, tmp_pa
 def test_the_reproduction_says_at_once_when_mujoco_is_missing(monkeypatch, tmp_path, capsys):
     import importlib.util
 
-    from jaxnav import reproduce
+    from jaxnav.experiments import reproduce
 
     real = importlib.util.find_spec
     monkeypatch.setattr(

@@ -13,9 +13,9 @@ import numpy as np
 import pytest
 from rliable import metrics
 
-from jaxnav import stats
-from jaxnav.rundir import csv_text
-from jaxnav.sim2sim import REALISM_COLUMNS, gap_markdown, realism_markdown
+from jaxnav.core.rundir import csv_text
+from jaxnav.experiments.sim2sim import REALISM_COLUMNS, gap_markdown, realism_markdown
+from jaxnav.report import stats
 
 ROOT = Path(__file__).resolve().parent.parent
 MAZES = ("square4", "triangle")

@@ -5,7 +5,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-from jaxnav.startup import cache_dir
+from jaxnav.core.startup import cache_dir
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -23,7 +23,7 @@ def test_the_cache_directory_follows_the_users_choice(monkeypatch, tmp_path):
 
 def _cache_seen_by_jax(env: dict) -> str:
     code = (
-        "from jaxnav.startup import before_jax; before_jax(); import jax; "
+        "from jaxnav.core.startup import before_jax; before_jax(); import jax; "
         "print(jax.config.jax_compilation_cache_dir)"
     )
     out = subprocess.run(

@@ -8,7 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.stats import trim_mean
 
-from jaxnav import stats
+from jaxnav.report import stats
 
 scores = st.lists(st.integers(-5, 5).map(float), min_size=2, max_size=8)
 

@@ -9,10 +9,11 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from jaxnav import dqn, sweep
-from jaxnav.config import STRATEGIES, load_config
-from jaxnav.errors import ConfigError
-from jaxnav.training import Run, resume, train_new
+from jaxnav import dqn
+from jaxnav.core import sweep
+from jaxnav.core.config import STRATEGIES, load_config
+from jaxnav.core.errors import ConfigError
+from jaxnav.run.training import Run, resume, train_new
 
 TINY = [
     "seeds=2",
@@ -134,7 +135,7 @@ def test_a_key_that_cannot_be_swept_is_refused_in_one_line(item, message):
 
 
 def test_a_swept_config_survives_its_config_yaml(tmp_path):
-    from jaxnav.config import dump_config
+    from jaxnav.core.config import dump_config
 
     cfg = load_config(
         None, ["sweep.exploration.ebe_temperature=[0.1, 1]", "sweep.env.R_plus=[500]"]
@@ -266,7 +267,7 @@ def test_a_swept_environment_setting_changes_the_reward_of_its_runs():
 
 
 def test_the_study_command_tests_tabulates_and_draws_a_sweep(tmp_path, capsys):
-    from jaxnav.study import main
+    from jaxnav.experiments.study import main
 
     out, doc = tmp_path / "study", tmp_path / "docs" / "temperature.md"
     argv = [
@@ -298,8 +299,8 @@ def test_the_study_command_tests_tabulates_and_draws_a_sweep(tmp_path, capsys):
     assert gzip.decompress(packed).decode() == (out / "run" / "eval" / "results.csv").read_text()
     assert (out / "sweep.png").is_file() and (out / "training_curves.png").is_file()
     # An arm exports as a robot policy, with its own settings in its metadata.
-    from jaxnav.deploy import Policy
-    from jaxnav.export import export_policy
+    from jaxnav.robot.deploy import Policy
+    from jaxnav.robot.export import export_policy
 
     arrays = export_policy(out / "run", "ebe ebe_temperature=0.1", 0)
     policy = Policy.from_arrays(arrays)
@@ -313,9 +314,9 @@ def test_the_study_command_tests_tabulates_and_draws_a_sweep(tmp_path, capsys):
 def test_exploring_test_uses_each_points_own_temperature(tmp_path):
     """The exploring test of a point explores with that point's temperature: at a tiny
     temperature EBE's entropy is near 0, so it acts almost greedily."""
-    from jaxnav.evaluation import load_run
-    from jaxnav.maps import make_maze
-    from jaxnav.rollout import run_tests
+    from jaxnav.experiments.evaluation import load_run
+    from jaxnav.experiments.rollout import run_tests
+    from jaxnav.world.maps import make_maze
 
     cfg = load_config(
         None, [*TINY, "strategies=[ebe]", "sweep.exploration.ebe_temperature=[1e-4, 100]"]
@@ -337,7 +338,7 @@ def test_exploring_test_uses_each_points_own_temperature(tmp_path):
 def test_the_committed_temperature_studies_are_computed_from_their_results(name, seed):
     from pathlib import Path
 
-    from jaxnav.tables import sweep_markdown
+    from jaxnav.report.tables import sweep_markdown
 
     root = Path(__file__).resolve().parent.parent
     doc = root / "docs" / "studies" / f"{name}.md"

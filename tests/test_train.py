@@ -13,12 +13,12 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from jaxnav import rundir
-from jaxnav.config import load_config
+from jaxnav.core import rundir
+from jaxnav.core.config import load_config
 from jaxnav.dqn import make_train, run_inputs
 from jaxnav.env import from_config
+from jaxnav.run.training import Run, chunk_slots, train_new
 from jaxnav.train import main
-from jaxnav.training import Run, chunk_slots, train_new
 
 ROOT = Path(__file__).resolve().parent.parent
 TINY = ["seeds=2", "episodes=8", "env.max_steps=100", "run.chunk_steps=100", "dqn.batch_size=16"]

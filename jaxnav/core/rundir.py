@@ -1,0 +1,315 @@
+"""A run directory on disk: its layout, the checks on it, and every write into it.
+
+Layout (``python -m jaxnav.train`` writes it; ``evaluate``, ``plots``, ``export``
+and ``reproduce`` read it)::
+
+    config.yaml          the resolved config (every field)
+    metrics.csv          one row per strategy, seed and episode
+    explore.csv          mean exploration probability per strategy, seed and 100 steps
+    checkpoints/last.npz training state after the last finished chunk, but the
+                         replay slots: those are in rows-00000.npz, rows-00001.npz,
+                         ..., one per chunk, as many as last.npz says
+    params.npz           final Q-network parameters, "<strategy>/seed<k>/<layer>/<name>"
+    summary.json         wall-clock, steps, steps/s, start-up and compile seconds,
+                         lockstep share, last-50-episode means
+    eval/, plots/        results of jaxnav.evaluate and jaxnav.plots
+    tensorboard/         training curves for TensorBoard (run.tensorboard: true)
+    .lock                held by the process that trains into the directory
+
+Every file is written whole or not at all (:func:`atomic_write`: a temporary
+file, fsync, rename); the CSV logs grow by appending, and the checkpoint records
+their lengths, so a resumed run first cuts them back to what the checkpoint
+covers (:meth:`CsvLog.truncate`). Every ``.npz`` is read with
+``allow_pickle=False``. No JAX here: ``jaxnav.robot.deploy`` and the checks run without it.
+"""
+
+from __future__ import annotations
+
+import csv
+import fcntl
+import io
+import os
+import shutil
+from collections.abc import Callable, Iterable, Sequence
+from pathlib import Path
+from typing import Any, BinaryIO
+
+import numpy as np
+
+from jaxnav.core.errors import RunError
+
+CONFIG = "config.yaml"
+METRICS = "metrics.csv"
+EXPLORE = "explore.csv"
+CHECKPOINT = "checkpoints/last.npz"
+PARAMS = "params.npz"
+SUMMARY = "summary.json"
+LOCK = ".lock"
+# What a run directory may hold: its files, and the folders of checkpoints,
+# evaluation and figures. Overwriting a run removes these and nothing else.
+RUN_ENTRIES = (
+    CONFIG,
+    METRICS,
+    EXPLORE,
+    PARAMS,
+    SUMMARY,
+    "checkpoints",
+    "eval",
+    "plots",
+    "tensorboard",
+)
+
+
+# ----------------------------------------------------------------------------
+# Writing
+# ----------------------------------------------------------------------------
+
+
+def atomic_write(path: str | os.PathLike, write: Callable[[BinaryIO], Any]) -> None:
+    """Write a whole file or nothing: ``write(f)`` into a temporary file beside it,
+    fsync, rename."""
+    path = Path(path)
+    tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
+    try:
+        with open(tmp, "wb") as f:
+            write(f)
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+
+
+def atomic_write_bytes(path: str | os.PathLike, data: bytes) -> None:
+    atomic_write(path, lambda f: f.write(data))
+
+
+def atomic_write_npz(path: str | os.PathLike, arrays: dict[str, np.ndarray]) -> None:
+    """An uncompressed ``.npz`` of plain arrays written straight to its file, whole or
+    not at all (no second copy in memory: a checkpoint holds the replay buffers)."""
+    atomic_write(path, lambda f: np.savez(f, **arrays))
+
+
+def atomic_write_text(path: str | os.PathLike, text: str) -> None:
+    atomic_write_bytes(path, text.encode())
+
+
+def remove_stale_temps(run_dir: str | os.PathLike) -> int:
+    """Remove the temporary files a killed writer left in a run directory (call it
+    holding the run's lock, so no live writer owns them); how many there were."""
+    stale = [p for p in Path(run_dir).rglob(".*.tmp*") if p.is_file()]
+    for p in stale:
+        p.unlink(missing_ok=True)
+    return len(stale)
+
+
+def npz_bytes(arrays: dict[str, np.ndarray]) -> bytes:
+    """An uncompressed ``.npz`` of plain arrays (no pickle), in memory."""
+    buf = io.BytesIO()
+    np.savez(buf, **arrays)
+    return buf.getvalue()
+
+
+def read_npz(path: str | os.PathLike, what: str = "") -> dict[str, np.ndarray]:
+    """Every array of an ``.npz`` (no pickle); RunError for a missing or damaged file."""
+    path = Path(path)
+    label = what or str(path)
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            return {k: data[k] for k in data.files}
+    except FileNotFoundError:
+        raise RunError(f"{label} does not exist") from None
+    except Exception as e:  # truncated, not a zip, pickled object arrays, ...
+        raise RunError(f"{label} cannot be read ({type(e).__name__})") from None
+
+
+def csv_text(header: Sequence[str], rows: Iterable[Sequence[Any]]) -> str:
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(header)
+    w.writerows(rows)
+    return buf.getvalue()
+
+
+class CsvLog:
+    """A CSV file that grows by appending rows (the header is written once)."""
+
+    def __init__(self, path: str | os.PathLike, header: Sequence[str]):
+        self.path, self.header = Path(path), tuple(header)
+
+    def size(self) -> int:
+        """Bytes in the file now (0 if it does not exist)."""
+        return self.path.stat().st_size if self.path.exists() else 0
+
+    def append(self, rows: Sequence[Sequence[Any]]) -> int:
+        """Append rows (the header first if the file is new), fsync; return its size.
+
+        All or nothing: an append that fails part-way (a full disk) cuts the file back
+        to its size before, then raises."""
+        before = self.size()
+        text = csv_text(self.header, rows)
+        if before:
+            text = text.split("\n", 1)[1]
+        try:
+            with open(self.path, "a", newline="") as f:
+                f.write(text)
+                f.flush()
+                os.fsync(f.fileno())
+        except BaseException:
+            self.restore(before)
+            raise
+        return self.size()
+
+    def truncate(self, size: int) -> None:
+        """Cut the file back to ``size`` bytes (rows written after a checkpoint)."""
+        if self.size() < size:
+            raise RunError(f"{self.path} is shorter than its checkpoint says (damaged)")
+        with open(self.path, "r+b") as f:
+            f.truncate(size)
+
+    def restore(self, size: int) -> None:
+        """Best effort after a failed write: the file as it was at ``size`` bytes (absent
+        at 0). Errors are swallowed: the caller is already raising the first one."""
+        try:
+            if size == 0:
+                self.path.unlink(missing_ok=True)
+            elif self.size() > size:
+                with open(self.path, "r+b") as f:
+                    f.truncate(size)
+        except OSError:
+            pass
+
+    def read(self) -> list[dict[str, str]]:
+        if not self.path.is_file():
+            raise RunError(f"{self.path.parent} has no {self.path.name}")
+        with open(self.path, newline="") as f:
+            return list(csv.DictReader(f))
+
+
+# ----------------------------------------------------------------------------
+# The directory
+# ----------------------------------------------------------------------------
+
+
+def create(out: str | os.PathLike) -> Path:
+    """Make a new, empty run directory (RunError if it exists and holds anything)."""
+    out = Path(out)
+    if out.exists() and not out.is_dir():
+        raise RunError(f"{out} exists and is not a directory")
+    if out.is_dir() and any(out.iterdir()):
+        raise RunError(
+            f"run directory {out} already exists and is not empty (--resume {out} continues "
+            "it, --overwrite replaces it)"
+        )
+    try:
+        (out / "checkpoints").mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        raise RunError(f"cannot create run directory {out} ({e.strerror or e})") from None
+    return out
+
+
+def clear(out: str | os.PathLike) -> Path:
+    """Empty an existing run directory for a new run (``--overwrite``); call it holding
+    the run's lock. RunError if it holds anything a run does not write."""
+    out = Path(out)
+    if not (out / CONFIG).is_file():
+        raise RunError(f"{out} is not a run directory (no {CONFIG}); not overwriting it")
+    entries = [p for p in out.iterdir() if p.name != LOCK and not p.name.startswith(".")]
+    foreign = sorted(p.name for p in entries if p.name not in RUN_ENTRIES)
+    if foreign:
+        raise RunError(
+            f"{out} holds {foreign[0]!r}, which a run does not write; not overwriting it"
+        )
+    for p in entries:
+        if p.is_dir():
+            shutil.rmtree(p)
+        else:
+            p.unlink()
+    remove_stale_temps(out)
+    (out / "checkpoints").mkdir()
+    return out
+
+
+def existing(run_dir: str | os.PathLike, finished: bool = False) -> Path:
+    """The checks every reader of a run directory makes; returns it as a Path.
+
+    ``finished``: training must have ended (``params.npz`` written).
+    """
+    run_dir = Path(run_dir)
+    if not run_dir.is_dir():
+        raise RunError(f"run directory {run_dir} does not exist")
+    if not (run_dir / CONFIG).is_file():
+        raise RunError(f"{run_dir} is not a run directory (no {CONFIG})")
+    if finished and not (run_dir / PARAMS).is_file():
+        raise RunError(f"{run_dir} has no {PARAMS} (training has not finished; resume it first)")
+    return run_dir
+
+
+class Lock:
+    """Exclusive use of a run directory by one process (``with Lock(run_dir):``).
+
+    An advisory ``flock`` on ``RUN_DIR/.lock``: the kernel drops it when the process
+    ends, however it ends, so a killed run never leaves the directory locked.
+    """
+
+    def __init__(self, run_dir: str | os.PathLike):
+        self.path = Path(run_dir) / LOCK
+        self.fd: int | None = None
+
+    def __enter__(self) -> Lock:
+        self.fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
+        try:
+            fcntl.flock(self.fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            os.close(self.fd)
+            self.fd = None
+            raise RunError(
+                f"run directory {self.path.parent} is in use by another process"
+            ) from None
+        return self
+
+    def __exit__(self, *exc) -> None:
+        if self.fd is not None:
+            fcntl.flock(self.fd, fcntl.LOCK_UN)
+            os.close(self.fd)
+            self.fd = None
+
+
+# ----------------------------------------------------------------------------
+# Parameters
+# ----------------------------------------------------------------------------
+
+
+def params_key(strategy: str, seed: int, name: str) -> str:
+    """Entry of one array of one run in ``params.npz``: ``<strategy>/seed<k>/<name>``."""
+    return f"{strategy}/seed{seed}/{name}"
+
+
+def runs_in(params_path: str | os.PathLike) -> dict[str, list[int]]:
+    """{strategy: [seeds]} stored in a ``params.npz``."""
+    runs: dict[str, set[int]] = {}
+    for name in read_npz(params_path):
+        parts = name.split("/")
+        if len(parts) > 2 and parts[1].startswith("seed") and parts[1][4:].isdigit():
+            runs.setdefault(parts[0], set()).add(int(parts[1][4:]))
+    return {s: sorted(v) for s, v in runs.items()}
+
+
+def load_params(path: str | os.PathLike, strategy: str, seed: int) -> dict[str, Any]:
+    """The parameters of one run as a nested dict of NumPy arrays (flax's layout)."""
+    prefix = params_key(strategy, seed, "")
+    tree: dict[str, Any] = {}
+    found = False
+    for k, v in read_npz(path).items():
+        if not k.startswith(prefix):
+            continue
+        found = True
+        node = tree
+        parts = k[len(prefix) :].split("/")
+        for part in parts[:-1]:
+            node = node.setdefault(part, {})
+        node[parts[-1]] = v
+    if not found:
+        raise RunError(f"{path} has no parameters for {strategy} seed {seed}")
+    return tree

@@ -1,0 +1,114 @@
+"""The presets and the environment's settings: each constant declared once, each
+setting checked by one rule.
+
+A preset is the set of constants that differ between the paper's text and
+ROBOTIS' code (spec.md): training length, discount, target-network rule and the
+reward. ``jaxnav.core.config`` applies a preset's training constants as config
+defaults; ``jaxnav.env.make`` takes its reward constants. The environment's
+settings that a config can set are checked here, by the same rule for a YAML
+config and for ``jaxnav.make(..., beam_dropout=...)``.
+
+No JAX here: configs are read and checked before JAX starts.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+
+@dataclass(frozen=True)
+class Preset:
+    """Constants of one preset (spec.md, tables "Reward" and "DQN")."""
+
+    episodes: int
+    gamma: float
+    target_update: str  # "periodic" (paper) or "episode_end" (ROBOTIS)
+    R_plus: float
+    R_minus: float  # mazes without obstacles (stage 1)
+    R_minus_obstacles: float  # mazes with obstacles (stage 2)
+    reward_span: float  # phi_a spans +-reward_span
+    reward_distance_exp: bool  # D = 2^(d_c / d_0) (ROBOTIS) instead of d_c (paper)
+
+    def training(self) -> dict[str, Any]:
+        """Config defaults, as dotted config keys."""
+        return {
+            "episodes": self.episodes,
+            "dqn.gamma": self.gamma,
+            "dqn.target_update": self.target_update,
+        }
+
+    def reward(self, has_obstacles: bool) -> dict[str, Any]:
+        """The environment's reward constants for a maze with or without obstacles."""
+        return {
+            "R_plus": self.R_plus,
+            "R_minus": self.R_minus_obstacles if has_obstacles else self.R_minus,
+            "reward_span": self.reward_span,
+            "reward_distance_exp": self.reward_distance_exp,
+        }
+
+
+PRESETS: dict[str, Preset] = {
+    "paper": Preset(
+        episodes=500,
+        gamma=0.9,
+        target_update="periodic",
+        R_plus=1000.0,
+        R_minus=-150.0,
+        R_minus_obstacles=-150.0,
+        reward_span=math.pi / 2,
+        reward_distance_exp=False,
+    ),
+    "robotis": Preset(
+        episodes=3000,
+        gamma=0.99,
+        target_update="episode_end",
+        R_plus=200.0,
+        R_minus=-200.0,
+        R_minus_obstacles=-150.0,
+        reward_span=math.pi / 4,
+        reward_distance_exp=True,
+    ),
+}
+
+# The sensor and start-pose settings for a real robot (all off in the paper): the
+# robustness sweep perturbs them and its table shows them.
+REALISM = ("lidar_noise_std", "beam_dropout", "odom_noise", "random_start", "maze_scale")
+
+
+def _pair(x: Any) -> bool:
+    return isinstance(x, (tuple, list)) and len(x) == 2
+
+
+# name -> (rule, what the rule says when it fails)
+_RULES: dict[str, tuple[Any, str]] = {
+    "n_beams": (lambda x: x >= 1, "must be at least 1"),
+    "max_steps": (lambda x: x >= 1, "must be at least 1"),
+    "goal_candidates": (lambda x: x >= 1, "must be at least 1"),
+    "lidar_noise_std": (lambda x: x >= 0, "must be non-negative"),
+    "beam_dropout": (lambda x: 0.0 <= x < 1.0, "must be in [0, 1)"),
+    "odom_noise": (
+        lambda x: _pair(x) and min(x) >= 0,
+        "must be [position std, yaw std], both non-negative",
+    ),
+    "maze_scale": (
+        lambda x: _pair(x) and 0.5 <= x[0] <= x[1] <= 2.0,
+        "must be [low, high] with 0.5 <= low <= high <= 2",
+    ),
+    "collision": (lambda x: x in ("disc", "lidar"), "must be disc or lidar"),
+    "goal_sampler": (lambda x: x in ("free", "robotis"), "must be free or robotis"),
+    "beam_layout": (lambda x: x in ("even", "gazebo"), "must be even or gazebo"),
+}
+
+
+def env_setting_problem(name: str, value: Any) -> str | None:
+    """What is wrong with an environment setting's value ("must be ..."), or None."""
+    rule = _RULES.get(name)
+    if rule is None:
+        return None
+    ok, says = rule
+    try:
+        return None if ok(value) else says
+    except TypeError:
+        return says

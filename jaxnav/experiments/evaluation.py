@@ -1,0 +1,153 @@
+"""Testing the policies of a finished run: load them, play the paper's test on each
+test maze (:mod:`jaxnav.experiments.rollout`), write the results and their tables.
+
+Defaults are the run's ``run.test_mazes`` and ``run.test_episodes``; the training
+environment's settings (preset, beams, step limit, reward, noise, observation
+layout) stay as trained and only the maze changes. Writes, atomically::
+
+    RUN_DIR/eval/results.csv        strategy, seed, maze, episode, return, goals, collided, length
+    RUN_DIR/eval/tables.md          paper-form tables, across-seed statistics, the paper's numbers
+    RUN_DIR/eval/trajectories.npz   the first test episode of the config's seed, per strategy
+                                    and maze, step by step (for jaxnav.report.plots)
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+from typing import NamedTuple
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from jaxnav.core import rundir
+from jaxnav.core.config import Config, load_config
+from jaxnav.core.errors import JaxnavError, RunError
+from jaxnav.core.sweep import with_swept
+from jaxnav.dqn import QNetwork, run_inputs
+from jaxnav.env import from_config
+from jaxnav.experiments.rollout import MODES, Policies, first_episode, padded_mazes, run_tests
+from jaxnav.report.results import RESULT_COLUMNS, Episodes, episode_rows, episodes_npz
+from jaxnav.report.tables import tables_markdown
+
+
+class LoadedRun(NamedTuple):
+    config: Config
+    policies: Policies
+
+
+def load_run(run_dir: str | Path) -> LoadedRun:
+    """Config and trained policies of a finished run (RunError if it cannot be used)."""
+    run_dir = rundir.existing(run_dir, finished=True)
+    cfg_path, params_path = run_dir / rundir.CONFIG, run_dir / rundir.PARAMS
+    cfg = load_config(str(cfg_path))
+    env, env_params = from_config(cfg)
+    network = QNetwork(env.num_actions, tuple(cfg.dqn.hidden), cfg.dqn.dropout)
+    template = network.init(jax.random.PRNGKey(0), jnp.zeros(env.obs_size))
+    dropped = diverged_runs(run_dir)
+    all_labels = cfg.run_labels()
+    kept = [r for r, label in enumerate(all_labels) if label not in dropped]
+    labels = [all_labels[r] for r in kept]
+    if dropped:
+        names = ", ".join(f"{s} seed {n}" for s, n in sorted(dropped))
+        print(f"note: not testing the runs that diverged in training: {names}", file=sys.stderr)
+    if not labels:
+        raise RunError(f"{run_dir}: every run diverged in training; nothing to test")
+    trees = []
+    for strategy, seed in labels:
+        tree = rundir.load_params(params_path, strategy, seed)
+        if not all(np.isfinite(a).all() for a in jax.tree.leaves(tree)):
+            raise RunError(f"{params_path}: {strategy} seed {seed} has non-finite parameters")
+        try:
+            shapes_ok = jax.tree.structure(tree) == jax.tree.structure(template) and all(
+                np.shape(a) == np.shape(b)
+                for a, b in zip(jax.tree.leaves(tree), jax.tree.leaves(template))
+            )
+        except Exception:
+            shapes_ok = False
+        if not shapes_ok:
+            raise RunError(
+                f"{params_path} does not match the network of {cfg_path} ({strategy} seed {seed})"
+            )
+        trees.append(tree)
+    params = jax.tree.map(lambda *xs: jnp.asarray(np.stack(xs), jnp.float32), *trees)
+    # A run limited by total_steps ends at different episodes: epsilon at its floor.
+    episodes = cfg.episodes if cfg.episodes is not None else 2**30
+    inputs = run_inputs(cfg)
+    strategy = inputs.strategy[kept]
+    hyper = jax.tree.map(lambda a: a[kept], inputs.hyper)
+    all_fields = cfg.run_fields()
+    fields = [all_fields[r] for r in kept]
+    policies = Policies(labels, fields, params, env, env_params, network, strategy, hyper, episodes)
+    return LoadedRun(cfg, policies)
+
+
+def diverged_runs(run_dir: Path) -> set[tuple[str, int]]:
+    """(strategy, seed) of the runs summary.json lists as diverged (dropped in training)."""
+    try:
+        summary = json.loads((run_dir / rundir.SUMMARY).read_text())
+        return {(d["strategy"], int(d["seed"])) for d in summary.get("diverged", [])}
+    except (OSError, ValueError, KeyError, TypeError, AttributeError):
+        return set()
+
+
+def test_setup(
+    run: LoadedRun, maze_names: Sequence[str] | None, n_episodes: int | None, default: list[str]
+) -> tuple[list[str], int]:
+    """The test mazes (default ``default``) and episode count (default the config's)."""
+    names = list(maze_names) if maze_names else list(default)
+    if len(set(names)) != len(names):
+        raise JaxnavError("a maze is listed twice")
+    n_episodes = run.config.run.test_episodes if n_episodes is None else n_episodes
+    if n_episodes < 1:
+        raise JaxnavError("--episodes must be at least 1")
+    return names, n_episodes
+
+
+def evaluate(
+    run_dir: str | Path, maze_names: Sequence[str] | None = None, n_episodes: int | None = None
+) -> tuple[LoadedRun, list[str], str, Episodes]:
+    """Test every run of ``run_dir`` in both test modes (greedy, then exploring).
+
+    Returns (run, maze names, results.csv text, the first greedy test episode of
+    the config's seed per maze and strategy).
+    """
+    run = load_run(run_dir)
+    names, n_episodes = test_setup(run, maze_names, n_episodes, run.config.run.test_mazes)
+    labels = run.policies.labels
+    mazes = padded_mazes(names)
+    rows = []
+    for mode in MODES:
+        results = run_tests(run.policies, mazes, n_episodes, record=mode == "greedy", mode=mode)
+        rows += episode_rows(run.policies.fields, names, results, n_episodes, mode)
+        if mode == "greedy":
+            first = [i for i, (_, seed) in enumerate(labels) if seed == run.config.seed]
+            episodes = {
+                name: {labels[i][0]: first_episode(res, i) for i in first}
+                for name, res in zip(names, results)
+            }
+    columns = with_swept(RESULT_COLUMNS, run.config.sweep)
+    return run, names, rundir.csv_text(columns, rows), episodes
+
+
+def evaluate_to_dir(
+    run_dir: str | Path,
+    maze_names: Sequence[str] | None = None,
+    n_episodes: int | None = None,
+    out: str | Path | None = None,
+) -> Path:
+    """Evaluate; write results.csv, tables.md, trajectories.npz (each atomically) into ``out``."""
+    run, names, text, episodes = evaluate(run_dir, maze_names, n_episodes)
+    tables = tables_markdown(
+        text, run.config.env.maze, run.config.seed, title=f"Test results of {Path(run_dir).name}"
+    )
+    out = Path(out) if out is not None else Path(run_dir) / "eval"
+    out.mkdir(parents=True, exist_ok=True)
+    goal_radius = float(run.policies.env_params.goal_radius)
+    rundir.atomic_write_text(out / "results.csv", text)
+    rundir.atomic_write_text(out / "tables.md", tables)
+    rundir.atomic_write_bytes(out / "trajectories.npz", episodes_npz(episodes, goal_radius))
+    return out

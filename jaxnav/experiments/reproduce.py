@@ -1,0 +1,455 @@
+"""``python -m jaxnav.reproduce [--seeds N] [--out DIR] [--quick] [--resume]``
+
+The paper's two experiments end to end: train ``configs/paper_no_obstacles.yaml``
+(Table 3, Fig. 2) and ``configs/paper_obstacles.yaml`` (Table 4, Fig. 4), both
+strategies and N seeds each, test them (``jaxnav.evaluate``), draw the figures
+(``jaxnav.report.plots``) and write ``DIR/report.md`` with the tables, the figures, the
+wall-clock of every stage and the machine.
+
+Default: 8 seeds per strategy (the paper configs' own) and the paper's 500
+episodes of at most 500 steps: 18 minutes in all, measured on 2 shared CPU cores
+(AMD EPYC) with one CPU device per core, 13.7 of them training without obstacles
+and 3.7 with (episodes end sooner there); ``--seeds 4`` takes about half.
+Each experiment's policies are also tested under sensor perturbations on its
+training maze (``jaxnav.evaluate --robustness``).
+
+``--quick``: 2 seeds, 50 episodes of at most 200 steps, 3 test episodes: about 1.5
+minutes with the robustness stage, for checking that everything runs (its numbers mean little).
+``--episodes``, ``--max-steps``, ``--test-episodes`` override those sizes (tests use
+them for a tiny end-to-end run). ``--resume`` continues an interrupted
+reproduction in DIR: finished trainings are reused, an unfinished one resumes from
+its last checkpoint, evaluation and figures are redone.
+
+Layout::
+
+    DIR/report.md
+    DIR/paper_no_obstacles/   a training run (see jaxnav.train) + eval/ + plots/
+    DIR/paper_obstacles/
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+import os
+import platform
+import re
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import jax
+
+from jaxnav.core import cli
+from jaxnav.core.config import CONFIG_DIR, Config, load_config
+from jaxnav.core.errors import JaxnavError
+from jaxnav.core.rundir import METRICS, CsvLog, atomic_write_text
+from jaxnav.experiments.evaluation import evaluate_to_dir
+from jaxnav.experiments.robustness import robustness_to_dir
+from jaxnav.report import plots
+from jaxnav.report.claims import claims_markdown, evaluate_claims
+from jaxnav.report.tables import training_markdown
+from jaxnav.run.training import resume, train_new
+
+DEFAULT_SEEDS = 8
+QUICK = {"seeds": 2, "episodes": 50, "max_steps": 200, "test_episodes": 3}
+EXPERIMENTS = (
+    (
+        "paper_no_obstacles",
+        "Trained on square4 without obstacles (paper Sec. 6.1, Table 3, Fig. 2)",
+    ),
+    ("paper_obstacles", "Trained on square4 with obstacles (paper Sec. 6.2, Table 4, Fig. 4)"),
+)
+
+
+def machine_info() -> dict[str, str]:
+    """CPU model, cores, memory, Python, JAX version and backend."""
+    cpu = platform.processor() or platform.machine()
+    try:
+        with open("/proc/cpuinfo") as f:
+            for line in f:
+                if line.lower().startswith("model name"):
+                    cpu = line.split(":", 1)[1].strip()
+                    break
+    except OSError:
+        pass
+    try:
+        usable = len(os.sched_getaffinity(0))
+    except AttributeError:
+        usable = os.cpu_count() or 0
+    mem = ""
+    try:
+        with open("/proc/meminfo") as f:
+            kb = int(re.search(r"MemTotal:\s+(\d+)", f.read()).group(1))
+            mem = f"{kb / 2**20:.1f} GiB"
+    except (OSError, AttributeError):
+        pass
+    devices = jax.devices()
+    return {
+        "CPU": cpu,
+        "cores": f"{usable} usable ({os.cpu_count()} in the machine)",
+        "memory": mem or "unknown",
+        "OS": f"{platform.system()} {platform.release()} {platform.machine()}",
+        "Python": platform.python_version(),
+        "JAX": f"{jax.__version__}, backend {jax.default_backend()} "
+        f"({len(devices)} x {devices[0].device_kind})",
+    }
+
+
+def experiment_config(
+    name: str,
+    seeds: int,
+    episodes: int | None,
+    max_steps: int | None,
+    test_episodes: int | None,
+    extra: tuple[str, ...] = (),
+):
+    """An experiment's config at the requested size; ``extra``: more overrides."""
+    overrides = [f"seeds={seeds}", *extra]
+    if episodes is not None:
+        overrides.append(f"episodes={episodes}")
+    if max_steps is not None:
+        overrides.append(f"env.max_steps={max_steps}")
+    if test_episodes is not None:
+        overrides.append(f"run.test_episodes={test_episodes}")
+    cfg = load_config(str(CONFIG_DIR / f"{name}.yaml"), overrides)
+    # A chunk longer than a seed's whole run only computes masked steps.
+    if cfg.run.chunk_steps > cfg.max_total_steps:
+        cfg = load_config(
+            str(CONFIG_DIR / f"{name}.yaml"), overrides + [f"run.chunk_steps={cfg.max_total_steps}"]
+        )
+    return cfg
+
+
+def _demote(md: str, levels: int = 2) -> str:
+    return re.sub(r"^(#+) ", lambda m: "#" * (len(m.group(1)) + levels) + " ", md, flags=re.M)
+
+
+def _fmt_s(s: float) -> str:
+    return f"{s:.1f} s" if s < 120 else f"{s:.1f} s ({s / 60:.1f} min)"
+
+
+def write_report(
+    out: Path,
+    info: dict,
+    settings: dict,
+    timings: list[tuple[str, float, str]],
+    sections: list[str],
+    claims: str,
+) -> Path:
+    total = sum(t for _, t, _ in timings)
+    L = ["# jaxnav: reproduction of Usama & Chang (2019), EBE vs epsilon-greedy", ""]
+    L += [f"Command: `{settings['command']}`, finished {time.strftime('%Y-%m-%d %H:%M:%S')}.", ""]
+    quick = " (--quick: a smoke test, not a reproduction)" if settings["quick"] else ""
+    L += [
+        f"Settings: {settings['seeds']} seeds per strategy, {settings['episodes']} training "
+        f"episodes of at most {settings['max_steps']} steps per seed, "
+        f"{settings['test_episodes']} consecutive test episodes per seed and maze{quick}. "
+        "The rest of each config is the paper's (configs/paper_*.yaml; each run's full "
+        "config.yaml is in its directory). The paper shows one training run per strategy; the "
+        f"seeds here show whether a difference holds (default {DEFAULT_SEEDS}).",
+        "",
+        _demote(claims, 1).rstrip(),
+        "",
+        "## Machine",
+        "",
+        "| | |",
+        "|---|---|",
+    ]
+    L += [f"| {k} | {v} |" for k, v in info.items()]
+    L += ["", "## Wall-clock", "", "| stage | time | note |", "|---|---|---|"]
+    L += [f"| {name} | {_fmt_s(t)} | {note} |" for name, t, note in timings]
+    L += [f"| **total** | **{_fmt_s(total)}** | |", ""]
+    L += [
+        "Training time includes compiling (tens of seconds per config); timings on a shared "
+        "machine are noisy.",
+        "",
+    ]
+    L += sections
+    path = out / "report.md"
+    atomic_write_text(path, "\n".join(L) + "\n")
+    return path
+
+
+def check_request(out: Path, seeds: int, sizes: dict[str, int | None], resume_ok: bool):
+    if seeds < 1:
+        raise JaxnavError("--seeds must be at least 1")
+    for flag, v in sizes.items():
+        if v is not None and v < 1:
+            raise JaxnavError(f"{flag} must be at least 1")
+    if out.exists() and not out.is_dir():
+        raise JaxnavError(f"{out} exists and is not a directory")
+    if out.is_dir() and any(out.iterdir()) and not resume_ok:
+        raise JaxnavError(
+            f"output directory {out} already exists and is not empty (use --resume to continue it)"
+        )
+
+
+def train_stage(name: str, cfg: Config, run_dir: Path, quiet: bool, say) -> tuple[float, str]:
+    """Train (or reuse, or resume) one experiment; (seconds, note) for the report."""
+    t0 = time.perf_counter()
+    arms = len(cfg.arms())
+    what = f"{arms} arms" if cfg.sweep else f"{arms} strategies"
+    note = f"{cfg.seeds} seeds x {what} on {cfg.env.maze}"
+    started = (run_dir / "config.yaml").is_file()
+    if started and load_config(str(run_dir / "config.yaml")) != cfg:
+        what = "trained" if (run_dir / "params.npz").is_file() else "started"
+        raise JaxnavError(f"{run_dir} was {what} with other settings; use another --out")
+    if (run_dir / "params.npz").is_file():
+        say(f"{name}: reusing the finished training in {run_dir}")
+        note += ", reused (trained before"
+        try:  # report the earlier training's time, not the ~0 s of reusing it
+            wall = float(json.loads((run_dir / "summary.json").read_text())["wall_clock_s"])
+            t0 -= wall
+            note += "; time from its summary.json, chunks only, no compile)"
+        except (OSError, ValueError, KeyError, TypeError):
+            note += ")"
+    elif started:
+        say(f"{name}: resuming training in {run_dir}")
+        resume(run_dir, quiet=quiet)
+        note += ", resumed"
+    else:
+        say(f"{name}: training {cfg.n_runs} runs ({note}), {cfg.episodes} episodes each")
+        train_new(cfg, run_dir, quiet=quiet)
+    return time.perf_counter() - t0, note
+
+
+def _experiment(
+    name: str, title: str, cfg: Config, out: Path, quiet: bool, say, sim_seeds: int = 0
+) -> tuple[list[tuple[str, float, str]], list[str]]:
+    """Train, test, plot and perturb one experiment, and test its first ``sim_seeds``
+    seeds in MuJoCo: (timings, report section)."""
+    run_dir = out / name
+    timings = [(f"train {name}", *train_stage(name, cfg, run_dir, quiet, say))]
+
+    def stage(label: str, note: str, fn):
+        t0 = time.perf_counter()
+        result = fn()
+        timings.append((f"{label} {name}", time.perf_counter() - t0, note(result)))
+        return result
+
+    say(f"{name}: testing on {', '.join(cfg.run.test_mazes)}")
+    tests = f"{cfg.run.test_episodes} episodes x {cfg.n_runs} runs x {len(cfg.run.test_mazes)}"
+    eval_dir = stage("evaluate", lambda _: f"{tests} mazes", lambda: evaluate_to_dir(run_dir))
+    say(f"{name}: drawing figures")
+    written = stage("plot", lambda w: f"{len(w)} files", lambda: plots.make_plots(run_dir))
+    # ROBUSTNESS: the same test under sensor perturbations, on the training maze
+    say(f"{name}: testing under sensor perturbations on {cfg.env.maze}")
+    rob_dir = stage(
+        "robustness",
+        lambda _: f"on {cfg.env.maze}",
+        lambda: robustness_to_dir(run_dir, out=run_dir / "eval"),
+    )
+    sec = _section(name, title, cfg, out, written, eval_dir, rob_dir)
+    if sim_seeds:
+        seeds = [cfg.seed + k for k in range(min(sim_seeds, cfg.seeds))]
+        say(f"{name}: testing seeds {seeds[0]}..{seeds[-1]} in MuJoCo physics")
+        n = f"{len(seeds)} seeds x {len(cfg.strategies)} strategies x {len(cfg.run.test_mazes)}"
+        table = stage("sim2sim", lambda _: f"{n} mazes", lambda: sim_to_sim(run_dir, seeds))
+        sec += [_demote(table.read_text()).rstrip(), ""]
+    return timings, sec
+
+
+def sim_to_sim(run_dir: Path, seeds: list[int]) -> Path:
+    """``python -m jaxnav.sim2sim RUN_DIR --seeds ...`` (its own process: only that
+    command imports MuJoCo); the path of its markdown table."""
+    cmd = [sys.executable, "-m", "jaxnav.sim2sim", str(run_dir), "--seeds", *map(str, seeds)]
+    done = subprocess.run(cmd, capture_output=True, text=True)
+    if done.returncode != 0:
+        last = (done.stderr.strip().splitlines() or ["no output"])[-1]
+        raise JaxnavError(f"the sim-to-sim stage failed: {last}")
+    return run_dir / "sim2sim" / "sim2sim.md"
+
+
+def check_mujoco(sim_seeds: int) -> None:
+    """Say at once, before any training, if --sim2sim cannot run."""
+    if sim_seeds and importlib.util.find_spec("mujoco") is None:
+        raise JaxnavError(
+            "--sim2sim needs MuJoCo: pip install -e \".[sim]\" (the optional extra 'sim')"
+        )
+
+
+def _section(name, title, cfg, out: Path, written, eval_dir: Path, rob_dir: Path) -> list[str]:
+    """The report's section of one experiment: figures, tables, robustness."""
+    run_dir = out / name
+
+    def rel(p):
+        return Path(p).relative_to(out).as_posix()
+
+    traj = [p for p in written if p.name.startswith("trajectory_")]
+    gif = [p for p in written if p.suffix == ".gif"]
+    sec = [
+        f"## {title}",
+        "",
+        f"Run directory: `{name}/` (config, metrics.csv, params.npz, eval/, plots/).",
+        "",
+        "### Training",
+        "",
+        training_markdown(CsvLog(run_dir / METRICS, ()).read()).rstrip(),
+        "",
+        f"![training curves]({rel(run_dir / 'plots' / 'training_curves.png')})",
+        f"![exploration]({rel(run_dir / 'plots' / 'exploration.png')})",
+        "",
+        f"### Test episodes (seed {cfg.seed}, first test episode)",
+        "",
+        " ".join(f"![{p.stem}]({rel(p)})" for p in traj),
+        "",
+    ]
+    if gif:
+        sec += [f"![episode animation]({rel(gif[0])})", ""]
+    tables = (eval_dir / "tables.md").read_text()
+    sec += [_demote(tables).rstrip(), ""]
+    rob = (
+        (rob_dir / "robustness.md")
+        .read_text()
+        .replace("](robustness.png)", f"]({rel(rob_dir / 'robustness.png')})")
+    )
+    return sec + [_demote(rob).rstrip(), ""]
+
+
+def reproduce(
+    out: Path,
+    seeds: int,
+    episodes: int | None,
+    max_steps: int | None,
+    test_episodes: int | None,
+    quick: bool,
+    resume_ok: bool,
+    quiet: bool,
+    command: str,
+    sim_seeds: int = 0,
+) -> Path:
+    """Both experiments end to end into ``out``; ``sim_seeds``: test that many seeds
+    of each in MuJoCo too. Returns report.md."""
+    sizes = {"--episodes": episodes, "--max-steps": max_steps, "--test-episodes": test_episodes}
+    check_request(out, seeds, sizes, resume_ok)
+    if sim_seeds < 0:
+        raise JaxnavError("--sim2sim must not be negative")
+    check_mujoco(sim_seeds)
+    cfgs = {
+        name: experiment_config(name, seeds, episodes, max_steps, test_episodes)
+        for name, _ in EXPERIMENTS
+    }
+    out.mkdir(parents=True, exist_ok=True)
+
+    def say(msg):
+        if not quiet:
+            print(f"[reproduce] {msg}", file=sys.stderr, flush=True)
+
+    info = machine_info()
+    timings: list[tuple[str, float, str]] = []
+    sections: list[str] = []
+    for name, title in EXPERIMENTS:
+        t, sec = _experiment(name, title, cfgs[name], out, quiet, say, sim_seeds)
+        timings += t
+        sections += sec
+    t0 = time.perf_counter()
+    claims = claims_markdown(evaluate_claims(experiment_files(out)), quick=quick)
+    atomic_write_text(out / "claims.md", claims)
+    timings.append(("claims", time.perf_counter() - t0, "verdicts from the files above"))
+    first = cfgs[EXPERIMENTS[0][0]]
+    settings = {
+        "command": command,
+        "seeds": seeds,
+        "episodes": first.episodes,
+        "max_steps": first.env.max_steps,
+        "test_episodes": first.run.test_episodes,
+        "quick": quick,
+    }
+    return write_report(out, info, settings, timings, sections, claims)
+
+
+def experiment_files(
+    out: Path, names: list[str] | None = None
+) -> dict[str, tuple[list[dict[str, str]], str]]:
+    """name -> (metrics.csv rows, eval/results.csv text) of each experiment in ``out``
+    (of ``names`` only, if given)."""
+    files = {}
+    for name in names if names is not None else [n for n, _ in EXPERIMENTS]:
+        run_dir = out / name
+        rows = CsvLog(run_dir / METRICS, ()).read()
+        files[name] = (rows, (run_dir / "eval" / "results.csv").read_text())
+    return files
+
+
+def _parser() -> cli.Parser:
+    p = cli.Parser(
+        prog="python -m jaxnav.reproduce",
+        description="Train, test and plot both of the paper's experiments (no obstacles and "
+        "obstacles, EBE and epsilon-greedy) and write DIR/report.md.",
+    )
+    p.add_argument(
+        "--seeds",
+        type=int,
+        metavar="N",
+        help=f"seeds per strategy (default {DEFAULT_SEEDS}; {QUICK['seeds']} with --quick)",
+    )
+    p.add_argument("--out", metavar="DIR", help="output directory (default runs/reproduce-<time>)")
+    p.add_argument(
+        "--quick",
+        action="store_true",
+        help="small version in about a minute and a half: "
+        f"{QUICK['seeds']} seeds, {QUICK['episodes']} episodes "
+        f"of at most {QUICK['max_steps']} steps, {QUICK['test_episodes']} test episodes",
+    )
+    p.add_argument(
+        "--episodes",
+        type=int,
+        metavar="N",
+        help="training episodes per seed (overrides the config / --quick)",
+    )
+    p.add_argument(
+        "--max-steps",
+        type=int,
+        metavar="N",
+        help="steps per episode, training and test (overrides)",
+    )
+    p.add_argument(
+        "--test-episodes",
+        type=int,
+        metavar="N",
+        help="consecutive test episodes per seed and maze (overrides)",
+    )
+    p.add_argument(
+        "--resume",
+        action="store_true",
+        help="continue an interrupted reproduction in --out: reuse finished trainings, "
+        "resume the rest",
+    )
+    p.add_argument(
+        "--sim2sim",
+        type=int,
+        default=0,
+        metavar="K",
+        help="also test the first K seeds of each experiment in MuJoCo physics "
+        "(python -m jaxnav.sim2sim; needs the extra 'sim'; about 6 s per policy and maze "
+        "at 10 test episodes of 500 steps) and add the sim-to-sim gap to the report",
+    )
+    p.add_argument("--quiet", action="store_true", help="no progress output")
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = _parser()
+    args = p.parse_args(argv)
+    q = QUICK if args.quick else {}
+    seeds = args.seeds if args.seeds is not None else q.get("seeds", DEFAULT_SEEDS)
+    episodes = args.episodes if args.episodes is not None else q.get("episodes")
+    max_steps = args.max_steps if args.max_steps is not None else q.get("max_steps")
+    test_episodes = args.test_episodes if args.test_episodes is not None else q.get("test_episodes")
+    out = (
+        Path(args.out) if args.out else Path("runs") / f"reproduce-{time.strftime('%Y%m%d-%H%M%S')}"
+    )
+    command = "python -m jaxnav.reproduce " + " ".join(argv if argv is not None else sys.argv[1:])
+
+    def work() -> None:
+        if args.resume and not args.out:
+            raise JaxnavError("--resume needs --out DIR")
+        sizes = (seeds, episodes, max_steps, test_episodes)
+        report = reproduce(
+            out, *sizes, args.quick, args.resume, args.quiet, command.strip(), args.sim2sim
+        )
+        print(f"report: {report}")
+
+    return cli.run(p.prog, work, interrupted=f"interrupted; continue with --resume --out {out}")

@@ -1,0 +1,248 @@
+"""The test rollout: trained greedy policies played in the environment, jitted.
+
+The paper's test protocol (Sec. 6): every policy plays N consecutive test episodes
+in one environment; after a collision or truncation the robot restarts at the
+start pose and keeps its goal (the env's auto-reset), as in the paper's Gazebo
+runs. Greedy: dropout off, no exploration, action = argmax Q. Every policy runs in
+one vmapped ``lax.scan`` per maze; test mazes are padded to one shape
+(:func:`padded_mazes`), so the scan compiles once. Both strategies of a seed use
+the same test key (:func:`eval_keys`).
+"""
+
+from __future__ import annotations
+
+import functools
+from collections.abc import Sequence
+from typing import Any, NamedTuple
+
+import chex
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from jaxnav.agent.sharding import RunSharding
+from jaxnav.dqn import Hyper, QNetwork, explore_action
+from jaxnav.env import EnvParams, NavEnv
+from jaxnav.world.maps import MAX_GOAL_POINTS, Maze, make_maze, pad_maze
+
+EVAL_SALT = 0x7E57  # folded into a seed's key: test goals differ from training's
+
+
+MODES = ("greedy", "exploring")  # how a policy acts in a test (see make_rollout)
+
+
+class Policies(NamedTuple):
+    """Trained policies and the environment they were trained in."""
+
+    labels: list[tuple[str, int]]  # (arm, seed) per policy, the params' leading axis
+    fields: list[tuple]  # (strategy, swept values, seed) per policy, as results.csv writes
+    params: Any  # flax params, every leaf with a leading policy axis
+    env: NavEnv  # the training env (static settings)
+    env_params: EnvParams  # the training env's params
+    network: QNetwork
+    strategy: np.ndarray  # i32[policies] index into STRATEGIES
+    hyper: Hyper  # each policy's settings in training (a sweep point's), [policies]
+    episodes_trained: int  # episodes each policy trained for (epsilon's last value)
+
+
+class Trajectory(NamedTuple):
+    """Per-step record of a rollout; the pose is the one *before* the step.
+
+    Leading axes [..., T] (T = n_episodes * max_steps); steps after the last test
+    episode have ``episode == n_episodes`` and are not part of the test.
+    """
+
+    pos: chex.Array  # f32[..., T, 2]
+    yaw: chex.Array  # f32[..., T]
+    goal: chex.Array  # f32[..., T, 2]
+    ranges: chex.Array  # f32[..., T, n_beams] the scan the policy saw
+    action: chex.Array  # i32[..., T]
+    reward: chex.Array  # f32[..., T]
+    reached: chex.Array  # bool[..., T] the goal was reached in this step
+    collided: chex.Array  # bool[..., T] the robot collided in this step
+    episode: chex.Array  # i32[..., T] test episode of this step
+
+
+class Rollout(NamedTuple):
+    """Per-episode test results [..., n_episodes] and, optionally, the trajectory."""
+
+    ret: chex.Array  # f32[..., E]
+    goals: chex.Array  # i32[..., E]
+    collided: chex.Array  # bool[..., E]
+    length: chex.Array  # i32[..., E]
+    trajectory: Trajectory | None
+
+
+def make_rollout(
+    env: NavEnv,
+    network: QNetwork,
+    n_episodes: int,
+    max_steps: int,
+    record: bool = False,
+    exploring: int | None = None,
+):
+    """A pure ``rollout(params, key, strategy, hyper, env_params) -> Rollout`` of one
+    policy; ``hyper`` is its settings in training (its swept environment settings
+    apply to the test too).
+
+    Plays ``n_episodes`` consecutive episodes in one environment with auto-reset.
+    Each episode lasts at most ``max_steps`` steps, so a scan of
+    ``n_episodes * max_steps`` steps always completes them; later steps are ignored.
+
+    Greedy (``exploring`` None): dropout off, action = argmax Q. Exploring
+    (``exploring`` = the episodes trained): each strategy explores
+    as at the end of its training, through the trainer's own
+    :func:`jaxnav.dqn.explore_action` (EBE with probability H(s), epsilon-greedy with
+    the schedule's last epsilon, Boltzmann sampling softmax(Q / T)); the environment's
+    keys are the greedy test's, so both modes start from the same goals.
+    """
+    n_steps = n_episodes * max_steps
+    E = n_episodes
+
+    # One scan body over one explicit carry, read top to bottom: ACT, STEP ENV, RECORD.
+
+    def act(params, obs, key, strategy, hyper):
+        q = network.apply(params, obs)  # dropout off (Keras predict)
+        if exploring is None:
+            return jnp.argmax(q, axis=-1).astype(jnp.int32)
+        k_act, episodes = jax.random.fold_in(key, 1), jnp.int32(exploring)
+        action, _ = explore_action(strategy, k_act, q, episodes, hyper)
+        return action.astype(jnp.int32)
+
+    def rollout(params, key: chex.PRNGKey, strategy, hyper: Hyper, env_params: EnvParams):
+        env_params = hyper.env_params(env_params)
+        k_reset, key = jax.random.split(key)
+        obs, state = env.reset(k_reset, env_params)
+        zeros_f = jnp.zeros(E, jnp.float32)
+        zeros_i = jnp.zeros(E, jnp.int32)
+        carry0 = (
+            obs,
+            state,
+            key,
+            jnp.zeros((), jnp.int32),  # episode being played
+            jnp.zeros((), jnp.float32),  # its return so far
+            jnp.zeros((), jnp.int32),  # its goals so far
+            (zeros_f, zeros_i, jnp.zeros(E, bool), zeros_i),
+        )
+
+        def body(carry, _):
+            obs, state, key, ep, cur_ret, cur_goals, (rets, goals, coll, lens) = carry
+            key, k_step = jax.random.split(key)
+            # ACT: greedy, or the strategy's own exploration.
+            action = act(params, obs, k_step, strategy, hyper)
+            # STEP ENV (auto-reset keeps the goal, restarts at the start pose).
+            obs2, state2, reward, terminated, truncated, info = env.step(
+                k_step, state, action, env_params
+            )
+            done = terminated | truncated
+            cur_ret = cur_ret + reward
+            cur_goals = cur_goals + info["goal_reached"].astype(jnp.int32)
+            # RECORD the finished episode (index E: dropped, the test is over).
+            i = jnp.where(done & (ep < E), ep, E)
+            rets = rets.at[i].set(cur_ret, mode="drop")
+            goals = goals.at[i].set(cur_goals, mode="drop")
+            coll = coll.at[i].set(terminated, mode="drop")
+            lens = lens.at[i].set(state.t + 1, mode="drop")
+            out = None
+            if record:
+                out = Trajectory(
+                    pos=state.pos,
+                    yaw=state.yaw,
+                    goal=state.goal,
+                    ranges=obs[: env.n_beams],
+                    action=action,
+                    reward=reward,
+                    reached=info["goal_reached"],
+                    collided=terminated,
+                    episode=ep,
+                )
+            carry = (
+                obs2,
+                state2,
+                key,
+                ep + done.astype(jnp.int32),
+                jnp.where(done, 0.0, cur_ret),
+                jnp.where(done, 0, cur_goals),
+                (rets, goals, coll, lens),
+            )
+            return carry, out
+
+        carry, traj = jax.lax.scan(body, carry0, None, length=n_steps)
+        rets, goals, coll, lens = carry[-1]
+        return Rollout(rets, goals, coll, lens, traj)
+
+    return rollout
+
+
+def padded_mazes(names: Sequence[str]) -> list[Maze]:
+    """Mazes by name or YAML path, padded to one shape so one compile serves all.
+
+    Goal points are padded to MAX_GOAL_POINTS (they are only indexed, so this costs
+    nothing) and the shape then depends only on the largest wall and obstacle
+    counts: most maze sets share a compiled rollout.
+    """
+    mazes = [make_maze(n) for n in names]
+    s = max(m.segments.shape[0] for m in mazes)
+    c = max(m.circles.shape[0] for m in mazes)
+    g = max([MAX_GOAL_POINTS] + [m.goal_points.shape[0] for m in mazes])
+    return [pad_maze(m, s, c, g) for m in mazes]
+
+
+def eval_keys(labels: Sequence[tuple[str, int]]) -> chex.Array:
+    """Test key per run: a seed's key with EVAL_SALT folded in (shared by strategies)."""
+    return jnp.stack(
+        [jax.random.fold_in(jax.random.PRNGKey(seed), EVAL_SALT) for _, seed in labels]
+    )
+
+
+@functools.lru_cache(maxsize=16)
+def _compiled_rollout(
+    env: NavEnv, network: QNetwork, n_episodes: int, max_steps: int, record: bool, exploring
+):
+    """jit(vmap(rollout)) over runs, one per setting: equal shapes never recompile."""
+    rollout = make_rollout(env, network, n_episodes, max_steps, record, exploring)
+    return jax.jit(jax.vmap(rollout, in_axes=(0, 0, 0, 0, None)))
+
+
+def run_tests(
+    policies: Policies,
+    mazes: Sequence[Maze],
+    n_episodes: int,
+    record: bool = False,
+    mode: str = "greedy",
+) -> list[Rollout]:
+    """One vmapped rollout of every policy per maze in a test ``mode``; NumPy results."""
+    if mode not in MODES:
+        raise ValueError(f"unknown test mode {mode!r}")
+    exploring = policies.episodes_trained if mode == "exploring" else None
+    # The run axis is laid over every device, as in training.
+    shard = RunSharding(len(policies.labels))
+    params = shard.put(jax.tree.map(np.asarray, policies.params))
+    keys = shard.put(np.asarray(eval_keys(policies.labels)))
+    strategy = shard.put(np.asarray(policies.strategy, np.int32))
+    hyper = shard.put(jax.tree.map(np.asarray, policies.hyper))
+    max_steps = int(policies.env_params.max_steps)
+    fn = _compiled_rollout(policies.env, policies.network, n_episodes, max_steps, record, exploring)
+    out = []
+    for maze in mazes:
+        res = fn(params, keys, strategy, hyper, policies.env_params.replace(maze=maze))
+        out.append(shard.get(res))
+    return out
+
+
+def first_episode(res: Rollout, r: int) -> dict[str, Any]:
+    """The first test episode of run r of a recorded Rollout, cut to its length."""
+    n = int(res.length[r, 0])
+    tr = res.trajectory
+    return {
+        "pos": tr.pos[r, :n],
+        "yaw": tr.yaw[r, :n],
+        "goal": tr.goal[r, :n],
+        "ranges": tr.ranges[r, :n],
+        "reward": tr.reward[r, :n],
+        "reached": tr.reached[r, :n],
+        "collided": bool(res.collided[r, 0]),
+        "return": float(res.ret[r, 0]),
+        "goals": int(res.goals[r, 0]),
+        "length": n,
+    }

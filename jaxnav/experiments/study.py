@@ -1,0 +1,173 @@
+"""``python -m jaxnav.study CONFIG [key=value ...] --out DIR [--resume] [--doc PATH]``
+
+A sweep study end to end: train a config's sweep (every strategy, point and seed in
+one program), test every arm in both test modes (``jaxnav.evaluate``) and write
+``DIR/study.md``: the sweep's tables and the answers they give, computed from the
+results (:func:`jaxnav.report.tables.sweep_markdown`), its figures, the wall-clock of each
+stage and the machine. ``--doc PATH`` writes the same study to PATH, its figures and
+its test results beside it (``<name>-sweep.png``, ``<name>-training_curves.png``,
+``<name>-results.csv.gz``), for committing.
+
+``configs/temperature.yaml`` is EBE's and Boltzmann's softmax temperature against
+epsilon-greedy (``docs/studies/temperature.md``).
+
+Layout::
+
+    DIR/study.md, DIR/sweep.png, DIR/training_curves.png
+    DIR/run/        the training run (see jaxnav.train) + eval/
+"""
+
+from __future__ import annotations
+
+import gzip
+import shlex
+import shutil
+import sys
+import time
+from pathlib import Path
+
+from jaxnav.core import cli
+from jaxnav.core.config import Config, load_config, resolve_config_path
+from jaxnav.core.errors import JaxnavError
+from jaxnav.core.rundir import METRICS, CsvLog, atomic_write_bytes, atomic_write_text
+from jaxnav.core.sweep import short_names, value_text
+from jaxnav.experiments.evaluation import evaluate_to_dir
+from jaxnav.experiments.reproduce import check_request, machine_info, train_stage
+from jaxnav.report import plots
+from jaxnav.report.tables import sweep_markdown, training_markdown
+
+
+def study_markdown(
+    cfg: Config,
+    title: str,
+    results_csv: str,
+    metrics_rows: list[dict[str, str]],
+    timings: list[tuple[str, float, str]],
+    command: str,
+    figures: dict[str, str],
+) -> str:
+    """The study's text: setup, results per test mode with their answers, training
+    (from metrics.csv rows), figures (``figures``: caption -> file name), time and
+    machine."""
+    n_arms = len(cfg.arms())
+    sweep = "; ".join(
+        f"`{k}` in {{{', '.join(value_text(v) for v in vals)}}}" for k, vals in cfg.sweep
+    )
+    total = sum(t for _, t, _ in timings)
+    L = [
+        f"# {title}",
+        "",
+        f"Produced by `{command}` in {total / 60:.1f} minutes on the machine below; "
+        f"every number and sentence under Results is computed from the run's "
+        f"`eval/results.csv`.",
+        "",
+        "## Setup",
+        "",
+        f"- Trained on `{cfg.env.maze}`, preset `{cfg.preset}`, {cfg.episodes} episodes of at "
+        f"most {cfg.env.max_steps} steps per seed; the paper's network, replay and RMSprop.",
+        f"- Strategies {', '.join(f'`{s}`' for s in cfg.strategies)}; sweep {sweep}. A strategy "
+        f"varies only the keys it reads: {n_arms} arms x {cfg.seeds} seeds = {cfg.n_runs} runs, "
+        "all in one compiled program; every arm of a seed shares its initial network and goals.",
+        f"- Test: {cfg.run.test_episodes} consecutive episodes per seed on "
+        f"{', '.join(f'`{m}`' for m in cfg.run.test_mazes)}, in both test modes: greedy "
+        "(argmax Q, as the paper most plausibly tested) and exploring (each strategy's own "
+        "exploration at the end of training).",
+        "- A seed's score is its mean test return; intervals are 95% percentile bootstraps "
+        "over seeds (rliable). A verdict names the better arm when the interval of P(X > Y) "
+        "excludes 0.5, else there is no detectable difference. The best point of a strategy "
+        "is chosen on the same seeds that score it, which flatters it, and with "
+        f"{max(n_arms - 1, 1)} arms compared with epsilon-greedy one verdict in twenty "
+        "names a winner by chance: a verdict at one point of several is a hypothesis "
+        "until a fresh set of seeds confirms it (`seed=` another range).",
+        "",
+        "## Results",
+    ]
+    L += sweep_markdown(results_csv, cfg.seed)
+    L += ["", "## Training", "", training_markdown(metrics_rows).rstrip()]
+    L += ["", "## Figures", ""]
+    for caption, name in figures.items():
+        L += [f"![{caption}]({name})", "", f"*{caption}*", ""]
+    L += ["## Time and machine", "", "| stage | seconds | what |", "|---|---|---|"]
+    L += [f"| {stage} | {t:.0f} | {note} |" for stage, t, note in timings]
+    L += [f"| total | {total:.0f} | |", ""]
+    L += [f"- {k}: {v}" for k, v in machine_info().items()]
+    return "\n".join(L) + "\n"
+
+
+def study(
+    cfg: Config, out: Path, title: str, command: str, resume_ok: bool, quiet: bool, doc: Path | None
+) -> Path:
+    """Train, test and write the study; returns DIR/study.md."""
+    if not cfg.sweep:
+        raise JaxnavError("the config has no sweep: a study compares the points of one")
+    check_request(out, cfg.seeds, {}, resume_ok)
+    out.mkdir(parents=True, exist_ok=True)
+
+    def say(msg: str) -> None:
+        if not quiet:
+            print(f"[study] {msg}", file=sys.stderr, flush=True)
+
+    run_dir = out / "run"
+    timings = [("train", *train_stage("sweep", cfg, run_dir, quiet, say))]
+    say(f"testing {cfg.n_runs} runs on {', '.join(cfg.run.test_mazes)}, both test modes")
+    t0 = time.perf_counter()
+    eval_dir = evaluate_to_dir(run_dir)
+    n_tests = f"{cfg.run.test_episodes} episodes x {cfg.n_runs} runs x 2 modes"
+    timings.append(("test", time.perf_counter() - t0, n_tests))
+    results = (eval_dir / "results.csv").read_text()
+    t0 = time.perf_counter()
+    names = short_names([k for k, _ in cfg.sweep])
+    figures = {
+        "sweep": plots.plot_sweep(results, out / "sweep.png", ", ".join(names.values())),
+        "training_curves": plots.plot_training_curves(run_dir, out / "training_curves.png"),
+    }
+    timings.append(("figures", time.perf_counter() - t0, "sweep.png, training_curves.png"))
+    captions = {
+        "sweep": "Test return against the swept values, both test modes: mean over seeds "
+        "with 95% bootstrap intervals (strategies that do not read the key: a band).",
+        "training_curves": "Training return per arm: mean over seeds with 95% bootstrap band.",
+    }
+    metrics = CsvLog(run_dir / METRICS, ()).read()
+    figure_names = {captions[k]: p.name for k, p in figures.items()}
+    text = study_markdown(cfg, title, results, metrics, timings, command, figure_names)
+    path = out / "study.md"
+    atomic_write_text(path, text)
+    if doc is not None:
+        doc.parent.mkdir(parents=True, exist_ok=True)
+        for p in figures.values():
+            shutil.copyfile(p, doc.parent / f"{doc.stem}-{p.name}")
+            text = text.replace(f"]({p.name})", f"]({doc.stem}-{p.name})")
+        # The data behind every number: results.csv, gzipped (mtime 0: same bytes, same file).
+        packed = gzip.compress(results.encode(), mtime=0)
+        atomic_write_bytes(doc.parent / f"{doc.stem}-results.csv.gz", packed)
+        text += f"\nThe test results behind every number above: `{doc.stem}-results.csv.gz`.\n"
+        atomic_write_text(doc, text)
+    return path
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = cli.Parser(
+        prog="python -m jaxnav.study",
+        description="Train a config's sweep, test every arm in both test modes and write "
+        "DIR/study.md with the sweep's tables, computed answers and figures.",
+    )
+    p.add_argument("items", nargs="+", metavar="CONFIG [key=value ...]")
+    p.add_argument("--out", required=True, metavar="DIR", help="output directory")
+    p.add_argument("--title", help="the study's title (default: the config's name)")
+    p.add_argument("--doc", metavar="PATH", help="also write the study here, figures beside it")
+    p.add_argument("--resume", action="store_true", help="continue the study in --out")
+    p.add_argument("--quiet", action="store_true", help="no progress output")
+    args = p.parse_intermixed_args(argv)
+    command = "python -m jaxnav.study " + shlex.join(argv if argv is not None else sys.argv[1:])
+
+    def work() -> None:
+        items = list(args.items)
+        config_path = None if "=" in items[0] else resolve_config_path(items.pop(0))
+        cfg = load_config(config_path, items)
+        title = args.title or f"Sweep study: {Path(config_path or 'defaults').stem}"
+        doc = Path(args.doc) if args.doc else None
+        path = study(cfg, Path(args.out), title, command.strip(), args.resume, args.quiet, doc)
+        print(f"study: {path}" + (f" (and {doc})" if doc else ""))
+
+    again = f"interrupted; continue with --resume --out {args.out}"
+    return cli.run(p.prog, work, interrupted=again)

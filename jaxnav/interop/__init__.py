@@ -1,0 +1,1 @@
+"""Adapters to other frameworks: a Gymnasium ``Env`` of the environment."""

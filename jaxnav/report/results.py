@@ -1,0 +1,250 @@
+"""Test results as files: the rows of results.csv and robustness.csv, reading them
+back, per-seed scores and summaries, and the recorded test episodes.
+
+A seed's score is its mean return over its test episodes. No JAX here: tables and
+figures are pure functions of these files.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any, NamedTuple
+
+import numpy as np
+
+from jaxnav.core.config import STRATEGIES
+from jaxnav.core.errors import RunError
+from jaxnav.core.sweep import row_arm
+from jaxnav.report import stats
+
+RESULT_COLUMNS = (
+    "strategy",
+    "seed",
+    "mode",
+    "maze",
+    "episode",
+    "return",
+    "goals",
+    "collided",
+    "length",
+)
+# Test modes: "greedy" (argmax Q) or "exploring" (each strategy's own exploration at
+# the end of its training); see jaxnav.experiments.rollout.
+MODE_NAMES = {
+    "greedy": "greedy (argmax Q, no exploration)",
+    "exploring": "exploring (each strategy's own exploration as at the end of training)",
+}
+STRATEGY_NAMES = {"ebe": "EBE", "epsilon_greedy": "epsilon-greedy", "boltzmann": "Boltzmann"}
+
+
+def arm_strategy(arm: str) -> str:
+    """The strategy of an arm (``ebe`` of ``ebe ebe_temperature=0.1``)."""
+    return arm.split(" ", 1)[0]
+
+
+def arms_in(arms) -> list[str]:
+    """The distinct arms among ``arms`` (strategies, or strategies at sweep points),
+    strategy by strategy in STRATEGIES order, each strategy's points in the order met."""
+    found = [a for a in ordered_unique(arms) if arm_strategy(a) in STRATEGIES]
+    return sorted(found, key=lambda a: STRATEGIES.index(arm_strategy(a)))
+
+
+def display_name(arm: str) -> str:
+    """An arm as tables and figures name it: ``EBE``, ``EBE ebe_temperature=0.1``."""
+    strategy, _, point = arm.partition(" ")
+    return " ".join(x for x in (STRATEGY_NAMES[strategy], point) if x)
+
+
+# robustness.csv: the same columns, the perturbation in place of the test mode.
+ROBUSTNESS_COLUMNS = tuple("perturbation" if c == "mode" else c for c in RESULT_COLUMNS)
+UNPERTURBED = "none"
+
+
+def episode_rows(fields, names, results, n_episodes, tag: str):
+    """CSV rows (strategy, [swept values,] seed, tag, maze, episode, return, goals,
+    collided, length) of run_tests() results; ``fields`` holds each policy's leading
+    fields, (strategy, seed) or jaxnav.core.config.Config.run_fields()'s; the tag is the
+    test mode or the perturbation."""
+    for name, res in zip(names, results):
+        for r, lead in enumerate(fields):
+            for e in range(n_episodes):
+                yield (
+                    *lead,
+                    tag,
+                    name,
+                    e,
+                    f"{float(res.ret[r, e]):.4f}",
+                    int(res.goals[r, e]),
+                    int(res.collided[r, e]),
+                    int(res.length[r, e]),
+                )
+
+
+def read_results(
+    text: str, mode: str = "greedy"
+) -> dict[tuple[str, str, int], dict[str, np.ndarray]]:
+    """The rows of one test mode of results.csv text ->
+    {(maze, strategy, seed): {column: per-episode array}}."""
+    return _read_episodes(text, ("maze", "strategy", "seed"), {"mode": mode})
+
+
+def result_modes(text: str) -> list[str]:
+    """The test modes in results.csv text, in file order."""
+    return ordered_unique(row["mode"] for row in csv.DictReader(io.StringIO(text)))
+
+
+def _read_episodes(
+    text: str, key_columns: Sequence[str], where: dict[str, str] | None = None
+) -> dict[tuple, dict[str, np.ndarray]]:
+    """Episode rows (those matching ``where``) -> {key (seed as int, the arm as
+    "strategy"): {column: per-episode array, by episode}}."""
+    out: dict[tuple, dict[str, list]] = {}
+    for row in csv.DictReader(io.StringIO(text)):
+        if where and any(row.get(k) != v for k, v in where.items()):
+            continue
+        row["strategy"] = row_arm(row)
+        key = tuple(int(row[c]) if c == "seed" else row[c] for c in key_columns)
+        d = out.setdefault(
+            key, {"episode": [], "return": [], "goals": [], "collided": [], "length": []}
+        )
+        for c in d:
+            d[c].append(float(row[c]))
+    res = {}
+    for key, d in out.items():
+        order = np.argsort(d["episode"])
+        res[key] = {c: np.asarray(v)[order] for c, v in d.items()}
+    return res
+
+
+def ordered_unique(xs):
+    seen = []
+    for x in xs:
+        if x not in seen:
+            seen.append(x)
+    return seen
+
+
+def per_seed_scores(
+    results, maze: str, strategy: str, seeds: Sequence[int], column: str = "return"
+) -> np.ndarray:
+    """Per-seed mean of a column over the test episodes -> f[len(seeds)]."""
+    return np.asarray([results[(maze, strategy, s)][column].mean() for s in seeds])
+
+
+def scores_over_mazes(
+    results, mazes: Sequence[str], strategy: str, seeds: Sequence[int]
+) -> np.ndarray:
+    """Per-seed score averaged over ``mazes`` (every maze tests the same network, so a
+    seed keeps its scores together) -> f[len(seeds)]."""
+    return np.mean([per_seed_scores(results, m, strategy, seeds) for m in mazes], axis=0)
+
+
+def read_robustness(text: str) -> dict[tuple[str, str, str, int], dict[str, np.ndarray]]:
+    """robustness.csv text -> {(perturbation, maze, strategy, seed): {column: episodes}}."""
+    return _read_episodes(text, ("perturbation", "maze", "strategy", "seed"))
+
+
+class RobustnessRow(NamedTuple):
+    """One (maze, perturbation, strategy) line of the robustness table."""
+
+    maze: str
+    perturbation: str
+    strategy: str
+    n_seeds: int
+    mean: stats.Interval  # mean over seeds of the per-seed mean return
+    change: stats.Interval | None  # mean over seeds of (perturbed - unperturbed) score
+    change_pct: float  # change / |unperturbed mean| in %, NaN if undefined
+    goals: float  # goals per episode, all seeds pooled
+    collision_rate: float  # share of episodes that ended in a collision
+
+
+def _by_seed(res, perturbation: str, maze: str, strategy: str) -> dict[int, dict[str, np.ndarray]]:
+    return {k[3]: v for k, v in res.items() if k[:3] == (perturbation, maze, strategy)}
+
+
+def robustness_summary(text: str) -> list[RobustnessRow]:
+    """The robustness table's numbers from robustness.csv text.
+
+    A seed's score is its mean return over the test episodes; the change is paired
+    by seed (same seed, same test key) against the unperturbed setting.
+    """
+    res = read_robustness(text)
+    if not res:
+        raise RunError("robustness.csv has no rows")
+    perts = ordered_unique(k[0] for k in res)
+    mazes = ordered_unique(k[1] for k in res)
+    strategies = arms_in(k[2] for k in res)
+    out = []
+    for m in mazes:
+        for s in strategies:
+            ref = {k: v["return"].mean() for k, v in _by_seed(res, UNPERTURBED, m, s).items()}
+            for p in perts:
+                eps = _by_seed(res, p, m, s)
+                if not eps:
+                    continue
+                seeds = sorted(eps)
+                x = np.asarray([eps[k]["return"].mean() for k in seeds])
+                change, pct = None, float("nan")
+                if p != UNPERTURBED and ref and set(seeds) <= set(ref):
+                    b = np.asarray([ref[k] for k in seeds])
+                    change = stats.mean_ci(x - b)
+                    if b.mean() != 0:
+                        pct = 100.0 * change.value / abs(b.mean())
+                goals = np.concatenate([eps[k]["goals"] for k in seeds])
+                coll = np.concatenate([eps[k]["collided"] for k in seeds])
+                out.append(
+                    RobustnessRow(
+                        maze=m,
+                        perturbation=p,
+                        strategy=s,
+                        n_seeds=len(seeds),
+                        mean=stats.mean_ci(x),
+                        change=change,
+                        change_pct=pct,
+                        goals=float(goals.mean()),
+                        collision_rate=float(coll.mean()),
+                    )
+                )
+    # Perturbation by perturbation, the strategies side by side.
+    rank = {p: i for i, p in enumerate(perts)}
+    out.sort(
+        key=lambda r: (mazes.index(r.maze), rank[r.perturbation], strategies.index(r.strategy))
+    )
+    return out
+
+
+Episodes = dict[str, dict[str, dict[str, Any]]]  # maze -> strategy -> first_episode()
+
+
+def episodes_npz(episodes: Episodes, goal_radius: float) -> bytes:
+    """trajectories.npz bytes: "<maze index>/<strategy>/<field>", the maze names and
+    the goal radius (what a plot needs besides the maze)."""
+    arrays: dict[str, np.ndarray] = {
+        "mazes": np.asarray(list(episodes), dtype=str),
+        "goal_radius": np.asarray(goal_radius, np.float64),
+    }
+    for i, per_strategy in enumerate(episodes.values()):
+        for s, ep in per_strategy.items():
+            for k, v in ep.items():
+                arrays[f"{i}/{s}/{k}"] = np.asarray(v)
+    buf = io.BytesIO()
+    np.savez_compressed(buf, **arrays)
+    return buf.getvalue()
+
+
+def read_episodes_npz(path: str | Path) -> tuple[Episodes, float]:
+    """Inverse of :func:`episodes_npz`: (episodes, goal radius)."""
+    with np.load(path, allow_pickle=False) as data:
+        names = [str(m) for m in data["mazes"]]
+        goal_radius = float(data["goal_radius"])
+        out: Episodes = {m: {} for m in names}
+        for key in data.files:
+            if key in ("mazes", "goal_radius"):
+                continue
+            i, s, k = key.split("/")
+            v = data[key]
+            out[names[int(i)]].setdefault(s, {})[k] = v if v.ndim else v.item()
+    return out, goal_radius

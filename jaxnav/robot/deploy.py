@@ -1,0 +1,434 @@
+"""A trained policy on a real TurtleBot3: a policy file, read and run with NumPy alone.
+
+``python -m jaxnav.export RUN_DIR [--strategy ebe] [--seed K] [--out policy.npz]``
+writes one trained Q-network of a run to a portable ``.npz`` (plain arrays, no
+pickle), together with everything needed to feed it:
+
+    meta            JSON text: observation layout (n_beams, obstacle_obs, min_range,
+                    max_range), preset, action angular velocities, linear velocity,
+                    dt, goal radius, training maze, strategy, seed, the run's config
+    Dense_<i>/kernel, Dense_<i>/bias   the network's layers (f32), in order
+    maze/walls, maze/obstacles, maze/start   the training maze's geometry
+
+``python -m jaxnav.export --info POLICY.npz`` prints the metadata.
+
+On the robot, :class:`Policy` needs only NumPy: this module imports nothing else
+of jaxnav (a contract in pyproject.toml checks that it never imports JAX), so
+``deploy.py`` copied alone runs next to a ROS node::
+
+    policy = Policy.load("policy.npz")
+    linear, angular = policy.command(scan.ranges, scan.angle_min, scan.angle_increment,
+                                     (x, y, yaw), (goal_x, goal_y))
+
+How a raw LaserScan becomes the trained observation (:meth:`Policy.observe`):
+
+* Beam reduction: trained beam k looks at 2 pi k / n_beams (robot frame, counter-
+  clockwise from straight ahead), and the environment casts one exact ray there. The
+  adapter does the same with the scan: it reads the single scan ray whose angle
+  ``angle_min + i * angle_increment`` is nearest (circularly) to that direction;
+  ties go to the lower ray index. Any start angle, any increment (negative for a
+  clockwise scanner) works; with the LDS-01's 360 rays at 1 degree from 0 these are
+  rays 0, 15, 30, ... exactly. Taking one ray, not a minimum over a sector, keeps
+  the real input the same kind of reading the network was trained on. A scan that
+  leaves a trained direction uncovered (no ray within one increment) is an error.
+* Readings (REP 117 and the LDS-01 driver): ``+inf`` (no return) becomes max_range,
+  as Gazebo's +inf became 3.5 in training; ``-inf`` (too close to measure) becomes
+  min_range; invalid readings ``0``, ``nan`` and negative values become max_range
+  too (:data:`INVALID_READING`), because the LDS-01 reports "no return" as 0 (spec:
+  "inf or 0 for no return") and ROBOTIS' own collision test (``min_range > r > 0``)
+  likewise ignores zero readings. Mapping them to min_range instead would put a
+  phantom wall closer than the 0.13 m collision radius, a state the policy never
+  saw (training episodes end there). Then everything is clipped to [min_range,
+  max_range], as the environment does.
+* Goal: heading = atan2(goal - position) - yaw wrapped to [-pi, pi), distance =
+  |goal - position|, from the odometry pose (x, y, yaw) and the goal (x, y) in the
+  same frame. With ``obstacle_obs`` the smallest range and its beam index follow.
+
+The network runs in float64 (exact ReLU MLP; dropout is off at inference).
+
+:class:`Controller` is what a ROS node does with the latest scan, odometry and goal
+(when to drive, when to stop, when a goal is reached), kept here so the ROS 1 and
+ROS 2 example nodes share it and it is tested without ROS.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from collections.abc import Sequence
+from typing import Any, NamedTuple
+
+import numpy as np
+
+try:  # inside the jaxnav package: its one error type
+    from jaxnav.core.errors import PolicyError
+except ImportError:  # deploy.py copied alone next to a robot's node
+
+    class PolicyError(ValueError):
+        """A policy file, or a scan or pose it cannot use; one-line message."""
+
+
+FORMAT = "jaxnav-policy"
+FORMAT_VERSION = 1
+# Value given to invalid readings (0, nan, negative): the sensor's "no return".
+INVALID_READING = "max_range"
+
+
+# ----------------------------------------------------------------------------
+# Scan and pose -> observation (NumPy only)
+# ----------------------------------------------------------------------------
+
+
+def _wrap(a):
+    """Wrap angles to [-pi, pi), as jaxnav.world.geometry.wrap_angle."""
+    return (np.asarray(a, np.float64) + math.pi) % (2 * math.pi) - math.pi
+
+
+def beam_angles(n_beams: int, layout: str = "even") -> np.ndarray:
+    """f64[n_beams]: trained beam k looks at 2 pi k / n_beams in the robot frame, or at
+    2 pi k / (n_beams - 1) for a policy trained with Gazebo's inclusive layout."""
+    span = n_beams - 1 if layout == "gazebo" and n_beams > 1 else n_beams
+    return np.arange(n_beams, dtype=np.float64) * (2 * math.pi / span)
+
+
+def nearest_rays(
+    n_rays: int, angle_min: float, angle_increment: float, n_beams: int, layout: str = "even"
+) -> np.ndarray:
+    """i64[n_beams]: index of the scan ray nearest each trained beam direction.
+
+    Ray i of the scan points at ``angle_min + i * angle_increment`` (robot frame,
+    counter-clockwise). Distances between angles are circular; ties go to the lower
+    index. Raises ValueError if a beam has no ray within one increment (the scan
+    does not cover that direction).
+    """
+    angle_min, inc = float(angle_min), float(angle_increment)
+    if n_rays < 1:
+        raise ValueError("the scan has no rays")
+    if not (math.isfinite(angle_min) and math.isfinite(inc)) or (n_rays > 1 and inc == 0.0):
+        raise ValueError(f"bad scan angles (angle_min {angle_min}, angle_increment {inc})")
+    rays = angle_min + inc * np.arange(n_rays, dtype=np.float64)
+    angles = beam_angles(n_beams, layout)
+    gap = np.abs(_wrap(rays[None, :] - angles[:, None]))  # [n_beams, n_rays]
+    idx = np.argmin(gap, axis=1)
+    worst = gap[np.arange(n_beams), idx]
+    tol = abs(inc) * (1 + 1e-6) if n_rays > 1 else 1e-6
+    bad = np.flatnonzero(worst > tol)
+    if bad.size:
+        k = int(bad[0])
+        beam_deg, off_deg = math.degrees(angles[k]), math.degrees(worst[k])
+        raise ValueError(
+            f"the scan does not cover trained beam {k} at {beam_deg:.1f} deg (nearest ray "
+            f"{off_deg:.1f} deg away); the policy needs a 360-degree scan"
+        )
+    return idx
+
+
+def clean_ranges(
+    ranges: np.ndarray, min_range: float, max_range: float, invalid: float | None = None
+) -> np.ndarray:
+    """f64 ranges as the trained LiDAR gives them: no-return and invalid readings
+    replaced, then clipped to [min_range, max_range].
+
+    +inf -> max_range; -inf -> min_range; 0, nan, negative -> ``invalid``
+    (default max_range, see the module docstring).
+    """
+    r = np.asarray(ranges, np.float64)
+    invalid = max_range if invalid is None else float(invalid)
+    out = np.where(np.isposinf(r), max_range, r)
+    out = np.where(np.isneginf(r), min_range, out)
+    out = np.where(np.isnan(r) | (np.isfinite(r) & (r <= 0.0)), invalid, out)
+    return np.clip(out, min_range, max_range)
+
+
+def goal_heading_distance(pose: Sequence[float], goal: Sequence[float]) -> tuple[float, float]:
+    """Heading to the goal relative to yaw, in [-pi, pi), and distance to it."""
+    x, y, yaw = (float(v) for v in pose)
+    gx, gy = (float(v) for v in goal)
+    if not all(math.isfinite(v) for v in (x, y, yaw, gx, gy)):
+        raise ValueError(f"pose {tuple(pose)} and goal {tuple(goal)} must be finite")
+    heading = float(_wrap(math.atan2(gy - y, gx - x) - yaw))
+    return heading, math.hypot(gx - x, gy - y)
+
+
+def yaw_from_quaternion(x: float, y: float, z: float, w: float) -> float:
+    """Yaw (rotation about z, counter-clockwise) of a unit quaternion, as odometry sends it."""
+    return math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
+
+
+# ----------------------------------------------------------------------------
+# The policy
+# ----------------------------------------------------------------------------
+
+
+class Policy:
+    """A trained Q-network plus its observation layout and action velocities.
+
+    Attributes:
+      meta: the exported metadata (dict).
+      n_beams, obstacle_obs, min_range, max_range: observation layout.
+      omegas: f64[A] angular velocity of each action (rad/s, + counter-clockwise).
+      linear_velocity: constant forward speed (m/s).
+      dt: control period (s); goal_radius: the goal counts as reached within it (m).
+    """
+
+    def __init__(self, layers: Sequence[tuple[np.ndarray, np.ndarray]], meta: dict[str, Any]):
+        try:
+            self.n_beams = int(meta["n_beams"])
+            self.obstacle_obs = bool(meta["obstacle_obs"])
+            self.min_range = float(meta["min_range"])
+            self.max_range = float(meta["max_range"])
+            self.omegas = np.asarray(meta["omegas"], np.float64)
+            self.linear_velocity = float(meta["linear_velocity"])
+            self.dt = float(meta.get("dt", 0.2))
+            self.goal_radius = float(meta.get("goal_radius", 0.2))
+            self.beam_layout = str(meta.get("beam_layout", "even"))
+        except (KeyError, TypeError, ValueError) as e:
+            raise PolicyError(f"policy metadata is incomplete or wrong ({e})") from None
+        if self.beam_layout not in ("even", "gazebo"):
+            raise PolicyError(f"policy metadata has an unknown beam_layout {self.beam_layout!r}")
+        self.meta = dict(meta)
+        self.layers = [(np.asarray(k, np.float64), np.asarray(b, np.float64)) for k, b in layers]
+        width = self.obs_size
+        for i, (k, b) in enumerate(self.layers):
+            if k.ndim != 2 or k.shape[0] != width or b.shape != (k.shape[1],):
+                raise PolicyError(
+                    f"policy layer {i} has shape {k.shape}/{b.shape}, expected ({width}, n)"
+                )
+            if not (np.isfinite(k).all() and np.isfinite(b).all()):
+                raise PolicyError(f"policy layer {i} has non-finite weights")
+            width = k.shape[1]
+        if not self.layers or width != len(self.omegas):
+            raise PolicyError(f"policy network has {width} outputs for {len(self.omegas)} actions")
+
+    @property
+    def obs_size(self) -> int:
+        return self.n_beams + 2 + (2 if self.obstacle_obs else 0)
+
+    # -- files ---------------------------------------------------------------
+
+    @classmethod
+    def from_arrays(cls, arrays: dict[str, np.ndarray]) -> Policy:
+        """A policy from the arrays of an exported file (see :func:`export_policy`)."""
+        if "meta" not in arrays:
+            raise PolicyError("not a jaxnav policy (no 'meta' entry)")
+        try:
+            meta = json.loads(str(arrays["meta"]))
+        except json.JSONDecodeError:
+            raise PolicyError("policy metadata is not valid JSON") from None
+        if meta.get("format") != FORMAT:
+            raise PolicyError("not a jaxnav policy (wrong 'format' in its metadata)")
+        if meta.get("version") != FORMAT_VERSION:
+            raise PolicyError(
+                f"policy format version {meta.get('version')} is not {FORMAT_VERSION}"
+            )
+        try:
+            layers = [(arrays[f"{n}/kernel"], arrays[f"{n}/bias"]) for n in meta["layers"]]
+        except KeyError as e:
+            raise PolicyError(f"policy file lacks array {e}") from None
+        return cls(layers, meta)
+
+    @classmethod
+    def load(cls, path: str | os.PathLike) -> Policy:
+        """Read a policy written by ``python -m jaxnav.robot.deploy export``."""
+        try:
+            with np.load(path, allow_pickle=False) as data:
+                arrays = {k: data[k] for k in data.files}
+        except FileNotFoundError:
+            raise PolicyError(f"no such policy file {path}") from None
+        except Exception as e:  # not a zip, truncated, object arrays
+            raise PolicyError(f"policy file {path} cannot be read ({type(e).__name__})") from None
+        return cls.from_arrays(arrays)
+
+    # -- inference -----------------------------------------------------------
+
+    def q_values(self, obs: np.ndarray) -> np.ndarray:
+        """f64[..., A] Q-values of observations f[..., obs_size] (ReLU MLP, no dropout)."""
+        x = np.asarray(obs, np.float64)
+        if x.shape[-1:] != (self.obs_size,):
+            raise ValueError(f"observation has shape {x.shape}, expected (..., {self.obs_size})")
+        for i, (k, b) in enumerate(self.layers):
+            x = x @ k + b
+            if i < len(self.layers) - 1:
+                x = np.maximum(x, 0.0)
+        return x
+
+    def act(self, obs: np.ndarray):
+        """Greedy action(s): argmax of the Q-values (first of equal maxima)."""
+        a = np.argmax(self.q_values(obs), axis=-1)
+        return int(a) if a.ndim == 0 else a
+
+    def scan_to_ranges(
+        self,
+        ranges: Sequence[float],
+        angle_min: float,
+        angle_increment: float,
+        invalid: float | None = None,
+    ) -> np.ndarray:
+        """f32[n_beams]: a raw LaserScan reduced to the trained beams (module docstring)."""
+        r = np.asarray(ranges, np.float64).reshape(-1)
+        idx = nearest_rays(len(r), angle_min, angle_increment, self.n_beams, self.beam_layout)
+        return clean_ranges(r[idx], self.min_range, self.max_range, invalid).astype(np.float32)
+
+    def observe(
+        self,
+        ranges: Sequence[float],
+        angle_min: float,
+        angle_increment: float,
+        pose: Sequence[float],
+        goal: Sequence[float],
+        invalid: float | None = None,
+    ) -> np.ndarray:
+        """f32[obs_size]: [ranges, heading, distance(, min range, its beam index)]."""
+        beams = self.scan_to_ranges(ranges, angle_min, angle_increment, invalid)
+        heading, distance = goal_heading_distance(pose, goal)
+        parts = [beams, np.asarray([heading, distance], np.float32)]
+        if self.obstacle_obs:
+            parts.append(np.asarray([beams.min(), np.argmin(beams)], np.float32))
+        return np.concatenate(parts).astype(np.float32)
+
+    def command(
+        self,
+        ranges: Sequence[float],
+        angle_min: float,
+        angle_increment: float,
+        pose: Sequence[float],
+        goal: Sequence[float],
+        invalid: float | None = None,
+    ) -> tuple[float, float]:
+        """(linear m/s, angular rad/s) of the greedy action for a raw scan and a pose.
+
+        Args:
+          ranges: the LaserScan's ranges in metres (inf: no return; 0/nan: invalid).
+          angle_min, angle_increment: the LaserScan's angles (rad, robot frame, CCW).
+          pose: odometry (x, y, yaw); goal: (x, y) in the same frame.
+          invalid: value for invalid readings (default max_range).
+        """
+        a = self.act(self.observe(ranges, angle_min, angle_increment, pose, goal, invalid))
+        return self.linear_velocity, float(self.omegas[a])
+
+
+# ----------------------------------------------------------------------------
+# A policy node's decisions, without ROS
+# ----------------------------------------------------------------------------
+
+# Why a Command drives or stops -> the level a node logs its message at ("": quiet).
+REASONS = {
+    "drive": "",
+    "no goal": "",
+    "reached": "info",
+    "waiting": "warn",
+    "stale": "warn",
+    "frame": "warn",
+    "bad input": "error",
+}
+
+
+class Command(NamedTuple):
+    """A twist for /cmd_vel and why: ``reason`` is "drive" or why the robot stops."""
+
+    linear: float  # m/s
+    angular: float  # rad/s, + counter-clockwise
+    reason: str  # a key of REASONS
+    message: str  # what to log, "" for nothing
+
+    @property
+    def level(self) -> str:
+        """How loudly a node logs the message: "" (not at all), "info", "warn" or "error"."""
+        return REASONS[self.reason]
+
+
+def _stop(reason: str, message: str = "") -> Command:
+    return Command(0.0, 0.0, reason, message)
+
+
+def _frame(frame_id: str) -> str:
+    """A frame id without ROS 1's optional leading slash ("/odom" is "odom")."""
+    return str(frame_id or "").lstrip("/")
+
+
+class Controller:
+    """The latest scan, odometry and goal of a policy node, and the twist they give.
+
+    A node hands in each message with its receive time (seconds on the node's clock),
+    publishes :meth:`decide` after each scan (one action per scan, as in training)
+    and :meth:`watchdog`'s stop, if any, from a timer, since a node that acts only
+    on scans would otherwise leave the last command running when the LiDAR goes
+    quiet. The robot stops (zero twist) unless there is a goal, a scan and odometry
+    each at most ``stale_after`` s old, the goal is in the odometry's frame (no TF
+    lookup), and the scan and pose are usable; within ``goal_tolerance`` of the goal
+    it stops and clears the goal. Not thread-safe: a node with concurrent callbacks
+    holds a lock around every call.
+    """
+
+    def __init__(
+        self,
+        policy: Policy,
+        stale_after: float = 0.5,
+        goal_tolerance: float | None = None,
+        invalid: float | None = None,
+    ):
+        self.policy = policy
+        self.stale_after = float(stale_after)
+        tolerance = policy.goal_radius if goal_tolerance is None else goal_tolerance
+        self.goal_tolerance = float(tolerance)
+        self.invalid = invalid  # value of 0 / nan readings, None: the policy's max range
+        self.scan: tuple[np.ndarray, float, float, float] | None = None  # ranges, angles, time
+        self.odom: tuple[tuple[float, float, float], str, float] | None = None  # pose, frame, t
+        self.goal: tuple[tuple[float, float], str] | None = None  # (x, y), frame
+
+    def on_scan(
+        self, ranges: Sequence[float], angle_min: float, angle_increment: float, now: float
+    ) -> None:
+        self.scan = (np.asarray(ranges, np.float64), angle_min, angle_increment, now)
+
+    def on_odom(self, pose: Sequence[float], frame_id: str, now: float) -> None:
+        """Odometry pose (x, y, yaw) in frame ``frame_id``."""
+        x, y, yaw = (float(v) for v in pose)
+        self.odom = ((x, y, yaw), _frame(frame_id), now)
+
+    def on_goal(self, goal: Sequence[float], frame_id: str) -> None:
+        """A new goal (x, y), replacing the current one; ValueError if not finite."""
+        x, y = (float(v) for v in goal)
+        if not (math.isfinite(x) and math.isfinite(y)):
+            raise ValueError(f"goal ({x}, {y}) is not finite")
+        self.goal = ((x, y), _frame(frame_id))
+
+    def _age_ok(self, t: float, now: float) -> bool:
+        return 0.0 <= now - t <= self.stale_after  # a negative age: the clock jumped back
+
+    def decide(self, now: float) -> Command:
+        """The twist for now: the policy's greedy action, or a stop and why."""
+        if self.goal is None:
+            return _stop("no goal")
+        if self.scan is None or self.odom is None:
+            return _stop("waiting", "no scan or odometry yet: stopped")
+        ranges, angle_min, angle_increment, t_scan = self.scan
+        pose, odom_frame, t_odom = self.odom
+        old = [n for n, t in (("scan", t_scan), ("odometry", t_odom)) if not self._age_ok(t, now)]
+        if old:
+            return _stop("stale", f"{' and '.join(old)} older than {self.stale_after:g} s: stopped")
+        goal, goal_frame = self.goal
+        if goal_frame and odom_frame and goal_frame != odom_frame:
+            return _stop(
+                "frame",
+                f"goal is in frame '{goal_frame}', not the odometry frame '{odom_frame}': stopped",
+            )
+        if math.hypot(goal[0] - pose[0], goal[1] - pose[1]) < self.goal_tolerance:
+            self.goal = None
+            return _stop(
+                "reached", f"goal ({goal[0]:.2f}, {goal[1]:.2f}) reached: stopped; send a new goal"
+            )
+        try:
+            linear, angular = self.policy.command(
+                ranges, angle_min, angle_increment, pose, goal, self.invalid
+            )
+        except ValueError as e:  # a scan that does not cover 360 degrees, a nan pose
+            return _stop("bad input", f"cannot act on this scan and pose: {e}; stopped")
+        return Command(linear, angular, "drive", "")
+
+    def watchdog(self, now: float) -> Command | None:
+        """A stop while no fresh scan arrives (None while scans do: they drive)."""
+        if self.scan is not None and self._age_ok(self.scan[3], now):
+            return None
+        return self.decide(now)

@@ -1,0 +1,165 @@
+"""``python -m jaxnav.export RUN_DIR [--strategy ebe] [--seed K] [--out policy.npz]``
+
+Exports one trained Q-network of a run to a portable policy file (plain NumPy
+arrays, no pickle) with everything needed to feed it on a robot: the observation
+layout, the actions, the training maze. :mod:`jaxnav.robot.deploy` reads and runs it
+without JAX.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+import numpy as np
+
+from jaxnav import __version__
+from jaxnav.core import cli, rundir
+from jaxnav.core.config import STRATEGIES, dump_config, load_config
+from jaxnav.core.errors import PolicyError
+from jaxnav.env import from_config
+from jaxnav.robot.deploy import FORMAT, FORMAT_VERSION, INVALID_READING, Policy
+
+
+def export_policy(
+    run_dir: str | os.PathLike, strategy: str = "ebe", seed: int | None = None
+) -> dict[str, np.ndarray]:
+    """The arrays of a policy file for one trained (strategy, seed) of a run.
+
+    ``seed`` defaults to the run's first seed. Raises PolicyError (one line) for a
+    missing run directory, a run without params.npz, or an unknown strategy/seed.
+    """
+    run_dir = rundir.existing(run_dir, finished=True)
+    cfg_path, params_path = run_dir / rundir.CONFIG, run_dir / rundir.PARAMS
+    if strategy.split(" ", 1)[0] not in STRATEGIES:
+        raise PolicyError(f"unknown strategy '{strategy}' (choose from {', '.join(STRATEGIES)})")
+    runs = rundir.runs_in(params_path)
+    cfg = load_config(str(cfg_path))
+    arms = dict(zip(cfg.arm_names(), cfg.arms()))
+    if strategy in arms:  # a swept run's arm ("ebe ebe_temperature=0.1"): its own settings
+        cfg = cfg.at(arms[strategy][1])
+    seed = cfg.seed if seed is None else int(seed)
+    if seed not in runs.get(strategy, []):
+        have = "; ".join(f"{s} seeds {', '.join(map(str, v))}" for s, v in runs.items())
+        raise PolicyError(
+            f"{params_path} has no parameters for {strategy} seed {seed} (it has {have or 'none'})"
+        )
+    env, params = from_config(cfg)
+    net = rundir.load_params(params_path, strategy, seed).get("params", {})
+    names = _dense_layers(net, env.obs_size, len(np.asarray(params.omegas)), params_path)
+    meta = _meta(cfg, env, params, strategy, seed, names, run_dir)
+    arrays: dict[str, np.ndarray] = {"meta": np.asarray(json.dumps(meta, indent=1))}
+    for n in names:
+        arrays[f"{n}/kernel"] = np.asarray(net[n]["kernel"], np.float32)
+        arrays[f"{n}/bias"] = np.asarray(net[n]["bias"], np.float32)
+    arrays["maze/walls"] = np.asarray(params.maze.walls(), np.float32)
+    arrays["maze/obstacles"] = np.asarray(params.maze.obstacles(), np.float32)
+    arrays["maze/start"] = np.asarray(params.maze.start, np.float32)
+    return arrays
+
+
+def _dense_layers(net: dict, obs_size: int, num_actions: int, params_path: Path) -> list[str]:
+    """The network's layer names in order, checked to map observations to action values."""
+    names = sorted((n for n in net if n.startswith("Dense_")), key=lambda n: int(n.split("_")[1]))
+    width = obs_size
+    for n in names:
+        k = np.asarray(net[n].get("kernel"))
+        if k.ndim != 2 or k.shape[0] != width:
+            raise PolicyError(f"{params_path}: layer {n} does not fit the run's observation layout")
+        width = k.shape[1]
+    if not names or width != num_actions:
+        raise PolicyError(f"{params_path}: the network does not end in {num_actions} action values")
+    return names
+
+
+def _meta(cfg, env, params, strategy: str, seed: int, names: list[str], run_dir: Path) -> dict:
+    """The policy file's metadata: what a robot needs to build the observation and act."""
+    fields = [f"range_{k}" for k in range(env.n_beams)] + ["heading", "distance"]
+    if env.obstacle_obs:
+        fields += ["min_range", "min_range_beam"]
+    return {
+        "format": FORMAT,
+        "version": FORMAT_VERSION,
+        "strategy": strategy,
+        "seed": seed,
+        "preset": cfg.preset,
+        "maze": cfg.env.maze,
+        "n_beams": env.n_beams,
+        "obstacle_obs": bool(env.obstacle_obs),
+        "min_range": float(params.min_range),
+        "max_range": float(params.max_range),
+        "beam_layout": env.beam_layout,
+        "beam_angles": (
+            "beam k at 2*pi*k/(n_beams - 1) rad (Gazebo's inclusive layout)"
+            if env.beam_layout == "gazebo"
+            else "beam k at 2*pi*k/n_beams rad"
+        )
+        + ", robot frame, counter-clockwise from ahead",
+        "observation": fields,
+        "omegas": [float(w) for w in np.asarray(params.omegas)],
+        "linear_velocity": float(params.v),
+        "dt": float(params.dt),
+        "goal_radius": float(params.goal_radius),
+        "robot_radius": float(params.robot_radius),
+        "layers": names,
+        "activation": "relu",
+        "invalid_reading": INVALID_READING,
+        "run_dir": str(run_dir.resolve()),
+        "jaxnav_version": __version__,
+        "config": dump_config(cfg),
+    }
+
+
+def save_policy(arrays: dict[str, np.ndarray], out: str | os.PathLike) -> None:
+    """Write a policy file atomically (a reader sees the old file or the whole new one)."""
+    out = Path(out)
+    if not out.parent.is_dir():
+        raise PolicyError(f"cannot write {out}: directory {out.parent} does not exist")
+    try:
+        rundir.atomic_write_npz(out, arrays)
+    except OSError as e:
+        raise PolicyError(f"cannot write {out} ({e.strerror or type(e).__name__})") from None
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = cli.Parser(
+        prog="python -m jaxnav.export",
+        description="Write one trained policy of a run to a portable .npz for a real robot, "
+        "or (--info) print an exported policy's metadata.",
+    )
+    p.add_argument("run_dir", metavar="RUN_DIR", nargs="?", help="a finished training run")
+    p.add_argument(
+        "--strategy",
+        default="ebe",
+        help="ebe (default), epsilon_greedy or boltzmann; in a swept run, the arm as params.npz "
+        "names it ('ebe ebe_temperature=0.1')",
+    )
+    p.add_argument("--seed", type=int, default=None, help="which seed (default: the run's first)")
+    p.add_argument(
+        "--out", default=None, help="output file (default policy-<strategy>-seed<k>.npz)"
+    )
+    p.add_argument("--info", metavar="POLICY", help="print the metadata of a policy file")
+    args = p.parse_args(argv)
+    if (args.run_dir is None) == (args.info is None):
+        p.error("give RUN_DIR to export a policy, or --info POLICY to show one")
+
+    def work() -> None:
+        if args.info:
+            for k, v in Policy.load(args.info).meta.items():
+                if k not in ("config", "observation", "format", "version"):
+                    print(f"{k}: {v}")
+            return
+        arrays = export_policy(args.run_dir, args.strategy, args.seed)
+        Policy.from_arrays(arrays)  # what the robot will load must load
+        meta = json.loads(str(arrays["meta"]))
+        arm = meta["strategy"].replace(" ", "-").replace("=", "")
+        out = Path(args.out or f"policy-{arm}-seed{meta['seed']}.npz")
+        save_policy(arrays, out)
+        features = ", obstacle features" if meta["obstacle_obs"] else ""
+        print(
+            f"wrote {out} ({meta['strategy']} seed {meta['seed']}, {meta['n_beams']} beams"
+            f"{features}, maze {meta['maze']})"
+        )
+
+    return cli.run(p.prog, work)

@@ -1,0 +1,551 @@
+"""The host loop around the compiled trainer: chunks, progress, logs, checkpoints.
+
+All seeds of all strategies run as one vmapped program (:func:`jaxnav.dqn.make_trainer`),
+``run.chunk_steps`` environment steps per call. After each chunk the host appends
+the new episodes to ``metrics.csv`` and ``explore.csv`` and writes a checkpoint
+that records the training state and how long the logs were, so a run killed at any
+moment (even by SIGKILL) resumes from its last chunk (:func:`resume`) and ends with
+exactly the metrics and parameters of an uninterrupted run. The files and their
+checks are :mod:`jaxnav.core.rundir`'s.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import os
+import platform
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+import jax
+import numpy as np
+
+from jaxnav.agent import replay
+from jaxnav.agent.sharding import RunSharding, is_writer
+from jaxnav.core import rundir, sweep
+from jaxnav.core.config import Config, dump_config, load_config
+from jaxnav.core.errors import RunError
+from jaxnav.core.startup import process_age
+from jaxnav.dqn import TrainState, make_trainer, run_inputs, run_limits, still_training
+from jaxnav.run import tblog
+
+# A swept run's logs have one more column per swept key, named by it, after "strategy"
+# (jaxnav.core.sweep.with_swept).
+METRIC_COLUMNS = ("strategy", "seed", "episode", "return", "length", "goals", "collided", "explore")
+EXPLORE_COLUMNS = ("strategy", "seed", "step", "explore")
+
+EXPLORE_BLOCK = 100  # env steps averaged per row of explore.csv
+PROGRESS_EPISODES = 20  # episodes per seed in the progress bar's mean return
+
+# The replay buffer's per-slot arrays. A checkpoint stores them incrementally: each
+# chunk's checkpoint writes the slots written in that chunk to a segment file of its
+# own (ROW_SEGMENT), and checkpoints/last.npz, the rest of the state, says how many
+# segments it covers; restoring applies them in order. So a checkpoint costs what its
+# chunk added, not the whole buffer, which grows to 28 MB per run in a paper run.
+_BUFFER_ROWS = ("obs", "action", "reward", "terminated", "truncated", "final_index")
+ROW_SEGMENT = "checkpoints/rows-{:05d}.npz"
+
+
+# ----------------------------------------------------------------------------
+# Pytrees <-> named arrays
+# ----------------------------------------------------------------------------
+
+
+def _leaf_names(tree) -> list[str]:
+    paths, _ = jax.tree_util.tree_flatten_with_path(tree)
+    return [jax.tree_util.keystr(p) for p, _ in paths]
+
+
+def _is_buffer_rows(name: str) -> bool:
+    return any(name == f".buffer.{r}" for r in _BUFFER_ROWS)
+
+
+def without_rows(ts: TrainState) -> TrainState:
+    """The training state without the replay buffer's per-slot arrays."""
+    return ts.replace(buffer=ts.buffer.replace(**{r: None for r in _BUFFER_ROWS}))
+
+
+def rows_at(ts: TrainState, slots: jax.Array) -> dict[str, jax.Array]:
+    """The replay buffer's per-slot arrays at ``slots`` (i32[n]) of every run."""
+    return {r: getattr(ts.buffer, r)[:, slots] for r in _BUFFER_ROWS}
+
+
+def chunk_slots(step_before: np.ndarray, step_after: np.ndarray, capacity: int) -> np.ndarray:
+    """The buffer slots a chunk wrote (i32[n]): runs that step, step together, each
+    adding slot ``step % capacity`` per step, so they are those of the steps from the
+    most advanced run's step before the chunk to its step after (the last
+    ``capacity`` of them)."""
+    first, last = int(step_before.max()), int(step_after.max())
+    steps = np.arange(max(first, last - capacity), last)
+    return (steps % capacity).astype(np.int32)
+
+
+def checkpoint_arrays(state: TrainState, host: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """Host copies of the training state without its per-slot replay arrays
+    (:func:`without_rows`), and the host loop's own counters."""
+    arrays = {
+        "state" + n: np.asarray(a) for n, a in zip(_leaf_names(state), jax.tree.leaves(state))
+    }
+    arrays.update({"host." + k: v for k, v in host.items()})
+    return arrays
+
+
+def state_from_checkpoint(
+    arrays: dict[str, np.ndarray],
+    segments: list[dict[str, np.ndarray]],
+    template: TrainState,
+    path: Path,
+) -> tuple[TrainState, dict[str, np.ndarray]]:
+    """Inverse of :func:`checkpoint_arrays` and the row segments (each ``slots`` and
+    one array per per-slot field), against a template of the right shapes."""
+    leaves = []
+    for name, leaf in zip(_leaf_names(template), jax.tree.leaves(template)):
+        if _is_buffer_rows(name):
+            a = np.zeros(leaf.shape, leaf.dtype)
+            for seg in segments:
+                rows = seg.get("rows" + name)
+                if rows is None or rows.shape[0] != a.shape[0] or seg["slots"].max() >= a.shape[1]:
+                    raise RunError(f"checkpoint {path} does not match the run's config ({name})")
+                a[:, seg["slots"]] = rows
+            leaves.append(a)
+            continue
+        a = arrays.get("state" + name)
+        if a is None:
+            raise RunError(
+                f"checkpoint {path} does not match this run (no {name}: another config or "
+                "another jaxnav version)"
+            )
+        if a.shape != leaf.shape:
+            raise RunError(f"checkpoint {path} does not match the run's config ({name})")
+        leaves.append(np.asarray(a, leaf.dtype))
+    ts = jax.tree.unflatten(jax.tree.structure(template), leaves)
+    host = {k[5:]: v for k, v in arrays.items() if k.startswith("host.")}
+    return ts, host
+
+
+def params_arrays(cfg: Config, params) -> dict[str, np.ndarray]:
+    """``params.npz`` entries: every array of every run, by strategy, seed and layer."""
+    arrays = {}
+    flat, _ = jax.tree_util.tree_flatten_with_path(params)
+    for r, (strategy, seed) in enumerate(cfg.run_labels()):
+        for p, leaf in flat:
+            name = "/".join(str(getattr(k, "key", k)) for k in p)
+            arrays[rundir.params_key(strategy, seed, name)] = np.asarray(leaf[r])
+    return arrays
+
+
+# ----------------------------------------------------------------------------
+# The run
+# ----------------------------------------------------------------------------
+
+
+class Run:
+    """Host loop around the compiled chunk: progress, metrics, checkpoints."""
+
+    def __init__(self, cfg: Config, out: Path | None, quiet: bool = False):
+        """``out`` None: a run that only computes (tests, benchmarks), no files."""
+        self.cfg, self.out, self.quiet = cfg, out, quiet
+        if cfg.run.tensorboard:
+            tblog.check_available()
+        self.trainer = make_trainer(cfg)
+        self.labels = cfg.run_labels()  # (arm name, seed)
+        self.fields = cfg.run_fields()  # the logs' leading fields of each run
+        # The run axis of every array is laid over all devices.
+        self.shard = RunSharding(cfg.n_runs)
+        sharding = self.shard.sharding
+        self.init = jax.jit(jax.vmap(self.trainer.init), out_shardings=sharding)
+        self.metric_columns = sweep.with_swept(METRIC_COLUMNS, cfg.sweep)
+        self.chunk = jax.jit(
+            jax.vmap(self.trainer.chunk, in_axes=(0, None)),
+            donate_argnums=0,
+            out_shardings=sharding,
+        )
+        self.rows_at = jax.jit(rows_at)
+        self.segments = 0  # row segments the last checkpoint covers
+        out = Path(".") if out is None else out
+        self.metrics = rundir.CsvLog(out / rundir.METRICS, self.metric_columns)
+        self.explore = rundir.CsvLog(
+            out / rundir.EXPLORE, sweep.with_swept(EXPLORE_COLUMNS, cfg.sweep)
+        )
+        self.checkpoint = out / rundir.CHECKPOINT
+        self.logged = np.zeros(cfg.n_runs, np.int64)  # episodes written per run
+        self.recent: dict[tuple[str, int], list[float]] = {label: [] for label in self.labels}
+        self.wall = 0.0  # training seconds over all sessions of this run
+        # run-steps the compiled chunks computed over all sessions: every run of the
+        # batch takes each chunk's steps, finished runs as no-ops (lockstep)
+        self.computed = 0
+        self.compile_s = self.startup_s = None  # this session's, see compile_chunk
+        self.diverged: dict[int, int] = {}  # run index -> env step it diverged at
+
+    # -- state ---------------------------------------------------------------
+
+    def fresh_state(self) -> TrainState:
+        return self.init(*self.shard.put(tuple(run_inputs(self.cfg))))
+
+    def restored_state(self) -> TrainState:
+        """The last checkpoint's state, the logs cut back to what it covers."""
+        cfg = self.cfg
+        template = jax.eval_shape(jax.vmap(self.trainer.init), *run_inputs(cfg))
+        template = jax.tree.map(lambda s: np.zeros((cfg.n_runs, *s.shape[1:]), s.dtype), template)
+        arrays = rundir.read_npz(self.checkpoint, f"checkpoint {self.checkpoint}")
+        host = {k[5:]: v for k, v in arrays.items() if k.startswith("host.")}
+        if not {"logged", "wall", "csv_sizes", "segments"} <= set(host):
+            raise RunError(f"checkpoint {self.checkpoint} was written by another jaxnav version")
+        self.segments = int(host["segments"])
+        segments = [
+            rundir.read_npz(self.out / ROW_SEGMENT.format(k), f"checkpoint segment {k}")
+            for k in range(self.segments)
+        ]
+        ts, host = state_from_checkpoint(arrays, segments, template, self.checkpoint)
+        diverged_at = np.asarray(ts.diverged_at)
+        self.diverged = {int(r): int(diverged_at[r]) for r in np.flatnonzero(diverged_at >= 0)}
+        self.logged = host["logged"].astype(np.int64)
+        self.wall = float(host["wall"])
+        # -1: unknown (a checkpoint of an earlier version did not count)
+        self.computed = int(host.get("computed", -1))
+        metrics_size, explore_size = (int(x) for x in host["csv_sizes"])
+        if is_writer():
+            self.metrics.truncate(metrics_size)
+            self.explore.truncate(explore_size)
+        for row in self.metrics.read():
+            self.recent[(sweep.row_arm(row), int(row["seed"]))].append(float(row["return"]))
+        return self.shard.put(ts)
+
+    def active(self, ts: TrainState) -> np.ndarray:
+        """Which real runs still train (host side, the trainer's own rule)."""
+        episode, step, diverged_at = self.shard.get((ts.episode, ts.step, ts.diverged_at))
+        running = still_training(episode, step, *run_limits(self.cfg))
+        return np.asarray(running & (diverged_at < 0))
+
+    def steps_needed(self, ts: TrainState) -> int:
+        """The most env steps any active run can still take, at most a chunk: a run
+        stops within its step limit and within max_steps per episode left."""
+        cfg = self.cfg
+        episode, step = (np.asarray(a, np.int64) for a in self.shard.get((ts.episode, ts.step)))
+        episodes, steps = run_limits(cfg)
+        left = np.minimum(steps - step, (episodes - episode) * cfg.env.max_steps)
+        active = self.active(ts)
+        return int(min(cfg.run.chunk_steps, left[active].max())) if active.any() else 0
+
+    def check_divergence(self, ts: TrainState) -> list[str]:
+        """Runs that diverged in the last chunk, each described in words."""
+        diverged_at = self.shard.get(ts.diverged_at)
+        new = []
+        for r in np.flatnonzero(diverged_at >= 0):
+            if int(r) not in self.diverged:
+                self.diverged[int(r)] = int(diverged_at[r])
+                strategy, seed = self.labels[r]
+                new.append(f"{strategy} seed {seed} diverged at step {int(diverged_at[r])}")
+        return new
+
+    def diverged_runs(self) -> list[dict[str, Any]]:
+        return [
+            {"strategy": self.labels[r][0], "seed": self.labels[r][1], "step": step}
+            for r, step in sorted(self.diverged.items())
+        ]
+
+    # -- per chunk -----------------------------------------------------------
+
+    def new_episodes(self, ts: TrainState) -> list[tuple]:
+        """metrics.csv rows of the episodes finished in the last chunk."""
+        m, episodes = self.shard.get((ts.metrics, ts.episode))
+        slots = self.trainer.metric_slots
+        rows = []
+        for r, label in enumerate(self.labels):
+            for e in range(self.logged[r], episodes[r]):
+                i = e % slots
+                ret = float(m.ep_return[r, i])
+                self.recent[label].append(ret)
+                rows.append(
+                    (
+                        *self.fields[r],
+                        e,
+                        f"{ret:.6g}",
+                        int(m.ep_length[r, i]),
+                        int(m.ep_goals[r, i]),
+                        int(m.ep_collided[r, i]),
+                        f"{float(m.ep_explore[r, i]):.6g}",
+                    )
+                )
+            self.logged[r] = episodes[r]
+        return rows
+
+    def explore_blocks(self, explore: np.ndarray, step_before: np.ndarray) -> list[tuple]:
+        """explore.csv rows: mean exploration per block of steps; ``explore`` is
+        [n_runs, chunk_steps], NaN once a run has finished."""
+        rows = []
+        for r, fields in enumerate(self.fields):
+            col = explore[r]
+            for b in range(0, col.shape[0], EXPLORE_BLOCK):
+                block = col[b : b + EXPLORE_BLOCK]
+                block = block[~np.isnan(block)]
+                if len(block):
+                    mean = float(block.mean())
+                    rows.append((*fields, int(step_before[r]) + b, f"{mean:.6g}"))
+        return rows
+
+    def save(
+        self,
+        ts: TrainState,
+        metric_rows: list,
+        explore_rows: list,
+        slots: np.ndarray,
+        checkpoint: bool = True,
+    ) -> None:
+        """Append the chunk's rows, then checkpoint (with the logs' new lengths): the
+        replay slots the chunk wrote (``slots``) to a new segment, then the rest.
+
+        All or nothing: if a write fails (a full disk), both logs are cut back to their
+        lengths before this chunk, so they still match the previous checkpoint, which
+        stays as it was (a segment it does not count is never read); the error goes on
+        to the command's one-line report."""
+        # every process: a gather across hosts is collective
+        state = self.shard.get(without_rows(ts))
+        rows = self.shard.get(self.rows_at(ts, slots)) if checkpoint else None
+        if not is_writer():
+            return
+        logs = (self.metrics, self.explore)
+        before = [log.size() for log in logs]
+        try:
+            sizes = np.asarray(
+                [self.metrics.append(metric_rows), self.explore.append(explore_rows)], np.int64
+            )
+            if not checkpoint:
+                return
+            segment = {"slots": slots, **{f"rows.buffer.{r}": a for r, a in rows.items()}}
+            rundir.atomic_write_npz(self.out / ROW_SEGMENT.format(self.segments), segment)
+            host = {
+                "logged": self.logged,
+                "wall": np.float64(self.wall),
+                "csv_sizes": sizes,
+                "segments": np.int64(self.segments + 1),
+                "computed": np.int64(self.computed),
+            }
+            rundir.atomic_write_npz(self.checkpoint, checkpoint_arrays(state, host))
+            self.segments += 1
+        except OSError:
+            for log, size in zip(logs, before):
+                log.restore(size)
+            raise
+
+    def progress_text(self, steps_per_s: float) -> str:
+        """Each arm's mean return over its seeds' last episodes; with more than four
+        arms, the lowest and the highest."""
+        means = {}
+        for s in self.cfg.arm_names():
+            recent = [
+                x
+                for (arm, _), returns in self.recent.items()
+                if arm == s
+                for x in returns[-PROGRESS_EPISODES:]
+            ]
+            if recent:
+                means[s] = float(np.mean(recent))
+        if len(means) > 4:
+            lo, hi = min(means, key=means.get), max(means, key=means.get)
+            means = {f"{len(means)} arms, lowest {lo}": means[lo], f"highest {hi}": means[hi]}
+        parts = [f"{s} R={m:.0f}" for s, m in means.items()]
+        parts.append(f"{steps_per_s / 1000:.1f}k steps/s")
+        return " ".join(parts)
+
+    # -- loop ----------------------------------------------------------------
+
+    def _progress_bar(self, ts: TrainState):
+        from tqdm import tqdm
+
+        cfg = self.cfg
+        if cfg.episodes is not None:
+            total, unit = cfg.n_runs * cfg.episodes, "ep"
+        else:
+            total, unit = cfg.n_runs * cfg.total_steps, "step"
+        bar = tqdm(
+            total=total,
+            initial=self._done(ts),
+            unit=unit,
+            disable=self.quiet or not is_writer(),
+            dynamic_ncols=True,
+            file=sys.stderr,
+        )
+        return bar
+
+    def _done(self, ts: TrainState) -> int:
+        """Progress: episodes (or steps) finished over all runs."""
+        if self.cfg.episodes is not None:
+            return int(np.minimum(self.shard.get(ts.episode), self.cfg.episodes).sum())
+        return int(self.shard.get(ts.step).sum())
+
+    def _tensorboard(self, ts: TrainState) -> tblog.TensorBoardLog | None:
+        """The TensorBoard log when asked for; a resumed run's episode curves are
+        rewritten from metrics.csv and its step curves purged past the checkpoint."""
+        if not (self.cfg.run.tensorboard and self.out is not None and is_writer()):
+            return None
+        step = int(self.shard.get(ts.step).max())
+        resumed = step > 0
+        columns = self.metric_columns
+        tb = tblog.TensorBoardLog(self.out, self.labels, columns, resumed, step)
+        if resumed and self.metrics.size():
+            tb.add_episodes([tuple(r[c] for c in columns) for r in self.metrics.read()])
+        return tb
+
+    def compile_chunk(self, ts: TrainState):
+        """The chunk program, compiled before its first call (loaded from JAX's
+        persistent cache when it is there), timed: ``compile_s``, and ``startup_s``,
+        the process's age when training can begin (imports, set-up and compilation)."""
+        t0 = time.perf_counter()
+        compiled = self.chunk.lower(ts, np.int32(0)).compile()
+        self.compile_s = time.perf_counter() - t0
+        self.startup_s = process_age()
+        return compiled
+
+    def train(self, ts: TrainState) -> TrainState:
+        bar = self._progress_bar(ts)
+        tb = self._tensorboard(ts)
+        chunk = self.compile_chunk(ts) if self.active(ts).any() else None
+        try:
+            while self.active(ts).any():
+                before = self._done(ts)
+                step_before = self.shard.get(ts.step).copy()
+                n = self.steps_needed(ts)
+                t0 = time.perf_counter()
+                ts, log = chunk(ts, np.int32(n))
+                log = self.shard.get(log)  # waits for the chunk
+                dt = time.perf_counter() - t0
+                self.wall += dt
+                if self.computed >= 0:
+                    self.computed += n * self.cfg.n_runs
+                steps = int((self.shard.get(ts.step) - step_before).sum())
+                diverged = self.check_divergence(ts)
+                stop = bool(diverged) and self.cfg.run.on_divergence == "stop"
+                # On a stop the finished episodes are kept and the last checkpoint
+                # (before the divergence) stays: a resume replays this chunk.
+                rows = self.new_episodes(ts), self.explore_blocks(log.explore, step_before)
+                if tb is not None:  # before the checkpoint: a resume purges it, never misses it
+                    tb.add_episodes(rows[0])
+                    tb.add_steps(log.loss, log.max_q, int(step_before.max()))
+                    tb.flush()
+                slots = chunk_slots(step_before, self.shard.get(ts.step), self.cfg.buffer_capacity)
+                self.save(ts, *rows, slots, checkpoint=not stop)
+                if stop:
+                    raise RunError(
+                        f"training diverged: {diverged[0]}"
+                        + (f" (and {len(diverged) - 1} more runs)" if len(diverged) > 1 else "")
+                        + " (non-finite loss, Q-values or "
+                        "parameters); finished episodes are in metrics.csv and the last good "
+                        "checkpoint is kept (lower dqn.lr, or set run.on_divergence=drop)"
+                    )
+                for line in diverged:
+                    print(f"warning: {line}; the run is dropped", file=sys.stderr, flush=True)
+                bar.set_postfix_str(self.progress_text(steps / max(dt, 1e-9)), refresh=False)
+                bar.update(self._done(ts) - before)
+        finally:
+            bar.close()
+            if tb is not None:
+                tb.close()
+        return ts
+
+    def finish(self, ts: TrainState) -> dict[str, Any]:
+        """Write params.npz and summary.json; return the summary."""
+        steps = int(self.shard.get(ts.step).sum())
+        summary: dict[str, Any] = {
+            "wall_clock_s": round(self.wall, 2),
+            "env_steps": steps,
+            "steps_per_s": round(steps / max(self.wall, 1e-9), 1),
+            # the share of the run-steps computed in lockstep that were real steps
+            "lockstep_useful": round(steps / self.computed, 4) if self.computed > 0 else None,
+            "compile_s": None if self.compile_s is None else round(self.compile_s, 2),
+            "startup_s": None if self.startup_s is None else round(self.startup_s, 2),
+            "buffer_capacity": self.cfg.buffer_capacity,
+            "buffer_bytes_per_seed": replay.nbytes(
+                self.cfg.buffer_capacity,
+                self.trainer.env.obs_size,
+                self.trainer.env_params.max_steps,
+            ),
+            "machine": f"{platform.machine()} {os.cpu_count()} cores, jax {jax.__version__} "
+            f"on {jax.default_backend()}",
+            "devices": self.shard.n_devices,
+            "processes": jax.process_count(),
+            "last50": last50(self.metrics.read(), self.cfg.arm_names()) if is_writer() else {},
+            "diverged": self.diverged_runs(),
+        }
+        params = self.shard.get(ts.params)  # every process: collective across hosts
+        if is_writer():
+            params = params_arrays(self.cfg, params)
+            rundir.atomic_write_npz(self.out / rundir.PARAMS, params)
+            text = json.dumps(summary, indent=2) + "\n"
+            rundir.atomic_write_text(self.out / rundir.SUMMARY, text)
+        if len(self.diverged) == self.cfg.n_runs:
+            raise RunError("training diverged: every run (summary.json lists them; lower dqn.lr)")
+        return summary
+
+
+def last50(rows: list[dict[str, str]], arms) -> dict[str, dict[str, float]]:
+    """Mean over seeds of each seed's last 50 training episodes (from metrics.csv), per
+    arm (strategy, or strategy at a sweep point)."""
+    out = {}
+    for s in arms:
+        per_seed: dict[int, list[tuple[int, float, float]]] = {}
+        for r in rows:
+            if sweep.row_arm(r) == s:
+                per_seed.setdefault(int(r["seed"]), []).append(
+                    (int(r["episode"]), float(r["return"]), float(r["goals"]))
+                )
+        ret, goals = [], []
+        for eps in per_seed.values():
+            tail = sorted(eps)[-50:]
+            ret.append(np.mean([x[1] for x in tail]))
+            goals.append(np.mean([x[2] for x in tail]))
+        out[s] = {
+            "return_mean": round(float(np.mean(ret)), 2),
+            "return_std_over_seeds": round(float(np.std(ret)), 2),
+            "goals_per_episode": round(float(np.mean(goals)), 3),
+        }
+    return out
+
+
+# ----------------------------------------------------------------------------
+# Starting and resuming
+# ----------------------------------------------------------------------------
+
+
+def _writer_lock(out: Path):
+    """The run directory's lock, held by the process that writes (process 0)."""
+    return rundir.Lock(out) if is_writer() else contextlib.nullcontext()
+
+
+def train_new(
+    cfg: Config, out: Path, quiet: bool = False, overwrite: bool = False
+) -> dict[str, Any]:
+    """Start a new run in ``out`` (absent or empty; with ``overwrite``, an existing run
+    directory is emptied first, under its lock) and train it to the end."""
+    run = Run(cfg, out, quiet)  # builds the env first: a bad maze leaves no directory
+    replace = overwrite and (out / rundir.CONFIG).is_file()
+    if is_writer() and not replace:
+        rundir.create(out)
+    with _writer_lock(out):
+        if is_writer():
+            if replace:
+                rundir.clear(out)
+            rundir.atomic_write_text(out / rundir.CONFIG, dump_config(cfg))
+        return run.finish(run.train(run.fresh_state()))
+
+
+def resume(out: Path, quiet: bool = False) -> dict[str, Any]:
+    """Continue a run from its last checkpoint (or from the start if it has none)."""
+    out = rundir.existing(out)
+    cfg = load_config(str(out / rundir.CONFIG))
+    run = Run(cfg, out, quiet)
+    with _writer_lock(out):
+        if is_writer():
+            rundir.remove_stale_temps(out)
+            run.checkpoint.parent.mkdir(exist_ok=True)  # killed before create() finished
+        if run.checkpoint.is_file():
+            ts = run.restored_state()
+        else:  # killed before its first checkpoint: start over
+            if is_writer():
+                run.metrics.path.unlink(missing_ok=True)
+                run.explore.path.unlink(missing_ok=True)
+            ts = run.fresh_state()
+        return run.finish(run.train(ts))

@@ -1,0 +1,608 @@
+"""Maze geometry: wall segments and circular obstacles, as padded float32 arrays.
+
+A maze is geometry, not a grid. Walls are line segments ``(x1, y1, x2, y2)`` (the
+inner outline of the arena plus the edges of polygonal obstacles) and round
+obstacles are circles ``(cx, cy, r)``. Both are stored in fixed-shape arrays with
+a validity mask, so mazes of different sizes can be padded to a common shape,
+stacked, and vmapped over together (:func:`stack_mazes`).
+
+The goal sampler needs free space with a clearance margin; rather than test random
+points inside jit, each maze carries a precomputed set of admissible goal points
+on a regular grid (ROBOTIS drew goals from a 0.1 m grid too). Drawing a goal is
+then a uniform index into that set, which is jit-able and always lands in free
+space.
+
+Built-in mazes (sizes from the spec; square4 is TurtleBot3 stage 1):
+
+========================  =====================================================
+``square2``               free square 1.85 m wide, centred at the origin
+``square4``               free square 3.7 m wide (x, y in [-1.85, 1.85])
+``square8``               free square 7.4 m wide
+``triangle``              equilateral triangle of the same area as square4
+                          (side 5.623 m), centroid at the origin, apex up (+y)
+``pentagon``              regular pentagon of the same area as square4
+                          (circumradius 2.122 m), centred at the origin, vertex up
+``square4_obstacles``     square4 plus 4 cylinders r = 0.15 m at (+-0.6, +-0.6)
+                          (TurtleBot3 stage 2)
+``pentagon_obstacles``    pentagon plus 5 cylinders r = 0.15 m on a circle of
+                          radius 0.85 m, one on each vertex direction, placed as
+                          stage 2 places its four (same radius, same distance
+                          from the start at the centre)
+========================  =====================================================
+
+All start at (0, 0) facing +x (yaw 0), as TurtleBot3 does.
+
+A user's own maze comes from a YAML file::
+
+    name: corridor              # optional
+    outline: [[-2, -1], [2, -1], [2, 1], [-2, 1], [-2, -1]]   # closed: last == first
+    obstacles:                  # optional
+      - circle: [0.5, 0.0, 0.2]
+      - polygon: [[-1, -0.3], [-0.6, -0.3], [-0.6, 0.3], [-1, 0.3], [-1, -0.3]]
+    start: [0.0, 0.5, 0.0]      # optional x, y, yaw; default the outline centroid, yaw 0
+
+Loading validates it and rejects a bad file with a one-line :class:`MazeError`.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from collections.abc import Sequence
+
+import chex
+import jax.numpy as jnp
+import numpy as np
+from flax import struct
+
+from jaxnav.core.errors import MazeError
+
+# Geometry constants shared with the environment (robot and goal sampler).
+ROBOT_RADIUS = 0.13  # m, ROBOTIS collision threshold
+GOAL_CLEARANCE = 0.35  # m, free margin around every goal (robot radius + 0.22)
+GOAL_START_CLEARANCE = 0.4  # m, goals are not drawn this close to the start pose
+GOAL_GRID = 0.1  # m, resolution of the admissible goal grid (ROBOTIS used 0.1 m)
+MAX_GOAL_POINTS = 4096  # the grid is coarsened past this many points
+MIN_GOAL_POINTS = 8  # "room left for goals"
+MAX_COORDINATE = 1000.0  # m: a maze file reaching beyond 1 km is refused
+BURGER_RADIUS = 0.105  # m, the burger's footprint (contact with the LiDAR collision rule)
+
+# ROBOTIS' goal sampler (turtlebot3_machine_learning, respawnGoal.py), in the frame of
+# its 3.7 m arena (square4): a 0.1 m grid on [-1.2, 1.2]^2 without the points in a
+# 0.4 m box (per axis, boundary included up to Python's float rounding) around the
+# origin and around (+-0.6, +-0.6), in stage 1 too. A new goal must be at least 1 m
+# from the last along x or y; the first goal is (0.6, 0). Other mazes get this grid
+# scaled by their size over 3.7 m.
+ROBOTIS_ARENA = 3.7
+ROBOTIS_BOX_CENTRES = ((0.6, 0.6), (0.6, -0.6), (-0.6, 0.6), (-0.6, -0.6), (0.0, 0.0))
+ROBOTIS_FIRST_GOAL = (0.6, 0.0)
+ROBOTIS_GOAL_SEPARATION = 1.0  # m, along x or along y
+
+
+def robotis_goal_grid() -> np.ndarray:
+    """ROBOTIS' goal points f64[256, 2] (of the 625 grid points), compared as its Python does."""
+    pts = []
+    for i in range(-12, 13):
+        for j in range(-12, 13):
+            x, y = i / 10.0, j / 10.0
+            if not any(abs(x - cx) <= 0.4 and abs(y - cy) <= 0.4 for cx, cy in ROBOTIS_BOX_CENTRES):
+                pts.append((x, y))
+    return np.asarray(pts)
+
+
+# Padding for unused slots: far away and degenerate, and masked out anyway.
+_FAR = 1.0e4
+
+
+@struct.dataclass
+class Maze:
+    """Padded maze geometry (a pytree; stack several with :func:`stack_mazes`).
+
+    Attributes:
+      segments: f32[S, 4] wall segments (x1, y1, x2, y2); padded rows are far away.
+      segment_mask: bool[S] which rows of ``segments`` are real.
+      circles: f32[C, 3] circular obstacles (cx, cy, r); padded rows have r = 0.
+      circle_mask: bool[C] which rows of ``circles`` are real.
+      start: f32[3] start pose (x, y, yaw).
+      goal_points: f32[G, 2] admissible goal positions; padded rows repeat real ones.
+      n_goal_points: i32[] number of real rows in ``goal_points``.
+      bounds: f32[4] bounding box of the outline (xmin, ymin, xmax, ymax).
+      n_obstacles: i32[] number of obstacles (circles and polygons) in the outline.
+      robotis_goals: f32[256, 2] ROBOTIS' goal points scaled to this maze
+        (:func:`robotis_goal_grid`, times :attr:`robotis_scale`); the first
+        ``n_robotis_goals`` rows are the points reachable in this maze (free and at
+        least the robot radius from every surface), the rest repeat them.
+      n_robotis_goals: i32[] number of real rows in ``robotis_goals``.
+      robotis_scale: f32[] the maze's size over ROBOTIS' 3.7 m arena (1 for square4).
+    """
+
+    segments: chex.Array
+    segment_mask: chex.Array
+    circles: chex.Array
+    circle_mask: chex.Array
+    start: chex.Array
+    goal_points: chex.Array
+    n_goal_points: chex.Array
+    bounds: chex.Array
+    n_obstacles: chex.Array
+    robotis_goals: chex.Array
+    n_robotis_goals: chex.Array
+    robotis_scale: chex.Array
+
+    # Host-side accessors (not for use under jit).
+    def walls(self) -> np.ndarray:
+        """NumPy (S, 4) array of the real wall segments only."""
+        seg = np.asarray(self.segments)
+        return seg[np.asarray(self.segment_mask)]
+
+    def obstacles(self) -> np.ndarray:
+        """NumPy (C, 3) array of the real circular obstacles only."""
+        c = np.asarray(self.circles)
+        return c[np.asarray(self.circle_mask)]
+
+    @property
+    def has_obstacles(self) -> bool:
+        """True if the maze has anything inside its outline (ROBOTIS stage 2 layout)."""
+        return bool(np.asarray(self.n_obstacles).max() > 0)
+
+
+# ----------------------------------------------------------------------------
+# Geometry helpers (NumPy, host side)
+# ----------------------------------------------------------------------------
+
+
+def _polygon_segments(poly: np.ndarray) -> np.ndarray:
+    """Closed polygon vertices (N, 2), without the repeated last point -> (N, 4)."""
+    return np.concatenate([poly, np.roll(poly, -1, axis=0)], axis=1)
+
+
+def _signed_area(poly: np.ndarray) -> float:
+    x, y = poly[:, 0], poly[:, 1]
+    return 0.5 * float(np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y))
+
+
+def _centroid(poly: np.ndarray) -> np.ndarray:
+    x, y = poly[:, 0], poly[:, 1]
+    cross = x * np.roll(y, -1) - np.roll(x, -1) * y
+    a = 0.5 * cross.sum()
+    cx = ((x + np.roll(x, -1)) * cross).sum() / (6 * a)
+    cy = ((y + np.roll(y, -1)) * cross).sum() / (6 * a)
+    return np.array([cx, cy])
+
+
+def _segments_intersect(p1, p2, q1, q2, eps: float = 1e-12) -> bool:
+    """Closed segments p1p2 and q1q2 share a point."""
+
+    def orient(a, b, c):
+        v = (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
+        return 0 if abs(v) < eps else (1 if v > 0 else -1)
+
+    def on_seg(a, b, c):
+        return (
+            min(a[0], b[0]) - eps <= c[0] <= max(a[0], b[0]) + eps
+            and min(a[1], b[1]) - eps <= c[1] <= max(a[1], b[1]) + eps
+        )
+
+    o1, o2 = orient(p1, p2, q1), orient(p1, p2, q2)
+    o3, o4 = orient(q1, q2, p1), orient(q1, q2, p2)
+    if o1 != o2 and o3 != o4:
+        return True
+    return (
+        (o1 == 0 and on_seg(p1, p2, q1))
+        or (o2 == 0 and on_seg(p1, p2, q2))
+        or (o3 == 0 and on_seg(q1, q2, p1))
+        or (o4 == 0 and on_seg(q1, q2, p2))
+    )
+
+
+def _self_intersecting(poly: np.ndarray) -> bool:
+    n = len(poly)
+    for i in range(n):
+        a1, a2 = poly[i], poly[(i + 1) % n]
+        for j in range(i + 1, n):
+            if j == i or (j + 1) % n == i or (i + 1) % n == j:
+                continue  # adjacent edges share a vertex
+            if _segments_intersect(a1, a2, poly[j], poly[(j + 1) % n]):
+                return True
+    return False
+
+
+def point_segment_distance(p: np.ndarray, seg: np.ndarray) -> np.ndarray:
+    """Distances from points p (N, 2) to segments seg (S, 4) -> (N, S)."""
+    p = np.asarray(p, np.float64)[:, None, :]
+    a = seg[None, :, :2].astype(np.float64)
+    b = seg[None, :, 2:].astype(np.float64)
+    ab = b - a
+    denom = np.maximum((ab**2).sum(-1), 1e-18)
+    t = np.clip(((p - a) * ab).sum(-1) / denom, 0.0, 1.0)
+    closest = a + t[..., None] * ab
+    return np.linalg.norm(p - closest, axis=-1)
+
+
+def points_in_polygon(p: np.ndarray, poly: np.ndarray) -> np.ndarray:
+    """Even-odd rule: which of the points p (N, 2) lie inside polygon (M, 2)."""
+    x, y = p[:, 0:1], p[:, 1:2]
+    x1, y1 = poly[None, :, 0], poly[None, :, 1]
+    x2, y2 = np.roll(poly[:, 0], -1)[None], np.roll(poly[:, 1], -1)[None]
+    crosses = (y1 > y) != (y2 > y)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        xint = x1 + (y - y1) * (x2 - x1) / (y2 - y1)
+    return (crosses & (x < xint)).sum(axis=1) % 2 == 1
+
+
+def clearance(
+    points: np.ndarray,
+    segments: np.ndarray,
+    circles: np.ndarray,
+) -> np.ndarray:
+    """Distance from each point (N, 2) to the nearest wall or obstacle surface."""
+    d = np.full(len(points), np.inf)
+    if len(segments):
+        d = np.minimum(d, point_segment_distance(points, segments).min(axis=1))
+    if len(circles):
+        dc = np.linalg.norm(points[:, None, :] - circles[None, :, :2], axis=-1)
+        d = np.minimum(d, (dc - circles[None, :, 2]).min(axis=1))
+    return d
+
+
+# ----------------------------------------------------------------------------
+# Construction
+# ----------------------------------------------------------------------------
+
+
+def _regular_polygon(n: int, area: float, angle0: float) -> np.ndarray:
+    """Regular n-gon of the given area centred at the origin, first vertex at angle0."""
+    circumradius = math.sqrt(2 * area / (n * math.sin(2 * math.pi / n)))
+    ang = angle0 + 2 * math.pi * np.arange(n) / n
+    return np.stack([circumradius * np.cos(ang), circumradius * np.sin(ang)], axis=1)
+
+
+def _square(side: float) -> np.ndarray:
+    h = side / 2
+    return np.array([[-h, -h], [h, -h], [h, h], [-h, h]])
+
+
+SQUARE4_SIDE = 3.7
+SQUARE4_AREA = SQUARE4_SIDE**2
+_STAGE2_CYLINDERS = np.array(
+    [[0.6, 0.6, 0.15], [-0.6, 0.6, 0.15], [-0.6, -0.6, 0.15], [0.6, -0.6, 0.15]]
+)
+
+
+def _pentagon_cylinders() -> np.ndarray:
+    # Same radius as stage 2 and the same distance from the start (0.6 * sqrt 2).
+    r = 0.6 * math.sqrt(2)
+    ang = math.pi / 2 + 2 * math.pi * np.arange(5) / 5
+    return np.stack([r * np.cos(ang), r * np.sin(ang), np.full(5, 0.15)], axis=1)
+
+
+def _builtin(name: str):
+    """Return (outline, circles, polygons, start) of a built-in maze."""
+    start = np.array([0.0, 0.0, 0.0])
+    none = np.zeros((0, 3))
+    if name == "square2":
+        return _square(SQUARE4_SIDE / 2), none, [], start
+    if name == "square4":
+        return _square(SQUARE4_SIDE), none, [], start
+    if name == "square8":
+        return _square(SQUARE4_SIDE * 2), none, [], start
+    if name == "triangle":
+        tri = _regular_polygon(3, SQUARE4_AREA, math.pi / 2)
+        return tri, none, [], start
+    if name == "pentagon":
+        return _regular_polygon(5, SQUARE4_AREA, math.pi / 2), none, [], start
+    if name == "square4_obstacles":
+        return _square(SQUARE4_SIDE), _STAGE2_CYLINDERS.copy(), [], start
+    if name == "pentagon_obstacles":
+        pent = _regular_polygon(5, SQUARE4_AREA, math.pi / 2)
+        return pent, _pentagon_cylinders(), [], start
+    raise KeyError(name)
+
+
+BUILTIN_MAZES = (
+    "square2",
+    "square4",
+    "square8",
+    "triangle",
+    "pentagon",
+    "square4_obstacles",
+    "pentagon_obstacles",
+)
+
+
+def _goal_grid(
+    outline: np.ndarray,
+    segments: np.ndarray,
+    circles: np.ndarray,
+    polygons: Sequence[np.ndarray],
+    start: np.ndarray,
+) -> np.ndarray:
+    """Admissible goal points: free, clear of every surface, away from the start."""
+    lo, hi = outline.min(axis=0), outline.max(axis=0)
+    res = GOAL_GRID
+    while True:
+        xs = np.arange(lo[0] + res / 2, hi[0], res)
+        ys = np.arange(lo[1] + res / 2, hi[1], res)
+        gx, gy = np.meshgrid(xs, ys, indexing="xy")
+        pts = np.stack([gx.ravel(), gy.ravel()], axis=1)
+        if len(pts) <= 4 * MAX_GOAL_POINTS:
+            break
+        res *= 1.5
+    ok = _admissible(pts, outline, segments, circles, polygons, GOAL_CLEARANCE)
+    ok &= np.linalg.norm(pts - start[None, :2], axis=1) >= GOAL_START_CLEARANCE
+    pts = pts[ok]
+    if len(pts) > MAX_GOAL_POINTS:  # thin evenly, deterministically
+        idx = np.linspace(0, len(pts) - 1, MAX_GOAL_POINTS).round().astype(int)
+        pts = pts[idx]
+    return pts
+
+
+def _admissible(pts, outline, segments, circles, polygons, margin) -> np.ndarray:
+    """bool[N]: inside the outline, outside every obstacle, ``margin`` from every surface."""
+    ok = points_in_polygon(pts, outline)
+    for poly in polygons:
+        ok &= ~points_in_polygon(pts, poly)
+    if len(circles):
+        dc = np.linalg.norm(pts[:, None] - circles[None, :, :2], axis=-1)
+        ok &= (dc > circles[None, :, 2]).all(axis=1)
+    return ok & (clearance(pts, segments, circles) >= margin)
+
+
+def _robotis_goals(outline, segments, circles, polygons) -> tuple[np.ndarray, int, float]:
+    """ROBOTIS' points scaled to the maze, the reachable ones first: (f32[256, 2], n, scale)."""
+    lo, hi = outline.min(axis=0), outline.max(axis=0)
+    scale = float(np.max(hi - lo)) / ROBOTIS_ARENA
+    grid = robotis_goal_grid() * scale
+    ok = _admissible(grid, outline, segments, circles, polygons, ROBOT_RADIUS)
+    pts = grid[ok]
+    if len(pts) == 0:  # never drawn (the sampler's default is the maze's own set)
+        pts = grid[:1]
+    return np.resize(pts, grid.shape), int(ok.sum()), scale
+
+
+def _build(
+    outline: np.ndarray,
+    circles: np.ndarray,
+    polygons: Sequence[np.ndarray],
+    start: np.ndarray,
+    where: str,
+) -> Maze:
+    segs = [_polygon_segments(outline)] + [_polygon_segments(p) for p in polygons]
+    segments = np.concatenate(segs, axis=0)
+    goals = _goal_grid(outline, segments, circles, polygons, start)
+    if len(goals) < MIN_GOAL_POINTS:
+        raise MazeError(
+            f"{where}: no room left for goals (need free points {GOAL_CLEARANCE} m "
+            f"clear of walls and obstacles and {GOAL_START_CLEARANCE} m from the start)"
+        )
+    lo, hi = outline.min(axis=0), outline.max(axis=0)
+    robotis, n_robotis, robotis_scale = _robotis_goals(outline, segments, circles, polygons)
+    n_circles = len(circles)
+    circles = circles.reshape(-1, 3)
+    if n_circles == 0:  # keep one masked row so reductions over circles are never empty
+        circles = np.array([[_FAR, _FAR, 0.0]])
+    maze = Maze(
+        segments=jnp.asarray(segments, jnp.float32),
+        segment_mask=jnp.ones(len(segments), bool),
+        circles=jnp.asarray(circles, jnp.float32),
+        circle_mask=jnp.arange(len(circles)) < n_circles,
+        start=jnp.asarray(start, jnp.float32),
+        goal_points=jnp.asarray(goals, jnp.float32),
+        n_goal_points=jnp.asarray(len(goals), jnp.int32),
+        bounds=jnp.asarray([lo[0], lo[1], hi[0], hi[1]], jnp.float32),
+        n_obstacles=jnp.asarray(n_circles + len(polygons), jnp.int32),
+        robotis_goals=jnp.asarray(robotis, jnp.float32),
+        n_robotis_goals=jnp.asarray(n_robotis, jnp.int32),
+        robotis_scale=jnp.asarray(robotis_scale, jnp.float32),
+    )
+    return maze
+
+
+def _as_points(value, what: str, where: str) -> np.ndarray:
+    try:
+        arr = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise MazeError(f"{where}: {what} must be a list of [x, y] points") from None
+    if arr.ndim != 2 or arr.shape[1] != 2 or not np.isfinite(arr).all():
+        raise MazeError(f"{where}: {what} must be a list of finite [x, y] points")
+    if np.abs(arr).max(initial=0.0) > MAX_COORDINATE:
+        raise MazeError(
+            f"{where}: {what} reaches beyond 1 km ({np.abs(arr).max():.3g} m); "
+            "maze coordinates are metres"
+        )
+    return arr
+
+
+def _closed_polygon(value, what: str, where: str) -> np.ndarray:
+    pts = _as_points(value, what, where)
+    if len(pts) < 4 or not np.allclose(pts[0], pts[-1]):
+        raise MazeError(
+            f"{where}: {what} is not closed (give at least 3 vertices and repeat the "
+            "first vertex at the end)"
+        )
+    poly = pts[:-1]
+    if np.any(np.linalg.norm(np.diff(np.vstack([poly, poly[:1]]), axis=0), axis=1) < 1e-9):
+        raise MazeError(f"{where}: {what} has a repeated vertex")
+    if abs(_signed_area(poly)) < 1e-9:
+        raise MazeError(f"{where}: {what} encloses no area")
+    if _self_intersecting(poly):
+        raise MazeError(f"{where}: {what} is self-intersecting")
+    return poly
+
+
+def load_maze_file(path: str) -> Maze:
+    """Load and validate a maze YAML file (format in the module docstring)."""
+    where = f"maze file {path}"
+    doc = _read_maze_yaml(path, where)
+    outline = _closed_polygon(doc["outline"], "outline", where)
+    circles, polygons = _obstacles(doc.get("obstacles") or [], outline, where)
+    circles_arr = np.asarray(circles).reshape(-1, 3)
+    segments = np.concatenate(
+        [_polygon_segments(outline)] + [_polygon_segments(p) for p in polygons]
+    )
+    start = _start_pose(doc, outline, polygons, segments, circles_arr, where)
+    return _build(outline, circles_arr, polygons, start, where)
+
+
+def _read_maze_yaml(path: str, where: str) -> dict:
+    """The file's mapping, with only known keys and an outline."""
+    import yaml
+
+    try:
+        with open(path) as f:
+            doc = yaml.safe_load(f)
+    except FileNotFoundError:
+        raise MazeError(f"{where}: no such file") from None
+    except yaml.YAMLError as e:
+        line = getattr(getattr(e, "problem_mark", None), "line", None)
+        at = f" at line {line + 1}" if line is not None else ""
+        raise MazeError(f"{where}: not valid YAML{at}") from None
+    except OSError as e:
+        raise MazeError(f"{where}: cannot read ({e.strerror})") from None
+    except UnicodeDecodeError:
+        raise MazeError(f"{where}: not a text file (not UTF-8)") from None
+    if not isinstance(doc, dict):
+        raise MazeError(f"{where}: expected a mapping with an 'outline' key")
+    unknown = set(doc) - {"name", "outline", "obstacles", "start"}
+    if unknown:
+        raise MazeError(f"{where}: unknown key {sorted(map(str, unknown))[0]!r}")
+    if "outline" not in doc:
+        raise MazeError(f"{where}: missing 'outline'")
+    return doc
+
+
+def _obstacles(obstacles, outline: np.ndarray, where: str):
+    """(circles [x, y, r], polygons (N, 2)) of the file's obstacle list, each inside the
+    outline."""
+    circles, polygons = [], []
+    if not isinstance(obstacles, list):
+        raise MazeError(f"{where}: 'obstacles' must be a list")
+    for i, ob in enumerate(obstacles):
+        what = f"obstacle {i}"
+        if (
+            not isinstance(ob, dict)
+            or len(ob) != 1
+            or next(iter(ob))
+            not in (
+                "circle",
+                "polygon",
+            )
+        ):
+            raise MazeError(f"{where}: {what} must be {{circle: [x, y, r]}} or {{polygon: [...]}}")
+        kind, val = next(iter(ob.items()))
+        if kind == "circle":
+            try:
+                c = np.asarray(val, np.float64)
+            except (TypeError, ValueError):
+                c = np.zeros(0)
+            if c.shape != (3,) or not np.isfinite(c).all() or c[2] <= 0:
+                raise MazeError(f"{where}: {what} circle must be [x, y, r] with r > 0")
+            if (
+                not points_in_polygon(c[None, :2], outline)[0]
+                or clearance(c[None, :2], _polygon_segments(outline), np.zeros((0, 3)))[0] < c[2]
+            ):
+                raise MazeError(f"{where}: {what} is not inside the outline")
+            circles.append(c)
+        else:
+            poly = _closed_polygon(val, what, where)
+            if not points_in_polygon(poly, outline).all() or any(
+                _segments_intersect(a[:2], a[2:], b[:2], b[2:])
+                for a in _polygon_segments(poly)
+                for b in _polygon_segments(outline)
+            ):
+                raise MazeError(f"{where}: {what} is not inside the outline")
+            polygons.append(poly)
+    return circles, polygons
+
+
+def _start_pose(doc, outline, polygons, segments, circles, where: str) -> np.ndarray:
+    """The file's start pose (x, y, yaw), default the outline's centroid facing +x; in
+    free space and clear of the robot radius."""
+    if "start" in doc and doc["start"] is not None:
+        try:
+            start = np.asarray(doc["start"], np.float64)
+        except (TypeError, ValueError):
+            start = np.zeros(0)
+        if start.shape != (3,) or not np.isfinite(start).all():
+            raise MazeError(f"{where}: start must be [x, y, yaw]")
+    else:
+        c = _centroid(outline)
+        start = np.array([c[0], c[1], 0.0])
+    inside = points_in_polygon(start[None, :2], outline)[0] and not any(
+        points_in_polygon(start[None, :2], p)[0] for p in polygons
+    )
+    if not inside:
+        raise MazeError(f"{where}: start pose is not inside the free space")
+    if clearance(start[None, :2], segments, circles)[0] <= ROBOT_RADIUS:
+        raise MazeError(
+            f"{where}: start pose is within the robot radius ({ROBOT_RADIUS} m) "
+            "of a wall or obstacle"
+        )
+    return start
+
+
+def make_maze(name_or_path: str) -> Maze:
+    """A built-in maze by name, or a maze YAML file by path."""
+    if name_or_path in BUILTIN_MAZES:
+        outline, circles, polys, start = _builtin(name_or_path)
+        return _build(outline, circles, polys, start, f"maze {name_or_path}")
+    if os.path.splitext(name_or_path)[1] in (".yaml", ".yml") or os.path.exists(name_or_path):
+        return load_maze_file(name_or_path)
+    raise MazeError(
+        f"unknown maze '{name_or_path}' (built-in: {', '.join(BUILTIN_MAZES)}; "
+        "or a path to a .yaml maze file)"
+    )
+
+
+def pad_maze(maze: Maze, n_segments: int, n_circles: int, n_goal_points: int) -> Maze:
+    """Pad a single maze's arrays to the given sizes (masked, harmless rows)."""
+    s, c, g = maze.segments.shape[0], maze.circles.shape[0], maze.goal_points.shape[0]
+    if n_segments < s or n_circles < c or n_goal_points < g:
+        raise ValueError("pad_maze cannot shrink a maze")
+    seg_pad = jnp.full((n_segments - s, 4), _FAR, jnp.float32)
+    circ_pad = jnp.concatenate(
+        [jnp.full((n_circles - c, 2), _FAR, jnp.float32), jnp.zeros((n_circles - c, 1))],
+        axis=1,
+    ).astype(jnp.float32)
+    # Goal padding repeats real points; n_goal_points keeps the draw uniform anyway.
+    reps = jnp.resize(maze.goal_points, (n_goal_points - g, 2))
+    return Maze(
+        segments=jnp.concatenate([maze.segments, seg_pad]),
+        segment_mask=jnp.concatenate([maze.segment_mask, jnp.zeros(n_segments - s, bool)]),
+        circles=jnp.concatenate([maze.circles, circ_pad]),
+        circle_mask=jnp.concatenate([maze.circle_mask, jnp.zeros(n_circles - c, bool)]),
+        start=maze.start,
+        goal_points=jnp.concatenate([maze.goal_points, reps]),
+        n_goal_points=maze.n_goal_points,
+        bounds=maze.bounds,
+        n_obstacles=maze.n_obstacles,
+        robotis_goals=maze.robotis_goals,
+        n_robotis_goals=maze.n_robotis_goals,
+        robotis_scale=maze.robotis_scale,
+    )
+
+
+def stack_mazes(mazes: Sequence[Maze]) -> Maze:
+    """Pad mazes to a common shape and stack them on a new leading axis (for vmap)."""
+    s = max(m.segments.shape[0] for m in mazes)
+    c = max(max(m.circles.shape[0] for m in mazes), 1)
+    g = max(m.goal_points.shape[0] for m in mazes)
+    padded = [pad_maze(m, s, c, g) for m in mazes]
+    return Maze(*(jnp.stack(leaves) for leaves in zip(*(_fields(m) for m in padded))))
+
+
+def _fields(m: Maze):
+    return (
+        m.segments,
+        m.segment_mask,
+        m.circles,
+        m.circle_mask,
+        m.start,
+        m.goal_points,
+        m.n_goal_points,
+        m.bounds,
+        m.n_obstacles,
+        m.robotis_goals,
+        m.n_robotis_goals,
+        m.robotis_scale,
+    )

@@ -1,0 +1,55 @@
+"""The paper's reward: R+ on reaching the goal, R- on a collision, else orientation
+shaping 5 psi(delta - phi_a) D (spec, "Reward").
+
+Both presets' constants (paper and ROBOTIS) are data in ``EnvParams``; they come
+from :data:`jaxnav.core.settings.PRESETS`.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import chex
+import jax.numpy as jnp
+
+from jaxnav.world.geometry import wrap_angle
+
+
+def psi(x: chex.Array) -> chex.Array:
+    """Orientation shaping wave: 1 facing the goal, 0 at 90 degrees, -1 behind."""
+    return 1.0 - (2.0 / jnp.pi) * jnp.abs(wrap_angle(x))
+
+
+def reward_fn(
+    params: Any,
+    action: chex.Array,
+    heading: chex.Array,
+    distance: chex.Array,
+    goal_distance0: chex.Array,
+    reached: chex.Array,
+    collided: chex.Array,
+) -> chex.Array:
+    """R+ on reaching the goal, R- on collision, else 5 psi(delta - phi_a) D.
+
+    phi_a = (omega_a / omega_max) * span is the direction action a turns towards, so
+    the action that turns towards the goal earns the largest shaping reward.
+    D is the current distance d_c (paper) or 2^(d_c / d_0) (ROBOTIS).
+
+    Args:
+      params: ``jaxnav.env.EnvParams``, or anything with its fields omegas, R_plus,
+        R_minus, reward_span and reward_distance_exp.
+      action: i32[] the action taken.
+      heading: f32[] delta, the goal's direction relative to the yaw after the step.
+      distance: f32[] d_c, the distance to the goal after the step.
+      goal_distance0: f32[] d_0, the distance to the goal when it was drawn.
+      reached, collided: bool[] what the step did.
+    Returns:
+      f32[] the reward.
+    """
+    omegas = jnp.asarray(params.omegas)
+    phi = omegas[action] / jnp.max(jnp.abs(omegas)) * params.reward_span
+    d_paper = distance
+    d_robotis = jnp.exp2(distance / jnp.maximum(goal_distance0, 1e-6))
+    D = jnp.where(params.reward_distance_exp, d_robotis, d_paper)
+    shaping = 5.0 * psi(heading - phi) * D
+    return jnp.where(collided, params.R_minus, jnp.where(reached, params.R_plus, shaping))

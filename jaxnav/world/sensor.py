@@ -1,0 +1,151 @@
+"""What the robot senses: the LDS-01 LiDAR and the ROBOTIS observation.
+
+The LiDAR's beams are evenly spread over 360 degrees, counter-clockwise from
+straight ahead; each reads the exact distance to the first surface
+(:mod:`jaxnav.world.geometry`), clipped to [min_range, max_range]. The imperfections of
+a real robot are small pure functions of their own key: Gaussian range noise,
+beam dropout (a lost return reads max_range) and odometry noise on the pose the
+goal is seen from. :func:`observation` assembles the ROBOTIS state from them.
+
+Keys: one observation key ``key`` per observation; range noise draws from it,
+dropout from ``fold_in(key, 1)``, odometry from ``split(fold_in(key, 2))``. An
+option that is off draws nothing, so it leaves every other draw unchanged.
+"""
+
+from __future__ import annotations
+
+import math
+
+import chex
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from jaxnav.world.geometry import norm2, ray_distances_dir, wrap_angle
+from jaxnav.world.maps import Maze
+
+
+def beam_step(n_beams: int, inclusive: bool = False) -> float:
+    """Angle between beams: 2 pi / n, or 2 pi / (n - 1) when n samples span [0, 2 pi]
+    inclusive (Gazebo's layout: the first and last beams both look ahead)."""
+    return 2 * math.pi / (n_beams - 1 if inclusive and n_beams > 1 else n_beams)
+
+
+def beam_angles(n_beams: int, inclusive: bool = False) -> jax.Array:
+    """Beam k points at yaw + k * beam_step (counter-clockwise from ahead): f32[n_beams]."""
+    return jnp.arange(n_beams, dtype=jnp.float32) * beam_step(n_beams, inclusive)
+
+
+def beam_directions(n_beams: int, yaw: chex.Array, inclusive: bool = False) -> chex.Array:
+    """Unit vectors f32[n_beams, 2] of the beams at heading ``yaw``.
+
+    The beams' own angles are constants; turning them by ``yaw`` is a rotation, so a
+    scan costs one sine and one cosine instead of one per beam.
+    """
+    a = np.arange(n_beams) * beam_step(n_beams, inclusive)
+    ca, sa = np.cos(a).astype(np.float32), np.sin(a).astype(np.float32)
+    cy, sy = jnp.cos(yaw), jnp.sin(yaw)
+    return jnp.stack([cy * ca - sy * sa, sy * ca + cy * sa], axis=-1)
+
+
+def beam_ranges(
+    maze: Maze, pos: chex.Array, yaw: chex.Array, n_beams: int, inclusive: bool = False
+) -> chex.Array:
+    """True, unclipped beam ranges f32[n_beams] from pose (pos f32[2], yaw f32[])."""
+    return ray_distances_dir(maze, pos, beam_directions(n_beams, yaw, inclusive))
+
+
+def lidar_scan(
+    maze: Maze,
+    pos: chex.Array,
+    yaw: chex.Array,
+    n_beams: int = 24,
+    min_range: float = 0.12,
+    max_range: float = 3.5,
+) -> chex.Array:
+    """LiDAR ranges f32[n_beams] from pose (pos, yaw), clipped to [min_range, max_range]."""
+    ranges = beam_ranges(maze, pos, yaw, n_beams)
+    return jnp.clip(ranges, min_range, max_range)
+
+
+# ----------------------------------------------------------------------------
+# Imperfections of a real robot
+# ----------------------------------------------------------------------------
+
+
+def range_noise(key: chex.PRNGKey, ranges: chex.Array, std) -> chex.Array:
+    """Ranges f32[B] plus Gaussian noise of standard deviation ``std`` (m)."""
+    return ranges + std * jax.random.normal(key, ranges.shape)
+
+
+def beam_dropout(key: chex.PRNGKey, ranges: chex.Array, p: float, max_range) -> chex.Array:
+    """Each beam of f32[B] lost with probability ``p``: it reads ``max_range``, as a real
+    LDS-01 returns nothing from dark or shiny surfaces."""
+    lost = jax.random.bernoulli(key, p, ranges.shape)
+    return jnp.where(lost, max_range, ranges)
+
+
+def odometry_noise(
+    key: chex.PRNGKey, pos: chex.Array, yaw: chex.Array, std: tuple[float, float]
+) -> tuple[chex.Array, chex.Array]:
+    """The odometry pose: (pos f32[2], yaw f32[]) plus Gaussian noise of standard
+    deviations ``std`` = (position m, yaw rad)."""
+    k_pos, k_yaw = jax.random.split(key)
+    pos = pos + std[0] * jax.random.normal(k_pos, (2,))
+    yaw = yaw + std[1] * jax.random.normal(k_yaw)
+    return pos, yaw
+
+
+# ----------------------------------------------------------------------------
+# Observation (ROBOTIS state)
+# ----------------------------------------------------------------------------
+
+
+def goal_heading_distance(
+    pos: chex.Array, yaw: chex.Array, goal: chex.Array
+) -> tuple[chex.Array, chex.Array]:
+    """Heading delta f32[] (goal direction minus yaw, in [-pi, pi)) and distance f32[]
+    to the goal."""
+    rel = goal - pos
+    heading = wrap_angle(jnp.arctan2(rel[1], rel[0]) - yaw)
+    return heading, norm2(rel)
+
+
+def robotis_state(
+    ranges: chex.Array, heading: chex.Array, distance: chex.Array, obstacle_obs: bool
+) -> chex.Array:
+    """[ranges, heading, distance(, min range, argmin beam)]: f32[B + 2 (+ 2)]."""
+    parts = [ranges, heading[None], distance[None]]
+    if obstacle_obs:
+        parts += [jnp.min(ranges)[None], jnp.argmin(ranges).astype(jnp.float32)[None]]
+    return jnp.concatenate(parts).astype(jnp.float32)
+
+
+def observation(
+    key: chex.PRNGKey,
+    ranges: chex.Array,
+    pos: chex.Array,
+    yaw: chex.Array,
+    goal: chex.Array,
+    *,
+    noise_std,
+    min_range,
+    max_range,
+    dropout: float = 0.0,
+    odom_std: tuple[float, float] = (0.0, 0.0),
+    obstacle_obs: bool = False,
+) -> chex.Array:
+    """The ROBOTIS state seen from true ranges f32[B] at the true pose.
+
+    ``noise_std``, ``min_range`` and ``max_range`` may be data (traced);
+    ``dropout``, ``odom_std`` and ``obstacle_obs`` fix the computation.
+    """
+    if not (isinstance(noise_std, (int, float)) and noise_std == 0.0):  # no draw for a constant 0
+        ranges = range_noise(key, ranges, noise_std)
+    ranges = jnp.clip(ranges, min_range, max_range)
+    if dropout > 0.0:
+        ranges = beam_dropout(jax.random.fold_in(key, 1), ranges, dropout, max_range)
+    if odom_std != (0.0, 0.0):  # the goal is seen from the odometry pose
+        pos, yaw = odometry_noise(jax.random.fold_in(key, 2), pos, yaw, odom_std)
+    heading, distance = goal_heading_distance(pos, yaw, goal)
+    return robotis_state(ranges, heading, distance, obstacle_obs)
