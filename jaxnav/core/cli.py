@@ -8,8 +8,10 @@ file system) into one line on stderr and exit status 2, and Ctrl-C into 130.
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from collections.abc import Callable
+from pathlib import Path
 
 from jaxnav.core.errors import JaxnavError
 
@@ -27,6 +29,33 @@ class Parser(argparse.ArgumentParser):
 
     def error(self, message):
         self.exit(EXIT_ERROR, f"{command_name(self.prog)}: error: {message}\n")
+
+
+def add_overwrite(parser: argparse.ArgumentParser, what: str = "the output") -> None:
+    """The one ``--overwrite`` flag every command that writes results takes."""
+    parser.add_argument(
+        "--overwrite", action="store_true", help=f"replace {what} if it exists already"
+    )
+
+
+def check_output(path: str | os.PathLike, overwrite: bool, *, is_dir: bool = False) -> Path:
+    """Refuse, before any work starts, an output that cannot or may not be written.
+
+    ``path`` must not exist unless ``overwrite`` (then it must be of the right kind: a
+    file for a file output, a folder for a folder output), and its parent folder must
+    exist. Returns the path; raises :class:`JaxnavError` with one line otherwise.
+    """
+    path = Path(path)
+    kind = "folder" if is_dir else "file"
+    if path.exists():
+        if not overwrite:
+            raise JaxnavError(f"{path} exists already (--overwrite replaces it)")
+        if path.is_dir() != is_dir:
+            raise JaxnavError(f"{path} exists and is not a {kind}: choose another path")
+    parent = path.absolute().parent
+    if not parent.is_dir():
+        raise JaxnavError(f"cannot write {path}: the folder {parent} does not exist")
+    return path
 
 
 def os_error_text(e: OSError) -> str:
