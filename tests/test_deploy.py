@@ -372,7 +372,7 @@ def test_policy_inference_needs_only_numpy(runs, tmp_path):
     code = (
         "import importlib.util, math, sys\n"
         "sys.modules['jax'] = None  # any 'import jax' now fails\n"
-        f"path = {str(ROOT / 'jaxnav' / 'deploy.py')!r}\n"
+        f"path = {str(ROOT / 'jaxnav' / 'robot' / 'deploy.py')!r}\n"
         "spec = importlib.util.spec_from_file_location('deploy', path)\n"
         "m = importlib.util.module_from_spec(spec); spec.loader.exec_module(m)\n"
         f"p = m.Policy.load({str(out)!r})\n"
