@@ -35,7 +35,8 @@ from jaxnav.core.settings import PRESETS, env_setting_problem
 # paper compares the first two.
 STRATEGIES = ("ebe", "epsilon_greedy", "boltzmann")
 PAPER_STRATEGIES = ("ebe", "epsilon_greedy")
-CONFIG_DIR = Path(__file__).resolve().parent.parent / "configs"  # the project's configs
+# The shipped configs and maze files: package data, so they work from an installed wheel.
+CONFIG_DIR = Path(__file__).resolve().parent.parent / "configs"
 
 
 @dataclass(frozen=True)
@@ -451,20 +452,44 @@ def build_config(values: dict[str, Any]) -> Config:
     return cfg
 
 
+def shipped_path(path: str) -> str:
+    """``path`` if it exists, else the shipped file it names: ``configs/smoke.yaml`` or
+    ``configs/mazes/corridor.yaml`` resolve to the package's copy from any folder."""
+    if os.path.exists(path):
+        return path
+    rel = Path(path)
+    if rel.parts[:1] == ("configs",):
+        cand = CONFIG_DIR.joinpath(*rel.parts[1:])
+        if cand.is_file():
+            return str(cand)
+    return path
+
+
 def resolve_config_path(name: str) -> str:
-    """A config path, or a bare name of a file in the project's configs/."""
+    """A config path, a built-in config's name (``smoke``: ``configs/smoke.yaml``), or
+    a path under ``configs/`` from any folder; a missing one is returned unchanged."""
     if os.path.exists(name):
         return name
     for cand in (CONFIG_DIR / name, CONFIG_DIR / f"{name}.yaml"):
-        if cand.is_file():
+        if cand.is_file() and "/" not in name:
             return str(cand)
-    return name  # load_config reports it missing
+    return shipped_path(name)
+
+
+def builtin_configs() -> dict[str, str]:
+    """Each shipped config's name and the first line of its opening comment."""
+    out = {}
+    for path in sorted(CONFIG_DIR.glob("*.yaml")):
+        first = next((ln for ln in path.read_text().splitlines() if ln.startswith("#")), "#")
+        out[path.stem] = first.lstrip("# ").rstrip(" ,.:")
+    return out
 
 
 def load_config(path: str | None, overrides: list[str] = ()) -> Config:
     """Config from a YAML file (or the defaults if None) plus ``key=value`` overrides."""
     values: dict[str, Any] = {}
     if path is not None:
+        path = resolve_config_path(path)
         try:
             with open(path) as f:
                 doc = yaml.safe_load(f)

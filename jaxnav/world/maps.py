@@ -55,6 +55,7 @@ import jax.numpy as jnp
 import numpy as np
 from flax import struct
 
+from jaxnav.core.config import shipped_path
 from jaxnav.core.errors import MazeError
 
 # Geometry constants shared with the environment (robot and goal sampler).
@@ -299,15 +300,16 @@ def _builtin(name: str):
     raise KeyError(name)
 
 
-BUILTIN_MAZES = (
-    "square2",
-    "square4",
-    "square8",
-    "triangle",
-    "pentagon",
-    "square4_obstacles",
-    "pentagon_obstacles",
-)
+# The built-in mazes, each with what ``jaxnav list`` says of it.
+BUILTIN_MAZES = {
+    "square2": "square room of half square4's side (1.85 m free)",
+    "square4": "TurtleBot3 stage 1: square room, 3.7 m x 3.7 m free (the paper's training maze)",
+    "square8": "square room of twice square4's side (7.4 m free)",
+    "triangle": "equilateral triangle of square4's area",
+    "pentagon": "regular pentagon of square4's area",
+    "square4_obstacles": "TurtleBot3 stage 2: square4, four cylinders (r 0.15 m) at (+-0.6, +-0.6)",
+    "pentagon_obstacles": "pentagon with five cylinders (r 0.15 m) 0.85 m from the centre",
+}
 
 
 def _goal_grid(
@@ -547,7 +549,7 @@ def make_maze(name_or_path: str) -> Maze:
         outline, circles, polys, start = _builtin(name_or_path)
         return _build(outline, circles, polys, start, f"maze {name_or_path}")
     if os.path.splitext(name_or_path)[1] in (".yaml", ".yml") or os.path.exists(name_or_path):
-        return load_maze_file(name_or_path)
+        return load_maze_file(shipped_path(name_or_path))
     raise MazeError(
         f"unknown maze '{name_or_path}' (built-in: {', '.join(BUILTIN_MAZES)}; "
         "or a path to a .yaml maze file)"
