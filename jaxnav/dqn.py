@@ -10,15 +10,14 @@ Paper equations in one place each:
 
 * Q-network (Table 2): :class:`QNetwork`.
 * TD target ``y = r + gamma * max_b Q(s', b; theta^-)``, squared error: :func:`td_loss`.
-* EBE (Sec. 5): :func:`ebe`; epsilon-greedy baseline: :func:`epsilon_greedy`,
-  :func:`epsilon_schedule`; Boltzmann, EBE's control: :func:`boltzmann`. The trainer
-  acts through a strategy's entry in :data:`EXPLORATION` (:func:`explore_action`).
+* EBE (Sec. 5), epsilon-greedy and Boltzmann exploration: :mod:`jaxnav.agent.exploration`.
+  The trainer acts through the run's registered strategy
+  (:mod:`jaxnav.core.strategies`, :func:`jaxnav.agent.exploration.explore_action`).
 """
 
 from __future__ import annotations
 
 import functools
-import math
 from collections.abc import Callable
 from typing import NamedTuple
 
@@ -31,8 +30,10 @@ import optax
 from flax import struct
 
 from jaxnav.agent import replay
+from jaxnav.agent.exploration import explore_action
 from jaxnav.agent.replay import Buffer
-from jaxnav.core.config import STRATEGIES, Config, DQNConfig, ExplorationConfig
+from jaxnav.core import strategies as registry
+from jaxnav.core.config import Config, DQNConfig
 from jaxnav.env import EnvParams, EnvState, NavEnv, from_config
 
 # ----------------------------------------------------------------------------
@@ -75,120 +76,6 @@ def dropout16(key: chex.PRNGKey, x: chex.Array, rate) -> chex.Array:
     threshold = jnp.round(rate * 65536).astype(jnp.uint32)
     keep = halves.reshape(x.shape) >= threshold
     return jnp.where(keep, x / (1.0 - rate), 0.0)
-
-
-# ----------------------------------------------------------------------------
-# Exploration. A strategy is one pure function in the table EXPLORATION:
-# (key, q f32[A], episode i32[], config) -> (action i32[], exploration f32[]).
-# Adding one is that function and one line in the table (and its name in
-# jaxnav.core.config.STRATEGIES).
-# ----------------------------------------------------------------------------
-
-
-def normalised_entropy(q: chex.Array, temperature: float = 1.0) -> chex.Array:
-    """H(s) in [0, 1]: entropy of softmax((Q - max Q) / T), log base |A|.
-
-    Args:
-      q: f32[..., A] Q-values.
-    Returns:
-      f32[...] normalised entropy.
-    """
-    z = (q - jnp.max(q, axis=-1, keepdims=True)) / temperature
-    logp = jax.nn.log_softmax(z, axis=-1)
-    p = jnp.exp(logp)
-    h = -jnp.sum(p * logp, axis=-1) / math.log(q.shape[-1])
-    return jnp.clip(h, 0.0, 1.0)
-
-
-def epsilon_schedule(episode: chex.Array, start=1.0, decay=0.99, minimum=0.05) -> chex.Array:
-    """eps_i = max(decay * eps_{i-1}, minimum), eps_1 = start; ``episode`` counts from 0."""
-    return jnp.maximum(start * decay ** episode.astype(jnp.float32), minimum)
-
-
-def explore_or_greedy(key: chex.PRNGKey, q: chex.Array, prob: chex.Array) -> chex.Array:
-    """A uniformly random action with probability ``prob``, else argmax Q."""
-    k_coin, k_act = jax.random.split(key)
-    explore = jax.random.uniform(k_coin) < prob
-    random_action = jax.random.randint(k_act, (), 0, q.shape[-1])
-    return jnp.where(explore, random_action, jnp.argmax(q, axis=-1))
-
-
-def ebe(key: chex.PRNGKey, q: chex.Array, temperature: float = 1.0, power: float = 1.0):
-    """Entropy-based exploration: random action with probability H(s)^power, else greedy.
-
-    The paper's EBE is power 1; the EBE author's Breakout code raised H to a power.
-    Returns (action i32[], exploration probability f32[]).
-    """
-    h = normalised_entropy(q, temperature)
-    h = jnp.where(power == 1.0, h, h**power)  # power 1 is exactly the paper's H
-    return explore_or_greedy(key, q, h), h
-
-
-def epsilon_greedy(key: chex.PRNGKey, q: chex.Array, eps: chex.Array):
-    """Random action with probability eps, else greedy. Returns (action, eps)."""
-    return explore_or_greedy(key, q, eps), jnp.asarray(eps, jnp.float32)
-
-
-def boltzmann(key: chex.PRNGKey, q: chex.Array, temperature: float = 1.0):
-    """Boltzmann exploration: the action is sampled from softmax(Q / T), the softmax
-    EBE takes its entropy from (for EBE's control).
-
-    Returns (action i32[], the probability that the sampled action is not the greedy
-    one, 1 - max_a softmax(Q / T)_a, f32[]).
-    """
-    z = (q - jnp.max(q, axis=-1, keepdims=True)) / temperature
-    action = jax.random.categorical(key, z, axis=-1)
-    return action, 1.0 - jnp.max(jax.nn.softmax(z, axis=-1), axis=-1)
-
-
-def _ebe(key, q, episode, x: ExplorationConfig | Hyper):
-    del episode
-    return ebe(key, q, x.ebe_temperature, x.ebe_power)
-
-
-def _epsilon_greedy(key, q, episode, x: ExplorationConfig | Hyper):
-    return epsilon_greedy(key, q, epsilon_schedule(episode, x.eps_start, x.eps_decay, x.eps_min))
-
-
-def _boltzmann(key, q, episode, x: ExplorationConfig | Hyper):
-    del episode
-    return boltzmann(key, q, x.boltzmann_temperature)
-
-
-# Each strategy's act, (key, q f32[A], episode i32[], settings) -> (action i32[], f32[]),
-# in STRATEGIES order (an import-time KeyError if one is missing). The settings are an
-# ExplorationConfig or a run's Hyper (the same names, as data); jaxnav.core.sweep's
-# EXPLORATION_KEYS lists the ones each function reads.
-EXPLORATION: dict[str, Callable[..., tuple[chex.Array, chex.Array]]] = {
-    "ebe": _ebe,
-    "epsilon_greedy": _epsilon_greedy,
-    "boltzmann": _boltzmann,
-}
-EXPLORATION = {name: EXPLORATION[name] for name in STRATEGIES}
-
-
-def explore_action(
-    strategy: chex.Array,
-    key: chex.PRNGKey,
-    q: chex.Array,
-    episode: chex.Array,
-    x: ExplorationConfig | Hyper,
-    strategies: tuple[str, ...] = STRATEGIES,
-) -> tuple[chex.Array, chex.Array]:
-    """(action i32[], exploration f32[]) of strategy ``STRATEGIES[strategy]`` (i32[]).
-
-    Branchless: the act of every strategy in ``strategies`` (those a program can meet)
-    is computed from the same key and one is selected, so one compiled program serves
-    runs of several strategies under ``vmap``. The same key gives EBE and epsilon-greedy
-    the same coin and random action, so only the probability differs between them.
-    """
-    acts = [EXPLORATION[name](key, q, episode, x) for name in strategies]
-    if len(acts) == 1:
-        return acts[0]
-    position = jnp.asarray([strategies.index(s) if s in strategies else 0 for s in STRATEGIES])
-    i = position[strategy]
-    action = jax.lax.select_n(i, *[a.astype(jnp.int32) for a, _ in acts])
-    return action, jax.lax.select_n(i, *[jnp.asarray(p, jnp.float32) for _, p in acts])
 
 
 # ----------------------------------------------------------------------------
@@ -356,7 +243,7 @@ class TrainState:
     env_state: EnvState
     obs: chex.Array
     key: chex.PRNGKey
-    strategy: chex.Array  # i32[] index into STRATEGIES
+    strategy: chex.Array  # i32[] registered strategy number (jaxnav.core.strategies.index)
     hyper: Hyper  # the run's settings that are data (a sweep point's values)
     step: chex.Array  # i32[] env steps taken
     episode: chex.Array  # i32[] episodes finished
@@ -424,7 +311,7 @@ def make_trainer(config: Config) -> Trainer:
         with jax.named_scope("keys"):
             key, k_act, k_env, k_sample, k_drop = jax.random.split(ts.key, 5)
 
-        # ACT: the run's strategy explores (its index picks its entry in EXPLORATION).
+        # ACT: the run's strategy explores (its number picks its registered act).
         with jax.named_scope("act"):
             action, explore, q_finite, max_q = _act(network, config, ts, k_act)
 
@@ -623,7 +510,7 @@ class RunInputs(NamedTuple):
     """What ``Trainer.init`` takes, one entry per run along the leading axis."""
 
     keys: chex.Array  # u32[runs, 2]
-    strategy: chex.Array  # i32[runs] index into STRATEGIES
+    strategy: chex.Array  # i32[runs] registered strategy number (jaxnav.core.strategies.index)
     hyper: Hyper  # each field [runs]
 
 
@@ -638,7 +525,7 @@ def run_inputs(config: Config) -> RunInputs:
     seed_keys = np.asarray(jax.vmap(jax.random.PRNGKey)(jnp.asarray(seeds)))
     arms = config.arms()
     keys = np.concatenate([seed_keys] * len(arms))
-    strat = np.repeat(np.asarray([STRATEGIES.index(s) for s, _ in arms], np.int32), config.seeds)
+    strat = np.repeat(np.asarray([registry.index(s) for s, _ in arms], np.int32), config.seeds)
     hypers = [h for h in arm_hypers(config) for _ in range(config.seeds)]
     return RunInputs(keys, strat, stack(hypers))
 

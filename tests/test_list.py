@@ -1,6 +1,7 @@
 """The ``jaxnav`` console command, ``jaxnav list`` and the shipped configs."""
 
 import os
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -66,8 +67,13 @@ def test_a_wheel_runs_the_quick_start_from_an_empty_folder(tmp_path):
     """Built from the repository and installed elsewhere, the package finds its configs."""
     wheels, site, empty = tmp_path / "wheels", tmp_path / "site", tmp_path / "empty"
     empty.mkdir()
+    # A copy of the sources: building in the checkout would leave build/ there, whose
+    # stale modules a later wheel could pick up.
+    src = tmp_path / "src"
+    skip = (".venv*", ".git", "build", "runs", "*.egg-info", "__pycache__", ".*cache", ".hyp*")
+    shutil.copytree(ROOT, src, symlinks=True, ignore=shutil.ignore_patterns(*skip))
     pip = [sys.executable, "-m", "pip", "--disable-pip-version-check", "-q"]
-    subprocess.run([*pip, "wheel", "--no-deps", "-w", wheels, ROOT], check=True, timeout=300)
+    subprocess.run([*pip, "wheel", "--no-deps", "-w", wheels, src], check=True, timeout=300)
     (wheel,) = wheels.glob("jaxnav-*.whl")
     subprocess.run([*pip, "install", "--no-deps", "--target", site, wheel], check=True)
     assert (site / "jaxnav" / "configs" / "smoke.yaml").is_file()

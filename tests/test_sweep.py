@@ -10,8 +10,9 @@ import numpy as np
 import pytest
 
 from jaxnav import dqn
+from jaxnav.core import strategies as registry
 from jaxnav.core import sweep
-from jaxnav.core.config import STRATEGIES, load_config
+from jaxnav.core.config import load_config
 from jaxnav.core.errors import ConfigError
 from jaxnav.run.training import Run, resume, train_new
 
@@ -96,12 +97,12 @@ class _Reads:
         return getattr(load_config(None).exploration, name)
 
 
-@pytest.mark.parametrize("strategy", STRATEGIES)
+@pytest.mark.parametrize("strategy", registry.names())
 def test_each_strategy_reads_exactly_its_listed_settings(strategy):
     reads = _Reads()
     q = jnp.asarray([0.1, 0.5, 0.2, 0.0, 0.3])
-    dqn.EXPLORATION[strategy](jax.random.PRNGKey(0), q, jnp.int32(3), reads)
-    listed = {k.split(".", 1)[1] for k in sweep.EXPLORATION_KEYS[strategy]}
+    registry.get(strategy).function()(jax.random.PRNGKey(0), q, jnp.int32(3), reads)
+    listed = {k.split(".", 1)[1] for k in registry.get(strategy).keys}
     assert reads.read == listed
 
 

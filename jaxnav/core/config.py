@@ -27,13 +27,12 @@ from typing import Any
 
 import yaml
 
+from jaxnav.core import strategies as registry
 from jaxnav.core import sweep as sweeps
 from jaxnav.core.errors import ConfigError
 from jaxnav.core.settings import PRESETS, env_setting_problem
 
-# Every exploration strategy (jaxnav.dqn.EXPLORATION has one function each); the
-# paper compares the first two.
-STRATEGIES = ("ebe", "epsilon_greedy", "boltzmann")
+# The strategies the paper compares; jaxnav.core.strategies has every registered one.
 PAPER_STRATEGIES = ("ebe", "epsilon_greedy")
 # The shipped configs and maze files: package data, so they work from an installed wheel.
 CONFIG_DIR = Path(__file__).resolve().parent.parent / "configs"
@@ -133,7 +132,7 @@ class Config:
 
     def arms(self) -> list[tuple[str, sweeps.Point]]:
         """(strategy, sweep point) of each arm, strategy-major; a strategy's points
-        vary only the swept keys it reads (jaxnav.core.sweep.EXPLORATION_KEYS)."""
+        vary only the swept keys it reads (jaxnav.core.strategies)."""
         return [(s, p) for s in self.strategies for p in self.points(s)]
 
     def arm_names(self) -> list[str]:
@@ -376,9 +375,10 @@ def _check(cfg: Config) -> Config:
         problem = env_setting_problem(f.name, getattr(cfg.env, f.name))
         if problem:
             fail(f"env.{f.name}", problem)
+    known = registry.names()
     for s in cfg.strategies:
-        if s not in STRATEGIES:
-            fail("strategies", f"has unknown strategy {s!r} (choose from {', '.join(STRATEGIES)})")
+        if s not in known:
+            fail("strategies", f"has unknown strategy {s!r} (choose from {', '.join(known)})")
     if len(set(cfg.strategies)) != len(cfg.strategies):
         fail("strategies", "lists a strategy twice")
     if cfg.episodes is None and cfg.total_steps is None:

@@ -32,6 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from jaxnav.core import cli
+from jaxnav.core import strategies as registry
 from jaxnav.core.config import PAPER_STRATEGIES
 from jaxnav.core.errors import JaxnavError
 from jaxnav.core.rundir import atomic_write_text
@@ -48,7 +49,7 @@ from jaxnav.experiments.reproduce import (
 from jaxnav.report import stats
 from jaxnav.report.claims import CLAIMS, OTHER, Claim, claim_scores, judge
 from jaxnav.report.paper import PAPER_TABLES
-from jaxnav.report.results import MODE_NAMES, STRATEGY_NAMES
+from jaxnav.report.results import MODE_NAMES
 
 # name -> (what it changes, config overrides). The first is the reference.
 VARIANTS: dict[str, tuple[str, tuple[str, ...]]] = {
@@ -215,7 +216,7 @@ def ablation_markdown(rows: list[dict[str, str]], quick: bool = False) -> str:
                 "",
                 "| variant | "
                 + " | ".join(
-                    f"{STRATEGY_NAMES[s]} (paper {sel[[r[3] for r in sel].index(s)][5]:.0f})"
+                    f"{registry.label(s)} (paper {sel[[r[3] for r in sel].index(s)][5]:.0f})"
                     for s in PAPER_STRATEGIES
                 )
                 + " | ratio EBE | ratio epsilon-greedy |",

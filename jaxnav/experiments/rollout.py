@@ -20,8 +20,9 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from jaxnav.agent.exploration import explore_action
 from jaxnav.agent.sharding import RunSharding
-from jaxnav.dqn import Hyper, QNetwork, explore_action
+from jaxnav.dqn import Hyper, QNetwork
 from jaxnav.env import EnvParams, NavEnv
 from jaxnav.world.maps import MAX_GOAL_POINTS, Maze, make_maze, pad_maze
 
@@ -40,7 +41,7 @@ class Policies(NamedTuple):
     env: NavEnv  # the training env (static settings)
     env_params: EnvParams  # the training env's params
     network: QNetwork
-    strategy: np.ndarray  # i32[policies] index into STRATEGIES
+    strategy: np.ndarray  # i32[policies] registered strategy number
     hyper: Hyper  # each policy's settings in training (a sweep point's), [policies]
     episodes_trained: int  # episodes each policy trained for (epsilon's last value)
 
@@ -92,7 +93,7 @@ def make_rollout(
     Greedy (``exploring`` None): dropout off, action = argmax Q. Exploring
     (``exploring`` = the episodes trained): each strategy explores
     as at the end of its training, through the trainer's own
-    :func:`jaxnav.dqn.explore_action` (EBE with probability H(s), epsilon-greedy with
+    :func:`jaxnav.agent.exploration.explore_action` (EBE with probability H(s), epsilon-greedy with
     the schedule's last epsilon, Boltzmann sampling softmax(Q / T)); the environment's
     keys are the greedy test's, so both modes start from the same goals.
     """
