@@ -57,6 +57,15 @@ from flax import struct
 
 from jaxnav.core.config import shipped_path
 from jaxnav.core.errors import MazeError
+from jaxnav.world.polygons import (
+    centroid,
+    clearance,
+    points_in_polygon,
+    polygon_segments,
+    segments_intersect,
+    self_intersecting,
+    signed_area,
+)
 
 # Geometry constants shared with the environment (robot and goal sampler).
 ROBOT_RADIUS = 0.13  # m, ROBOTIS collision threshold
@@ -145,105 +154,6 @@ class Maze:
     def has_obstacles(self) -> bool:
         """True if the maze has anything inside its outline (ROBOTIS stage 2 layout)."""
         return bool(np.asarray(self.n_obstacles).max() > 0)
-
-
-# ----------------------------------------------------------------------------
-# Geometry helpers (NumPy, host side)
-# ----------------------------------------------------------------------------
-
-
-def _polygon_segments(poly: np.ndarray) -> np.ndarray:
-    """Closed polygon vertices (N, 2), without the repeated last point -> (N, 4)."""
-    return np.concatenate([poly, np.roll(poly, -1, axis=0)], axis=1)
-
-
-def _signed_area(poly: np.ndarray) -> float:
-    x, y = poly[:, 0], poly[:, 1]
-    return 0.5 * float(np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y))
-
-
-def _centroid(poly: np.ndarray) -> np.ndarray:
-    x, y = poly[:, 0], poly[:, 1]
-    cross = x * np.roll(y, -1) - np.roll(x, -1) * y
-    a = 0.5 * cross.sum()
-    cx = ((x + np.roll(x, -1)) * cross).sum() / (6 * a)
-    cy = ((y + np.roll(y, -1)) * cross).sum() / (6 * a)
-    return np.array([cx, cy])
-
-
-def _segments_intersect(p1, p2, q1, q2, eps: float = 1e-12) -> bool:
-    """Closed segments p1p2 and q1q2 share a point."""
-
-    def orient(a, b, c):
-        v = (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
-        return 0 if abs(v) < eps else (1 if v > 0 else -1)
-
-    def on_seg(a, b, c):
-        return (
-            min(a[0], b[0]) - eps <= c[0] <= max(a[0], b[0]) + eps
-            and min(a[1], b[1]) - eps <= c[1] <= max(a[1], b[1]) + eps
-        )
-
-    o1, o2 = orient(p1, p2, q1), orient(p1, p2, q2)
-    o3, o4 = orient(q1, q2, p1), orient(q1, q2, p2)
-    if o1 != o2 and o3 != o4:
-        return True
-    return (
-        (o1 == 0 and on_seg(p1, p2, q1))
-        or (o2 == 0 and on_seg(p1, p2, q2))
-        or (o3 == 0 and on_seg(q1, q2, p1))
-        or (o4 == 0 and on_seg(q1, q2, p2))
-    )
-
-
-def _self_intersecting(poly: np.ndarray) -> bool:
-    n = len(poly)
-    for i in range(n):
-        a1, a2 = poly[i], poly[(i + 1) % n]
-        for j in range(i + 1, n):
-            if j == i or (j + 1) % n == i or (i + 1) % n == j:
-                continue  # adjacent edges share a vertex
-            if _segments_intersect(a1, a2, poly[j], poly[(j + 1) % n]):
-                return True
-    return False
-
-
-def point_segment_distance(p: np.ndarray, seg: np.ndarray) -> np.ndarray:
-    """Distances from points p (N, 2) to segments seg (S, 4) -> (N, S)."""
-    p = np.asarray(p, np.float64)[:, None, :]
-    a = seg[None, :, :2].astype(np.float64)
-    b = seg[None, :, 2:].astype(np.float64)
-    ab = b - a
-    denom = np.maximum((ab**2).sum(-1), 1e-18)
-    t = np.clip(((p - a) * ab).sum(-1) / denom, 0.0, 1.0)
-    closest = a + t[..., None] * ab
-    return np.linalg.norm(p - closest, axis=-1)
-
-
-def points_in_polygon(p: np.ndarray, poly: np.ndarray) -> np.ndarray:
-    """Even-odd rule: which of the points p (N, 2) lie inside polygon (M, 2)."""
-    x, y = p[:, 0:1], p[:, 1:2]
-    x1, y1 = poly[None, :, 0], poly[None, :, 1]
-    x2, y2 = np.roll(poly[:, 0], -1)[None], np.roll(poly[:, 1], -1)[None]
-    crosses = (y1 > y) != (y2 > y)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        xint = x1 + (y - y1) * (x2 - x1) / (y2 - y1)
-    return (crosses & (x < xint)).sum(axis=1) % 2 == 1
-
-
-def clearance(
-    points: np.ndarray,
-    segments: np.ndarray,
-    circles: np.ndarray,
-) -> np.ndarray:
-    """Distance from each point (N, 2) to the nearest wall or obstacle surface."""
-    d = np.full(len(points), np.inf)
-    if len(segments):
-        d = np.minimum(d, point_segment_distance(points, segments).min(axis=1))
-    if len(circles):
-        dc = np.linalg.norm(points[:, None, :] - circles[None, :, :2], axis=-1)
-        d = np.minimum(d, (dc - circles[None, :, 2]).min(axis=1))
-    return d
 
 
 # ----------------------------------------------------------------------------
@@ -369,7 +279,7 @@ def _build(
     start: np.ndarray,
     where: str,
 ) -> Maze:
-    segs = [_polygon_segments(outline)] + [_polygon_segments(p) for p in polygons]
+    segs = [polygon_segments(outline)] + [polygon_segments(p) for p in polygons]
     segments = np.concatenate(segs, axis=0)
     goals = _goal_grid(outline, segments, circles, polygons, start)
     if len(goals) < MIN_GOAL_POINTS:
@@ -425,9 +335,9 @@ def _closed_polygon(value, what: str, where: str) -> np.ndarray:
     poly = pts[:-1]
     if np.any(np.linalg.norm(np.diff(np.vstack([poly, poly[:1]]), axis=0), axis=1) < 1e-9):
         raise MazeError(f"{where}: {what} has a repeated vertex")
-    if abs(_signed_area(poly)) < 1e-9:
+    if abs(signed_area(poly)) < 1e-9:
         raise MazeError(f"{where}: {what} encloses no area")
-    if _self_intersecting(poly):
+    if self_intersecting(poly):
         raise MazeError(f"{where}: {what} is self-intersecting")
     return poly
 
@@ -439,9 +349,7 @@ def load_maze_file(path: str) -> Maze:
     outline = _closed_polygon(doc["outline"], "outline", where)
     circles, polygons = _obstacles(doc.get("obstacles") or [], outline, where)
     circles_arr = np.asarray(circles).reshape(-1, 3)
-    segments = np.concatenate(
-        [_polygon_segments(outline)] + [_polygon_segments(p) for p in polygons]
-    )
+    segments = np.concatenate([polygon_segments(outline)] + [polygon_segments(p) for p in polygons])
     start = _start_pose(doc, outline, polygons, segments, circles_arr, where)
     return _build(outline, circles_arr, polygons, start, where)
 
@@ -501,16 +409,16 @@ def _obstacles(obstacles, outline: np.ndarray, where: str):
                 raise MazeError(f"{where}: {what} circle must be [x, y, r] with r > 0")
             if (
                 not points_in_polygon(c[None, :2], outline)[0]
-                or clearance(c[None, :2], _polygon_segments(outline), np.zeros((0, 3)))[0] < c[2]
+                or clearance(c[None, :2], polygon_segments(outline), np.zeros((0, 3)))[0] < c[2]
             ):
                 raise MazeError(f"{where}: {what} is not inside the outline")
             circles.append(c)
         else:
             poly = _closed_polygon(val, what, where)
             if not points_in_polygon(poly, outline).all() or any(
-                _segments_intersect(a[:2], a[2:], b[:2], b[2:])
-                for a in _polygon_segments(poly)
-                for b in _polygon_segments(outline)
+                segments_intersect(a[:2], a[2:], b[:2], b[2:])
+                for a in polygon_segments(poly)
+                for b in polygon_segments(outline)
             ):
                 raise MazeError(f"{where}: {what} is not inside the outline")
             polygons.append(poly)
@@ -528,7 +436,7 @@ def _start_pose(doc, outline, polygons, segments, circles, where: str) -> np.nda
         if start.shape != (3,) or not np.isfinite(start).all():
             raise MazeError(f"{where}: start must be [x, y, yaw]")
     else:
-        c = _centroid(outline)
+        c = centroid(outline)
         start = np.array([c[0], c[1], 0.0])
     inside = points_in_polygon(start[None, :2], outline)[0] and not any(
         points_in_polygon(start[None, :2], p)[0] for p in polygons
