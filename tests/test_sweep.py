@@ -349,10 +349,10 @@ def test_the_committed_temperature_studies_are_computed_from_their_results(name,
     results = gzip.decompress(packed).decode()
     text = doc.read_text()
     assert "\n".join(sweep_markdown(results, seed)) in text
-    # What the README says of the studies is their own words.
-    readme = (root / "README.md").read_text()
+    # What docs/studies.md says of the studies is their own words.
+    page = (root / "docs" / "studies.md").read_text()
     begin, end = f"<!-- {name} study: begin -->", f"<!-- {name} study: end -->"
-    quoted = readme[readme.index(begin) + len(begin) : readme.index(end)].strip().splitlines()
+    quoted = page[page.index(begin) + len(begin) : page.index(end)].strip().splitlines()
     assert quoted
     for line in (q for q in quoted if q.startswith("- ")):
         assert line in text, line
