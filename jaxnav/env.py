@@ -18,7 +18,7 @@ What is simulated (numbers from the spec):
   can cross a wall unnoticed.
 
 ROBOTIS' own simulation differs from this in four ways, each a switch of
-:class:`NavEnv`, off by default (spec.md, "ROBOTIS' code in detail"):
+:class:`NavEnv`, off by default (docs/paper.md, "ROBOTIS' code in detail"):
 ``collision="lidar"``, ``goal_sampler="robotis"``, ``beam_layout="gazebo"`` and
 ``action_delay=True``. ``ROBOTIS_SWITCHES`` lists them with their ROBOTIS values.
 * Goals: reaching within 0.2 m pays R+ and draws a new goal, the episode goes on; a
@@ -135,7 +135,7 @@ class NavEnv:
         obstacle radii keep their size. (1, 1) is off.
     Range noise is ``EnvParams.lidar_noise_std``.
 
-    ROBOTIS-faithful switches (spec.md; all off by default and in both presets):
+    ROBOTIS-faithful switches (docs/paper.md; all off by default and in both presets):
       collision: "disc" (the exact 0.13 m disc along the step's arc) or "lidar"
         (ROBOTIS: the episode ends when the smallest observed beam reads below
         0.13 m, so a wall between beams can be missed; touching a surface with the

@@ -59,3 +59,22 @@ def test_a_preset_sets_the_training_constants_of_one_table():
     )
     paper = load_config(None)
     assert (paper.episodes, paper.dqn.gamma) == (PRESETS["paper"].episodes, PRESETS["paper"].gamma)
+
+
+@pytest.mark.parametrize("key", ["batch_size", "learning_starts"])
+def test_a_batch_or_start_larger_than_the_replay_memory_is_refused(key):
+    # smoke: 40 episodes of 200 steps, so a run's replay memory holds 8000 transitions
+    with pytest.raises(ConfigError, match=rf"dqn.{key} \(8001\) is larger than the replay"):
+        load_config("smoke", [f"dqn.{key}=8001"])
+    assert getattr(load_config("smoke", [f"dqn.{key}=8000"]).dqn, key) == 8000
+
+
+@pytest.mark.parametrize("overrides", [[], ["env.maze=square4_obstacles", "env.n_beams=360"]])
+def test_memory_estimate_bounds_the_replay_buffers_within_ten_percent(overrides):
+    from jaxnav.agent.replay import nbytes
+    from jaxnav.env import from_config
+
+    cfg = load_config("smoke", ["seeds=3", *overrides])
+    env, params = from_config(cfg)
+    real = cfg.n_runs * nbytes(cfg.buffer_capacity, env.obs_size, int(params.max_steps))
+    assert real <= cfg.memory_estimate() <= 1.1 * real

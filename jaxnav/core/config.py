@@ -44,7 +44,7 @@ class EnvConfig:
     n_beams: int = 24
     max_steps: int = 500  # an episode is truncated after this many steps
     lidar_noise_std: float = 0.0  # m; 0.01 reproduces Gazebo's range noise
-    # Reward constants; null takes them from the preset (spec.md).
+    # Reward constants; null takes them from the preset (docs/paper.md, "Reward").
     R_plus: float | None = None
     R_minus: float | None = None
     reward_span: float | None = None
@@ -187,6 +187,14 @@ class Config:
     @property
     def buffer_capacity(self) -> int:
         return min(self.dqn.buffer_size, self.max_total_steps)
+
+    def memory_estimate(self) -> int:
+        """Bytes the runs' replay memories will take, an upper bound within 10% (for
+        24 beams; jaxnav.agent.replay stores per slot an f32 observation of at most
+        n_beams + 4 values, and 11 bytes of action, reward, flags and ring index);
+        the networks and the environment are small beside it."""
+        per_slot = 4 * (self.env.n_beams + 4) + 11
+        return self.n_runs * self.buffer_capacity * per_slot
 
     def env_kwargs(self) -> dict[str, Any]:
         """The environment's settings as ``jaxnav.env.make`` keywords (besides the maze
@@ -383,6 +391,15 @@ def _check(cfg: Config) -> Config:
         fail("strategies", "lists a strategy twice")
     if cfg.episodes is None and cfg.total_steps is None:
         fail("episodes", "and total_steps cannot both be null")
+    capacity = cfg.buffer_capacity
+    for name in ("batch_size", "learning_starts"):
+        if getattr(cfg.dqn, name) > capacity:
+            fail(
+                f"dqn.{name}",
+                f"({getattr(cfg.dqn, name)}) is larger than the replay memory, {capacity} "
+                "transitions (the smaller of dqn.buffer_size and the most steps a run "
+                "takes): it would never learn",
+            )
     if cfg.dqn.target_update not in ("periodic", "episode_end"):
         fail(
             "dqn.target_update",

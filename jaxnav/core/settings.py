@@ -2,7 +2,7 @@
 setting checked by one rule.
 
 A preset is the set of constants that differ between the paper's text and
-ROBOTIS' code (spec.md): training length, discount, target-network rule and the
+ROBOTIS' code (docs/paper.md): training length, discount, target-network rule and the
 reward. ``jaxnav.core.config`` applies a preset's training constants as config
 defaults; ``jaxnav.env.make`` takes its reward constants. The environment's
 settings that a config can set are checked here, by the same rule for a YAML
@@ -20,7 +20,7 @@ from typing import Any
 
 @dataclass(frozen=True)
 class Preset:
-    """Constants of one preset (spec.md, tables "Reward" and "DQN")."""
+    """Constants of one preset (docs/paper.md, "Reward" and "DQN")."""
 
     episodes: int
     gamma: float

@@ -187,7 +187,7 @@ def ablation_markdown(rows: list[dict[str, str]], quick: bool = False) -> str:
         "",
         f"{'/'.join(map(str, seeds))} seeds per strategy and variant; every variant trains "
         "and tests both of the paper's experiments with the paper's config plus its "
-        'switches (spec.md, "ROBOTIS\' code in detail"; `jaxnav.env.NavEnv`).',
+        'switches (docs/paper.md, "ROBOTIS\' code in detail"; `jaxnav.env.NavEnv`).',
         "",
     ]
     if quick:
