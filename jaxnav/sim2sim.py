@@ -1,10 +1,11 @@
-"""``python -m jaxnav.sim2sim RUN_DIR [--mazes M ...] [--episodes N] [--seeds K ...] [--out FILE]``
+"""``python -m jaxnav.sim2sim RUN_DIR [--mazes M ...] [--episodes N] [--seeds K ...]``
 
 A run's exported policies driving a TurtleBot3 burger in MuJoCo physics, beside
 jaxnav's own test of the same policies: a per-seed CSV and a markdown table of the
-gap. The work is :func:`jaxnav.experiments.sim2sim.sim2sim`; ``--help`` lists the
-options. Needs MuJoCo (optional extra ``sim``); without it, the command says how to
-install it.
+gap, in RUN_DIR/sim2sim/ or at ``--out FILE`` (an existing FILE or its table is
+refused unless ``--overwrite``). The work is :func:`jaxnav.experiments.sim2sim.sim2sim`;
+``--help`` lists the options. Needs MuJoCo (optional extra ``sim``); without it, the
+command says how to install it.
 """
 
 import sys
@@ -54,12 +55,20 @@ def main(argv: list[str] | None = None) -> int:
         metavar="SIGMA",
         help=f"Gaussian range noise of the MuJoCo LiDAR in m (default {LIDAR_NOISE_STD})",
     )
+    cli.add_overwrite(p, "the --out FILE and its table")
     args = p.parse_args(argv)
 
     def work() -> None:
         say = lambda line: print(line, file=sys.stderr, flush=True)
         csv_path, md = sim2sim(
-            args.run_dir, args.mazes, args.episodes, args.seeds, args.out, args.lidar_noise, say
+            args.run_dir,
+            args.mazes,
+            args.episodes,
+            args.seeds,
+            args.out,
+            args.lidar_noise,
+            say,
+            overwrite=args.overwrite,
         )
         print(f"wrote {csv_path} and {md}")
 

@@ -286,6 +286,52 @@ def test_bad_input_is_one_line_and_exit_2(run, tmp_path, capsys, argv, words):
     assert words in err
 
 
+def test_an_existing_out_is_refused_before_any_work_unless_overwrite(
+    run, tmp_path, capsys, monkeypatch
+):
+    """--out FILE: an existing FILE or FILE's .md table is refused, untouched, before
+    anything is simulated; --overwrite replaces both."""
+    from jaxnav.experiments import sim2sim as pipeline
+
+    def simulate(*args, **kwargs):
+        raise AssertionError("simulated before the output was checked")
+
+    monkeypatch.setattr(pipeline, "jaxnav_results", simulate)
+    monkeypatch.setattr(pipeline, "mujoco_results", simulate)
+    _, run_dir = run
+    out = tmp_path / "gap.csv"
+    argv = [
+        str(run_dir),
+        "--mazes",
+        "square2",
+        "--episodes",
+        "1",
+        "--seeds",
+        "0",
+        "--out",
+        str(out),
+    ]
+    for existing in (out, out.with_suffix(".md")):
+        existing.write_text("earlier\n")
+        assert sim2sim.main(argv) == 2
+        err = capsys.readouterr().err
+        assert (
+            err == f"jaxnav.sim2sim: error: {existing} exists already (--overwrite replaces it)\n"
+        )
+        assert existing.read_text() == "earlier\n"
+        existing.unlink()
+
+    one = mujoco_rollout.Episodes(np.ones(1), np.zeros(1), np.zeros(1, bool), np.full(1, 60))
+    results = {("square2", s, 0): one for s in ("ebe", "epsilon_greedy")}
+    monkeypatch.setattr(pipeline, "jaxnav_results", lambda *args: (results, "stub"))
+    monkeypatch.setattr(pipeline, "mujoco_results", lambda *args, **kwargs: results)
+    out.write_text("earlier\n")
+    out.with_suffix(".md").write_text("earlier\n")
+    assert sim2sim.main([*argv, "--overwrite"]) == 0
+    assert tuple(next(csv.reader(out.open()))) == SUMMARY_COLUMNS
+    assert out.with_suffix(".md").read_text().startswith("# Sim-to-sim gap of ")
+
+
 def test_the_reproduction_adds_the_sim_to_sim_gap_of_its_first_seeds(run, tmp_path):
     from jaxnav.experiments import reproduce
 

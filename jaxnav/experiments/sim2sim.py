@@ -33,7 +33,7 @@ from pathlib import Path
 
 import numpy as np
 
-from jaxnav.core import rundir
+from jaxnav.core import cli, rundir
 from jaxnav.core.config import Config, load_config
 from jaxnav.core.errors import JaxnavError
 from jaxnav.env import from_config
@@ -197,9 +197,12 @@ def sim2sim(
     out: str | Path | None = None,
     noise_std: float = LIDAR_NOISE_STD,
     progress=None,
+    overwrite: bool = False,
 ) -> tuple[Path, Path]:
     """Test a run's policies in MuJoCo and in jaxnav; write the CSV and its table.
 
+    An ``out`` CSV or its .md table that exists already is refused before any work
+    unless ``overwrite``; the default output, in the run directory, is replaced.
     Returns the paths of the CSV and of the markdown table.
     """
     mujoco = mujoco_module()  # before any work: say at once if MuJoCo is missing
@@ -216,11 +219,14 @@ def sim2sim(
         make_maze(name)  # a bad maze fails before any simulation
     n_episodes = cfg.run.test_episodes if n_episodes is None else n_episodes
     labels = policy_labels(run_dir, cfg, seeds)
-    out = Path(out) if out is not None else run_dir / "sim2sim" / "sim2sim.csv"
+    given = out is not None
+    out = Path(out) if given else run_dir / "sim2sim" / "sim2sim.csv"
+    md = out.with_suffix(".md")
     if out.parent == run_dir / "sim2sim":
         out.parent.mkdir(exist_ok=True)
-    if not out.parent.is_dir():
-        raise JaxnavError(f"cannot write {out}: directory {out.parent} does not exist")
+    if given:
+        for path in (out, md):
+            cli.check_output(path, overwrite)
     jx, source = jaxnav_results(run_dir, names, labels)
     mj = mujoco_results(run_dir, cfg, names, labels, n_episodes, noise_std, progress=progress)
     text = rundir.csv_text(
@@ -231,7 +237,6 @@ def sim2sim(
         f"\njaxnav: {source}. MuJoCo {mujoco.__version__}: physics step {TIMESTEP} s, "
         f"LiDAR noise sigma {noise_std} m, {N_RAYS} rays.\n"
     )
-    md = out.with_suffix(".md")
     rundir.atomic_write_text(out, text)
     rundir.atomic_write_text(md, table)
     return out, md
