@@ -190,11 +190,14 @@ class Config:
 
     def memory_estimate(self) -> int:
         """Bytes the runs' replay memories will take, an upper bound within 10% (for
-        24 beams; jaxnav.agent.replay stores per slot an f32 observation of at most
-        n_beams + 4 values, and 11 bytes of action, reward, flags and ring index);
-        the networks and the environment are small beside it."""
-        per_slot = 4 * (self.env.n_beams + 4) + 11
-        return self.n_runs * self.buffer_capacity * per_slot
+        24 beams), before anything is allocated: jaxnav.agent.replay keeps per slot
+        an f32 observation of at most n_beams + 4 values and 11 bytes of action,
+        reward, flags and ring index, and a ring of capacity // max_steps + 2 final
+        observations; the networks and the environment are small beside it."""
+        obs = 4 * (self.env.n_beams + 4)
+        capacity = self.buffer_capacity
+        ring = capacity // self.env.max_steps + 3  # the final-observation ring and tail
+        return self.n_runs * (capacity * (obs + 11) + ring * obs)
 
     def env_kwargs(self) -> dict[str, Any]:
         """The environment's settings as ``jaxnav.env.make`` keywords (besides the maze
