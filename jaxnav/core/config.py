@@ -197,7 +197,7 @@ class Config:
         obs = 4 * (self.env.n_beams + 4)
         capacity = self.buffer_capacity
         ring = capacity // self.env.max_steps + 3  # the final-observation ring and tail
-        return self.n_runs * (capacity * (obs + 11) + ring * obs)
+        return self.n_runs * (capacity * (obs + 11) + ring * obs + 12)  # + 3 i32 counters
 
     def env_kwargs(self) -> dict[str, Any]:
         """The environment's settings as ``jaxnav.env.make`` keywords (besides the maze
