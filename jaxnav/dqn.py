@@ -86,7 +86,7 @@ def dropout16(key: chex.PRNGKey, x: chex.Array, rate) -> chex.Array:
 @struct.dataclass
 class Hyper:
     """A run's settings that are data in the compiled step, one field per key of
-    :data:`jaxnav.core.sweep.SWEEPABLE` (its last component), each a scalar per run.
+    :data:`jaxnav.core.config.SWEEPABLE` (its last component), each a scalar per run.
 
     Every run carries them, with or without a sweep, so the runs of a sweep and a run
     without one are the same program (PureJaxRL's hyperparameters-as-data). The

@@ -42,7 +42,8 @@ import jax.numpy as jnp
 import numpy as np
 from flax import struct
 
-from jaxnav.core.settings import PRESETS, env_setting_problem
+from jaxnav.core.config import env_setting_problem
+from jaxnav.core.settings import PRESETS
 from jaxnav.world import sensor
 from jaxnav.world.geometry import (
     displacement,
@@ -166,7 +167,7 @@ class NavEnv:
     action_delay: bool = False
 
     def __post_init__(self):
-        for f in dataclasses.fields(self):  # the rules of jaxnav.core.settings, as for a config
+        for f in dataclasses.fields(self):  # the rules of the config's env settings
             problem = env_setting_problem(f.name, getattr(self, f.name))
             if problem:
                 raise ValueError(f"{f.name} {problem}")

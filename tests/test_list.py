@@ -10,9 +10,8 @@ import pytest
 
 from jaxnav.__main__ import COMMANDS
 from jaxnav.__main__ import main as jaxnav_main
-from jaxnav.core.config import FIELD_TYPES, builtin_configs, load_config
-from jaxnav.core.sweep import SWEEPABLE
-from jaxnav.list import catalog
+from jaxnav.core.config import FIELD_TYPES, SETTINGS, SWEEPABLE, builtin_configs, load_config
+from jaxnav.list import catalog, settings_markdown
 from jaxnav.world.maps import BUILTIN_MAZES, make_maze
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -101,3 +100,10 @@ def test_a_wheel_runs_the_quick_start_from_an_empty_folder(tmp_path):
         )
         assert run.returncode == 0, run.stderr
         assert (out / "metrics.csv").is_file()
+
+
+def test_the_settings_page_is_generated_from_the_declarations():
+    page = (ROOT / "docs" / "settings.md").read_text()
+    assert page == settings_markdown(), "regenerate: jaxnav list --markdown > docs/settings.md"
+    for key, s in SETTINGS.items():
+        assert f"| `{key}` |" in page and s.help in page

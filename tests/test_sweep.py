@@ -12,7 +12,7 @@ import pytest
 from jaxnav import dqn
 from jaxnav.core import strategies as registry
 from jaxnav.core import sweep
-from jaxnav.core.config import load_config
+from jaxnav.core.config import SWEEPABLE, load_config
 from jaxnav.core.errors import ConfigError
 from jaxnav.run.training import Run, resume, train_new
 
@@ -108,7 +108,7 @@ def test_each_strategy_reads_exactly_its_listed_settings(strategy):
 
 def test_every_sweepable_key_is_one_field_of_the_run_settings():
     fields = {f.name for f in dataclasses.fields(dqn.Hyper)}
-    assert {k.rsplit(".", 1)[1] for k in sweep.SWEEPABLE} == fields
+    assert {k.rsplit(".", 1)[1] for k in SWEEPABLE} == fields
 
 
 @pytest.mark.parametrize(

@@ -23,42 +23,8 @@ from typing import Any
 
 from jaxnav.core import strategies as registry
 
-# Settings carried as data in the compiled step (jaxnav.dqn.Hyper has one field each).
-SWEEPABLE = (
-    "dqn.gamma",
-    "dqn.lr",
-    "dqn.rms_decay",
-    "dqn.rms_eps",
-    "dqn.dropout",
-    "dqn.target_update_every",
-    "dqn.learning_starts",
-    "exploration.ebe_temperature",
-    "exploration.ebe_power",
-    "exploration.boltzmann_temperature",
-    "exploration.eps_start",
-    "exploration.eps_decay",
-    "exploration.eps_min",
-    "env.lidar_noise_std",
-    "env.R_plus",
-    "env.R_minus",
-    "env.reward_span",
-)
-
-
 # A sweep point: ((dotted key, value), ...) in the sweep's key order; () without a sweep.
 Point = tuple[tuple[str, Any], ...]
-
-
-def refusal(key: str) -> str | None:
-    """Why ``key`` cannot be swept, or None if it can."""
-    if key in SWEEPABLE:
-        return None
-    if key in ("seed", "seeds", "strategies", "preset"):
-        return f"sweep.{key} is not a sweep key: set {key} itself"
-    return (
-        f"sweep.{key} cannot be swept: it changes array shapes or the compiled program "
-        "(run one config per value; sweepable keys are listed in jaxnav.core.sweep.SWEEPABLE)"
-    )
 
 
 def applies(key: str, strategy: str | None) -> bool:
