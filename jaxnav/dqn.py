@@ -30,6 +30,7 @@ import optax
 from flax import struct
 
 from jaxnav.agent import replay
+from jaxnav.agent.episodes import Episodes
 from jaxnav.agent.exploration import explore_action
 from jaxnav.agent.replay import Buffer
 from jaxnav.core import strategies as registry
@@ -206,35 +207,6 @@ def run_limits(config: Config) -> tuple[int, int]:
 
 
 @struct.dataclass
-class Metrics:
-    """Per-episode metrics (a ring of ``slots`` episodes) and running sums."""
-
-    ep_return: chex.Array  # f32[slots]
-    ep_length: chex.Array  # i32[slots]
-    ep_goals: chex.Array  # i32[slots]
-    ep_collided: chex.Array  # bool[slots]
-    ep_explore: chex.Array  # f32[slots] mean H or eps over the episode
-    cur_return: chex.Array  # f32[]
-    cur_length: chex.Array  # i32[]
-    cur_goals: chex.Array  # i32[]
-    cur_explore: chex.Array  # f32[] sum over the episode
-
-    @classmethod
-    def zeros(cls, slots: int) -> Metrics:
-        return cls(
-            ep_return=jnp.zeros(slots, jnp.float32),
-            ep_length=jnp.zeros(slots, jnp.int32),
-            ep_goals=jnp.zeros(slots, jnp.int32),
-            ep_collided=jnp.zeros(slots, bool),
-            ep_explore=jnp.zeros(slots, jnp.float32),
-            cur_return=jnp.zeros((), jnp.float32),
-            cur_length=jnp.zeros((), jnp.int32),
-            cur_goals=jnp.zeros((), jnp.int32),
-            cur_explore=jnp.zeros((), jnp.float32),
-        )
-
-
-@struct.dataclass
 class TrainState:
     params: chex.ArrayTree
     target_params: chex.ArrayTree
@@ -247,7 +219,7 @@ class TrainState:
     hyper: Hyper  # the run's settings that are data (a sweep point's values)
     step: chex.Array  # i32[] env steps taken
     episode: chex.Array  # i32[] episodes finished
-    metrics: Metrics
+    metrics: Episodes  # the run's finished episodes and the one being played
     # i32[] the env step at which the run's loss, Q-values or new parameters were first
     # not finite; -1 while all are. A diverged run is frozen with its last finite
     # parameters (the update that would have broken them is not applied).
@@ -342,7 +314,8 @@ def make_trainer(config: Config) -> Trainer:
         target_params = _select(sync, params, ts.target_params)
 
         # EPISODE METRICS
-        metrics = _record_episode(ts, slots, reward, terminated, done, info, explore, run & done)
+        slot = jnp.where(run & done, ts.episode % slots, slots)  # out of range: not filed
+        metrics = ts.metrics.record(slot, reward, info["goal_reached"], terminated, done, explore)
 
         # A finished run is held still: params, optimiser, target and buffer were
         # masked above; the rest is small.
@@ -410,7 +383,7 @@ def _init_state(
         hyper=hyper,
         step=jnp.zeros((), jnp.int32),
         episode=jnp.zeros((), jnp.int32),
-        metrics=Metrics.zeros(slots),
+        metrics=Episodes.zeros(slots),
         diverged_at=jnp.asarray(-1, jnp.int32),
     )
 
@@ -474,27 +447,6 @@ def _target_sync_due(d: DQNConfig, h: Hyper, n_steps: chex.Array, done: chex.Arr
     if d.target_update == "periodic":
         return n_steps % h.target_update_every == 0
     return done
-
-
-def _record_episode(ts, slots, reward, terminated, done, info, explore, write) -> Metrics:
-    """Add the step to the running sums; where ``write``, file the finished episode."""
-    m = ts.metrics
-    cur_return = m.cur_return + reward
-    cur_length = m.cur_length + 1
-    cur_goals = m.cur_goals + info["goal_reached"].astype(jnp.int32)
-    cur_explore = m.cur_explore + explore
-    i = jnp.where(write, ts.episode % slots, slots)  # out of range: dropped
-    return Metrics(
-        ep_return=m.ep_return.at[i].set(cur_return, mode="drop"),
-        ep_length=m.ep_length.at[i].set(cur_length, mode="drop"),
-        ep_goals=m.ep_goals.at[i].set(cur_goals, mode="drop"),
-        ep_collided=m.ep_collided.at[i].set(terminated, mode="drop"),
-        ep_explore=m.ep_explore.at[i].set(cur_explore / cur_length, mode="drop"),
-        cur_return=jnp.where(done, 0.0, cur_return),
-        cur_length=jnp.where(done, 0, cur_length),
-        cur_goals=jnp.where(done, 0, cur_goals),
-        cur_explore=jnp.where(done, 0.0, cur_explore),
-    )
 
 
 def _select(pred, a, b):

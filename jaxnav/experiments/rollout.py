@@ -20,6 +20,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from jaxnav.agent.episodes import Episodes
 from jaxnav.agent.exploration import explore_action
 from jaxnav.agent.sharding import RunSharding
 from jaxnav.dqn import Hyper, QNetwork
@@ -114,20 +115,11 @@ def make_rollout(
         env_params = hyper.env_params(env_params)
         k_reset, key = jax.random.split(key)
         obs, state = env.reset(k_reset, env_params)
-        zeros_f = jnp.zeros(E, jnp.float32)
-        zeros_i = jnp.zeros(E, jnp.int32)
-        carry0 = (
-            obs,
-            state,
-            key,
-            jnp.zeros((), jnp.int32),  # episode being played
-            jnp.zeros((), jnp.float32),  # its return so far
-            jnp.zeros((), jnp.int32),  # its goals so far
-            (zeros_f, zeros_i, jnp.zeros(E, bool), zeros_i),
-        )
+        # the episode being played, and the test's episodes (jaxnav.agent.episodes)
+        carry0 = (obs, state, key, jnp.zeros((), jnp.int32), Episodes.zeros(E))
 
         def body(carry, _):
-            obs, state, key, ep, cur_ret, cur_goals, (rets, goals, coll, lens) = carry
+            obs, state, key, ep, episodes = carry
             key, k_step = jax.random.split(key)
             # ACT: greedy, or the strategy's own exploration.
             action = act(params, obs, k_step, strategy, hyper)
@@ -136,14 +128,9 @@ def make_rollout(
                 k_step, state, action, env_params
             )
             done = terminated | truncated
-            cur_ret = cur_ret + reward
-            cur_goals = cur_goals + info["goal_reached"].astype(jnp.int32)
-            # RECORD the finished episode (index E: dropped, the test is over).
-            i = jnp.where(done & (ep < E), ep, E)
-            rets = rets.at[i].set(cur_ret, mode="drop")
-            goals = goals.at[i].set(cur_goals, mode="drop")
-            coll = coll.at[i].set(terminated, mode="drop")
-            lens = lens.at[i].set(state.t + 1, mode="drop")
+            # RECORD the step and the finished episode (slot E: dropped, the test is over).
+            slot = jnp.where(done & (ep < E), ep, E)
+            episodes = episodes.record(slot, reward, info["goal_reached"], terminated, done)
             out = None
             if record:
                 out = Trajectory(
@@ -157,20 +144,12 @@ def make_rollout(
                     collided=terminated,
                     episode=ep,
                 )
-            carry = (
-                obs2,
-                state2,
-                key,
-                ep + done.astype(jnp.int32),
-                jnp.where(done, 0.0, cur_ret),
-                jnp.where(done, 0, cur_goals),
-                (rets, goals, coll, lens),
-            )
+            carry = (obs2, state2, key, ep + done.astype(jnp.int32), episodes)
             return carry, out
 
         carry, traj = jax.lax.scan(body, carry0, None, length=n_steps)
-        rets, goals, coll, lens = carry[-1]
-        return Rollout(rets, goals, coll, lens, traj)
+        e = carry[-1]
+        return Rollout(e.ep_return, e.ep_goals, e.ep_collided, e.ep_length, traj)
 
     return rollout
 
