@@ -488,14 +488,12 @@ def _check(cfg: Config) -> Config:
     if cfg.episodes is None and cfg.total_steps is None:
         fail("episodes", "and total_steps cannot both be null")
     capacity = cfg.buffer_capacity
-    for name in ("batch_size", "learning_starts"):
-        if getattr(cfg.dqn, name) > capacity:
-            fail(
-                f"dqn.{name}",
-                f"({getattr(cfg.dqn, name)}) is larger than the replay memory, {capacity} "
-                "transitions (the smaller of dqn.buffer_size and the most steps a run "
-                "takes): it would never learn",
-            )
+    if cfg.dqn.batch_size > capacity:
+        fail(
+            "dqn.batch_size",
+            f"({cfg.dqn.batch_size}) is larger than the replay memory, {capacity} "
+            "transitions (the smaller of dqn.buffer_size and the most steps a run takes)",
+        )
     return cfg
 
 
