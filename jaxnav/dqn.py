@@ -62,6 +62,12 @@ class QNetwork(nn.Module):
         return nn.Dense(self.num_actions, kernel_init=init)(x)
 
 
+def network_of(config: Config, env: NavEnv | None = None) -> QNetwork:
+    """The Q-network of a config's runs (``env``: its environment, if already made)."""
+    env = from_config(config)[0] if env is None else env
+    return QNetwork(env.num_actions, tuple(config.dqn.hidden), config.dqn.dropout)
+
+
 def dropout16(key: chex.PRNGKey, x: chex.Array, rate) -> chex.Array:
     """Inverted dropout whose mask takes 16 random bits per unit, two per 32-bit draw.
 
@@ -236,13 +242,12 @@ class StepLog(NamedTuple):
 
 
 class Trainer(NamedTuple):
-    """The pieces of a run. ``init`` and ``chunk`` are pure; vmap them over runs."""
+    """The pieces of a run. ``init`` and ``chunk`` are pure; vmap them over runs.
+    ``step`` is ``chunk``'s scan body, one environment step of one run (tests and
+    benchmarks call it alone); :func:`network_of` gives the run's Q-network."""
 
-    config: Config
     env: NavEnv
     env_params: EnvParams
-    network: QNetwork
-    optimizer: optax.GradientTransformation
     metric_slots: int
     init: Callable[[chex.PRNGKey, chex.Array, Hyper], TrainState]
     step: Callable[[TrainState, None], tuple[TrainState, StepLog]]
@@ -261,7 +266,7 @@ def make_trainer(config: Config) -> Trainer:
     runs of a sweep (:func:`run_inputs`) share the program."""
     env, base_params = from_config(config)
     d = config.dqn
-    network = QNetwork(env.num_actions, tuple(d.hidden), d.dropout)
+    network = network_of(config, env)
     optimizer = optimizer_of(d)  # the state's layout; a step uses the run's settings
     slots = config.episodes if config.episodes is not None else config.run.chunk_steps
     limits = run_limits(config)
@@ -361,7 +366,7 @@ def make_trainer(config: Config) -> Trainer:
         logs = StepLog(*(jnp.full(length, jnp.nan, jnp.float32) for _ in StepLog._fields))
         return jax.lax.fori_loop(0, n, body, (ts, logs))
 
-    return Trainer(config, env, base_params, network, optimizer, slots, init, step, chunk, active)
+    return Trainer(env, base_params, slots, init, step, chunk, active)
 
 
 def _init_state(

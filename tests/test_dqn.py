@@ -23,6 +23,7 @@ from jaxnav.dqn import (
     dropout16,
     make_train,
     make_trainer,
+    network_of,
     run_inputs,
     run_limits,
     still_training,
@@ -295,7 +296,7 @@ def test_trainer_acts_with_the_tested_exploration_functions(strategy):
     explore = log.explore
     # The trainer's own key for acting, and its network's Q-values at the observation.
     _, k_act, _, _, _ = jax.random.split(ts.key, 5)
-    q = tr.network.apply(ts.params, ts.obs)
+    q = network_of(cfg).apply(ts.params, ts.obs)
     x = cfg.exploration
     if strategy == "ebe":
         action, prob = ebe(k_act, q, x.ebe_temperature)
@@ -320,8 +321,9 @@ def test_still_training_is_one_rule_for_numpy_and_jax():
     never = int(jnp.iinfo(jnp.int32).max)
     assert run_limits(_tiny()) == (3, never)
     assert run_limits(_tiny("episodes=null", "total_steps=100")) == (never, 100)
-    tr = make_trainer(_tiny())
-    ts = tr.init(*_run(run_inputs(tr.config), 0)).replace(episode=jnp.int32(3))
+    cfg = _tiny()
+    tr = make_trainer(cfg)
+    ts = tr.init(*_run(run_inputs(cfg), 0)).replace(episode=jnp.int32(3))
     assert not bool(tr.active(ts))
 
 
