@@ -15,14 +15,13 @@ from __future__ import annotations
 
 import csv
 import io
-import math
-from collections.abc import Sequence
-from typing import Any
 
 import numpy as np
 
+from jaxnav.core import strategies as registry
 from jaxnav.report import stats
-from jaxnav.report.results import STRATEGY_NAMES, ordered_unique
+from jaxnav.report.markdown import interval, markdown_table
+from jaxnav.report.results import ordered_unique
 
 SIMULATORS = ("jaxnav", "mujoco")
 SUMMARY_COLUMNS = (
@@ -56,13 +55,6 @@ def _summary_entries(text: str):
 def read_summary(text: str) -> dict[tuple[str, str, str, int], dict[str, float]]:
     """sim2sim CSV text -> {(simulator, maze, strategy, seed): {metric: value}}."""
     return {key: values for _, key, values in _summary_entries(text)}
-
-
-def _ci(iv: stats.Interval, digits: int, sign: str = "") -> str:
-    v = f"{iv.value:{sign}.{digits}f}"
-    if math.isnan(iv.low):
-        return f"{v} [n/a]"
-    return f"{v} [{iv.low:{sign}.{digits}f}, {iv.high:{sign}.{digits}f}]"
 
 
 def gap_markdown(text: str, title: str = "Sim-to-sim gap") -> str:
@@ -101,14 +93,14 @@ def gap_markdown(text: str, title: str = "Sim-to-sim gap") -> str:
             mj = scores("mujoco", strategy, metric, mazes)
             rows.append(
                 [
-                    STRATEGY_NAMES.get(strategy, strategy),
+                    registry.label(strategy),
                     label,
-                    _ci(stats.mean_ci(jx), digits),
-                    _ci(stats.mean_ci(mj), digits),
-                    _ci(stats.mean_ci(mj - jx), digits, "+"),
+                    interval(stats.mean_ci(jx), digits),
+                    interval(stats.mean_ci(mj), digits),
+                    interval(stats.mean_ci(mj - jx), digits, "+"),
                 ]
             )
-    lines += _table(header, rows)
+    lines += markdown_table(header, rows)
     lines += ["", "## Per maze", ""]
     header = ["maze", "strategy", "return jaxnav", "return MuJoCo", "return gap"]
     header += ["goals/ep jaxnav", "goals/ep MuJoCo", "collisions jaxnav", "collisions MuJoCo"]
@@ -120,17 +112,17 @@ def gap_markdown(text: str, title: str = "Sim-to-sim gap") -> str:
             rows.append(
                 [
                     maze,
-                    STRATEGY_NAMES.get(strategy, strategy),
-                    _ci(stats.mean_ci(jx["return"]), 1),
-                    _ci(stats.mean_ci(mj["return"]), 1),
-                    _ci(stats.mean_ci(mj["return"] - jx["return"]), 1, "+"),
+                    registry.label(strategy),
+                    interval(stats.mean_ci(jx["return"]), 1),
+                    interval(stats.mean_ci(mj["return"]), 1),
+                    interval(stats.mean_ci(mj["return"] - jx["return"]), 1, "+"),
                     f"{jx['goals'].mean():.2f}",
                     f"{mj['goals'].mean():.2f}",
                     f"{jx['collision_rate'].mean():.2f}",
                     f"{mj['collision_rate'].mean():.2f}",
                 ]
             )
-    lines += _table(header, rows)
+    lines += markdown_table(header, rows)
     return "\n".join(lines) + "\n"
 
 
@@ -175,9 +167,13 @@ def realism_markdown(text: str, baseline: str = "plain") -> str:
         for strategy in strategies:
             mj, jx = scores(name, "mujoco", strategy), scores(name, "jaxnav", strategy)
             size = np.abs(mj - jx)
-            row = [name, STRATEGY_NAMES.get(strategy, strategy), _ci(stats.mean_ci(mj), 1)]
+            row = [name, registry.label(strategy), interval(stats.mean_ci(mj), 1)]
             if name == baseline:
-                row += ["", _ci(stats.mean_ci(mj - jx), 1, "+"), _ci(stats.mean_ci(size), 1)]
+                row += [
+                    "",
+                    interval(stats.mean_ci(mj - jx), 1, "+"),
+                    interval(stats.mean_ci(size), 1),
+                ]
                 row += ["", ""]
             else:
                 base_mj = scores(baseline, "mujoco", strategy)
@@ -185,10 +181,10 @@ def realism_markdown(text: str, baseline: str = "plain") -> str:
                 p_return = stats.probability_of_improvement_ci(mj, base_mj)
                 p_gap = stats.probability_of_improvement_ci(-size, -base_size)
                 row += [
-                    f"{_ci(p_return, 2)} {verdict(p_return, 'higher', 'lower')}",
-                    _ci(stats.mean_ci(mj - jx), 1, "+"),
-                    _ci(stats.mean_ci(size), 1),
-                    _ci(p_gap, 2),
+                    f"{interval(p_return, 2)} {verdict(p_return, 'higher', 'lower')}",
+                    interval(stats.mean_ci(mj - jx), 1, "+"),
+                    interval(stats.mean_ci(size), 1),
+                    interval(p_gap, 2),
                     verdict(p_gap, "yes", "widens it"),
                 ]
             rows.append(row)
@@ -208,9 +204,4 @@ def realism_markdown(text: str, baseline: str = "plain") -> str:
         "its interval to exclude 0.5.",
         "",
     ]
-    return "\n".join(lines + _table(header, rows)) + "\n"
-
-
-def _table(header: Sequence[str], rows: Sequence[Sequence[Any]]) -> list[str]:
-    lines = ["| " + " | ".join(header) + " |", "|" + "|".join("---" for _ in header) + "|"]
-    return lines + ["| " + " | ".join(str(c) for c in r) + " |" for r in rows]
+    return "\n".join(lines + markdown_table(header, rows)) + "\n"
