@@ -1,0 +1,424 @@
+"""The ROS 2 policy node: its checks without ROS, and closed-loop through DDS.
+
+examples/ros2_policy_node.py runs as it would on a robot: its own process, under the
+ROS 2 environment's python (rclpy and NumPy, no JAX, no jaxnav: deploy.py found by
+path), loading a freshly trained and exported policy. A simulated TurtleBot3
+(tests/_ros2_sim.py: jaxnav's own LiDAR, motion and collision check behind /scan,
+/odom and /cmd_vel, at 5 Hz) sends it goals on /goal_pose. Two such loops run side
+by side, each on a DDS domain of its own, on loopback only:
+
+* "stamped": /cmd_vel as TwistStamped, the node's default with ROS_DISTRO unset and
+  rclpy >= 5 (Jazzy and later); the full mission: two goals, stale odometry, NaN
+  scans, scans from a shorter-range LiDAR, a goal in frame "map", an odometry jump;
+* "twist": ROS_DISTRO=humble, so the node publishes Twist; one goal.
+
+Both end with SIGINT while the robot drives: the last command must be a stop and the
+node must exit with status 0. The policy is the first of a few trained seeds that
+reaches the goals when the adapter is called directly in the same simulated maze, as
+in tests/test_ros1.py.
+
+The ROS 2 environment is ``JAXNAV_ROS2_PYTHON`` or ``.venv-ros2/bin/python``
+(scripts/ros2_env.sh --install-only makes it: PyPI's ros-rclpy wheels); where it is
+missing the closed-loop tests skip and say so. The node's checks run here without ROS.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+import math
+import os
+import random
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from _ros_sim import NOISE_STD, offline_mission
+from test_ros1 import Proc
+
+from jaxnav.robot import deploy
+
+ROOT = Path(__file__).resolve().parent.parent
+NODE = ROOT / "examples" / "ros2_policy_node.py"
+SIM = ROOT / "tests" / "_ros2_sim.py"
+DEFAULT_ROS2_PYTHON = ROOT / ".venv-ros2" / "bin" / "python"
+INSTALL_HINT = "scripts/ros2_env.sh --install-only makes it"
+
+# square4 is 3.7 m across, centred on the start pose (0, 0) facing +x.
+ROUTE = [(1.2, 0.0), (0.0, 1.2), (-1.2, 0.0)]
+# loop -> (goals, last goal, extra sim arguments, extra node environment)
+LOOPS = {
+    "stamped": (ROUTE[:2], ROUTE[2], ["--cmd-type", "stamped", "--full"], {}),
+    "twist": (ROUTE[:1], ROUTE[1], ["--cmd-type", "twist"], {"ROS_DISTRO": "humble"}),
+}
+TRAIN_SEEDS = 3
+TRAIN = [f"seeds={TRAIN_SEEDS}", "strategies=[ebe]", "episodes=40"]
+DEADLINE_S = 120.0  # the loops together; they take about 30 s
+
+
+def _load_node():
+    spec = importlib.util.spec_from_file_location("ros2_policy_node", NODE)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+node = _load_node()  # rclpy is imported only when the node runs
+
+
+# ----------------------------------------------------------------------------
+# The node's checks, without ROS
+# ----------------------------------------------------------------------------
+
+
+def _policy(n_beams: int = 24, min_range: float = 0.12, max_range: float = 3.5):
+    rng = np.random.default_rng(0)
+    size = n_beams + 2
+    meta = {
+        "n_beams": n_beams,
+        "obstacle_obs": False,
+        "min_range": min_range,
+        "max_range": max_range,
+        "omegas": [-1.5, -0.75, 0.0, 0.75, 1.5],
+        "linear_velocity": 0.15,
+    }
+    layers = [(rng.normal(size=(size, 8)), np.zeros(8)), (rng.normal(size=(8, 5)), np.zeros(5))]
+    return deploy.Policy(layers, meta)
+
+
+INC = 2 * math.pi / 360
+LDS01 = dict(angle_min=0.0, angle_max=359 * INC, angle_increment=INC, range_min=0.12, range_max=3.5)
+
+
+def _problem(ranges=None, policy=None, **scan):
+    fields = dict(LDS01, **scan)
+    ranges = np.full(360, 1.0) if ranges is None else ranges
+    return node.scan_problem(policy or _policy(), ranges, **fields)
+
+
+@pytest.mark.parametrize(
+    "distro, version, stamped",
+    [
+        ("humble", "3.3.16", False),
+        ("humble", None, False),
+        ("jazzy", "3.3.16", True),  # ROS_DISTRO wins over the version
+        ("kilted", None, True),
+        ("rolling", None, True),
+        (None, "3.3.16", False),  # Humble's rclpy
+        (None, "7.1.5", True),  # Jazzy's
+        (None, "9.1.2", True),  # Kilted's (PyPI's ros-rclpy wheels)
+        (None, None, True),
+        ("", "3.3.16", False),
+    ],
+)
+def test_cmd_vel_type_follows_the_distribution(distro, version, stamped):
+    got, why = node.default_stamped(distro, version)
+    assert got is stamped and why
+
+
+def test_an_lds01_scan_matches_the_policy_and_single_invalid_readings_are_its_business():
+    assert _problem() is None
+    ranges = np.full(360, 1.0)
+    ranges[[0, 15, 30]] = [np.nan, np.inf, 0.0]  # no return, as deploy.clean_ranges reads it
+    assert _problem(ranges) is None
+    # Gazebo's 360 samples from 0 to 2 pi inclusive, and the LDS-01 driver's angle_max 2 pi.
+    assert _problem(angle_max=2 * math.pi, angle_increment=2 * math.pi / 359) is None
+    assert _problem(angle_max=2 * math.pi) is None
+    assert _problem(range_max=8.0, range_min=0.16) is None  # the LDS-02: longer range
+
+
+@pytest.mark.parametrize(
+    "ranges, scan, words",
+    [
+        (
+            np.full(12, 1.0),
+            dict(angle_max=11 * math.pi / 6, angle_increment=math.pi / 6),
+            "12 rays",
+        ),
+        (np.full(360, 1.0), dict(angle_max=179 * INC), "describe 180"),
+        (np.full(360, 1.0), dict(range_max=2.0), "range_max 2"),
+        (np.full(360, 1.0), dict(range_min=0.3), "range_min 0.3"),
+        (np.full(180, 1.0), dict(angle_min=-math.pi / 2, angle_max=math.pi / 2), "360-degree"),
+        (np.full(360, 1.0), dict(angle_increment=math.inf), "not finite"),
+        (np.full(360, 1.0), dict(range_max=math.nan), "not finite"),
+    ],
+)
+def test_a_scan_the_policy_does_not_match_is_named_in_one_line(ranges, scan, words):
+    why = _problem(ranges, **scan)
+    assert why is not None and words in why and "\n" not in why
+
+
+def test_a_mostly_nan_scan_is_refused():
+    assert "NaN at 24 of the policy's 24 beams" in _problem(np.full(360, np.nan))
+    ranges = np.full(360, 1.0)
+    ranges[np.arange(0, 360, 15)[:13]] = np.nan  # 13 of the 24 beams the policy reads
+    assert "NaN at 13" in _problem(ranges)
+    ranges[0] = 1.0
+    assert _problem(ranges) is None  # 12 of 24: half, still read as no return
+
+
+def test_odometry_jumps_are_measured():
+    assert node.odom_jump((0.0, 0.0, 0.0), (0.3, 0.4, 1.0)) == pytest.approx(0.5)
+    assert node.odom_jump((0.0, 0.0, 0.0), (math.nan, 0.0, 0.0)) == math.inf
+
+
+# ----------------------------------------------------------------------------
+# ROS 2: the environment, the policy, the processes
+# ----------------------------------------------------------------------------
+
+
+def _ros2_python() -> Path:
+    return Path(os.environ.get("JAXNAV_ROS2_PYTHON") or DEFAULT_ROS2_PYTHON)
+
+
+PROBE = """
+import json, sys, sysconfig
+import numpy, rclpy, sensor_msgs.msg, nav_msgs.msg, geometry_msgs.msg
+from importlib import metadata
+print(json.dumps({"site": sysconfig.get_paths()["purelib"], "version": list(sys.version_info[:2]),
+                  "rclpy": metadata.version("rclpy"), "prefix": sys.prefix}))
+"""
+
+
+def _ros2_env() -> dict:
+    """What the ROS 2 environment is (site-packages, Python and rclpy versions); skip if none."""
+    py = _ros2_python()
+    if not py.exists():
+        pytest.skip(f"no ROS 2 environment at {py} (JAXNAV_ROS2_PYTHON): {INSTALL_HINT}")
+    env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "VIRTUAL_ENV")}
+    r = subprocess.run([str(py), "-c", PROBE], capture_output=True, text=True, timeout=120, env=env)
+    if r.returncode:
+        last = (r.stderr.strip().splitlines() or ["?"])[-1]
+        pytest.skip(f"{py} cannot import rclpy and the messages ({last}): {INSTALL_HINT}")
+    info = json.loads(r.stdout.strip().splitlines()[-1])
+    if tuple(info["version"]) != sys.version_info[:2]:
+        pytest.skip(
+            f"{py} is Python {'.'.join(map(str, info['version']))}, this is "
+            f"{sys.version_info.major}.{sys.version_info.minor}: the simulated robot needs JAX "
+            "and rclpy in one interpreter"
+        )
+    return info
+
+
+@pytest.fixture(scope="module")
+def ros2():
+    return _ros2_env()
+
+
+@pytest.fixture(scope="module")
+def policy_file(ros2, tmp_path_factory) -> Path:
+    """A trained policy that reaches ROUTE without ROS, exactly and with noise."""
+    from jaxnav.core.config import load_config
+    from jaxnav.robot.export import export_policy, save_policy
+    from jaxnav.run.training import train_new
+
+    root = tmp_path_factory.mktemp("ros2")
+    cfg = load_config(str(ROOT / "configs" / "paper_no_obstacles.yaml"), TRAIN)
+    train_new(cfg, root / "run", quiet=True)
+    tried = {}
+    for seed in range(TRAIN_SEEDS):
+        arrays = export_policy(root / "run", "ebe", seed)
+        policy = deploy.Policy.from_arrays(arrays)
+        tried[seed] = [offline_mission(policy, ROUTE, noise=n, seed=1) for n in (0.0, NOISE_STD)]
+        if all(outcome == "ok" for _, outcome in tried[seed]):
+            save_policy(arrays, root / "policy.npz")
+            return root / "policy.npz"
+    pytest.fail(f"no trained seed reaches {ROUTE} even without ROS: {tried}")
+
+
+def _dds_env(ros2: dict, work: Path, domain: int) -> dict:
+    """The environment of a loop's processes: its own DDS domain, on loopback only."""
+    env = {k: v for k, v in os.environ.items() if not k.startswith(("ROS_", "RMW_"))}
+    env.update(
+        ROS_DOMAIN_ID=str(domain),
+        ROS_LOCALHOST_ONLY="1",  # Humble's name for it
+        ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST",  # Jazzy's and later
+        RMW_IMPLEMENTATION="rmw_fastrtps_cpp",
+        ROS_LOG_DIR=str(work / "ros_log"),
+        ROS_HOME=str(work),
+        PYTHONUNBUFFERED="1",
+    )
+    env.pop("ROS_DISTRO", None)
+    return env
+
+
+def _ros2_libraries(ros2: dict) -> str:
+    """LD_LIBRARY_PATH for rclpy's libraries outside its own interpreter (what the
+    wheels' bootstrap does for the ROS 2 environment's python)."""
+    site = Path(ros2["site"])
+    dirs = [str(p) for p in sorted(site.glob("ros_*.libs"))] + [str(Path(ros2["prefix"]) / "lib")]
+    old = os.environ.get("LD_LIBRARY_PATH")
+    return os.pathsep.join(dirs + ([old] if old else []))
+
+
+class ClosedLoop:
+    """The simulated robot and the policy node on one DDS domain."""
+
+    def __init__(self, name: str, work: Path):
+        self.name, self.work = name, work
+        self.result_path = work / "result.json"
+        self.result: dict | None = None
+        self.procs: list[Proc] = []
+
+    def start(self, ros2: dict, policy: Path, domain: int) -> None:
+        goals, last, sim_args, node_env = LOOPS[self.name]
+        env = _dds_env(ros2, self.work, domain)
+        sim_env = dict(
+            env,
+            JAX_PLATFORMS="cpu",
+            JAXNAV_ROS2_SITE=ros2["site"],
+            LD_LIBRARY_PATH=_ros2_libraries(ros2),
+        )
+        goals = ";".join(f"{x},{y}" for x, y in goals)
+        argv = [sys.executable, str(SIM), f"--goals={goals}", "--last-goal={},{}".format(*last)]
+        argv += ["--result", str(self.result_path)]
+        self.sim = self._start("sim", argv + sim_args, sim_env)
+        # As on a robot: ROS 2's python, without JAX or jaxnav (deploy.py by path).
+        env = {k: v for k, v in env.items() if k not in ("PYTHONPATH", "VIRTUAL_ENV")}
+        argv = [str(_ros2_python()), str(NODE), "--ros-args", "-p", f"policy:={policy}"]
+        self.node = self._start("node", argv, dict(env, **node_env))
+
+    def _start(self, name: str, argv: list[str], env: dict) -> Proc:
+        proc = Proc(argv, env, self.work / f"{name}.log", self.work)
+        self.procs.append(proc)
+        return proc
+
+    def mission(self):
+        """Advance on each next(): wait for the robot to drive off after the last goal,
+        interrupt the node, then the simulated robot, and read its result."""
+        driving = Path(str(self.result_path) + ".driving")
+        while not driving.exists() and self.sim.running() and self.node.running():
+            yield
+        if driving.exists():
+            self.node.signal(signal.SIGINT)
+            t = time.monotonic()
+            while self.node.running() and time.monotonic() - t < 10:
+                yield
+            t = time.monotonic()
+            while time.monotonic() - t < 0.5:  # the node's last command reaches the robot
+                yield
+        self.sim.signal(signal.SIGINT)
+        t = time.monotonic()
+        while self.sim.running() and time.monotonic() - t < 10:
+            yield
+        self.read_result()
+
+    def read_result(self) -> None:
+        if self.result_path.exists():
+            self.result = json.loads(self.result_path.read_text())
+
+    def close(self) -> None:
+        for proc in reversed(self.procs):
+            proc.close()
+
+    def report(self) -> str:
+        """What a failed check shows: the result and the ends of the logs."""
+        return "\n".join(
+            [f"loop {self.name}: {json.dumps(self.result)}"] + [p.tail(40) for p in self.procs]
+        )
+
+
+@pytest.fixture(scope="module")
+def loops(ros2, policy_file, tmp_path_factory):
+    """Both loops, run side by side to their end; every process is gone afterwards."""
+    started: dict[str, ClosedLoop] = {}
+    domains = random.Random().sample(range(1, 101), len(LOOPS))  # 0..101: Fast DDS's ports
+    try:
+        for name, domain in zip(LOOPS, domains):
+            started[name] = ClosedLoop(name, tmp_path_factory.mktemp(name))
+            started[name].start(ros2, policy_file, domain)
+        pending = [loop.mission() for loop in started.values()]
+        t = time.monotonic()
+        while pending and time.monotonic() - t < DEADLINE_S:
+            for m in list(pending):
+                try:
+                    next(m)
+                except StopIteration:
+                    pending.remove(m)
+            time.sleep(0.05)
+        for loop in started.values():  # any still running at the deadline ends now
+            loop.close()
+            loop.read_result()
+        yield started
+    finally:
+        for loop in started.values():
+            loop.close()
+
+
+# ----------------------------------------------------------------------------
+# Closed-loop checks
+# ----------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("name", list(LOOPS))
+def test_the_node_drives_the_robot_to_each_goal_without_collision(loops, name):
+    loop = loops[name]
+    r = loop.result
+    assert r is not None, f"no result\n{loop.report()}"
+    assert not r["collided"], loop.report()
+    assert [tuple(g["goal"]) for g in r["goals"]] == LOOPS[name][0], loop.report()
+    assert any(e["event"] == "driving" for e in r["events"]), loop.report()
+    node_log = loop.node.log.read_text()
+    assert node_log.count("reached: stopped") == len(LOOPS[name][0]), loop.report()
+    assert "Traceback" not in node_log and "callback failed" not in node_log, loop.report()
+    sim_log = loop.sim.log.read_text()
+    assert "Traceback" not in sim_log and "terminate called" not in sim_log, loop.report()
+    want = "TwistStamped" if name == "stamped" else "Twist "
+    assert f"/cmd_vel as {want}" in node_log, loop.report()
+    assert r["unstamped"] == 0, loop.report()  # every TwistStamped carries its time
+
+
+@pytest.mark.parametrize("name", list(LOOPS))
+def test_the_node_stops_without_goal_and_on_sigint(loops, name):
+    loop = loops[name]
+    r = loop.result
+    assert r is not None, f"no result\n{loop.report()}"
+    assert r["idle_command"] == [0.0, 0.0], loop.report()  # before the first goal
+    # Reaching a goal stops the robot: the sim sent the next goal only after a stop
+    # within the goal radius (first test). Interrupting the node stops it too:
+    assert r["last_command"] == [0.0, 0.0], loop.report()
+    assert loop.node.p.returncode == 0, loop.report()
+    assert "interrupted: stopping the robot" in loop.node.log.read_text(), loop.report()
+
+
+def test_the_node_stops_on_stale_odometry_and_bad_scans_with_one_line_each(loops):
+    loop = loops["stamped"]
+    r = loop.result
+    assert r is not None and "stops" in r, f"no result\n{loop.report()}"
+    s = r["stops"]
+    # 1.6 s without odometry, then 5 all-NaN scans, then 5 from a shorter-range LiDAR.
+    assert s["stale_odometry"] >= 2, loop.report()
+    assert s["nan_scan"] >= 4 and s["nan_moving"] == 0, loop.report()
+    assert s["short_scan"] >= 4 and s["short_moving"] == 0, loop.report()
+    log = loop.node.log.read_text()
+    assert log.count("odometry older than") == 1, loop.report()
+    assert log.count("scan reads NaN at 24 of the policy's 24 beams") == 1, loop.report()
+    assert log.count("scan range_max 2 m is below the policy's max range") == 1, loop.report()
+
+
+def test_the_node_refuses_a_goal_in_another_frame_and_stops_on_an_odometry_jump(loops):
+    loop = loops["stamped"]
+    r = loop.result
+    assert r is not None, f"no result\n{loop.report()}"
+    assert r.get("moving_after_map_goal") == 0, loop.report()
+    assert r.get("moving_after_jump") == 0, loop.report()
+    log = loop.node.log.read_text()
+    refused = "goal refused: frame 'map' is not the odometry frame 'odom'"
+    assert log.count(refused) == 1, loop.report()
+    assert log.count("odometry jumped") == 1, loop.report()  # 1 m, less the robot's motion
+
+
+def test_a_policy_file_that_cannot_be_read_ends_the_node_with_one_line(ros2, tmp_path):
+    bad = tmp_path / "policy.npz"
+    bad.write_bytes(b"not a policy")
+    env = _dds_env(ros2, tmp_path, random.Random().randrange(1, 101))
+    env = {k: v for k, v in env.items() if k not in ("PYTHONPATH", "VIRTUAL_ENV")}
+    argv = [str(_ros2_python()), str(NODE), "--ros-args", "-p", f"policy:={bad}"]
+    r = subprocess.run(argv, env=env, cwd=tmp_path, capture_output=True, text=True, timeout=60)
+    out = r.stdout + r.stderr
+    assert r.returncode == 1, out
+    assert "cannot be read" in out and "Traceback" not in out, out
