@@ -19,7 +19,9 @@ in tests/test_ros1.py.
 
 The ROS 2 environment is ``JAXNAV_ROS2_PYTHON`` or ``.venv-ros2/bin/python``
 (scripts/ros2_env.sh --install-only makes it: PyPI's ros-rclpy wheels); where it is
-missing the closed-loop tests skip and say so. The node's checks run here without ROS.
+missing the ROS 2 tests skip and say so. The node's checks also run here without ROS,
+and its callbacks are called directly under rclpy (message types, one log line per bad
+scan or error, never an exception out of a callback).
 """
 
 from __future__ import annotations
@@ -422,3 +424,105 @@ def test_a_policy_file_that_cannot_be_read_ends_the_node_with_one_line(ros2, tmp
     out = r.stdout + r.stderr
     assert r.returncode == 1, out
     assert "cannot be read" in out and "Traceback" not in out, out
+
+
+IN_PROCESS = """
+import importlib.util, json, math, sys
+spec = importlib.util.spec_from_file_location("ros2_policy_node", sys.argv[1])
+mod = importlib.util.module_from_spec(spec)
+spec.loader.exec_module(mod)
+import rclpy
+from geometry_msgs.msg import PoseStamped
+from nav_msgs.msg import Odometry
+from rclpy.parameter import Parameter
+from sensor_msgs.msg import LaserScan
+
+out = {}
+
+
+class Recorder:
+    def __init__(self):
+        self.msgs = []
+
+    def publish(self, msg):
+        self.msgs.append(msg)
+
+
+def make(stamped):
+    params = [Parameter("policy", value=sys.argv[2]),
+              Parameter("enable_stamped_cmd_vel", value=stamped)]
+    context = rclpy.Context()  # one each: Fast DDS takes one type per topic and participant
+    rclpy.init(context=context)
+    node = rclpy.create_node("jaxnav_policy", parameter_overrides=params, context=context)
+    pn = mod.PolicyNode(node)
+    pn.cmd_pub = Recorder()
+    odom = Odometry()
+    odom.header.frame_id, odom.pose.pose.orientation.w = "odom", 1.0
+    pn.on_odom(odom)
+    goal = PoseStamped()
+    goal.header.frame_id, goal.pose.position.x = "odom", 1.2
+    pn.on_goal(goal)
+    return pn
+
+
+def scan(n=360, value=1.0):
+    s = LaserScan()
+    inc = 2 * math.pi / n
+    s.angle_min, s.angle_max, s.angle_increment = 0.0, inc * (n - 1), inc
+    s.range_min, s.range_max, s.ranges = 0.12, 3.5, [value] * n
+    return s
+
+
+def twists(pn):
+    return [[m.twist.linear.x, m.twist.angular.z, m.header.stamp.sec + m.header.stamp.nanosec]
+            if pn.stamped else [m.linear.x, m.angular.z, None] for m in pn.cmd_pub.msgs]
+
+
+for stamped in (True, False):
+    pn = make(stamped)
+    pn.on_scan(scan())
+    out[f"drive_{stamped}"] = [type(pn.cmd_pub.msgs[-1]).__name__, twists(pn)]
+pn.cmd_pub.msgs.clear()
+for bad in (scan(value=math.nan),) * 5 + (scan(n=12),) * 5:
+    pn.on_scan(bad)
+out["bad"] = twists(pn)
+pn.cmd_pub.msgs.clear()
+
+
+def broken(now):
+    raise RuntimeError("broken")
+
+
+pn.control.decide = broken
+for _ in range(5):
+    pn.on_scan(scan())
+out["broken"] = twists(pn)
+print(json.dumps(out))
+"""
+
+
+def test_in_process_the_node_publishes_either_type_and_stops_on_bad_scans(ros2, tmp_path):
+    """The node's callbacks called directly under rclpy: the message types, and one log
+    line (not one per scan) for NaN scans, a 12-ray scan and an error in a callback."""
+    policy, p = tmp_path / "policy.npz", _policy()
+    meta = dict(p.meta, format=deploy.FORMAT, version=deploy.FORMAT_VERSION)
+    meta["layers"] = [f"Dense_{i}" for i in range(len(p.layers))]
+    arrays = {"meta": np.asarray(json.dumps(meta))}
+    for name, (k, b) in zip(meta["layers"], p.layers):
+        arrays[f"{name}/kernel"], arrays[f"{name}/bias"] = k, b
+    np.savez(policy, **arrays)
+    env = _dds_env(ros2, tmp_path, random.Random().randrange(1, 101))
+    env = {k: v for k, v in env.items() if k not in ("PYTHONPATH", "VIRTUAL_ENV")}
+    argv = [str(_ros2_python()), "-c", IN_PROCESS, str(NODE), str(policy)]
+    r = subprocess.run(argv, env=env, cwd=tmp_path, capture_output=True, text=True, timeout=60)
+    assert r.returncode == 0, r.stdout + r.stderr
+    out, log = json.loads(r.stdout.strip().splitlines()[-1]), r.stderr
+    kind, (cmd,) = out["drive_True"]
+    assert kind == "TwistStamped" and cmd[0] == 0.15 and cmd[2] > 0, out  # stamped: a time
+    kind, (cmd,) = out["drive_False"]
+    assert kind == "Twist" and cmd[0] == 0.15, out
+    assert [c[:2] for c in out["bad"]] == [[0.0, 0.0]] * 10, out
+    assert log.count("scan reads NaN") == 1 and log.count("scan has 12 rays") == 1, log
+    assert [c[:2] for c in out["broken"]] == [[0.0, 0.0]] * 5, out
+    assert log.count("scan callback failed (RuntimeError: broken): stopped") == 1, log
+    assert "Traceback" not in log, log
