@@ -46,17 +46,19 @@ The node publishes a zero twist (stop) whenever there is no goal, the latest sca
 odometry is older than ``stale_after`` seconds (a timer keeps stopping the robot while
 no scan arrives), the goal is within ``goal_tolerance`` (then the goal is cleared:
 send a new one), and on SIGINT or SIGTERM (then it exits with status 0). Bad input
-also stops it, with one log line each time it starts (not one per scan):
+also stops it, with one log line per reason until the robot drives again or gets a
+new goal (not one per message):
 
   * a scan the policy does not match: fewer rays than the policy's beams, a ray count
     that disagrees with the scan's own angles, a scan not covering 360 degrees, a
     range_max below the policy's max range or a range_min more than 5 cm above its
     min range, or non-finite angles or limits;
-  * a scan with NaN at more than half of the rays the policy reads (a single NaN, 0 or
-    +inf is read as no return, see jaxnav/robot/deploy.py: the LDS-02's driver leaves
-    bins without a point NaN);
-  * odometry that jumps more than ``odom_jump`` metres between two messages (a reset,
-    a relocalisation): the goal is cleared, send a new one;
+  * a scan with NaN at more than half of the rays the policy reads: a blind sensor (a
+    few NaN, 0 or +inf readings are read as no return, as jaxnav/robot/deploy.py
+    says, since drivers differ in how they mark a ray without a return);
+  * odometry whose pose is not finite (until a finite one comes), or that jumps more
+    than ``odom_jump`` metres between two messages (a reset, a relocalisation): then
+    the goal is cleared, send a new one;
   * a goal in another frame than the odometry's: refused, and the current goal with it.
 
 An exception in a callback is logged once and stops the robot; it never loops.
@@ -231,7 +233,10 @@ class PolicyNode:
         node.create_timer(policy.dt, self.on_timer)
         self.last_pose = None  # the previous odometry pose, for the jump check
         self.bad_scan_at = -math.inf  # when the latest unusable scan came
-        self.logged = None  # (reason, message) last logged: each stop is logged once
+        # (reason, message) logged since the robot last drove or got a goal: each
+        # reason to stop is logged once, however often it recurs or alternates
+        self.logged: set[tuple[str, str]] = set()
+        self.odom_bad: str | None = None  # why the latest odometry is unusable
         self.shutting_down = False
         self.failed = None  # the last unexpected error logged
         m = policy.meta
@@ -266,6 +271,9 @@ class PolicyNode:
                 self.bad_scan_at = now
                 self.publish(deploy.Command(0.0, 0.0, "bad input", f"{why}: stopped"))
                 return
+            if self.odom_bad is not None:  # nor is the last good pose
+                self.publish(deploy.Command(0.0, 0.0, "bad input", self.odom_bad))
+                return
             self.control.on_scan(msg.ranges, msg.angle_min, msg.angle_increment, now)
             self.publish(self.control.decide(now))
         except Exception as e:  # noqa: BLE001 - one log line and a stop, never a loop
@@ -275,6 +283,11 @@ class PolicyNode:
         try:
             q, p = msg.pose.pose.orientation, msg.pose.pose.position
             pose = (p.x, p.y, deploy.yaw_from_quaternion(q.x, q.y, q.z, q.w))
+            if not all(math.isfinite(v) for v in pose):
+                self.odom_bad = "odometry pose is not finite: stopped"
+                self.publish(deploy.Command(0.0, 0.0, "bad input", self.odom_bad))
+                return
+            self.odom_bad = None
             previous, self.last_pose = self.last_pose, pose
             if previous is not None:
                 jump = odom_jump(previous, pose)
@@ -317,7 +330,7 @@ class PolicyNode:
                 self.control.goal = None
                 self.publish(deploy.Command(0.0, 0.0, "bad input", f"goal refused: {e}"), True)
                 return
-            self.logged = None
+            self.logged.clear()
             self.log().info(f"new goal ({x:.2f}, {y:.2f}) in frame '{frame}'")
         except Exception as e:  # noqa: BLE001
             self.fail("goal", e)
@@ -357,15 +370,15 @@ class PolicyNode:
         return msg
 
     def publish(self, cmd, force_log: bool = False) -> None:
-        """Publish a deploy.Command; log why it stops when that changes."""
+        """Publish a deploy.Command; log why it stops, once per stop (see ``logged``)."""
         if self.shutting_down:
             return
         self.cmd_pub.publish(self.twist(cmd.linear, cmd.angular))
         key = (cmd.reason, cmd.message)
         if cmd.reason == "drive":
-            self.logged = None
-        elif cmd.level and cmd.message and (force_log or key != self.logged):
-            self.logged = key
+            self.logged.clear()
+        elif cmd.level and cmd.message and (force_log or key not in self.logged):
+            self.logged.add(key)
             # One call per severity: rclpy refuses two severities from one call site.
             if cmd.level == "info":
                 self.log().info(cmd.message)

@@ -453,7 +453,8 @@ def make(stamped):
               Parameter("enable_stamped_cmd_vel", value=stamped)]
     context = rclpy.Context()  # one each: Fast DDS takes one type per topic and participant
     rclpy.init(context=context)
-    node = rclpy.create_node("jaxnav_policy", parameter_overrides=params, context=context)
+    name = f"jaxnav_policy_{int(stamped)}"
+    node = rclpy.create_node(name, parameter_overrides=params, context=context)
     pn = mod.PolicyNode(node)
     pn.cmd_pub = Recorder()
     odom = Odometry()
@@ -493,6 +494,15 @@ def broken(now):
     raise RuntimeError("broken")
 
 
+nan_odom = Odometry()
+nan_odom.header.frame_id, nan_odom.pose.pose.position.x = "odom", math.nan
+for _ in range(5):
+    pn.on_odom(nan_odom)
+    pn.on_scan(scan())
+out["nan_odom"] = twists(pn)
+nan_odom.pose.pose.position.x = 0.0  # finite again
+pn.on_odom(nan_odom)
+pn.cmd_pub.msgs.clear()
 pn.control.decide = broken
 for _ in range(5):
     pn.on_scan(scan())
@@ -503,7 +513,8 @@ print(json.dumps(out))
 
 def test_in_process_the_node_publishes_either_type_and_stops_on_bad_scans(ros2, tmp_path):
     """The node's callbacks called directly under rclpy: the message types, and one log
-    line (not one per scan) for NaN scans, a 12-ray scan and an error in a callback."""
+    line (not one per message) for NaN scans, a 12-ray scan, NaN odometry and an error
+    in a callback."""
     policy, p = tmp_path / "policy.npz", _policy()
     meta = dict(p.meta, format=deploy.FORMAT, version=deploy.FORMAT_VERSION)
     meta["layers"] = [f"Dense_{i}" for i in range(len(p.layers))]
@@ -523,6 +534,8 @@ def test_in_process_the_node_publishes_either_type_and_stops_on_bad_scans(ros2, 
     assert kind == "Twist" and cmd[0] == 0.15, out
     assert [c[:2] for c in out["bad"]] == [[0.0, 0.0]] * 10, out
     assert log.count("scan reads NaN") == 1 and log.count("scan has 12 rays") == 1, log
+    assert [c[:2] for c in out["nan_odom"]] == [[0.0, 0.0]] * 10, out
+    assert log.count("odometry pose is not finite") == 1, log
     assert [c[:2] for c in out["broken"]] == [[0.0, 0.0]] * 5, out
     assert log.count("scan callback failed (RuntimeError: broken): stopped") == 1, log
     assert "Traceback" not in log, log
