@@ -21,7 +21,7 @@ last goal again in the shifted frame. Finally, once the robot drives, create
 that the node stops the robot when it is shut down.
 
 It needs JAX and rclpy in one interpreter: jaxnav's environment runs it, with the ROS 2
-environment's site-packages appended to sys.path (``JAXNAV_ROS2_SITE``) and its
+environment's package paths appended to sys.path (``JAXNAV_ROS2_SITE``) and its
 libraries on LD_LIBRARY_PATH (tests/test_ros2.py sets both).
 """
 
@@ -275,9 +275,9 @@ def main(argv: list[str] | None = None) -> int:
     world = World(args.maze, 0.0)
     world.scan(), world.move(0.0, 0.0)  # compile before the clock starts
 
-    site = os.environ.get("JAXNAV_ROS2_SITE")
-    if site and site not in sys.path:
-        sys.path.append(site)  # after this environment's own packages (NumPy)
+    for site in os.environ.get("JAXNAV_ROS2_SITE", "").split(os.pathsep):
+        if site and site not in sys.path:
+            sys.path.append(site)  # after this environment's own packages (NumPy)
     import rclpy
     from rclpy.executors import SingleThreadedExecutor
     from rclpy.signals import SignalHandlerOptions

@@ -17,9 +17,11 @@ node must exit with status 0. The policy is the first of a few trained seeds tha
 reaches the goals when the adapter is called directly in the same simulated maze, as
 in tests/test_ros1.py.
 
-The ROS 2 environment is ``JAXNAV_ROS2_PYTHON`` or ``.venv-ros2/bin/python``
-(scripts/ros2_env.sh --install-only makes it: PyPI's ros-rclpy wheels); where it is
-missing the ROS 2 tests skip and say so. The node's checks also run here without ROS,
+The ROS 2 environment is ``.venv-ros2/bin/python`` (scripts/ros2_env.sh --install-only
+makes it: PyPI's ros-rclpy wheels) or ``JAXNAV_ROS2_PYTHON``, e.g. a system python3
+with a ROS 2 distribution sourced; the closed loop also needs it to be this Python's
+version, since the simulated robot loads JAX and rclpy together. Where it is missing
+the ROS 2 tests skip and say so. The node's checks also run here without ROS,
 and its callbacks are called directly under rclpy (message types, one log line per bad
 scan or error, never an exception out of a callback).
 """
@@ -178,41 +180,59 @@ def _ros2_python() -> Path:
 
 
 PROBE = """
-import json, sys, sysconfig
+import json, sys
 import numpy, rclpy, sensor_msgs.msg, nav_msgs.msg, geometry_msgs.msg
 from importlib import metadata
-print(json.dumps({"site": sysconfig.get_paths()["purelib"], "version": list(sys.version_info[:2]),
+paths = [p for p in sys.path if "site-packages" in p or "dist-packages" in p]
+print(json.dumps({"paths": paths, "version": list(sys.version_info[:2]),
                   "rclpy": metadata.version("rclpy"), "prefix": sys.prefix}))
 """
 
 
-def _ros2_env() -> dict:
-    """What the ROS 2 environment is (site-packages, Python and rclpy versions); skip if none."""
+def _robot_env(env: dict) -> dict:
+    """A process environment as on a robot: without this checkout on PYTHONPATH (so the
+    node finds deploy.py by path) nor jaxnav's virtual environment; the rest (a sourced
+    ROS 2's PYTHONPATH) kept."""
+    env = {k: v for k, v in env.items() if k != "VIRTUAL_ENV"}
+    keep = [p for p in env.pop("PYTHONPATH", "").split(os.pathsep) if p]
+    keep = [p for p in keep if Path(p).resolve() != ROOT]
+    return dict(env, PYTHONPATH=os.pathsep.join(keep)) if keep else env
+
+
+@pytest.fixture(scope="module")
+def ros2() -> dict:
+    """What the ROS 2 environment is (its package paths, Python and rclpy versions);
+    skip if there is none."""
     py = _ros2_python()
     if not py.exists():
         pytest.skip(f"no ROS 2 environment at {py} (JAXNAV_ROS2_PYTHON): {INSTALL_HINT}")
-    env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "VIRTUAL_ENV")}
-    r = subprocess.run([str(py), "-c", PROBE], capture_output=True, text=True, timeout=120, env=env)
+    r = subprocess.run(
+        [str(py), "-c", PROBE],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        env=_robot_env(os.environ),
+    )
     if r.returncode:
         last = (r.stderr.strip().splitlines() or ["?"])[-1]
         pytest.skip(f"{py} cannot import rclpy and the messages ({last}): {INSTALL_HINT}")
-    info = json.loads(r.stdout.strip().splitlines()[-1])
-    if tuple(info["version"]) != sys.version_info[:2]:
+    return json.loads(r.stdout.strip().splitlines()[-1])
+
+
+@pytest.fixture(scope="module")
+def ros2_sim(ros2) -> dict:
+    """The ROS 2 environment, where the simulated robot can load its rclpy."""
+    if tuple(ros2["version"]) != sys.version_info[:2]:
         pytest.skip(
-            f"{py} is Python {'.'.join(map(str, info['version']))}, this is "
+            f"{_ros2_python()} is Python {'.'.join(map(str, ros2['version']))}, this is "
             f"{sys.version_info.major}.{sys.version_info.minor}: the simulated robot needs JAX "
-            "and rclpy in one interpreter"
+            f"and rclpy in one interpreter ({INSTALL_HINT} with this Python)"
         )
-    return info
+    return ros2
 
 
 @pytest.fixture(scope="module")
-def ros2():
-    return _ros2_env()
-
-
-@pytest.fixture(scope="module")
-def policy_file(ros2, tmp_path_factory) -> Path:
+def policy_file(ros2_sim, tmp_path_factory) -> Path:
     """A trained policy that reaches ROUTE without ROS, exactly and with noise."""
     from jaxnav.core.config import load_config
     from jaxnav.robot.export import export_policy, save_policy
@@ -251,8 +271,8 @@ def _dds_env(ros2: dict, work: Path, domain: int) -> dict:
 def _ros2_libraries(ros2: dict) -> str:
     """LD_LIBRARY_PATH for rclpy's libraries outside its own interpreter (what the
     wheels' bootstrap does for the ROS 2 environment's python)."""
-    site = Path(ros2["site"])
-    dirs = [str(p) for p in sorted(site.glob("ros_*.libs"))] + [str(Path(ros2["prefix"]) / "lib")]
+    dirs = [str(p) for site in ros2["paths"] for p in sorted(Path(site).glob("ros_*.libs"))]
+    dirs.append(str(Path(ros2["prefix"]) / "lib"))
     old = os.environ.get("LD_LIBRARY_PATH")
     return os.pathsep.join(dirs + ([old] if old else []))
 
@@ -272,7 +292,7 @@ class ClosedLoop:
         sim_env = dict(
             env,
             JAX_PLATFORMS="cpu",
-            JAXNAV_ROS2_SITE=ros2["site"],
+            JAXNAV_ROS2_SITE=os.pathsep.join(ros2["paths"]),
             LD_LIBRARY_PATH=_ros2_libraries(ros2),
         )
         goals = ";".join(f"{x},{y}" for x, y in goals)
@@ -280,9 +300,10 @@ class ClosedLoop:
         argv += ["--result", str(self.result_path)]
         self.sim = self._start("sim", argv + sim_args, sim_env)
         # As on a robot: ROS 2's python, without JAX or jaxnav (deploy.py by path).
-        env = {k: v for k, v in env.items() if k not in ("PYTHONPATH", "VIRTUAL_ENV")}
         argv = [str(_ros2_python()), str(NODE), "--ros-args", "-p", f"policy:={policy}"]
-        self.node = self._start("node", argv, dict(env, **node_env))
+        if self.name == "stamped" and not node.default_stamped(None, ros2["rclpy"])[0]:
+            argv += ["-p", "enable_stamped_cmd_vel:=true"]  # an rclpy older than Jazzy's
+        self.node = self._start("node", argv, _robot_env(dict(env, **node_env)))
 
     def _start(self, name: str, argv: list[str], env: dict) -> Proc:
         proc = Proc(argv, env, self.work / f"{name}.log", self.work)
@@ -325,14 +346,14 @@ class ClosedLoop:
 
 
 @pytest.fixture(scope="module")
-def loops(ros2, policy_file, tmp_path_factory):
+def loops(ros2_sim, policy_file, tmp_path_factory):
     """Both loops, run side by side to their end; every process is gone afterwards."""
     started: dict[str, ClosedLoop] = {}
     domains = random.Random().sample(range(1, 101), len(LOOPS))  # 0..101: Fast DDS's ports
     try:
         for name, domain in zip(LOOPS, domains):
             started[name] = ClosedLoop(name, tmp_path_factory.mktemp(name))
-            started[name].start(ros2, policy_file, domain)
+            started[name].start(ros2_sim, policy_file, domain)
         pending = [loop.mission() for loop in started.values()]
         t = time.monotonic()
         while pending and time.monotonic() - t < DEADLINE_S:
@@ -418,7 +439,7 @@ def test_a_policy_file_that_cannot_be_read_ends_the_node_with_one_line(ros2, tmp
     bad = tmp_path / "policy.npz"
     bad.write_bytes(b"not a policy")
     env = _dds_env(ros2, tmp_path, random.Random().randrange(1, 101))
-    env = {k: v for k, v in env.items() if k not in ("PYTHONPATH", "VIRTUAL_ENV")}
+    env = _robot_env(env)
     argv = [str(_ros2_python()), str(NODE), "--ros-args", "-p", f"policy:={bad}"]
     r = subprocess.run(argv, env=env, cwd=tmp_path, capture_output=True, text=True, timeout=60)
     out = r.stdout + r.stderr
@@ -523,7 +544,7 @@ def test_in_process_the_node_publishes_either_type_and_stops_on_bad_scans(ros2, 
         arrays[f"{name}/kernel"], arrays[f"{name}/bias"] = k, b
     np.savez(policy, **arrays)
     env = _dds_env(ros2, tmp_path, random.Random().randrange(1, 101))
-    env = {k: v for k, v in env.items() if k not in ("PYTHONPATH", "VIRTUAL_ENV")}
+    env = _robot_env(env)
     argv = [str(_ros2_python()), "-c", IN_PROCESS, str(NODE), str(policy)]
     r = subprocess.run(argv, env=env, cwd=tmp_path, capture_output=True, text=True, timeout=60)
     assert r.returncode == 0, r.stdout + r.stderr
