@@ -40,7 +40,7 @@ Topics:
              enable_stamped_cmd_vel, named and meant as turtlebot3_node's: its default
              is what the running distribution's TurtleBot3 stack expects, i.e. Twist on
              Humble and older, TwistStamped on Jazzy and later; taken from ROS_DISTRO,
-             or, where that is unset, from rclpy's version (< 5: Humble or older).
+             or, where that is unset, from rclpy's version (7.x is Jazzy's).
 
 The node publishes a zero twist (stop) whenever there is no goal, the latest scan or
 odometry is older than ``stale_after`` seconds (a timer keeps stopping the robot while
@@ -106,9 +106,11 @@ deploy = _load_deploy()
 # What the node decides without ROS (tests/test_ros2.py calls these directly)
 # ----------------------------------------------------------------------------
 
-# Distributions whose TurtleBot3 stack takes a plain Twist on /cmd_vel (turtlebot3_bringup
-# loads enable_stamped_cmd_vel: false only for humble; foxy and galactic predate it).
+# Distributions before Jazzy take a plain Twist on /cmd_vel: turtlebot3_bringup loads
+# enable_stamped_cmd_vel: false for humble, its one target before Jazzy, and true for
+# the rest; foxy, galactic and iron are taken to be like humble.
 TWIST_DISTROS = ("foxy", "galactic", "humble", "iron")
+STAMPED_RCLPY = 7  # Jazzy's rclpy is 7.x; Humble's 3.x, Iron's 4.x
 RANGE_MIN_SLACK = 0.05  # m: a LiDAR blind this much nearer than training is a mismatch
 MAX_NAN_FRACTION = 0.5  # of the policy's beams: more NaN than this and the scan is unusable
 
@@ -122,7 +124,7 @@ def default_stamped(distro: str | None, rclpy_version: str | None) -> tuple[bool
         major = int(str(rclpy_version).split(".")[0])
     except ValueError:
         return True, "ROS_DISTRO unset and rclpy's version unknown"
-    return major >= 5, f"ROS_DISTRO unset, rclpy {rclpy_version}"
+    return major >= STAMPED_RCLPY, f"ROS_DISTRO unset, rclpy {rclpy_version}"
 
 
 def scan_problem(
@@ -226,11 +228,6 @@ class PolicyNode:
         stamped, why = default_stamped(os.environ.get("ROS_DISTRO"), _rclpy_version())
         self.stamped = bool(node.declare_parameter("enable_stamped_cmd_vel", stamped).value)
         self.twist_type = TwistStamped if self.stamped else Twist
-        self.cmd_pub = node.create_publisher(self.twist_type, "/cmd_vel", 10)
-        node.create_subscription(LaserScan, "/scan", self.on_scan, qos_profile_sensor_data)
-        node.create_subscription(Odometry, "/odom", self.on_odom, qos_profile_sensor_data)
-        node.create_subscription(PoseStamped, goal_topic, self.on_goal, 10)
-        node.create_timer(policy.dt, self.on_timer)
         self.last_pose = None  # the previous odometry pose, for the jump check
         self.bad_scan_at = -math.inf  # when the latest unusable scan came
         # (reason, message) logged since the robot last drove or got a goal: each
@@ -239,6 +236,11 @@ class PolicyNode:
         self.odom_bad: str | None = None  # why the latest odometry is unusable
         self.shutting_down = False
         self.failed = None  # the last unexpected error logged
+        self.cmd_pub = node.create_publisher(self.twist_type, "/cmd_vel", 10)
+        node.create_subscription(LaserScan, "/scan", self.on_scan, qos_profile_sensor_data)
+        node.create_subscription(Odometry, "/odom", self.on_odom, qos_profile_sensor_data)
+        node.create_subscription(PoseStamped, goal_topic, self.on_goal, 10)
+        node.create_timer(policy.dt, self.on_timer)
         m = policy.meta
         self.log().info(
             f"policy {path}: {m.get('strategy')} seed {m.get('seed')} trained on {m.get('maze')}, "

@@ -8,7 +8,7 @@ path), loading a freshly trained and exported policy. A simulated TurtleBot3
 by side, each on a DDS domain of its own, on loopback only:
 
 * "stamped": /cmd_vel as TwistStamped, the node's default with ROS_DISTRO unset and
-  rclpy >= 5 (Jazzy and later); the full mission: two goals, stale odometry, NaN
+  rclpy >= 7 (Jazzy and later); the full mission: two goals, stale odometry, NaN
   scans, scans from a shorter-range LiDAR, a goal in frame "map", an odometry jump;
 * "twist": ROS_DISTRO=humble, so the node publishes Twist; one goal.
 
@@ -113,6 +113,7 @@ def _problem(ranges=None, policy=None, **scan):
         ("kilted", None, True),
         ("rolling", None, True),
         (None, "3.3.16", False),  # Humble's rclpy
+        (None, "4.1.5", False),  # Iron's
         (None, "7.1.5", True),  # Jazzy's
         (None, "9.1.2", True),  # Kilted's (PyPI's ros-rclpy wheels)
         (None, None, True),
