@@ -89,6 +89,7 @@ def test_a_wheel_runs_the_quick_start_from_an_empty_folder(tmp_path):
                 "seeds=1",
                 "episodes=2",
                 "env.max_steps=20",
+                "dqn.batch_size=16",
                 "--out",
                 out,
             ],
