@@ -22,7 +22,7 @@ from jaxnav.agent.sharding import initialize, is_writer
 from jaxnav.core import cli
 from jaxnav.core.config import load_config, resolve_config_path
 from jaxnav.core.errors import RunError
-from jaxnav.run.training import resume, train_new
+from jaxnav.run.training import interrupted_text, resume, train_new
 
 
 def default_out(config_path: str | None) -> Path:
@@ -103,7 +103,7 @@ def main(argv: list[str] | None = None) -> int:
             curves = plot_training_curves(out, out / "plots" / "training_curves.png")
             print(f"training curves: {curves}")
 
-    return cli.run(p.prog, work, interrupted="interrupted; continue with --resume")
+    return cli.run(p.prog, work, interrupted=interrupted_text)
 
 
 if __name__ == "__main__":

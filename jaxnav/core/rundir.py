@@ -95,10 +95,12 @@ def atomic_write_text(path: str | os.PathLike, text: str) -> None:
     atomic_write_bytes(path, text.encode())
 
 
-def remove_stale_temps(run_dir: str | os.PathLike) -> int:
+def remove_stale_temps(run_dir: str | os.PathLike, pid: int | None = None) -> int:
     """Remove the temporary files a killed writer left in a run directory (call it
-    holding the run's lock, so no live writer owns them); how many there were."""
-    stale = [p for p in Path(run_dir).rglob(".*.tmp*") if p.is_file()]
+    holding the run's lock, so no live writer owns them), or only those of process
+    ``pid``; how many there were."""
+    pattern = ".*.tmp*" if pid is None else f".*.tmp{pid}"
+    stale = [p for p in Path(run_dir).rglob(pattern) if p.is_file()]
     for p in stale:
         p.unlink(missing_ok=True)
     return len(stale)
@@ -229,6 +231,19 @@ def clear(out: str | os.PathLike) -> Path:
     remove_stale_temps(out)
     (out / "checkpoints").mkdir()
     return out
+
+
+def empty(out: str | os.PathLike) -> None:
+    """Remove what a run wrote into ``out`` (its files and folders, its lock and
+    temporary files), leaving the directory and anything else in it."""
+    out = Path(out)
+    for name in (*RUN_ENTRIES, LOCK):
+        p = out / name
+        if p.is_dir():
+            shutil.rmtree(p, ignore_errors=True)
+        else:
+            p.unlink(missing_ok=True)
+    remove_stale_temps(out)
 
 
 def existing(run_dir: str | os.PathLike, finished: bool = False) -> Path:

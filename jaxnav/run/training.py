@@ -7,6 +7,11 @@ that records the training state and how long the logs were, so a run killed at a
 moment (even by SIGKILL) resumes from its last chunk (:func:`resume`) and ends with
 exactly the metrics and parameters of an uninterrupted run. The files and their
 checks are :mod:`jaxnav.core.rundir`'s.
+
+Ctrl-C
+(:mod:`jaxnav.core.startup`) never cuts a write of the logs, a checkpoint or the
+final files in two; it leaves the run resumable from its last checkpoint, or, before
+the first one, removes what the command made (:func:`interrupted_text` says which).
 """
 
 from __future__ import annotations
@@ -15,6 +20,7 @@ import contextlib
 import json
 import os
 import platform
+import shutil
 import sys
 import time
 from pathlib import Path
@@ -25,7 +31,7 @@ import numpy as np
 
 from jaxnav.agent import replay
 from jaxnav.agent.sharding import RunSharding, is_writer
-from jaxnav.core import rundir, sweep
+from jaxnav.core import rundir, startup, sweep
 from jaxnav.core.config import Config, dump_config, load_config
 from jaxnav.core.errors import RunError
 from jaxnav.core.startup import process_age
@@ -307,6 +313,11 @@ class Run:
         rows = self.shard.get(self.rows_at(ts, slots)) if checkpoint else None
         if not is_writer():
             return
+        with startup.no_interrupt():  # Ctrl-C: after the checkpoint, never between
+            self._write(metric_rows, explore_rows, slots, rows, state, checkpoint)
+
+    def _write(self, metric_rows, explore_rows, slots, rows, state, checkpoint: bool) -> None:
+        """:meth:`save`'s writes, on the host copies it gathered."""
         logs = (self.metrics, self.explore)
         before = [log.size() for log in logs]
         try:
@@ -473,9 +484,11 @@ class Run:
         params = self.shard.get(ts.params)  # every process: collective across hosts
         if is_writer():
             params = params_arrays(self.cfg, params)
-            rundir.atomic_write_npz(self.out / rundir.PARAMS, params)
             text = json.dumps(summary, indent=2) + "\n"
-            rundir.atomic_write_text(self.out / rundir.SUMMARY, text)
+            with startup.no_interrupt():  # Ctrl-C: a finished run, or one to resume
+                rundir.atomic_write_npz(self.out / rundir.PARAMS, params)
+                rundir.atomic_write_text(self.out / rundir.SUMMARY, text)
+                _interrupt.update(finished=True)  # before the block ends: a Ctrl-C acts then
         if len(self.diverged) == self.cfg.n_runs:
             raise RunError("training diverged: every run (summary.json lists them; lower dqn.lr)")
         return summary
@@ -515,21 +528,73 @@ def _writer_lock(out: Path):
     return rundir.Lock(out) if is_writer() else contextlib.nullcontext()
 
 
+# What a Ctrl-C left of the run this process trains: its directory, whether the
+# command made it, and how far it got; interrupted_text says it in words.
+_interrupt: dict[str, Any] = {}
+
+
+def interrupted_text() -> str:
+    """The line ``jaxnav.train`` ends with on Ctrl-C: what it left and how to go on."""
+    out, left = _interrupt.get("out"), _interrupt.get("left")
+    if out is None:
+        return "interrupted"
+    if _interrupt.get("finished"):
+        return (
+            f"interrupted after training finished: the results are in {out} "
+            f"(python -m jaxnav.plots {out} draws its figures)"
+        )
+    if left == "removed":
+        return f"interrupted before the first checkpoint; {out} was removed"
+    if left == "emptied":
+        return f"interrupted before the first checkpoint; {out} was left empty"
+    return f"interrupted; the run can be resumed with python -m jaxnav.train --resume {out}"
+
+
+@contextlib.contextmanager
+def _tidy_on_interrupt(out: Path, made: bool | None):
+    """On Ctrl-C within the block: a run without a checkpoint has nothing worth
+    resuming, so what this command wrote goes (``made``: the whole directory, which it
+    created; False: its contents, the directory was there before; None, a resume:
+    nothing). Otherwise only this process's half-written temporary files go."""
+    _interrupt.clear()
+    _interrupt.update(out=out)
+
+    def tidy() -> None:
+        if not is_writer() or not out.is_dir():
+            return
+        resumable = (out / rundir.CHECKPOINT).is_file() or (out / rundir.PARAMS).is_file()
+        if resumable or made is None:
+            rundir.remove_stale_temps(out, pid=os.getpid())
+        elif made:
+            shutil.rmtree(out, ignore_errors=True)
+            _interrupt.update(left="removed")
+        else:
+            rundir.empty(out)
+            _interrupt.update(left="emptied")
+
+    with startup.on_interrupt(tidy):
+        yield
+
+
 def train_new(
     cfg: Config, out: Path, quiet: bool = False, overwrite: bool = False
 ) -> dict[str, Any]:
     """Start a new run in ``out`` (absent or empty; with ``overwrite``, an existing run
     directory is emptied first, under its lock) and train it to the end."""
-    run = Run(cfg, out, quiet)  # builds the env first: a bad maze leaves no directory
+    # builds the env first: a bad maze leaves no directory
+    run = Run(cfg, out, quiet)
     replace = overwrite and (out / rundir.CONFIG).is_file()
-    if is_writer() and not replace:
-        rundir.create(out)
-    with _writer_lock(out):
-        if is_writer():
-            if replace:
-                rundir.clear(out)
-            rundir.atomic_write_text(out / rundir.CONFIG, dump_config(cfg))
-        return run.finish(run.train(run.fresh_state()))
+    with _tidy_on_interrupt(out, made=not out.exists()):
+        with startup.no_interrupt():
+            if is_writer() and not replace:
+                rundir.create(out)
+        with _writer_lock(out):
+            if is_writer():
+                with startup.no_interrupt():
+                    if replace:
+                        rundir.clear(out)
+                    rundir.atomic_write_text(out / rundir.CONFIG, dump_config(cfg))
+            return run.finish(run.train(run.fresh_state()))
 
 
 def resume(out: Path, quiet: bool = False) -> dict[str, Any]:
@@ -537,7 +602,7 @@ def resume(out: Path, quiet: bool = False) -> dict[str, Any]:
     out = rundir.existing(out)
     cfg = load_config(str(out / rundir.CONFIG))
     run = Run(cfg, out, quiet)
-    with _writer_lock(out):
+    with _tidy_on_interrupt(out, made=None), _writer_lock(out):
         if is_writer():
             rundir.remove_stale_temps(out)
             run.checkpoint.parent.mkdir(exist_ok=True)  # killed before create() finished
