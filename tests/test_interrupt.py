@@ -139,7 +139,7 @@ def _left_resumable_finished_or_nothing(out: Path, line: str) -> str:
         return "absent"
     assert not list(out.rglob(".*.tmp*")), "a half-written file was left"
     if (out / rundir.PARAMS).is_file():
-        assert (out / rundir.SUMMARY).is_file()
+        assert (out / rundir.SUMMARY).is_file() and not (out / "checkpoints").exists()
         assert "after training finished" in line, line
         return "finished"
     assert (out / rundir.CHECKPOINT).is_file(), sorted(p.name for p in out.iterdir())
@@ -173,7 +173,7 @@ def test_ctrl_c_at_every_stage_of_training(tmp_path):
     left["training"] = _left_resumable_finished_or_nothing(out, line)
     resume = [sys.executable, "-m", "jaxnav.train", "--resume", str(out), "--quiet"]
     subprocess.run(resume, cwd=ROOT, check=True, capture_output=True)
-    assert (out / rundir.PARAMS).is_file()
+    assert rundir.finished(out)
 
     # finished: params.npz is written, the command is drawing figures or exiting
     out = tmp_path / "finished"

@@ -8,7 +8,8 @@ moment (even by SIGKILL) resumes from its last chunk (:func:`resume`) and ends w
 exactly the metrics and parameters of an uninterrupted run. The files and their
 checks are :mod:`jaxnav.core.rundir`'s.
 
-Ctrl-C
+A finished run removes its checkpoints (unless asked to keep them): nothing reads
+them once ``params.npz`` and ``summary.json`` are written. Ctrl-C
 (:mod:`jaxnav.core.startup`) never cuts a write of the logs, a checkpoint or the
 final files in two; it leaves the run resumable from its last checkpoint, or, before
 the first one, removes what the command made (:func:`interrupted_text` says which).
@@ -151,9 +152,13 @@ def params_arrays(cfg: Config, params) -> dict[str, np.ndarray]:
 class Run:
     """Host loop around the compiled chunk: progress, metrics, checkpoints."""
 
-    def __init__(self, cfg: Config, out: Path | None, quiet: bool = False):
-        """``out`` None: a run that only computes (tests, benchmarks), no files."""
+    def __init__(
+        self, cfg: Config, out: Path | None, quiet: bool = False, keep_checkpoints: bool = False
+    ):
+        """``out`` None: a run that only computes (tests, benchmarks), no files.
+        ``keep_checkpoints``: a finished run keeps its checkpoints (they go otherwise)."""
         self.cfg, self.out, self.quiet = cfg, out, quiet
+        self.keep_checkpoints = keep_checkpoints
         if cfg.run.tensorboard:
             tblog.check_available()
         self.trainer = make_trainer(cfg)
@@ -488,6 +493,8 @@ class Run:
             with startup.no_interrupt():  # Ctrl-C: a finished run, or one to resume
                 rundir.atomic_write_npz(self.out / rundir.PARAMS, params)
                 rundir.atomic_write_text(self.out / rundir.SUMMARY, text)
+                if not self.keep_checkpoints:  # only after both: until then, resume needs them
+                    rundir.remove_checkpoints(self.out)
                 _interrupt.update(finished=True)  # before the block ends: a Ctrl-C acts then
         if len(self.diverged) == self.cfg.n_runs:
             raise RunError("training diverged: every run (summary.json lists them; lower dqn.lr)")
@@ -577,12 +584,16 @@ def _tidy_on_interrupt(out: Path, made: bool | None):
 
 
 def train_new(
-    cfg: Config, out: Path, quiet: bool = False, overwrite: bool = False
+    cfg: Config,
+    out: Path,
+    quiet: bool = False,
+    overwrite: bool = False,
+    keep_checkpoints: bool = False,
 ) -> dict[str, Any]:
     """Start a new run in ``out`` (absent or empty; with ``overwrite``, an existing run
     directory is emptied first, under its lock) and train it to the end."""
     # builds the env first: a bad maze leaves no directory
-    run = Run(cfg, out, quiet)
+    run = Run(cfg, out, quiet, keep_checkpoints)
     replace = overwrite and (out / rundir.CONFIG).is_file()
     with _tidy_on_interrupt(out, made=not out.exists()):
         with startup.no_interrupt():
@@ -597,11 +608,19 @@ def train_new(
             return run.finish(run.train(run.fresh_state()))
 
 
-def resume(out: Path, quiet: bool = False) -> dict[str, Any]:
-    """Continue a run from its last checkpoint (or from the start if it has none)."""
+def resume(out: Path, quiet: bool = False, keep_checkpoints: bool = False) -> dict[str, Any]:
+    """Continue a run from its last checkpoint (or from the start if it has none). A
+    finished run whose checkpoints are gone has nothing left to train: its summary."""
     out = rundir.existing(out)
     cfg = load_config(str(out / rundir.CONFIG))
-    run = Run(cfg, out, quiet)
+    if rundir.finished(out):
+        with _writer_lock(out):
+            if is_writer():
+                rundir.remove_stale_temps(out)
+                rundir.remove_checkpoints(out)  # left by a finish that was killed
+            # as a resume with nothing left to train reports it: no start-up this time
+            return {**rundir.read_summary(out), "startup_s": None, "compile_s": None}
+    run = Run(cfg, out, quiet, keep_checkpoints)
     with _tidy_on_interrupt(out, made=None), _writer_lock(out):
         if is_writer():
             rundir.remove_stale_temps(out)
