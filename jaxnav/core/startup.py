@@ -260,12 +260,24 @@ def _say_and_exit() -> None:
             stream.flush()
         except Exception:
             pass
-    lead = "\n" if sys.stderr is not None and sys.stderr.isatty() else ""
+    lead = "\n" if _line_open() else ""
     line = f"{lead}{_state.prog}: {text}\n" if _state.prog else f"{lead}{text}\n"
     try:
         os.write(2, line.encode(errors="replace"))
     finally:
         os._exit(EXIT_INTERRUPTED)
+
+
+def _line_open() -> bool:
+    """Whether stderr's last line may be unfinished: a terminal (its ``^C``) or a
+    progress bar still drawn there."""
+    try:
+        if sys.stderr is not None and sys.stderr.isatty():
+            return True
+    except (OSError, ValueError):
+        pass
+    tqdm = getattr(sys.modules.get("tqdm"), "tqdm", None)
+    return bool(getattr(tqdm, "_instances", ()))
 
 
 def _fast_exit() -> None:
