@@ -20,7 +20,7 @@ ROOT = Path(__file__).resolve().parent.parent
 # code, inside a no_interrupt block, or where the main thread does not look for
 # signals (SIGINT blocked on it: as in native code that never checks).
 SCRIPT = """
-import signal, sys, time
+import atexit, signal, sys, time
 from pathlib import Path
 from jaxnav.core import startup
 startup.catch_interrupts()
@@ -37,11 +37,14 @@ def work():
                 print("ready", flush=True)
                 time.sleep(float(sys.argv[3]))
                 (out / "written").write_text("whole")
-        else:
+        elif mode != "exiting":
             print("ready", flush=True)
         if mode == "done":
             print("unflushed")
             return 3
+        if mode == "exiting":  # the work is done; Ctrl-C comes while the process ends
+            atexit.register(lambda: (print("ready", flush=True), time.sleep(30)))
+            return 0
         time.sleep(30)
 
 sys.exit(cli.run("python -m jaxnav.demo", work, interrupted=lambda: "stopped; " + out.name))
@@ -105,6 +108,13 @@ def test_a_command_ends_with_its_status_and_its_output_flushed(tmp_path):
     proc = _start("done", str(tmp_path))
     out, err = proc.communicate(timeout=60)
     assert proc.returncode == 3 and out == "ready\nunflushed\n" and err == ""
+
+
+def test_ctrl_c_while_the_process_exits_is_130_too(tmp_path):
+    proc = _start("exiting", str(tmp_path))
+    _ready(proc)
+    _, err = _interrupted(proc)
+    assert _one_line(err, "jaxnav.demo") == f"jaxnav.demo: stopped; {tmp_path.name}"
 
 
 # -- python -m jaxnav.train ------------------------------------------------------

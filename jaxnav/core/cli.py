@@ -18,6 +18,7 @@ from jaxnav.core.errors import JaxnavError
 
 EXIT_ERROR = 2
 EXIT_INTERRUPTED = startup.EXIT_INTERRUPTED
+_depth = [0]  # run() calls under way (a command may run another's main)
 
 
 def command_name(prog: str) -> str:
@@ -86,6 +87,7 @@ def run(
         startup.catch_interrupts()
     before = startup.interrupt_text(prog, interrupted)
     startup.exit_status(None)
+    _depth[0] += 1
     try:
         status = work()
     except JaxnavError as e:
@@ -102,7 +104,9 @@ def run(
         startup.exit_status(None)
         raise
     finally:
-        startup.interrupt_text(*before)
+        _depth[0] -= 1
+        if _depth[0]:  # a command run inside another: its line again; else the last stays
+            startup.interrupt_text(*before)
     status = 0 if status is None else status
     startup.exit_status(status)
     return status
