@@ -83,8 +83,7 @@ def run(
     with this line; the ``KeyboardInterrupt`` branch is for callers without it.
     """
     prog = command_name(prog)
-    if startup.in_command():  # a command that did not call it first thing already
-        startup.catch_interrupts()
+    startup.catch_interrupts_in_command()  # where the command did not do it first thing
     before = startup.interrupt_text(prog, interrupted)
     startup.exit_status(None)
     _depth[0] += 1

@@ -84,7 +84,7 @@ def use_compilation_cache() -> None:
 
 def before_jax() -> None:
     """Everything a command sets before JAX starts."""
-    catch_interrupts()
+    catch_interrupts_in_command()
     use_all_cores()
     use_compilation_cache()
 
@@ -125,10 +125,30 @@ def _command_name() -> str:
 
 
 def in_command() -> bool:
-    """Whether this process is a command, ``python -m jaxnav.<command>`` (not a test
-    runner or a notebook that calls one's ``main``)."""
+    """Whether this process is a command: ``python -m jaxnav.<command>``, ``python -m
+    jaxnav`` or the ``jaxnav`` script (not a test runner or a notebook that calls a
+    command's ``main``)."""
     spec = getattr(sys.modules.get("__main__"), "__spec__", None)
-    return spec is not None and (spec.name or "").startswith("jaxnav.")
+    if spec is not None:
+        return (spec.name or "").startswith("jaxnav.")
+    return bool(sys.argv) and Path(sys.argv[0]).name == "jaxnav"
+
+
+def invocation(command: str) -> str:
+    """How to run a command the way this process was run: ``jaxnav train`` from the
+    ``jaxnav`` script, ``python -m jaxnav.train`` otherwise."""
+    spec = getattr(sys.modules.get("__main__"), "__spec__", None)
+    if spec is None and sys.argv and Path(sys.argv[0]).name == "jaxnav":
+        return f"jaxnav {command}"
+    return f"python -m jaxnav.{command}"
+
+
+def catch_interrupts_in_command() -> None:
+    """:func:`catch_interrupts` where this process is a command (:func:`in_command`):
+    what every command's start-up calls, harmless where a command's ``main`` runs
+    inside another program."""
+    if in_command():
+        catch_interrupts()
 
 
 def catch_interrupts() -> None:

@@ -548,13 +548,14 @@ def interrupted_text() -> str:
     if _interrupt.get("finished"):
         return (
             f"interrupted after training finished: the results are in {out} "
-            f"(python -m jaxnav.plots {out} draws its figures)"
+            f"({startup.invocation('plots')} {out} draws its figures)"
         )
     if left == "removed":
         return f"interrupted before the first checkpoint; {out} was removed"
     if left == "emptied":
         return f"interrupted before the first checkpoint; {out} was left empty"
-    return f"interrupted; the run can be resumed with python -m jaxnav.train --resume {out}"
+    resume = startup.invocation("train")
+    return f"interrupted; the run can be resumed with {resume} --resume {out}"
 
 
 @contextlib.contextmanager
