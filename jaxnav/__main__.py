@@ -45,9 +45,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     if name not in COMMANDS:
         print(f"jaxnav: error: unknown command {name!r}\n\n{usage()}", file=sys.stderr)
         return 2
-    if COMMANDS[name][1]:  # before JAX starts: one CPU device per core, compile cache
-        from jaxnav.core.startup import before_jax
+    from jaxnav.core.startup import before_jax, catch_interrupts_in_command
 
+    catch_interrupts_in_command()  # first thing: Ctrl-C ends any command cleanly
+    if COMMANDS[name][1]:  # before JAX starts: one CPU device per core, compile cache
         before_jax()
     return importlib.import_module(f"jaxnav.{name}").main(rest)
 
