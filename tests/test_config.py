@@ -77,3 +77,33 @@ def test_memory_estimate_bounds_the_replay_buffers_within_ten_percent(overrides)
     env, params = from_config(cfg)
     real = cfg.n_runs * nbytes(cfg.buffer_capacity, env.obs_size, int(params.max_steps))
     assert real <= cfg.memory_estimate() <= 1.1 * real
+
+
+def test_a_run_too_big_for_the_machine_says_so_before_allocating(monkeypatch):
+    from jaxnav.core import cli
+    from jaxnav.core.errors import JaxnavError
+
+    gib = 2**30
+    cfg = load_config("smoke", ["seeds=100000"])  # about 180 GiB of replay memory
+    with pytest.raises(JaxnavError, match=r"needs about 1\d\d\.\d GiB .*more than this machine"):
+        cli.confirm_memory(cfg.memory_estimate(), yes=True, memory=24 * gib)
+    monkeypatch.setattr("sys.stdin", None)  # not a terminal: refused with the estimate
+    with pytest.raises(JaxnavError, match="over half of this machine's 24.0 GiB: --yes starts"):
+        cli.confirm_memory(15 * gib, yes=False, memory=24 * gib)
+    cli.confirm_memory(15 * gib, yes=True, memory=24 * gib)  # --yes: goes on
+    cli.confirm_memory(11 * gib, yes=False, memory=24 * gib)  # under half: no question
+
+
+def test_the_memory_question_takes_yes_at_a_terminal(monkeypatch):
+    from jaxnav.core import cli
+    from jaxnav.core.errors import JaxnavError
+
+    class Tty:
+        def isatty(self):
+            return True
+
+    monkeypatch.setattr("sys.stdin", Tty())
+    gib = 2**30
+    cli.confirm_memory(15 * gib, yes=False, memory=24 * gib, ask=lambda _: "y")
+    with pytest.raises(JaxnavError, match="not started"):
+        cli.confirm_memory(15 * gib, yes=False, memory=24 * gib, ask=lambda _: "")

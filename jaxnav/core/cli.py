@@ -60,6 +60,38 @@ def check_output(path: str | os.PathLike, overwrite: bool, *, is_dir: bool = Fal
     return path
 
 
+def machine_memory() -> int | None:
+    """This machine's physical memory in bytes, where the system says."""
+    try:
+        return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    except (ValueError, OSError, AttributeError):
+        return None
+
+
+def gib(n: float) -> str:
+    return f"{n / 2**30:.1f} GiB"
+
+
+def confirm_memory(estimate: int, yes: bool, memory: int | None = None, ask=input) -> None:
+    """Before allocating ``estimate`` bytes: more than this machine's memory is refused;
+    more than half of it needs ``--yes``, or a "y" where stdin is a terminal (elsewhere
+    it is refused with the estimate). Raises :class:`JaxnavError` with one line."""
+    memory = machine_memory() if memory is None else memory
+    if memory is None or estimate <= memory // 2:
+        return
+    need = f"this run needs about {gib(estimate)} of replay memory"
+    if estimate > memory:
+        raise JaxnavError(f"{need}, more than this machine's {gib(memory)}: use fewer seeds")
+    if yes:
+        return
+    if sys.stdin is not None and sys.stdin.isatty():
+        answer = ask(f"{need}, over half of this machine's {gib(memory)}. Go on? [y/N] ")
+        if answer.strip().lower() in ("y", "yes"):
+            return
+        raise JaxnavError("not started")
+    raise JaxnavError(f"{need}, over half of this machine's {gib(memory)}: --yes starts it")
+
+
 def os_error_text(e: OSError) -> str:
     """An OSError as one line: what failed and on which path."""
     what = e.strerror or type(e).__name__
