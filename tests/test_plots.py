@@ -8,6 +8,7 @@ import pytest
 from _tiny_run import REPRODUCE_TINY, tiny_run
 from PIL import Image
 
+from jaxnav import plots as plots_command
 from jaxnav.experiments import reproduce
 from jaxnav.experiments.evaluation import evaluate_to_dir
 from jaxnav.report import plots
@@ -32,7 +33,7 @@ def _check_image(path: Path, signature: bytes, min_size=(200, 200)):
 def test_plots_of_a_tiny_run_are_written_and_non_empty(run, capsys):
     cfg, out = run
     evaluate_to_dir(out)  # the plots read its first test episodes
-    assert plots.main([str(out)]) == 0
+    assert plots_command.main([str(out)]) == 0
     d = out / "plots"
     printed = capsys.readouterr().out.split()
     expected = (
@@ -78,7 +79,7 @@ def test_bad_input_is_one_line_and_exit_2(run, case, message, tmp_path, capsys):
     if case == "no_metrics":
         d.mkdir()
         shutil.copy(src / "config.yaml", d / "config.yaml")
-    assert plots.main([str(d)]) == 2
+    assert plots_command.main([str(d)]) == 2
     err = capsys.readouterr().err.strip()
     assert message in err and "\n" not in err and "Traceback" not in err
     assert not (d / "plots").exists()
