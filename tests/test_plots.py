@@ -1,17 +1,22 @@
 """Figures of a run and the end-to-end reproduction report."""
 
+import csv
 import re
 import shutil
 from pathlib import Path
 
+import numpy as np
 import pytest
 from _tiny_run import REPRODUCE_TINY, tiny_run
+from matplotlib.colors import to_hex, to_rgb
+from matplotlib.figure import Figure
 from PIL import Image
 
 from jaxnav import plots as plots_command
 from jaxnav.experiments import reproduce
 from jaxnav.experiments.evaluation import evaluate_to_dir
 from jaxnav.report import plots
+from jaxnav.report.results import display_name
 
 PNG = b"\x89PNG\r\n\x1a\n"
 
@@ -68,6 +73,90 @@ def test_a_run_not_yet_evaluated_gets_its_training_figures_and_a_hint(run, tmp_p
 def test_safe_name_of_a_maze_file():
     assert plots.safe_name("configs/mazes/corridor.yaml") == "corridor"
     assert plots.safe_name("square4") == "square4"
+
+
+@pytest.fixture
+def drawn(monkeypatch):
+    """The figures saved while a test runs, each once, in order."""
+    figures = []
+    savefig = Figure.savefig
+
+    def recording(fig, *args, **kwargs):
+        if not any(f is fig for f in figures):
+            figures.append(fig)
+        return savefig(fig, *args, **kwargs)
+
+    monkeypatch.setattr(Figure, "savefig", recording)
+    return figures
+
+
+def _titles(fig) -> str:
+    return " | ".join([fig.get_suptitle(), *(ax.get_title() for ax in fig.axes)])
+
+
+# Four EBE temperatures, epsilon-greedy, Boltzmann: six arms, as a swept run names them.
+SIX_ARMS = [("ebe", "0.1"), ("ebe", "0.3"), ("ebe", "1"), ("ebe", "3")]
+SIX_ARMS += [("epsilon_greedy", ""), ("boltzmann", "")]
+
+
+def _write_csv(path: Path, header: list[str], rows: list[list]) -> None:
+    with open(path, "w", newline="") as f:
+        csv.writer(f).writerows([header, *rows])
+
+
+def _swept_run(d: Path, arms) -> Path:
+    """metrics.csv and explore.csv of a swept run of ``arms``: 2 seeds, 30 episodes."""
+    d.mkdir()
+    rng = np.random.default_rng(0)
+    lead = ["strategy", "exploration.ebe_temperature", "seed"]
+    metrics, explore = [], []
+    for strategy, temperature in arms:
+        for seed in (0, 1):
+            for e in range(30):
+                metrics.append([strategy, temperature, seed, e, rng.normal(50.0 * e, 100.0)])
+                explore.append([strategy, temperature, seed, 100 * e, rng.uniform()])
+    _write_csv(d / "metrics.csv", [*lead, "episode", "return"], metrics)
+    _write_csv(d / "explore.csv", [*lead, "step", "explore"], explore)
+    return d
+
+
+def _arm_name(strategy: str, temperature: str) -> str:
+    return display_name(f"{strategy} ebe_temperature={temperature}" if temperature else strategy)
+
+
+def _is_grey(color) -> bool:
+    r, g, b = to_rgb(color)
+    return r == g == b
+
+
+@pytest.mark.parametrize("figure", ["training_curves", "exploration"])
+def test_six_arms_get_a_panel_each_in_their_own_colour_and_line_style(tmp_path, drawn, figure):
+    """Six bands in one panel overlap into one: each arm gets its own panel, titled with
+    its name, its band drawn in colour over the other arms' means in grey."""
+    d = _swept_run(tmp_path / "run", SIX_ARMS)
+    getattr(plots, f"plot_{figure}")(d, tmp_path / "figure.png")
+    (fig,) = drawn
+    axes = [ax for ax in fig.axes if ax.get_visible()]
+    assert len(axes) == 6
+    styles = []
+    for ax, arm in zip(axes, SIX_ARMS):
+        assert ax.get_title().startswith(f"{_arm_name(*arm)} ("), ax.get_title()
+        lines = ax.get_lines()
+        coloured = [line for line in lines if not _is_grey(line.get_color())]
+        assert len(coloured) == 1 and len(lines) == 6  # the arm's mean, the others' five
+        styles.append((to_hex(coloured[0].get_color()), coloured[0].get_linestyle()))
+    assert len(set(styles)) == 6
+    # EBE's four temperatures: shades of one colour, so each its own line style as well
+    assert len({linestyle for _, linestyle in styles[:4]}) == 4
+
+
+def test_three_arms_share_one_panel_with_a_legend(tmp_path, drawn):
+    arms = [("ebe", ""), ("epsilon_greedy", ""), ("boltzmann", "")]
+    plots.plot_training_curves(_swept_run(tmp_path / "run", arms), tmp_path / "curves.png")
+    (fig,) = drawn
+    (ax,) = fig.axes
+    legend = [t.get_text() for t in ax.get_legend().get_texts()]
+    assert legend == [f"{_arm_name(*a)} (2 seeds)" for a in arms]
 
 
 @pytest.mark.parametrize(

@@ -1,5 +1,5 @@
-"""What the figure modules share: the Agg backend, a colour per arm, the
-mean-and-band curve, and writing a figure whole.
+"""What the figure modules share: the Agg backend, a colour and line style per arm,
+the mean-and-band curve, and writing a figure whole.
 
 Every figure module (``fig_*``) imports matplotlib through this one, so the
 non-interactive backend is chosen before ``pyplot`` is first imported.
@@ -10,7 +10,7 @@ from __future__ import annotations
 import io
 import re
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import matplotlib
 
@@ -23,27 +23,49 @@ from jaxnav.report.results import arm_strategy  # noqa: E402
 
 COLORS = {"ebe": "tab:blue", "epsilon_greedy": "tab:orange", "boltzmann": "tab:green"}
 COLORMAPS = {"ebe": "Blues", "epsilon_greedy": "Oranges", "boltzmann": "Greens"}
+# A strategy's sweep points: shades of its colour map, and each its own dash and hatch
+# so that neighbouring shades still read apart (and in grey print).
+LINESTYLES = ("-", "--", "-.", ":", (0, (5, 1, 1, 1, 1, 1)), (0, (1, 3)))
+HATCHES = ("", "//", "..", "xx", "\\\\", "oo")
 
 
-def arm_colors(arms) -> dict[str, Any]:
-    """A colour per arm: its strategy's colour, or, where a strategy has several sweep
-    points, shades of the strategy's colour map from light to dark in point order."""
-    out: dict[str, Any] = {}
+class ArmStyle(NamedTuple):
+    """How one arm is drawn: a colour, a line style for curves, a hatch for bars."""
+
+    color: Any
+    linestyle: Any
+    hatch: str
+
+
+def arm_styles(arms) -> dict[str, ArmStyle]:
+    """A style per arm, each pair (colour, line style) different from every other.
+
+    A strategy with one arm: the strategy's colour, a solid line. A strategy with
+    several sweep points: shades of its colour map from light to dark in point order,
+    and the i-th point the i-th line style and hatch (cycling after six)."""
+    out: dict[str, ArmStyle] = {}
     for s in COLORS:
         mine = [a for a in arms if arm_strategy(a) == s]
         if len(mine) == 1:
-            out[mine[0]] = COLORS[s]
-        for i, a in enumerate(mine if len(mine) > 1 else []):
-            out[a] = plt.get_cmap(COLORMAPS[s])(0.35 + 0.6 * i / (len(mine) - 1))
+            out[mine[0]] = ArmStyle(COLORS[s], "-", "")
+            continue
+        for i, a in enumerate(mine):
+            color = plt.get_cmap(COLORMAPS[s])(0.5 + 0.45 * i / (len(mine) - 1))
+            out[a] = ArmStyle(color, LINESTYLES[i % len(LINESTYLES)], HATCHES[i % len(HATCHES)])
     return out
 
 
-def band(ax, x, y, color, label):
+def arm_colors(arms) -> dict[str, Any]:
+    """The colour of each arm's style (:func:`arm_styles`)."""
+    return {a: style.color for a, style in arm_styles(arms).items()}
+
+
+def band(ax, x, y, style: ArmStyle, label: str | None, lw: float = 1.6, alpha: float = 0.25):
     """Mean over seeds of y f[seeds, T] as a line and its 95% bootstrap band (2+ seeds)."""
     mean, low, high = stats.bootstrap_band(y)
-    ax.plot(x, mean, color=color, lw=1.6, label=label)
+    ax.plot(x, mean, color=style.color, ls=style.linestyle, lw=lw, label=label)
     if y.shape[0] > 1:
-        ax.fill_between(x, low, high, color=color, alpha=0.25, lw=0)
+        ax.fill_between(x, low, high, color=style.color, alpha=alpha, lw=0)
 
 
 def save_fig(fig, path: Path, **kw) -> Path:

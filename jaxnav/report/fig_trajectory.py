@@ -9,8 +9,8 @@ from pathlib import Path
 from matplotlib.patches import Circle
 
 from jaxnav.report import drawing
-from jaxnav.report.fig_common import COLORS, plt, save_fig
-from jaxnav.report.results import arm_strategy, display_name
+from jaxnav.report.fig_common import ArmStyle, arm_styles, plt, save_fig
+from jaxnav.report.results import display_name
 from jaxnav.world.maps import Maze
 
 
@@ -21,8 +21,9 @@ def plot_trajectory(
     fig, ax = plt.subplots(figsize=(5.6, 5.6))
     drawing.draw_maze(ax, maze, pose=())
     drawing.draw_start(ax, maze)
+    styles = arm_styles(list(episodes))
     for arm, ep in episodes.items():
-        _draw_path(ax, arm, ep, goal_radius)
+        _draw_path(ax, arm, ep, goal_radius, styles[arm])
     _marker_legend(ax)
     ax.set_title(f"{name}: first test episode, seed {seed}", fontsize=10)
     ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.12), fontsize=8, ncol=1, frameon=False)
@@ -30,15 +31,16 @@ def plot_trajectory(
     return save_fig(fig, out, dpi=100, bbox_inches="tight")
 
 
-def _draw_path(ax, arm: str, ep: dict, goal_radius: float) -> None:
+def _draw_path(ax, arm: str, ep: dict, goal_radius: float, style: ArmStyle) -> None:
     """One arm's path, the goals it reached, the goal it was heading for, a crash."""
-    c = COLORS[arm_strategy(arm)]
+    c = style.color
     pos = ep["pos"]
     end = "collided" if ep["collided"] else "no collision"
     ax.plot(
         pos[:, 0],
         pos[:, 1],
         color=c,
+        ls=style.linestyle,
         lw=1.3,
         alpha=0.9,
         zorder=5,

@@ -2,7 +2,8 @@
 
 * ``training_curves.png``: episode return vs episode per arm (paper Fig. 2(b) and
   4(c)): a trailing moving average per seed, then the mean over seeds and its 95%
-  bootstrap interval (:mod:`jaxnav.report.fig_training`).
+  bootstrap interval; more than three arms get a panel each
+  (:mod:`jaxnav.report.fig_training`).
 * ``exploration.png``: each arm's exploration over training (explore.csv), the same way.
 * ``sweep.png`` (a swept run): test return against the swept values, per test mode
   (:mod:`jaxnav.report.fig_sweep`).
@@ -30,7 +31,14 @@ from pathlib import Path
 from jaxnav.core import rundir
 from jaxnav.core.config import load_config
 from jaxnav.core.errors import RunError
-from jaxnav.report.fig_common import COLORMAPS, COLORS, arm_colors, safe_name
+from jaxnav.report.fig_common import (
+    COLORMAPS,
+    COLORS,
+    ArmStyle,
+    arm_colors,
+    arm_styles,
+    safe_name,
+)
 from jaxnav.report.fig_episode import FOOTPRINT, GIF_MAX_BYTES, GIF_MAX_FRAMES, animate_episode
 from jaxnav.report.fig_robustness import plot_robustness
 from jaxnav.report.fig_sweep import plot_sweep
@@ -45,8 +53,10 @@ __all__ = [
     "FOOTPRINT",
     "GIF_MAX_BYTES",
     "GIF_MAX_FRAMES",
+    "ArmStyle",
     "animate_episode",
     "arm_colors",
+    "arm_styles",
     "first_episodes",
     "make_plots",
     "plot_exploration",
