@@ -1,6 +1,8 @@
 """Figures of a run and the end-to-end reproduction report."""
 
 import csv
+import inspect
+import io
 import re
 import shutil
 from pathlib import Path
@@ -13,10 +15,13 @@ from matplotlib.figure import Figure
 from PIL import Image
 
 from jaxnav import plots as plots_command
+from jaxnav.core.sweep import row_arm
 from jaxnav.experiments import reproduce
 from jaxnav.experiments.evaluation import evaluate_to_dir
+from jaxnav.experiments.rollout import run_tests
 from jaxnav.report import plots
-from jaxnav.report.results import display_name
+from jaxnav.report.results import ROBUSTNESS_COLUMNS, display_name, read_episodes_npz
+from jaxnav.world.maps import make_maze
 
 PNG = b"\x89PNG\r\n\x1a\n"
 
@@ -157,6 +162,82 @@ def test_three_arms_share_one_panel_with_a_legend(tmp_path, drawn):
     (ax,) = fig.axes
     legend = [t.get_text() for t in ax.get_legend().get_texts()]
     assert legend == [f"{_arm_name(*a)} (2 seeds)" for a in arms]
+
+
+MODE_IN_TITLE = re.compile(r"test mode: (greedy|exploring)\b")
+
+
+def test_trajectory_and_episode_titles_name_the_test_mode_of_their_episodes(run, tmp_path, drawn):
+    """The recorded episodes are one test mode's (results.csv tells which: the first
+    episode of the config's seed); every figure drawn from them names that mode."""
+    cfg, src = run
+    if not (src / "eval" / "trajectories.npz").is_file():
+        evaluate_to_dir(src)
+    rows = list(csv.DictReader(io.StringIO((src / "eval" / "results.csv").read_text())))
+    episodes, _ = read_episodes_npz(src / "eval" / "trajectories.npz")
+    modes = {row["mode"] for row in rows}
+    for maze, per_arm in episodes.items():
+        for arm, ep in per_arm.items():
+            first = {
+                r["mode"]: float(r["return"])
+                for r in rows
+                if (r["maze"], row_arm(r), int(r["seed"]), r["episode"])
+                == (maze, arm, cfg.seed, "0")
+            }
+            same = pytest.approx(float(ep["return"]), abs=1e-3)  # results.csv: 4 decimals
+            modes &= {m for m, v in first.items() if v == same}
+    assert modes, "the recorded episodes are no test mode's first episodes"
+    written = plots.plot_test_episodes(src, tmp_path)
+    assert len(written) == len(cfg.run.test_mazes) + 1 and len(drawn) == len(written)
+    for fig in drawn:  # the trajectories, then the GIF's figure (titled at its last frame)
+        named = MODE_IN_TITLE.findall(_titles(fig))
+        assert named and set(named) <= modes, _titles(fig)
+
+
+def _episode(n: int = 20) -> dict:
+    t = np.linspace(-1.0, 1.0, n)
+    return {
+        "pos": np.stack([t, 0.5 * t], axis=1),
+        "goal": np.tile([1.0, -1.0], (n, 1)),
+        "reached": np.zeros(n, bool),
+        "collided": False,
+        "return": 12.0,
+        "goals": 0,
+    }
+
+
+@pytest.mark.parametrize("mode", ["greedy", "exploring"])
+def test_a_trajectory_title_names_the_mode_it_is_given(tmp_path, drawn, mode):
+    episodes = {"ebe": _episode(), "epsilon_greedy": _episode()}
+    maze = make_maze("square4")
+    plots.plot_trajectory(maze, "square4", episodes, 0, 0.2, tmp_path / "t.png", mode=mode)
+    (fig,) = drawn
+    assert MODE_IN_TITLE.findall(_titles(fig)) == [mode]
+
+
+def _robustness_csv() -> str:
+    rows = [list(ROBUSTNESS_COLUMNS)]
+    for strategy in ("ebe", "epsilon_greedy"):
+        for seed in (0, 1):
+            for perturbation in ("none", "range_noise_0.05"):
+                rows += [
+                    [strategy, seed, perturbation, "square4", e, 100 + 10 * seed + e, 1, 0, 200]
+                    for e in range(2)
+                ]
+    out = io.StringIO()
+    csv.writer(out, lineterminator="\n").writerows(rows)
+    return out.getvalue()
+
+
+@pytest.mark.parametrize("mode", [None, "greedy", "exploring"])
+def test_the_robustness_title_names_the_test_mode(tmp_path, drawn, mode):
+    """robustness.csv has no mode column: its episodes are the plain test's, played in
+    run_tests' default mode (greedy), which the figure names unless told otherwise."""
+    kw = {} if mode is None else {"mode": mode}
+    plots.plot_robustness(_robustness_csv(), tmp_path / "r.png", title="tiny", **kw)
+    (fig,) = drawn
+    assert MODE_IN_TITLE.findall(_titles(fig)) == [mode or "greedy"], _titles(fig)
+    assert inspect.signature(run_tests).parameters["mode"].default == "greedy"
 
 
 @pytest.mark.parametrize(

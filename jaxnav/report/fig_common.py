@@ -1,5 +1,5 @@
 """What the figure modules share: the Agg backend, a colour and line style per arm,
-the mean-and-band curve, and writing a figure whole.
+the mean-and-band curve, the test mode in a title, and writing a figure whole.
 
 Every figure module (``fig_*``) imports matplotlib through this one, so the
 non-interactive backend is chosen before ``pyplot`` is first imported.
@@ -19,7 +19,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 
 from jaxnav.core import rundir  # noqa: E402
 from jaxnav.report import stats  # noqa: E402
-from jaxnav.report.results import arm_strategy  # noqa: E402
+from jaxnav.report.results import MODE_NAMES, arm_strategy  # noqa: E402
 
 COLORS = {"ebe": "tab:blue", "epsilon_greedy": "tab:orange", "boltzmann": "tab:green"}
 COLORMAPS = {"ebe": "Blues", "epsilon_greedy": "Oranges", "boltzmann": "Greens"}
@@ -58,6 +58,11 @@ def arm_styles(arms) -> dict[str, ArmStyle]:
 def arm_colors(arms) -> dict[str, Any]:
     """The colour of each arm's style (:func:`arm_styles`)."""
     return {a: style.color for a, style in arm_styles(arms).items()}
+
+
+def mode_title(mode: str) -> str:
+    """The test mode as a figure title names it: ``test mode: greedy (argmax Q, ...)``."""
+    return f"test mode: {MODE_NAMES.get(mode, mode)}"
 
 
 def band(ax, x, y, style: ArmStyle, label: str | None, lw: float = 1.6, alpha: float = 0.25):

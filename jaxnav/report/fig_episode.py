@@ -1,5 +1,5 @@
 """An animated GIF of one recorded test episode: the robot, its LiDAR beams, the goal
-and its trail, step by step."""
+and its trail, step by step; the title names the test mode it was played in."""
 
 from __future__ import annotations
 
@@ -32,8 +32,10 @@ def animate_episode(
     goal_radius: float,
     out: Path,
     max_frames: int = GIF_MAX_FRAMES,
+    mode: str = "greedy",
 ) -> Path:
-    """An animated GIF of one test episode: robot, LiDAR beams, goal, trail.
+    """An animated GIF of one test episode played in ``mode``: robot, LiDAR beams,
+    goal, trail.
 
     One figure draw per frame; no tick labels (they cost most of a frame), a 1 m
     scale bar instead. Halves the frames until < 1 MB.
@@ -44,7 +46,7 @@ def animate_episode(
         frames = list(range(0, n, stride))
         if frames[-1] != n - 1:
             frames.append(n - 1)
-        fig, update = episode_figure(maze, name, ep, strategy, seed, goal_radius)
+        fig, update = episode_figure(maze, name, ep, strategy, seed, goal_radius, mode)
         gif = _gif_bytes(fig, update, frames, dpi=75)
         plt.close(fig)
         if len(gif) <= GIF_MAX_BYTES or max_frames <= 10:
@@ -71,7 +73,9 @@ def _gif_bytes(fig, update, frames: Sequence[int], dpi: int, fps: int = 10) -> b
     return out.getvalue()
 
 
-def episode_figure(maze: Maze, name: str, ep: dict, strategy: str, seed: int, goal_radius):
+def episode_figure(
+    maze: Maze, name: str, ep: dict, strategy: str, seed: int, goal_radius, mode: str = "greedy"
+):
     """The animation's figure and its ``update(t)``, which moves the artists to step t."""
     n = ep["length"]
     n_beams = ep["ranges"].shape[1]
@@ -98,6 +102,7 @@ def episode_figure(maze: Maze, name: str, ep: dict, strategy: str, seed: int, go
     ax.add_patch(goal)
     title = ax.set_title("two\nlines", fontsize=8)  # room for the real title
     fig.tight_layout()
+    mode_line = f"test mode: {mode}"
 
     def update(t):
         p, yaw = ep["pos"][t], ep["yaw"][t]
@@ -111,8 +116,9 @@ def episode_figure(maze: Maze, name: str, ep: dict, strategy: str, seed: int, go
         goal.center = tuple(ep["goal"][t])
         crash = " - collision" if ep["collided"] and t == n - 1 else ""
         title.set_text(
-            f"{name}, {display_name(strategy)} seed {seed}: step {t + 1}/{n}\n"
-            f"return {cum_ret[t]:.0f}, goals {int(cum_goals[t])}{crash}"
+            f"{name}, {display_name(strategy)} seed {seed}\n"
+            f"{mode_line}, step {t + 1}/{n}: return {cum_ret[t]:.0f}, "
+            f"goals {int(cum_goals[t])}{crash}"
         )
 
     return fig, update

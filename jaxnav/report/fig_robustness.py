@@ -1,6 +1,6 @@
 """The robustness figure, from robustness.csv text: the mean test return over seeds
 under each perturbation, a bar per arm with its 95% bootstrap interval, one panel per
-maze."""
+maze; the title names the test mode the episodes were played in."""
 
 from __future__ import annotations
 
@@ -8,11 +8,15 @@ from pathlib import Path
 
 import numpy as np
 
-from jaxnav.report.fig_common import arm_styles, plt, save_fig
+from jaxnav.report.fig_common import arm_styles, mode_title, plt, save_fig
 from jaxnav.report.results import arms_in, display_name, robustness_summary
 
+# jaxnav.experiments.robustness plays the plain test (rollout.run_tests' default mode)
+# under each perturbation; robustness.csv has no mode column.
+ROBUSTNESS_MODE = "greedy"
 
-def robustness_figure(robustness_csv: str, title: str = "Robustness"):
+
+def robustness_figure(robustness_csv: str, title: str = "Robustness", mode: str = ROBUSTNESS_MODE):
     """The figure of :func:`plot_robustness`."""
     rows = robustness_summary(robustness_csv)
     mazes = list(dict.fromkeys(r.maze for r in rows))
@@ -50,14 +54,20 @@ def robustness_figure(robustness_csv: str, title: str = "Robustness"):
         ax.set_xticks(range(len(perts)))
         ax.set_xticklabels(perts, rotation=30, ha="right", fontsize=8)
         ax.set_ylabel("mean test return")
-        ax.set_title(f"{title} on {m}\nmean over seeds, 95% bootstrap interval", fontsize=10)
+        ax.set_title(
+            f"{title} on {m}, {mode_title(mode)}\nmean over seeds, 95% bootstrap interval",
+            fontsize=10,
+        )
         ax.grid(axis="y", alpha=0.3)
         ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)
     fig.tight_layout()
     return fig
 
 
-def plot_robustness(robustness_csv: str, out: Path, title: str = "Robustness") -> Path:
+def plot_robustness(
+    robustness_csv: str, out: Path, title: str = "Robustness", mode: str = ROBUSTNESS_MODE
+) -> Path:
     """Mean return over seeds per perturbation (x) and arm (bars), 95% bootstrap CI as
-    error bars; one panel per maze. From robustness.csv text."""
-    return save_fig(robustness_figure(robustness_csv, title), out, dpi=110)
+    error bars; one panel per maze. From robustness.csv text, whose episodes were
+    played in test mode ``mode`` (the title says which)."""
+    return save_fig(robustness_figure(robustness_csv, title, mode), out, dpi=110)

@@ -1,6 +1,6 @@
 """A test maze with every arm's path over one test episode: walls and obstacles, the
 start pose, the goals each arm reached, the goal it was heading for, where it
-collided."""
+collided. The title names the test mode the episode was played in."""
 
 from __future__ import annotations
 
@@ -9,15 +9,15 @@ from pathlib import Path
 from matplotlib.patches import Circle
 
 from jaxnav.report import drawing
-from jaxnav.report.fig_common import ArmStyle, arm_styles, plt, save_fig
+from jaxnav.report.fig_common import ArmStyle, arm_styles, mode_title, plt, save_fig
 from jaxnav.report.results import display_name
 from jaxnav.world.maps import Maze
 
 
-def plot_trajectory(
-    maze: Maze, name: str, episodes: dict[str, dict], seed: int, goal_radius: float, out: Path
-) -> Path:
-    """One test maze with every arm's path over one test episode."""
+def trajectory_figure(
+    maze: Maze, name: str, episodes: dict[str, dict], seed: int, goal_radius: float, mode: str
+):
+    """The figure of :func:`plot_trajectory`."""
     fig, ax = plt.subplots(figsize=(5.6, 5.6))
     drawing.draw_maze(ax, maze, pose=())
     drawing.draw_start(ax, maze)
@@ -25,9 +25,24 @@ def plot_trajectory(
     for arm, ep in episodes.items():
         _draw_path(ax, arm, ep, goal_radius, styles[arm])
     _marker_legend(ax)
-    ax.set_title(f"{name}: first test episode, seed {seed}", fontsize=10)
+    ax.set_title(f"{name}: first test episode, seed {seed}\n{mode_title(mode)}", fontsize=10)
     ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.12), fontsize=8, ncol=1, frameon=False)
     fig.tight_layout()
+    return fig
+
+
+def plot_trajectory(
+    maze: Maze,
+    name: str,
+    episodes: dict[str, dict],
+    seed: int,
+    goal_radius: float,
+    out: Path,
+    mode: str = "greedy",
+) -> Path:
+    """One test maze with every arm's path over one test episode played in ``mode``
+    (``greedy`` or ``exploring``, as results.csv names it; the title says which)."""
+    fig = trajectory_figure(maze, name, episodes, seed, goal_radius, mode)
     return save_fig(fig, out, dpi=100, bbox_inches="tight")
 
 

@@ -17,7 +17,7 @@
 table with :func:`plot_robustness` (:mod:`jaxnav.report.fig_robustness`).
 
 The test episodes are those ``jaxnav.evaluate`` recorded in eval/trajectories.npz
-(episode 1 of the config's seed); a run that has not been evaluated on
+(episode 1 of the config's seed, greedy test); a run that has not been evaluated on
 these mazes gets the training figures only. Every figure is drawn from files: nothing
 here runs the environment or a network. The command is ``python -m jaxnav.plots``.
 """
@@ -37,10 +37,11 @@ from jaxnav.report.fig_common import (
     ArmStyle,
     arm_colors,
     arm_styles,
+    mode_title,
     safe_name,
 )
 from jaxnav.report.fig_episode import FOOTPRINT, GIF_MAX_BYTES, GIF_MAX_FRAMES, animate_episode
-from jaxnav.report.fig_robustness import plot_robustness
+from jaxnav.report.fig_robustness import ROBUSTNESS_MODE, plot_robustness
 from jaxnav.report.fig_sweep import plot_sweep
 from jaxnav.report.fig_training import plot_exploration, plot_training_curves
 from jaxnav.report.fig_trajectory import plot_trajectory
@@ -53,12 +54,15 @@ __all__ = [
     "FOOTPRINT",
     "GIF_MAX_BYTES",
     "GIF_MAX_FRAMES",
+    "RECORDED_MODE",
+    "ROBUSTNESS_MODE",
     "ArmStyle",
     "animate_episode",
     "arm_colors",
     "arm_styles",
     "first_episodes",
     "make_plots",
+    "mode_title",
     "plot_exploration",
     "plot_robustness",
     "plot_sweep",
@@ -68,10 +72,15 @@ __all__ = [
     "safe_name",
 ]
 
+# The test mode of the episodes in eval/trajectories.npz: jaxnav.experiments.evaluation
+# records the greedy test's (the file does not name its mode).
+RECORDED_MODE = "greedy"
+
 
 def first_episodes(run_dir: Path, maze_names: Sequence[str] | None = None):
     """(config, maze names, mazes, goal radius, first test episodes of the config's
-    seed) from eval/trajectories.npz; None if the run was not evaluated on these mazes."""
+    seed, their test mode) from eval/trajectories.npz; None if the run was not
+    evaluated on these mazes."""
     cfg = load_config(str(run_dir / rundir.CONFIG))
     names = list(maze_names) if maze_names else list(cfg.run.test_mazes)
     saved = run_dir / "eval" / "trajectories.npz"
@@ -83,7 +92,8 @@ def first_episodes(run_dir: Path, maze_names: Sequence[str] | None = None):
         raise RunError(f"{saved} cannot be read ({type(e).__name__})") from None
     if not all(n in episodes and set(episodes[n]) == set(cfg.arm_names()) for n in names):
         return None
-    return cfg, names, [make_maze(n) for n in names], goal_radius, episodes
+    mazes = [make_maze(n) for n in names]
+    return cfg, names, mazes, goal_radius, episodes, RECORDED_MODE
 
 
 def plot_test_episodes(
@@ -94,16 +104,20 @@ def plot_test_episodes(
     found = first_episodes(run_dir, maze_names)
     if found is None:
         return []
-    cfg, names, mazes, goal_radius, episodes = found
+    cfg, names, mazes, goal_radius, episodes, mode = found
     written = []
     for name, maze in zip(names, mazes):
         out = out_dir / f"trajectory_{safe_name(name)}.png"
-        written.append(plot_trajectory(maze, name, episodes[name], cfg.seed, goal_radius, out))
+        written.append(
+            plot_trajectory(maze, name, episodes[name], cfg.seed, goal_radius, out, mode)
+        )
     arms = cfg.arm_names()
     arm = next((a for a in arms if arm_strategy(a) == "ebe"), arms[0])
     ep = episodes[names[0]][arm]
     gif = out_dir / "episode.gif"
-    written.append(animate_episode(mazes[0], names[0], ep, arm, cfg.seed, goal_radius, gif))
+    written.append(
+        animate_episode(mazes[0], names[0], ep, arm, cfg.seed, goal_radius, gif, mode=mode)
+    )
     return written
 
 
