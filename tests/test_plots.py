@@ -15,6 +15,7 @@ from matplotlib.figure import Figure
 from PIL import Image
 
 from jaxnav import plots as plots_command
+from jaxnav.core import strategies as registry
 from jaxnav.core.sweep import row_arm
 from jaxnav.experiments import reproduce
 from jaxnav.experiments.evaluation import evaluate_to_dir
@@ -162,6 +163,24 @@ def test_three_arms_share_one_panel_with_a_legend(tmp_path, drawn):
     (ax,) = fig.axes
     legend = [t.get_text() for t in ax.get_legend().get_texts()]
     assert legend == [f"{_arm_name(*a)} (2 seeds)" for a in arms]
+
+
+@pytest.fixture
+def toy_strategy():
+    """A strategy registered beyond the built-in three, removed afterwards."""
+    registry.register("straight", "jaxnav.agent.exploration:act_ebe", label="Straight")
+    yield "straight"
+    registry.unregister("straight")
+
+
+@pytest.mark.parametrize("figure", ["training_curves", "exploration"])
+def test_a_registered_strategy_gets_its_own_colour(tmp_path, drawn, toy_strategy, figure):
+    arms = [("ebe", ""), ("epsilon_greedy", ""), ("boltzmann", ""), (toy_strategy, "")]
+    getattr(plots, f"plot_{figure}")(_swept_run(tmp_path / "run", arms), tmp_path / "f.png")
+    (fig,) = drawn
+    assert fig.axes[-1].get_title().startswith("Straight (")
+    colours = {to_hex(ax.title.get_color()) for ax in fig.axes}
+    assert len(colours) == 4 and not any(_is_grey(c) for c in colours)
 
 
 MODE_IN_TITLE = re.compile(r"test mode: (greedy|exploring)\b")

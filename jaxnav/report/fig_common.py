@@ -19,14 +19,34 @@ import matplotlib.pyplot as plt  # noqa: E402
 
 from jaxnav.core import rundir  # noqa: E402
 from jaxnav.report import stats  # noqa: E402
-from jaxnav.report.results import MODE_NAMES, arm_strategy  # noqa: E402
+from jaxnav.report.results import MODE_NAMES, arm_strategy, arms_in  # noqa: E402
 
 COLORS = {"ebe": "tab:blue", "epsilon_greedy": "tab:orange", "boltzmann": "tab:green"}
 COLORMAPS = {"ebe": "Blues", "epsilon_greedy": "Oranges", "boltzmann": "Greens"}
+# Strategies registered beyond the three (jaxnav.core.strategies), in the order met.
+MORE_COLORS = (
+    ("tab:purple", "Purples"),
+    ("tab:red", "Reds"),
+    ("tab:brown", "YlOrBr"),
+    ("tab:cyan", "GnBu"),
+    ("tab:pink", "RdPu"),
+    ("tab:olive", "YlGn"),
+)
 # A strategy's sweep points: shades of its colour map, and each its own dash and hatch
 # so that neighbouring shades still read apart (and in grey print).
 LINESTYLES = ("-", "--", "-.", ":", (0, (5, 1, 1, 1, 1, 1)), (0, (1, 3)))
 HATCHES = ("", "//", "..", "xx", "\\\\", "oo")
+
+
+def strategy_colors(strategies) -> dict[str, tuple[Any, str]]:
+    """(colour, colour map) per strategy: the three built-in ones' own, then
+    MORE_COLORS in turn for other registered strategies (grey after six)."""
+    others = iter(MORE_COLORS)
+    out = {}
+    for s in dict.fromkeys(strategies):
+        known = s in COLORS
+        out[s] = (COLORS[s], COLORMAPS[s]) if known else next(others, ("0.4", "Greys"))
+    return out
 
 
 class ArmStyle(NamedTuple):
@@ -44,14 +64,15 @@ def arm_styles(arms) -> dict[str, ArmStyle]:
     several sweep points: shades of its colour map from light to dark in point order,
     and the i-th point the i-th line style and hatch (cycling after six)."""
     out: dict[str, ArmStyle] = {}
-    for s in COLORS:
+    arms = arms_in(arms)
+    for s, (color, cmap) in strategy_colors(arm_strategy(a) for a in arms).items():
         mine = [a for a in arms if arm_strategy(a) == s]
         if len(mine) == 1:
-            out[mine[0]] = ArmStyle(COLORS[s], "-", "")
+            out[mine[0]] = ArmStyle(color, "-", "")
             continue
         for i, a in enumerate(mine):
-            color = plt.get_cmap(COLORMAPS[s])(0.5 + 0.45 * i / (len(mine) - 1))
-            out[a] = ArmStyle(color, LINESTYLES[i % len(LINESTYLES)], HATCHES[i % len(HATCHES)])
+            shade = plt.get_cmap(cmap)(0.5 + 0.45 * i / (len(mine) - 1))
+            out[a] = ArmStyle(shade, LINESTYLES[i % len(LINESTYLES)], HATCHES[i % len(HATCHES)])
     return out
 
 

@@ -14,7 +14,7 @@ from PIL import Image
 
 from jaxnav.core import rundir
 from jaxnav.report import drawing
-from jaxnav.report.fig_common import COLORS, plt
+from jaxnav.report.fig_common import plt, strategy_colors
 from jaxnav.report.results import arm_strategy, display_name
 from jaxnav.world.maps import Maze
 
@@ -90,7 +90,7 @@ def episode_figure(
     y0, _ = ax.get_ylim()
     ax.plot([x0 + 0.02 * (x1 - x0), x0 + 0.02 * (x1 - x0) + 1.0], [y0, y0], color="black", lw=2)
     ax.text(x0 + 0.02 * (x1 - x0) + 0.5, y0, "1 m", ha="center", va="bottom", fontsize=7)
-    color = COLORS[arm_strategy(strategy)]
+    ((color, _),) = strategy_colors([arm_strategy(strategy)]).values()
     (trail,) = ax.plot([], [], color=color, lw=1.0, alpha=0.7, zorder=4)
     beams = [ax.plot([], [], color="tab:red", lw=0.5, alpha=0.5, zorder=2)[0] for _ in beam_idx]
     body = Circle((0, 0), FOOTPRINT, facecolor=color, edgecolor="black", lw=0.8, zorder=6)

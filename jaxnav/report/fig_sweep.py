@@ -11,7 +11,7 @@ import numpy as np
 
 from jaxnav.core.sweep import swept_columns
 from jaxnav.report import stats
-from jaxnav.report.fig_common import COLORS, is_number, plt, save_fig
+from jaxnav.report.fig_common import is_number, plt, save_fig, strategy_colors
 from jaxnav.report.results import (
     arm_strategy,
     arms_in,
@@ -44,11 +44,10 @@ def plot_sweep(results_csv: str, out: Path, title: str = "Sweep") -> Path | None
         ticks = list(dict.fromkeys(p for p in point.values() if p))
         numeric = all(is_number(t) for t in ticks)
         xs = {t: float(t) if numeric else i for i, t in enumerate(ticks)}
-        colors = COLORS
-        for s in COLORS:
-            arms = [a for a in arms_in(by) if arm_strategy(a) == s]
-            if not arms:
-                continue
+        strategies = strategy_colors(arm_strategy(a) for a in by)
+        colors = {s: color for s, (color, _) in strategies.items()}
+        for s in strategies:
+            arms = [a for a in by if arm_strategy(a) == s]
             ivs = [stats.mean_ci(score[a]) for a in arms]
             n = len(score[arms[0]])
             if len(arms) == 1 and not point[arms[0]]:

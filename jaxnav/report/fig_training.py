@@ -135,8 +135,13 @@ EXPLORATION_LABELS = {
 }
 
 
+def _exploration_measure(strategy: str) -> str:
+    """What a strategy's explore.csv value is (a registered strategy: what its act returns)."""
+    return EXPLORATION_LABELS.get(strategy, f"{display_name(strategy)}: its exploration value")
+
+
 def _exploration_label(arm: str, y: np.ndarray) -> str:
-    label = EXPLORATION_LABELS[arm_strategy(arm)]
+    label = _exploration_measure(arm_strategy(arm))
     if arm != arm_strategy(arm):  # a sweep point: its values after the strategy's text
         label = f"{label} ({arm.partition(' ')[2]})"
     return f"{label}, {y.shape[0]} seeds"
@@ -160,7 +165,7 @@ def plot_exploration(run_dir: Path, out: Path, window: int = 10) -> Path:
     )
     if not one_panel:  # the panels name arms only: what each strategy's value is
         title += "\n" + "; ".join(
-            EXPLORATION_LABELS[s] for s in dict.fromkeys(arm_strategy(a) for a in curves)
+            _exploration_measure(s) for s in dict.fromkeys(arm_strategy(a) for a in curves)
         )
     fig = curves_figure(
         smoothed,
