@@ -19,7 +19,8 @@ from jaxnav.dqn import make_train, run_inputs
 from jaxnav.env import from_config
 from jaxnav.experiments.evaluation import evaluate_to_dir
 from jaxnav.run import training
-from jaxnav.run.training import Run, chunk_slots, train_new
+from jaxnav.run.checkpoint import chunk_slots
+from jaxnav.run.training import Run, train_new
 from jaxnav.train import main
 
 ROOT = Path(__file__).resolve().parent.parent

@@ -16,10 +16,7 @@ number of transitions the run can produce (``episodes * env.max_steps`` or
 from __future__ import annotations
 
 import dataclasses
-import math
 import os
-import re
-import types
 import typing
 from dataclasses import dataclass
 from pathlib import Path
@@ -43,6 +40,7 @@ from jaxnav.core.settings import (
     problem,
     setting,
 )
+from jaxnav.core.values import coerce, flatten, parse_override
 
 # The strategies the paper compares; jaxnav.core.strategies has every registered one.
 PAPER_STRATEGIES = ("ebe", "epsilon_greedy")
@@ -292,19 +290,6 @@ class Config:
 # ----------------------------------------------------------------------------
 
 
-def _flatten(d: dict, prefix: str = "") -> dict[str, Any]:
-    out = {}
-    for k, v in d.items():
-        if not isinstance(k, str):
-            raise ConfigError(f"config: key {k!r} must be a string")
-        name = f"{prefix}{k}"
-        if isinstance(v, dict):
-            out.update(_flatten(v, name + "."))
-        else:
-            out[name] = v
-    return out
-
-
 def _field_types(cls, prefix: str = "") -> dict[str, Any]:
     hints = typing.get_type_hints(cls)
     out = {}
@@ -379,87 +364,6 @@ def sweep_refusal(key: str) -> str | None:
     )
 
 
-def _type_name(t) -> str:
-    args = typing.get_args(t)
-    origin = typing.get_origin(t)
-    if origin in (types.UnionType, typing.Union):
-        inner = [a for a in args if a is not type(None)]
-        return _type_name(inner[0]) + " or null"
-    if origin is tuple:
-        return f"list of {_type_name(args[0])}"
-    return {int: "an integer", float: "a number", bool: "true or false", str: "a string"}[t]
-
-
-# A number as people write one: 1e-4, 5E3, 1_000_000, -2.5. YAML 1.1 (PyYAML) reads
-# "1e-4" (no dot) and "1_000" in a file as strings; they are numbers here.
-_NUMBER = re.compile(r"[+-]?(\d[\d_]*(\.[\d_]*)?|\.\d[\d_]*)([eE][+-]?\d+)?")
-
-
-def _number(value: Any) -> int | float | None:
-    """An int or float from a YAML scalar (int, float or numeric string), else None."""
-    if isinstance(value, bool):
-        return None
-    if isinstance(value, (int, float)):
-        return value
-    if isinstance(value, str):
-        text = value.strip()
-        if text.lower() in (".inf", "+.inf", "-.inf", ".nan", "inf", "-inf", "nan"):
-            return math.nan if "nan" in text.lower() else math.inf
-        if _NUMBER.fullmatch(text) and "__" not in text and not text.endswith("_"):
-            number = float(text.replace("_", ""))
-            is_int = number.is_integer() and not any(c in text for c in ".eE")
-            return int(text.replace("_", "")) if is_int else number
-    return None
-
-
-def _coerce(name: str, value: Any, t) -> Any:
-    """Check ``value`` against type ``t``; return it in canonical form."""
-    origin = typing.get_origin(t)
-    args = typing.get_args(t)
-    bad = ConfigError(f"config: {name} must be {_type_name(t)}, got {value!r}")
-    if origin in (types.UnionType, typing.Union):
-        if value is None:
-            return None
-        inner = [a for a in args if a is not type(None)][0]
-        return _coerce(name, value, inner)
-    if origin is tuple:
-        if isinstance(value, str) or not isinstance(value, (list, tuple)):
-            raise bad
-        return tuple(_coerce(name, v, args[0]) for v in value)
-    if t is bool:
-        if not isinstance(value, bool):
-            raise bad
-        return value
-    if t in (int, float):
-        number = _number(value)
-        if number is None:
-            raise bad
-        if not math.isfinite(number):
-            raise ConfigError(f"config: {name} must be a finite number, got {value!r}")
-        if t is float:
-            return float(number)
-        if number != int(number):
-            raise bad
-        return int(number)
-    if t is str:
-        if not isinstance(value, str):
-            raise bad
-        return value
-    raise bad
-
-
-def _parse_override(item: str) -> tuple[str, Any]:
-    if "=" not in item:
-        raise ConfigError(f"config: override '{item}' must look like key=value")
-    key, raw = item.split("=", 1)
-    key = key.strip()
-    try:
-        value = yaml.safe_load(raw) if raw.strip() else None
-    except yaml.YAMLError:
-        value = raw
-    return key, value
-
-
 def _get(cfg: Config, name: str) -> Any:
     value = cfg
     for part in name.split("."):
@@ -515,7 +419,7 @@ def _sweep(values: dict[str, Any]) -> tuple[tuple[str, tuple[Any, ...]], ...]:
             continue
         if isinstance(raw, str) or not isinstance(raw, (list, tuple)) or not raw:
             raise ConfigError(f"config: {name} must be a non-empty list of values, got {raw!r}")
-        typed = tuple(_coerce(name, v, FIELD_TYPES[key]) for v in raw)
+        typed = tuple(coerce(name, v, FIELD_TYPES[key]) for v in raw)
         if len(set(typed)) != len(typed):
             raise ConfigError(f"config: {name} lists a value twice")
         out.append((key, typed))
@@ -537,7 +441,7 @@ def build_config(values: dict[str, Any]) -> Config:
             if name in SECTIONS:
                 raise ConfigError(f"config: {name} must be a mapping of its fields")
             raise ConfigError(f"config: unknown key {name!r}")
-    typed = {name: _coerce(name, v, FIELD_TYPES[name]) for name, v in merged.items()}
+    typed = {name: coerce(name, v, FIELD_TYPES[name]) for name, v in merged.items()}
     sections: dict[str, dict[str, Any]] = {}
     top: dict[str, Any] = {}
     for name, v in typed.items():
@@ -613,9 +517,9 @@ def load_config(path: str | None, overrides: list[str] = ()) -> Config:
             doc = {}
         if not isinstance(doc, dict):
             raise ConfigError(f"config: {path} must hold a mapping of keys")
-        values.update(_flatten(doc))
+        values.update(flatten(doc))
     for item in overrides:
-        key, value = _parse_override(item)
+        key, value = parse_override(item)
         values[key] = value
     return build_config(values)
 
