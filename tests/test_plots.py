@@ -8,7 +8,7 @@ import pytest
 from _tiny_run import REPRODUCE_TINY, tiny_run
 from PIL import Image
 
-from jaxnav.experiments import reproduce
+from jaxnav import reproduce
 from jaxnav.experiments.evaluation import evaluate_to_dir
 from jaxnav.report import plots
 

@@ -267,7 +267,7 @@ def test_a_swept_environment_setting_changes_the_reward_of_its_runs():
 
 
 def test_the_study_command_tests_tabulates_and_draws_a_sweep(tmp_path, capsys):
-    from jaxnav.experiments.study import main
+    from jaxnav.study import main
 
     out, doc = tmp_path / "study", tmp_path / "docs" / "temperature.md"
     argv = [

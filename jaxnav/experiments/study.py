@@ -20,14 +20,12 @@ Layout::
 from __future__ import annotations
 
 import gzip
-import shlex
 import shutil
 import sys
 import time
 from pathlib import Path
 
-from jaxnav.core import cli
-from jaxnav.core.config import Config, load_config, resolve_config_path
+from jaxnav.core.config import Config
 from jaxnav.core.errors import JaxnavError
 from jaxnav.core.rundir import METRICS, CsvLog, atomic_write_bytes, atomic_write_text
 from jaxnav.core.sweep import short_names, value_text
@@ -143,31 +141,3 @@ def study(
         text += f"\nThe test results behind every number above: `{doc.stem}-results.csv.gz`.\n"
         atomic_write_text(doc, text)
     return path
-
-
-def main(argv: list[str] | None = None) -> int:
-    p = cli.Parser(
-        prog="python -m jaxnav.study",
-        description="Train a config's sweep, test every arm in both test modes and write "
-        "DIR/study.md with the sweep's tables, computed answers and figures.",
-    )
-    p.add_argument("items", nargs="+", metavar="CONFIG [key=value ...]")
-    p.add_argument("--out", required=True, metavar="DIR", help="output directory")
-    p.add_argument("--title", help="the study's title (default: the config's name)")
-    p.add_argument("--doc", metavar="PATH", help="also write the study here, figures beside it")
-    p.add_argument("--resume", action="store_true", help="continue the study in --out")
-    p.add_argument("--quiet", action="store_true", help="no progress output")
-    args = p.parse_intermixed_args(argv)
-    command = "python -m jaxnav.study " + shlex.join(argv if argv is not None else sys.argv[1:])
-
-    def work() -> None:
-        items = list(args.items)
-        config_path = None if "=" in items[0] else resolve_config_path(items.pop(0))
-        cfg = load_config(config_path, items)
-        title = args.title or f"Sweep study: {Path(config_path or 'defaults').stem}"
-        doc = Path(args.doc) if args.doc else None
-        path = study(cfg, Path(args.out), title, command.strip(), args.resume, args.quiet, doc)
-        print(f"study: {path}" + (f" (and {doc})" if doc else ""))
-
-    again = f"interrupted; continue with --resume --out {args.out}"
-    return cli.run(p.prog, work, interrupted=again)
