@@ -15,11 +15,24 @@ if __name__ == "__main__":  # before JAX starts: one CPU device per core, compil
     before_jax()
 
 import sys
+from collections.abc import Sequence
+from pathlib import Path
 
-from jaxnav.core import cli
+from jaxnav.core import cli, rundir
 from jaxnav.experiments.evaluation import evaluate_to_dir
 from jaxnav.experiments.robustness import PERTURBATIONS, robustness_to_dir
 from jaxnav.report.tables import setting_text
+
+
+def check_outputs(out: Path, names: Sequence[str], overwrite: bool) -> None:
+    """Refuse, before the test starts, an output folder that cannot be written or files
+    in it that would be replaced without ``--overwrite``. The folder may exist already
+    (it holds the run's other results)."""
+    if out.is_dir():
+        for name in names:
+            cli.check_output(out / name, overwrite)
+    else:  # absent (then its parent must exist) or not a folder (refused)
+        cli.check_output(out, overwrite, is_dir=True)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -44,6 +57,7 @@ def main(argv: list[str] | None = None) -> int:
         help="consecutive test episodes per seed (default run.test_episodes)",
     )
     p.add_argument("--out", metavar="DIR", help="output directory (default RUN_DIR/eval)")
+    cli.add_overwrite(p, "the files the test writes into --out")
     sweep = "; ".join(
         f"{k} ({setting_text(v)})" if v else f"{k} (as trained)" for k, v in PERTURBATIONS.items()
     )
@@ -58,12 +72,16 @@ def main(argv: list[str] | None = None) -> int:
     args = p.parse_args(argv)
 
     def work() -> None:
+        run_dir = rundir.existing(args.run_dir, finished=True)
+        out = Path(args.out) if args.out else run_dir / "eval"
         if args.robustness:
-            out = robustness_to_dir(args.run_dir, args.mazes, args.episodes, args.out)
             written = ("robustness.csv", "robustness.md", "robustness.png")
+            check_outputs(out, written, args.overwrite)
+            out = robustness_to_dir(run_dir, args.mazes, args.episodes, out)
         else:
-            out = evaluate_to_dir(args.run_dir, args.mazes, args.episodes, args.out)
             written = ("results.csv", "tables.md", "trajectories.npz")
+            check_outputs(out, written, args.overwrite)
+            out = evaluate_to_dir(run_dir, args.mazes, args.episodes, out)
         print(f"wrote {out / written[0]}, {out / written[1]} and {out / written[2]}")
 
     return cli.run(p.prog, work)

@@ -10,9 +10,19 @@ import json
 import sys
 from pathlib import Path
 
-from jaxnav.core import cli
+from jaxnav.core import cli, rundir
+from jaxnav.core.config import load_config
 from jaxnav.robot.deploy import Policy
 from jaxnav.robot.export import export_policy, save_policy
+
+
+def default_out(run_dir: Path, strategy: str, seed: int | None) -> Path:
+    """``policy-<arm>-seed<k>.npz`` in the working directory (``k``: the run's first seed
+    by default)."""
+    if seed is None:
+        seed = load_config(str(run_dir / rundir.CONFIG)).seed
+    arm = strategy.replace(" ", "-").replace("=", "")
+    return Path(f"policy-{arm}-seed{seed}.npz")
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -32,6 +42,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument(
         "--out", default=None, help="output file (default policy-<strategy>-seed<k>.npz)"
     )
+    cli.add_overwrite(p, "the output file")
     p.add_argument("--info", metavar="POLICY", help="print the metadata of a policy file")
     args = p.parse_args(argv)
     if (args.run_dir is None) == (args.info is None):
@@ -43,11 +54,12 @@ def main(argv: list[str] | None = None) -> int:
                 if k not in ("config", "observation", "format", "version"):
                     print(f"{k}: {v}")
             return
-        arrays = export_policy(args.run_dir, args.strategy, args.seed)
+        run_dir = rundir.existing(args.run_dir, finished=True)
+        out = Path(args.out) if args.out else default_out(run_dir, args.strategy, args.seed)
+        cli.check_output(out, args.overwrite)
+        arrays = export_policy(run_dir, args.strategy, args.seed)
         Policy.from_arrays(arrays)  # what the robot will load must load
         meta = json.loads(str(arrays["meta"]))
-        arm = meta["strategy"].replace(" ", "-").replace("=", "")
-        out = Path(args.out or f"policy-{arm}-seed{meta['seed']}.npz")
         save_policy(arrays, out)
         features = ", obstacle features" if meta["obstacle_obs"] else ""
         print(

@@ -18,7 +18,7 @@ from pathlib import Path
 
 from jaxnav.core import cli
 from jaxnav.core.config import load_config, resolve_config_path
-from jaxnav.experiments.study import study
+from jaxnav.experiments.study import doc_files, study
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -31,6 +31,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--out", required=True, metavar="DIR", help="output directory")
     p.add_argument("--title", help="the study's title (default: the config's name)")
     p.add_argument("--doc", metavar="PATH", help="also write the study here, figures beside it")
+    cli.add_overwrite(p, "the --doc file and the files beside it")
     p.add_argument("--resume", action="store_true", help="continue the study in --out")
     p.add_argument("--quiet", action="store_true", help="no progress output")
     args = p.parse_intermixed_args(argv)
@@ -42,6 +43,8 @@ def main(argv: list[str] | None = None) -> int:
         cfg = load_config(config_path, items)
         title = args.title or f"Sweep study: {Path(config_path or 'defaults').stem}"
         doc = Path(args.doc) if args.doc else None
+        for path in doc_files(doc) if doc else []:
+            cli.check_output(path, args.overwrite)
         path = study(cfg, Path(args.out), title, command.strip(), args.resume, args.quiet, doc)
         print(f"study: {path}" + (f" (and {doc})" if doc else ""))
 

@@ -263,3 +263,33 @@ def test_bad_input_is_one_line_and_exit_2(run, case, message, tmp_path, capsys):
     err = capsys.readouterr().err.strip()
     assert message in err and "\n" not in err and "Traceback" not in err
     assert not (d / "eval").exists()  # nothing half-written
+
+
+def test_outputs_are_checked_before_the_test_starts(run, tmp_path, capsys, monkeypatch):
+    """An existing result file needs --overwrite, a file is no output folder, a missing
+    parent folder is refused: each in one line before anything is tested."""
+    import jaxnav.evaluate as command
+
+    _, src = run
+    tested = []
+    monkeypatch.setattr(command, "evaluate_to_dir", lambda *a: tested.append(a) or Path(a[3]))
+    monkeypatch.setattr(command, "robustness_to_dir", lambda *a: tested.append(a) or Path(a[3]))
+    full = tmp_path / "full"
+    full.mkdir()
+    (full / "results.csv").write_text("mine")
+    (full / "robustness.md").write_text("mine")
+    a_file = tmp_path / "file"
+    a_file.write_text("mine")
+    for out, extra, message in (
+        (full, [], f"{full / 'results.csv'} exists already (--overwrite replaces it)"),
+        (full, ["--robustness"], f"{full / 'robustness.md'} exists already"),
+        (a_file, [], f"{a_file} exists and is not a folder"),
+        (tmp_path / "no" / "e", [], f"the folder {tmp_path / 'no'} does not exist"),
+    ):
+        assert main([str(src), "--out", str(out), *extra]) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and message in err, err
+    assert not tested and (full / "results.csv").read_text() == "mine"
+    assert main([str(src), "--out", str(full), "--overwrite"]) == 0
+    assert main([str(src), "--out", str(tmp_path / "new")]) == 0  # a new folder needs nothing
+    assert len(tested) == 2

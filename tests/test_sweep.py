@@ -270,6 +270,7 @@ def test_the_study_command_tests_tabulates_and_draws_a_sweep(tmp_path, capsys):
     from jaxnav.study import main
 
     out, doc = tmp_path / "study", tmp_path / "docs" / "temperature.md"
+    doc.parent.mkdir()
     argv = [
         "configs/temperature.yaml",
         *TINY,

@@ -92,6 +92,15 @@ def study_markdown(
     return "\n".join(L) + "\n"
 
 
+FIGURES = ("sweep.png", "training_curves.png")  # in DIR, and beside --doc PATH
+RESULTS = "results.csv.gz"  # beside --doc PATH
+
+
+def doc_files(doc: Path) -> list[Path]:
+    """What ``--doc PATH`` writes: PATH, and its figures and results beside it."""
+    return [doc] + [doc.parent / f"{doc.stem}-{name}" for name in (*FIGURES, RESULTS)]
+
+
 def study(
     cfg: Config, out: Path, title: str, command: str, resume_ok: bool, quiet: bool, doc: Path | None
 ) -> Path:
@@ -116,10 +125,10 @@ def study(
     t0 = time.perf_counter()
     names = short_names([k for k, _ in cfg.sweep])
     figures = {
-        "sweep": plots.plot_sweep(results, out / "sweep.png", ", ".join(names.values())),
-        "training_curves": plots.plot_training_curves(run_dir, out / "training_curves.png"),
+        "sweep": plots.plot_sweep(results, out / FIGURES[0], ", ".join(names.values())),
+        "training_curves": plots.plot_training_curves(run_dir, out / FIGURES[1]),
     }
-    timings.append(("figures", time.perf_counter() - t0, "sweep.png, training_curves.png"))
+    timings.append(("figures", time.perf_counter() - t0, ", ".join(FIGURES)))
     captions = {
         "sweep": "Test return against the swept values, both test modes: mean over seeds "
         "with 95% bootstrap intervals (strategies that do not read the key: a band).",
@@ -137,7 +146,7 @@ def study(
             text = text.replace(f"]({p.name})", f"]({doc.stem}-{p.name})")
         # The data behind every number: results.csv, gzipped (mtime 0: same bytes, same file).
         packed = gzip.compress(results.encode(), mtime=0)
-        atomic_write_bytes(doc.parent / f"{doc.stem}-results.csv.gz", packed)
-        text += f"\nThe test results behind every number above: `{doc.stem}-results.csv.gz`.\n"
+        atomic_write_bytes(doc.parent / f"{doc.stem}-{RESULTS}", packed)
+        text += f"\nThe test results behind every number above: `{doc.stem}-{RESULTS}`.\n"
         atomic_write_text(doc, text)
     return path
