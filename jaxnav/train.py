@@ -79,21 +79,20 @@ def main(argv: list[str] | None = None) -> int:
     )
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     args = p.parse_intermixed_args(argv)  # overrides may follow the flags too
+    config_path = None
+    overrides = list(args.items)
+    if overrides and "=" not in overrides[0]:
+        config_path = resolve_config_path(overrides.pop(0))
+    out = Path(args.resume or args.out or default_out(config_path))
 
     def work() -> None:
         initialize()  # multi-host, when jax.distributed's variables are set
         if args.resume:
             if args.items or args.out or args.overwrite:
                 raise RunError("--resume takes only the run directory (its config.yaml is used)")
-            out = Path(args.resume)
             summary = resume(out, args.quiet)
         else:
-            config_path = None
-            overrides = list(args.items)
-            if overrides and "=" not in overrides[0]:
-                config_path = resolve_config_path(overrides.pop(0))
             cfg = load_config(config_path, overrides)
-            out = Path(args.out) if args.out else default_out(config_path)
             summary = train_new(cfg, out, args.quiet, overwrite=args.overwrite)
         if is_writer():
             print_summary(out, summary)
@@ -103,7 +102,7 @@ def main(argv: list[str] | None = None) -> int:
             curves = plot_training_curves(out, out / "plots" / "training_curves.png")
             print(f"training curves: {curves}")
 
-    return cli.run(p.prog, work, interrupted="interrupted; continue with --resume")
+    return cli.run(p.prog, work, interrupted=f"interrupted; continue with --resume {out}")
 
 
 if __name__ == "__main__":

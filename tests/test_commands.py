@@ -1,0 +1,66 @@
+"""What the commands say about their outputs: the flags their messages name."""
+
+from __future__ import annotations
+
+import pytest
+
+import jaxnav.train as train_command
+
+SMOKE = ["configs/smoke.yaml", "seeds=1", "episodes=2", "env.max_steps=20", "--quiet"]
+
+
+def test_train_into_a_folder_that_holds_no_run_names_no_flag_that_cannot_help(tmp_path, capsys):
+    """--resume and --overwrite both refuse a folder without config.yaml: the message
+    must not offer them."""
+    out = tmp_path / "mine"
+    out.mkdir()
+    (out / "notes.txt").write_text("mine")
+    for extra in ([], ["--overwrite"]):
+        assert train_command.main([*SMOKE, "--out", str(out), *extra]) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and "holds no run" in err and "choose another --out" in err
+        assert "--overwrite" not in err and "--resume" not in err
+    assert [p.name for p in out.iterdir()] == ["notes.txt"]
+
+
+@pytest.mark.parametrize("how", ["out", "default", "resume"])
+def test_train_interrupted_names_the_run_directory_to_resume(tmp_path, capsys, monkeypatch, how):
+    def interrupted(*a, **k):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(train_command, "train_new", interrupted)
+    monkeypatch.setattr(train_command, "resume", interrupted)
+    monkeypatch.setattr(train_command, "default_out", lambda config: tmp_path / "default-run")
+    argv = {
+        "out": [*SMOKE, "--out", str(tmp_path / "run")],
+        "default": SMOKE,
+        "resume": ["--resume", str(tmp_path / "run")],
+    }[how]
+    assert train_command.main(argv) == 130
+    out = tmp_path / ("default-run" if how == "default" else "run")
+    assert capsys.readouterr().err.strip() == (
+        f"jaxnav.train: interrupted; continue with --resume {out}"
+    )
+
+
+def test_study_checks_its_doc_files_before_training(tmp_path, capsys, monkeypatch):
+    import jaxnav.study as study_command
+
+    def no_study(*a, **k):
+        raise AssertionError("the study started before its outputs were checked")
+
+    monkeypatch.setattr(study_command, "study", no_study)
+    doc = tmp_path / "temperature.md"
+    argv = ["configs/temperature.yaml", "--out", str(tmp_path / "s"), "--quiet"]
+    for existing in ("temperature.md", "temperature-sweep.png", "temperature-results.csv.gz"):
+        (tmp_path / existing).write_text("mine")
+        assert study_command.main([*argv, "--doc", str(doc)]) == 2
+        err = capsys.readouterr().err
+        assert err == (
+            f"jaxnav.study: error: {tmp_path / existing} exists already (--overwrite replaces it)\n"
+        )
+        (tmp_path / existing).unlink()
+    missing = tmp_path / "no" / "t.md"
+    assert study_command.main([*argv, "--doc", str(missing)]) == 2
+    assert f"the folder {missing.parent} does not exist" in capsys.readouterr().err
+    assert not (tmp_path / "s").exists()
