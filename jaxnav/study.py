@@ -19,6 +19,7 @@ from pathlib import Path
 from jaxnav.core import cli
 from jaxnav.core.config import load_config, resolve_config_path
 from jaxnav.experiments.study import doc_files, study
+from jaxnav.report import stats
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -47,6 +48,11 @@ def main(argv: list[str] | None = None) -> int:
             cli.check_output(path, args.overwrite)
         path = study(cfg, Path(args.out), title, command.strip(), args.resume, args.quiet, doc)
         print(f"study: {path}" + (f" (and {doc})" if doc else ""))
+        if not stats.enough_seeds(cfg.seeds):
+            print(
+                f"{cfg.seeds} seeds per arm, fewer than the {stats.MIN_SEEDS} a verdict needs: "
+                f"its verdicts say {stats.TOO_FEW_SEEDS}"
+            )
 
     again = f"interrupted; continue with --resume --out {args.out}"
     return cli.run(p.prog, work, interrupted=again)

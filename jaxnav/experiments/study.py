@@ -31,7 +31,7 @@ from jaxnav.core.rundir import METRICS, CsvLog, atomic_write_bytes, atomic_write
 from jaxnav.core.sweep import short_names, value_text
 from jaxnav.experiments.evaluation import evaluate_to_dir
 from jaxnav.experiments.reproduce import check_request, machine_info, train_stage
-from jaxnav.report import plots
+from jaxnav.report import plots, stats
 from jaxnav.report.tables import sweep_markdown, training_markdown
 
 
@@ -76,7 +76,13 @@ def study_markdown(
         "is chosen on the same seeds that score it, which flatters it, and with "
         f"{max(n_arms - 1, 1)} arms compared with epsilon-greedy one verdict in twenty "
         "names a winner by chance: a verdict at one point of several is a hypothesis "
-        "until a fresh set of seeds confirms it (`seed=` another range).",
+        "until a fresh set of seeds confirms it (`seed=` another range)."
+        + (
+            f" With {cfg.seeds} seeds per arm, fewer than the {stats.MIN_SEEDS} a verdict needs, "
+            f"every verdict below says {stats.TOO_FEW_SEEDS}."
+            if not stats.enough_seeds(cfg.seeds)
+            else ""
+        ),
         "",
         "## Results",
     ]

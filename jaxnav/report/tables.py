@@ -174,7 +174,8 @@ class SweepComparison(NamedTuple):
     x: str
     y: str
     p: stats.Interval
-    side: int  # stats.side: 1 x better, -1 y better, 0 no detectable difference
+    side: int | None  # stats.side: 1 x better, -1 y better, 0 no detectable difference;
+    # None: too few seeds for a verdict (stats.MIN_SEEDS)
 
 
 class SweepSummary(NamedTuple):
@@ -202,7 +203,8 @@ def sweep_summary(t: _Test) -> SweepSummary | None:
 
     def compare(x: str, y: str) -> SweepComparison:
         p = stats.probability_of_improvement_ci(score[x], score[y])
-        return SweepComparison(x, y, p, stats.side(p))
+        decided = stats.enough_seeds(len(score[x]), len(score[y]))
+        return SweepComparison(x, y, p, stats.side(p) if decided else None)
 
     eps = best.get("epsilon_greedy")
     against = {s: compare(s, eps) for s in t.strategies if eps and arm_strategy(s) != eps}
@@ -220,9 +222,12 @@ def sweep_answers(summary: SweepSummary) -> list[str]:
         arms = [a for a in summary.arms if arm_strategy(a) == strategy]
         if not summary.against_eps:
             break
+        name = display_name(strategy)
+        if any(summary.against_eps[a].side is None for a in arms):
+            lines.append(f"{name} against epsilon-greedy: {_too_few(summary, arms)}.")
+            continue
         won = [_point(a) for a in arms if summary.against_eps[a].side == 1]
         lost = [_point(a) for a in arms if summary.against_eps[a].side == -1]
-        name = display_name(strategy)
         text = f"{name} beats epsilon-greedy at " + (
             ", ".join(won) if won else "none of its points"
         )
@@ -236,12 +241,18 @@ def sweep_answers(summary: SweepSummary) -> list[str]:
     for c in summary.best_against_best:
         verdict = {1: "is better than", -1: "is worse than", 0: "is not detectably different from"}
         p = _ci(c.p, 2)
-        lines.append(
-            f"{display_name(c.x)} (the best {display_name(arm_strategy(c.x))} point) "
-            f"{verdict[c.side]} {display_name(c.y)} (the best "
-            f"{display_name(arm_strategy(c.y))} point): P = {p}."
-        )
+        x = f"{display_name(c.x)} (the best {display_name(arm_strategy(c.x))} point)"
+        y = f"{display_name(c.y)} (the best {display_name(arm_strategy(c.y))} point)"
+        if c.side is None:
+            lines.append(f"{x} against {y}: P = {p}; {_too_few(summary, [c.x, c.y])}.")
+        else:
+            lines.append(f"{x} {verdict[c.side]} {y}: P = {p}.")
     return lines
+
+
+def _too_few(summary: SweepSummary, arms: Sequence[str]) -> str:
+    n = min(len(summary.scores[a]) for a in arms)
+    return f"{stats.TOO_FEW_SEEDS} for a verdict ({n} per arm; it needs {stats.MIN_SEEDS})"
 
 
 def _point(arm: str) -> str:
@@ -264,7 +275,13 @@ def _sweep_section(t: _Test) -> list[str]:
         + (" on each maze and averaged over the mazes" if mazes else "")
         + "; the best point of each strategy (highest mean) in bold. P(point > epsilon-"
         "greedy): rliable's probability of improvement with its bootstrap CI; the verdict "
-        "says which is better when the interval excludes 0.5, else no detectable difference.",
+        "says which is better when the interval excludes 0.5, else no detectable difference"
+        + (
+            f"; with fewer than {stats.MIN_SEEDS} seeds per arm it says {stats.TOO_FEW_SEEDS}, "
+            "since every seed of one arm can score above every seed of the other by chance."
+            if _undecided(summary)
+            else "."
+        ),
         "",
     ]
     rows = []
@@ -296,6 +313,12 @@ def _sweep_section(t: _Test) -> list[str]:
     return L + ["", "In words:", ""] + [f"- {line}" for line in sweep_answers(summary)]
 
 
+def _undecided(summary: SweepSummary) -> bool:
+    """Whether some comparison of ``summary`` had too few seeds for a verdict."""
+    comparisons = [*summary.against_eps.values(), *summary.best_against_best]
+    return any(c.side is None for c in comparisons)
+
+
 def sweep_markdown(results_csv: str, first_seed: int) -> list[str]:
     """The sweep section of every test mode of results.csv text, each under a
     ``### Test mode`` heading (empty without a sweep)."""
@@ -310,6 +333,8 @@ def sweep_markdown(results_csv: str, first_seed: int) -> list[str]:
 
 def _better(c: SweepComparison) -> str:
     x, y = display_name(c.x), display_name(c.y)
+    if c.side is None:
+        return stats.TOO_FEW_SEEDS
     return {1: f"{x} better", -1: f"{y} better", 0: "no detectable difference"}[c.side]
 
 
