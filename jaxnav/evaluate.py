@@ -19,9 +19,11 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from jaxnav.core import cli, rundir
+from jaxnav.core.rundir import CsvLog
 from jaxnav.experiments.evaluation import evaluate_to_dir
 from jaxnav.experiments.robustness import PERTURBATIONS, robustness_to_dir
-from jaxnav.report.tables import setting_text
+from jaxnav.report.results import ordered_unique
+from jaxnav.report.tables import outcome_text, setting_text
 
 
 def check_outputs(out: Path, names: Sequence[str], overwrite: bool) -> None:
@@ -33,6 +35,18 @@ def check_outputs(out: Path, names: Sequence[str], overwrite: bool) -> None:
             cli.check_output(out / name, overwrite)
     else:  # absent (then its parent must exist) or not a folder (refused)
         cli.check_output(out, overwrite, is_dir=True)
+
+
+def print_summary(rows: list[dict[str, str]]) -> None:
+    """Per test mode, train's table of the test episodes: all of each seed's, all mazes."""
+    for mode in ordered_unique(r["mode"] for r in rows):
+        mine = [r for r in rows if r["mode"] == mode]
+        mazes = ordered_unique(r["maze"] for r in mine)
+        print(
+            f"{mode} test on {', '.join(mazes)}, every test episode of each seed, "
+            "mean over seeds [95% CI]:"
+        )
+        print(outcome_text(mine))
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -83,6 +97,8 @@ def main(argv: list[str] | None = None) -> int:
             check_outputs(out, written, args.overwrite)
             out = evaluate_to_dir(run_dir, args.mazes, args.episodes, out)
         print(f"wrote {out / written[0]}, {out / written[1]} and {out / written[2]}")
+        if not args.robustness:
+            print_summary(CsvLog(out / written[0], ()).read())
 
     return cli.run(p.prog, work)
 

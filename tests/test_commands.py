@@ -64,3 +64,20 @@ def test_study_checks_its_doc_files_before_training(tmp_path, capsys, monkeypatc
     assert study_command.main([*argv, "--doc", str(missing)]) == 2
     assert f"the folder {missing.parent} does not exist" in capsys.readouterr().err
     assert not (tmp_path / "s").exists()
+
+
+def test_train_ends_with_the_outcome_table(tmp_path, capsys):
+    """The table evaluate prints too (report.tables.outcome_text), of the last 50
+    training episodes of each seed."""
+    from jaxnav.core.rundir import METRICS, CsvLog
+    from jaxnav.report.tables import outcome_text
+
+    out = tmp_path / "run"
+    assert train_command.main([*SMOKE, "seeds=2", "--out", str(out)]) == 0
+    printed = capsys.readouterr().out
+    table = outcome_text(CsvLog(out / METRICS, ()).read(), last=50)
+    assert (
+        f"last 50 training episodes of each seed, mean over seeds [95% CI]:\n{table}\n" in printed
+    )
+    assert table.splitlines()[0].split()[:3] == ["strategy", "seeds", "return"]
+    assert [line.split()[0] for line in table.splitlines()[1:]] == ["ebe", "epsilon_greedy"]

@@ -396,32 +396,66 @@ def _beside_paper_section(t: _Test, train_maze: str) -> list[str]:
     return L + _table(header, rows)
 
 
+def _seeds_by_arm(rows: list[dict[str, str]]) -> dict[str, list[list[dict[str, str]]]]:
+    """Episode rows (metrics.csv or results.csv) per arm, in arm order: one list per
+    seed, in the order the seeds are met, each in episode order."""
+    by: dict[str, dict[int, list[dict[str, str]]]] = {}
+    for r in rows:
+        by.setdefault(row_arm(r), {}).setdefault(int(r["seed"]), []).append(r)
+    return {
+        s: [sorted(eps, key=lambda r: int(r["episode"])) for eps in by[s].values()]
+        for s in arms_in(by)
+    }
+
+
+def _seed_means(per_seed: list[list[dict[str, str]]], column: str, last: int | None) -> np.ndarray:
+    """Each seed's mean of ``column`` over its last ``last`` episodes (all if None)."""
+    return np.asarray(
+        [np.mean([float(r[column]) for r in (e[-last:] if last else e)]) for e in per_seed]
+    )
+
+
+OUTCOME_HEADER = ("seeds", "return", "goals per episode", "share ending in a collision")
+
+
+def _outcome_cells(per_seed: list[list[dict[str, str]]], last: int | None) -> list[str]:
+    """An arm's outcome (:data:`OUTCOME_HEADER`): its seeds, and the mean over seeds
+    [95% bootstrap CI] of each seed's mean return, goals and collisions per episode."""
+    return [
+        str(len(per_seed)),
+        _ci(stats.mean_ci(_seed_means(per_seed, "return", last)), 0),
+        _ci(stats.mean_ci(_seed_means(per_seed, "goals", last)), 2),
+        _ci(stats.mean_ci(_seed_means(per_seed, "collided", last)), 2),
+    ]
+
+
+def outcome_text(rows: list[dict[str, str]], last: int | None = None) -> str:
+    """The small table the commands print: per arm (named as the files name it), the
+    outcome of its episodes (:func:`_outcome_cells`; the last ``last`` per seed, or all),
+    in aligned columns. ``rows``: metrics.csv or results.csv rows."""
+    table = [["strategy", *OUTCOME_HEADER]]
+    table += [[s, *_outcome_cells(eps, last)] for s, eps in _seeds_by_arm(rows).items()]
+    widths = [max(len(row[i]) for row in table) for i in range(len(table[0]))]
+    return "\n".join(
+        "  "
+        + "  ".join(
+            c.ljust(w) if i == 0 else c.rjust(w) for i, (c, w) in enumerate(zip(row, widths))
+        )
+        for row in table
+    )
+
+
 def training_markdown(metrics_rows: list[dict[str, str]], last: int = 50) -> str:
     """Training outcome per strategy from metrics.csv rows: the last ``last`` episodes
     of each seed (return, goals, collisions) and the mean return over all episodes,
     each a mean over seeds with a 95% bootstrap CI."""
-    by: dict[str, dict[int, list[dict[str, str]]]] = {}
-    for r in metrics_rows:
-        by.setdefault(row_arm(r), {}).setdefault(int(r["seed"]), []).append(r)
     explore = bool(metrics_rows) and all("explore" in r for r in metrics_rows)
     rows = []
-    for s in arms_in(by):
-        per_seed = [sorted(eps, key=lambda r: int(r["episode"])) for eps in by[s].values()]
-
-        def mean_of(column, eps_of, per_seed=per_seed):
-            return np.asarray([np.mean([float(r[column]) for r in eps_of(e)]) for e in per_seed])
-
-        tail = lambda e: e[-last:]  # noqa: E731
+    for s, per_seed in _seeds_by_arm(metrics_rows).items():
         rows.append(
-            [
-                display_name(s),
-                str(len(per_seed)),
-                _ci(stats.mean_ci(mean_of("return", tail)), 0),
-                _ci(stats.mean_ci(mean_of("goals", tail)), 2),
-                _ci(stats.mean_ci(mean_of("collided", tail)), 2),
-                _ci(stats.mean_ci(mean_of("return", lambda e: e)), 0),
-            ]
-            + ([_ci(stats.mean_ci(mean_of("explore", tail)), 2)] if explore else [])
+            [display_name(s), *_outcome_cells(per_seed, last)]
+            + [_ci(stats.mean_ci(_seed_means(per_seed, "return", None)), 0)]
+            + ([_ci(stats.mean_ci(_seed_means(per_seed, "explore", last)), 2)] if explore else [])
         )
     header = [
         "strategy",
