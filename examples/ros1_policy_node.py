@@ -61,7 +61,7 @@ def _load_deploy():
         return deploy
     except ImportError:
         here = Path(__file__).resolve().parent
-        for path in (here / "deploy.py", here.parent / "jaxnav" / "deploy.py"):
+        for path in (here / "deploy.py", here.parent / "jaxnav" / "robot" / "deploy.py"):
             if path.is_file():
                 spec = importlib.util.spec_from_file_location("jaxnav_deploy", path)
                 module = importlib.util.module_from_spec(spec)

@@ -10,15 +10,14 @@ Paper equations in one place each:
 
 * Q-network (Table 2): :class:`QNetwork`.
 * TD target ``y = r + gamma * max_b Q(s', b; theta^-)``, squared error: :func:`td_loss`.
-* EBE (Sec. 5): :func:`ebe`; epsilon-greedy baseline: :func:`epsilon_greedy`,
-  :func:`epsilon_schedule`; Boltzmann, EBE's control: :func:`boltzmann`. The trainer
-  acts through a strategy's entry in :data:`EXPLORATION` (:func:`explore_action`).
+* EBE (Sec. 5), epsilon-greedy and Boltzmann exploration: :mod:`jaxnav.agent.exploration`.
+  The trainer acts through the run's registered strategy
+  (:mod:`jaxnav.core.strategies`, :func:`jaxnav.agent.exploration.explore_action`).
 """
 
 from __future__ import annotations
 
 import functools
-import math
 from collections.abc import Callable
 from typing import NamedTuple
 
@@ -31,8 +30,11 @@ import optax
 from flax import struct
 
 from jaxnav.agent import replay
+from jaxnav.agent.episodes import Episodes
+from jaxnav.agent.exploration import explore_action
 from jaxnav.agent.replay import Buffer
-from jaxnav.core.config import STRATEGIES, Config, DQNConfig, ExplorationConfig
+from jaxnav.core import strategies as registry
+from jaxnav.core.config import Config, DQNConfig
 from jaxnav.env import EnvParams, EnvState, NavEnv, from_config
 
 # ----------------------------------------------------------------------------
@@ -60,6 +62,12 @@ class QNetwork(nn.Module):
         return nn.Dense(self.num_actions, kernel_init=init)(x)
 
 
+def network_of(config: Config, env: NavEnv | None = None) -> QNetwork:
+    """The Q-network of a config's runs (``env``: its environment, if already made)."""
+    env = from_config(config)[0] if env is None else env
+    return QNetwork(env.num_actions, tuple(config.dqn.hidden), config.dqn.dropout)
+
+
 def dropout16(key: chex.PRNGKey, x: chex.Array, rate) -> chex.Array:
     """Inverted dropout whose mask takes 16 random bits per unit, two per 32-bit draw.
 
@@ -78,120 +86,6 @@ def dropout16(key: chex.PRNGKey, x: chex.Array, rate) -> chex.Array:
 
 
 # ----------------------------------------------------------------------------
-# Exploration. A strategy is one pure function in the table EXPLORATION:
-# (key, q f32[A], episode i32[], config) -> (action i32[], exploration f32[]).
-# Adding one is that function and one line in the table (and its name in
-# jaxnav.core.config.STRATEGIES).
-# ----------------------------------------------------------------------------
-
-
-def normalised_entropy(q: chex.Array, temperature: float = 1.0) -> chex.Array:
-    """H(s) in [0, 1]: entropy of softmax((Q - max Q) / T), log base |A|.
-
-    Args:
-      q: f32[..., A] Q-values.
-    Returns:
-      f32[...] normalised entropy.
-    """
-    z = (q - jnp.max(q, axis=-1, keepdims=True)) / temperature
-    logp = jax.nn.log_softmax(z, axis=-1)
-    p = jnp.exp(logp)
-    h = -jnp.sum(p * logp, axis=-1) / math.log(q.shape[-1])
-    return jnp.clip(h, 0.0, 1.0)
-
-
-def epsilon_schedule(episode: chex.Array, start=1.0, decay=0.99, minimum=0.05) -> chex.Array:
-    """eps_i = max(decay * eps_{i-1}, minimum), eps_1 = start; ``episode`` counts from 0."""
-    return jnp.maximum(start * decay ** episode.astype(jnp.float32), minimum)
-
-
-def explore_or_greedy(key: chex.PRNGKey, q: chex.Array, prob: chex.Array) -> chex.Array:
-    """A uniformly random action with probability ``prob``, else argmax Q."""
-    k_coin, k_act = jax.random.split(key)
-    explore = jax.random.uniform(k_coin) < prob
-    random_action = jax.random.randint(k_act, (), 0, q.shape[-1])
-    return jnp.where(explore, random_action, jnp.argmax(q, axis=-1))
-
-
-def ebe(key: chex.PRNGKey, q: chex.Array, temperature: float = 1.0, power: float = 1.0):
-    """Entropy-based exploration: random action with probability H(s)^power, else greedy.
-
-    The paper's EBE is power 1; the EBE author's Breakout code raised H to a power.
-    Returns (action i32[], exploration probability f32[]).
-    """
-    h = normalised_entropy(q, temperature)
-    h = jnp.where(power == 1.0, h, h**power)  # power 1 is exactly the paper's H
-    return explore_or_greedy(key, q, h), h
-
-
-def epsilon_greedy(key: chex.PRNGKey, q: chex.Array, eps: chex.Array):
-    """Random action with probability eps, else greedy. Returns (action, eps)."""
-    return explore_or_greedy(key, q, eps), jnp.asarray(eps, jnp.float32)
-
-
-def boltzmann(key: chex.PRNGKey, q: chex.Array, temperature: float = 1.0):
-    """Boltzmann exploration: the action is sampled from softmax(Q / T), the softmax
-    EBE takes its entropy from (for EBE's control).
-
-    Returns (action i32[], the probability that the sampled action is not the greedy
-    one, 1 - max_a softmax(Q / T)_a, f32[]).
-    """
-    z = (q - jnp.max(q, axis=-1, keepdims=True)) / temperature
-    action = jax.random.categorical(key, z, axis=-1)
-    return action, 1.0 - jnp.max(jax.nn.softmax(z, axis=-1), axis=-1)
-
-
-def _ebe(key, q, episode, x: ExplorationConfig | Hyper):
-    del episode
-    return ebe(key, q, x.ebe_temperature, x.ebe_power)
-
-
-def _epsilon_greedy(key, q, episode, x: ExplorationConfig | Hyper):
-    return epsilon_greedy(key, q, epsilon_schedule(episode, x.eps_start, x.eps_decay, x.eps_min))
-
-
-def _boltzmann(key, q, episode, x: ExplorationConfig | Hyper):
-    del episode
-    return boltzmann(key, q, x.boltzmann_temperature)
-
-
-# Each strategy's act, (key, q f32[A], episode i32[], settings) -> (action i32[], f32[]),
-# in STRATEGIES order (an import-time KeyError if one is missing). The settings are an
-# ExplorationConfig or a run's Hyper (the same names, as data); jaxnav.core.sweep's
-# EXPLORATION_KEYS lists the ones each function reads.
-EXPLORATION: dict[str, Callable[..., tuple[chex.Array, chex.Array]]] = {
-    "ebe": _ebe,
-    "epsilon_greedy": _epsilon_greedy,
-    "boltzmann": _boltzmann,
-}
-EXPLORATION = {name: EXPLORATION[name] for name in STRATEGIES}
-
-
-def explore_action(
-    strategy: chex.Array,
-    key: chex.PRNGKey,
-    q: chex.Array,
-    episode: chex.Array,
-    x: ExplorationConfig | Hyper,
-    strategies: tuple[str, ...] = STRATEGIES,
-) -> tuple[chex.Array, chex.Array]:
-    """(action i32[], exploration f32[]) of strategy ``STRATEGIES[strategy]`` (i32[]).
-
-    Branchless: the act of every strategy in ``strategies`` (those a program can meet)
-    is computed from the same key and one is selected, so one compiled program serves
-    runs of several strategies under ``vmap``. The same key gives EBE and epsilon-greedy
-    the same coin and random action, so only the probability differs between them.
-    """
-    acts = [EXPLORATION[name](key, q, episode, x) for name in strategies]
-    if len(acts) == 1:
-        return acts[0]
-    position = jnp.asarray([strategies.index(s) if s in strategies else 0 for s in STRATEGIES])
-    i = position[strategy]
-    action = jax.lax.select_n(i, *[a.astype(jnp.int32) for a, _ in acts])
-    return action, jax.lax.select_n(i, *[jnp.asarray(p, jnp.float32) for _, p in acts])
-
-
-# ----------------------------------------------------------------------------
 # Settings as data: what a sweep varies between the runs of one program
 # ----------------------------------------------------------------------------
 
@@ -199,7 +93,7 @@ def explore_action(
 @struct.dataclass
 class Hyper:
     """A run's settings that are data in the compiled step, one field per key of
-    :data:`jaxnav.core.sweep.SWEEPABLE` (its last component), each a scalar per run.
+    :data:`jaxnav.core.config.SWEEPABLE` (its last component), each a scalar per run.
 
     Every run carries them, with or without a sweep, so the runs of a sweep and a run
     without one are the same program (PureJaxRL's hyperparameters-as-data). The
@@ -319,35 +213,6 @@ def run_limits(config: Config) -> tuple[int, int]:
 
 
 @struct.dataclass
-class Metrics:
-    """Per-episode metrics (a ring of ``slots`` episodes) and running sums."""
-
-    ep_return: chex.Array  # f32[slots]
-    ep_length: chex.Array  # i32[slots]
-    ep_goals: chex.Array  # i32[slots]
-    ep_collided: chex.Array  # bool[slots]
-    ep_explore: chex.Array  # f32[slots] mean H or eps over the episode
-    cur_return: chex.Array  # f32[]
-    cur_length: chex.Array  # i32[]
-    cur_goals: chex.Array  # i32[]
-    cur_explore: chex.Array  # f32[] sum over the episode
-
-    @classmethod
-    def zeros(cls, slots: int) -> Metrics:
-        return cls(
-            ep_return=jnp.zeros(slots, jnp.float32),
-            ep_length=jnp.zeros(slots, jnp.int32),
-            ep_goals=jnp.zeros(slots, jnp.int32),
-            ep_collided=jnp.zeros(slots, bool),
-            ep_explore=jnp.zeros(slots, jnp.float32),
-            cur_return=jnp.zeros((), jnp.float32),
-            cur_length=jnp.zeros((), jnp.int32),
-            cur_goals=jnp.zeros((), jnp.int32),
-            cur_explore=jnp.zeros((), jnp.float32),
-        )
-
-
-@struct.dataclass
 class TrainState:
     params: chex.ArrayTree
     target_params: chex.ArrayTree
@@ -356,11 +221,11 @@ class TrainState:
     env_state: EnvState
     obs: chex.Array
     key: chex.PRNGKey
-    strategy: chex.Array  # i32[] index into STRATEGIES
+    strategy: chex.Array  # i32[] registered strategy number (jaxnav.core.strategies.index)
     hyper: Hyper  # the run's settings that are data (a sweep point's values)
     step: chex.Array  # i32[] env steps taken
     episode: chex.Array  # i32[] episodes finished
-    metrics: Metrics
+    metrics: Episodes  # the run's finished episodes and the one being played
     # i32[] the env step at which the run's loss, Q-values or new parameters were first
     # not finite; -1 while all are. A diverged run is frozen with its last finite
     # parameters (the update that would have broken them is not applied).
@@ -377,13 +242,12 @@ class StepLog(NamedTuple):
 
 
 class Trainer(NamedTuple):
-    """The pieces of a run. ``init`` and ``chunk`` are pure; vmap them over runs."""
+    """The pieces of a run. ``init`` and ``chunk`` are pure; vmap them over runs.
+    ``step`` is ``chunk``'s scan body, one environment step of one run (tests and
+    benchmarks call it alone); :func:`network_of` gives the run's Q-network."""
 
-    config: Config
     env: NavEnv
     env_params: EnvParams
-    network: QNetwork
-    optimizer: optax.GradientTransformation
     metric_slots: int
     init: Callable[[chex.PRNGKey, chex.Array, Hyper], TrainState]
     step: Callable[[TrainState, None], tuple[TrainState, StepLog]]
@@ -402,7 +266,7 @@ def make_trainer(config: Config) -> Trainer:
     runs of a sweep (:func:`run_inputs`) share the program."""
     env, base_params = from_config(config)
     d = config.dqn
-    network = QNetwork(env.num_actions, tuple(d.hidden), d.dropout)
+    network = network_of(config, env)
     optimizer = optimizer_of(d)  # the state's layout; a step uses the run's settings
     slots = config.episodes if config.episodes is not None else config.run.chunk_steps
     limits = run_limits(config)
@@ -424,7 +288,7 @@ def make_trainer(config: Config) -> Trainer:
         with jax.named_scope("keys"):
             key, k_act, k_env, k_sample, k_drop = jax.random.split(ts.key, 5)
 
-        # ACT: the run's strategy explores (its index picks its entry in EXPLORATION).
+        # ACT: the run's strategy explores (its number picks its registered act).
         with jax.named_scope("act"):
             action, explore, q_finite, max_q = _act(network, config, ts, k_act)
 
@@ -455,7 +319,8 @@ def make_trainer(config: Config) -> Trainer:
         target_params = _select(sync, params, ts.target_params)
 
         # EPISODE METRICS
-        metrics = _record_episode(ts, slots, reward, terminated, done, info, explore, run & done)
+        slot = jnp.where(run & done, ts.episode % slots, slots)  # out of range: not filed
+        metrics = ts.metrics.record(slot, reward, info["goal_reached"], terminated, done, explore)
 
         # A finished run is held still: params, optimiser, target and buffer were
         # masked above; the rest is small.
@@ -501,7 +366,7 @@ def make_trainer(config: Config) -> Trainer:
         logs = StepLog(*(jnp.full(length, jnp.nan, jnp.float32) for _ in StepLog._fields))
         return jax.lax.fori_loop(0, n, body, (ts, logs))
 
-    return Trainer(config, env, base_params, network, optimizer, slots, init, step, chunk, active)
+    return Trainer(env, base_params, slots, init, step, chunk, active)
 
 
 def _init_state(
@@ -523,7 +388,7 @@ def _init_state(
         hyper=hyper,
         step=jnp.zeros((), jnp.int32),
         episode=jnp.zeros((), jnp.int32),
-        metrics=Metrics.zeros(slots),
+        metrics=Episodes.zeros(slots),
         diverged_at=jnp.asarray(-1, jnp.int32),
     )
 
@@ -589,27 +454,6 @@ def _target_sync_due(d: DQNConfig, h: Hyper, n_steps: chex.Array, done: chex.Arr
     return done
 
 
-def _record_episode(ts, slots, reward, terminated, done, info, explore, write) -> Metrics:
-    """Add the step to the running sums; where ``write``, file the finished episode."""
-    m = ts.metrics
-    cur_return = m.cur_return + reward
-    cur_length = m.cur_length + 1
-    cur_goals = m.cur_goals + info["goal_reached"].astype(jnp.int32)
-    cur_explore = m.cur_explore + explore
-    i = jnp.where(write, ts.episode % slots, slots)  # out of range: dropped
-    return Metrics(
-        ep_return=m.ep_return.at[i].set(cur_return, mode="drop"),
-        ep_length=m.ep_length.at[i].set(cur_length, mode="drop"),
-        ep_goals=m.ep_goals.at[i].set(cur_goals, mode="drop"),
-        ep_collided=m.ep_collided.at[i].set(terminated, mode="drop"),
-        ep_explore=m.ep_explore.at[i].set(cur_explore / cur_length, mode="drop"),
-        cur_return=jnp.where(done, 0.0, cur_return),
-        cur_length=jnp.where(done, 0, cur_length),
-        cur_goals=jnp.where(done, 0, cur_goals),
-        cur_explore=jnp.where(done, 0.0, cur_explore),
-    )
-
-
 def _select(pred, a, b):
     return jax.tree.map(lambda x, y: jnp.where(pred, x, y), a, b)
 
@@ -623,7 +467,7 @@ class RunInputs(NamedTuple):
     """What ``Trainer.init`` takes, one entry per run along the leading axis."""
 
     keys: chex.Array  # u32[runs, 2]
-    strategy: chex.Array  # i32[runs] index into STRATEGIES
+    strategy: chex.Array  # i32[runs] registered strategy number (jaxnav.core.strategies.index)
     hyper: Hyper  # each field [runs]
 
 
@@ -638,7 +482,7 @@ def run_inputs(config: Config) -> RunInputs:
     seed_keys = np.asarray(jax.vmap(jax.random.PRNGKey)(jnp.asarray(seeds)))
     arms = config.arms()
     keys = np.concatenate([seed_keys] * len(arms))
-    strat = np.repeat(np.asarray([STRATEGIES.index(s) for s, _ in arms], np.int32), config.seeds)
+    strat = np.repeat(np.asarray([registry.index(s) for s, _ in arms], np.int32), config.seeds)
     hypers = [h for h in arm_hypers(config) for _ in range(config.seeds)]
     return RunInputs(keys, strat, stack(hypers))
 

@@ -18,7 +18,7 @@ What is simulated (numbers from the spec):
   can cross a wall unnoticed.
 
 ROBOTIS' own simulation differs from this in four ways, each a switch of
-:class:`NavEnv`, off by default (spec.md, "ROBOTIS' code in detail"):
+:class:`NavEnv`, off by default (docs/paper.md, "ROBOTIS' code in detail"):
 ``collision="lidar"``, ``goal_sampler="robotis"``, ``beam_layout="gazebo"`` and
 ``action_delay=True``. ``ROBOTIS_SWITCHES`` lists them with their ROBOTIS values.
 * Goals: reaching within 0.2 m pays R+ and draws a new goal, the episode goes on; a
@@ -42,7 +42,8 @@ import jax.numpy as jnp
 import numpy as np
 from flax import struct
 
-from jaxnav.core.settings import PRESETS, env_setting_problem
+from jaxnav.core.config import env_setting_problem
+from jaxnav.core.settings import PRESETS
 from jaxnav.world import sensor
 from jaxnav.world.geometry import (
     displacement,
@@ -135,7 +136,7 @@ class NavEnv:
         obstacle radii keep their size. (1, 1) is off.
     Range noise is ``EnvParams.lidar_noise_std``.
 
-    ROBOTIS-faithful switches (spec.md; all off by default and in both presets):
+    ROBOTIS-faithful switches (docs/paper.md; all off by default and in both presets):
       collision: "disc" (the exact 0.13 m disc along the step's arc) or "lidar"
         (ROBOTIS: the episode ends when the smallest observed beam reads below
         0.13 m, so a wall between beams can be missed; touching a surface with the
@@ -166,7 +167,7 @@ class NavEnv:
     action_delay: bool = False
 
     def __post_init__(self):
-        for f in dataclasses.fields(self):  # the rules of jaxnav.core.settings, as for a config
+        for f in dataclasses.fields(self):  # the rules of the config's env settings
             problem = env_setting_problem(f.name, getattr(self, f.name))
             if problem:
                 raise ValueError(f"{f.name} {problem}")

@@ -71,7 +71,7 @@ def main(argv: list[str] | None = None) -> int:
         help="consecutive test episodes per seed (default run.test_episodes)",
     )
     p.add_argument("--out", metavar="DIR", help="output directory (default RUN_DIR/eval)")
-    cli.add_overwrite(p, "the files the test writes into --out")
+    cli.add_overwrite(p, "a result file in --out")
     sweep = "; ".join(
         f"{k} ({setting_text(v)})" if v else f"{k} (as trained)" for k, v in PERTURBATIONS.items()
     )

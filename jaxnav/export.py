@@ -6,6 +6,11 @@ and writes it), or ``--info POLICY``: an exported policy's metadata.
 
 from __future__ import annotations
 
+if __name__ == "__main__":  # first thing: Ctrl-C ends the command cleanly
+    from jaxnav.core.startup import catch_interrupts_in_command
+
+    catch_interrupts_in_command()
+
 import json
 import sys
 from pathlib import Path

@@ -7,6 +7,11 @@ the environment's own sensor). The drawing itself is :mod:`jaxnav.report.drawing
 
 from __future__ import annotations
 
+if __name__ == "__main__":  # first thing: Ctrl-C ends the command cleanly
+    from jaxnav.core.startup import catch_interrupts_in_command
+
+    catch_interrupts_in_command()
+
 import sys
 from collections.abc import Sequence
 from pathlib import Path

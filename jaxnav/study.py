@@ -32,7 +32,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--out", required=True, metavar="DIR", help="output directory")
     p.add_argument("--title", help="the study's title (default: the config's name)")
     p.add_argument("--doc", metavar="PATH", help="also write the study here, figures beside it")
-    cli.add_overwrite(p, "the --doc file and the files beside it")
+    cli.add_overwrite(p, "a file --doc writes")
     p.add_argument("--resume", action="store_true", help="continue the study in --out")
     p.add_argument("--quiet", action="store_true", help="no progress output")
     args = p.parse_intermixed_args(argv)

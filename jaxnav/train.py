@@ -23,7 +23,7 @@ from jaxnav.core import cli
 from jaxnav.core.config import load_config, resolve_config_path
 from jaxnav.core.errors import RunError
 from jaxnav.core.rundir import METRICS, CsvLog
-from jaxnav.run.training import resume, train_new
+from jaxnav.run.training import interrupted_text, resume, train_new
 
 LAST = 50  # training episodes per seed in the summary (summary.json's last50)
 
@@ -78,23 +78,29 @@ def main(argv: list[str] | None = None) -> int:
         action="store_true",
         help="replace the run already in --out (refused while another command uses it)",
     )
+    p.add_argument(
+        "--keep-checkpoints",
+        action="store_true",
+        help="keep checkpoints/ once training has finished (removed otherwise: nothing reads them)",
+    )
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     args = p.parse_intermixed_args(argv)  # overrides may follow the flags too
-    config_path = None
-    overrides = list(args.items)
-    if overrides and "=" not in overrides[0]:
-        config_path = resolve_config_path(overrides.pop(0))
-    out = Path(args.resume or args.out or default_out(config_path))
 
     def work() -> None:
         initialize()  # multi-host, when jax.distributed's variables are set
         if args.resume:
             if args.items or args.out or args.overwrite:
                 raise RunError("--resume takes only the run directory (its config.yaml is used)")
-            summary = resume(out, args.quiet)
+            out = Path(args.resume)
+            summary = resume(out, args.quiet, args.keep_checkpoints)
         else:
+            config_path = None
+            overrides = list(args.items)
+            if overrides and "=" not in overrides[0]:
+                config_path = resolve_config_path(overrides.pop(0))
             cfg = load_config(config_path, overrides)
-            summary = train_new(cfg, out, args.quiet, overwrite=args.overwrite)
+            out = Path(args.out) if args.out else default_out(config_path)
+            summary = train_new(cfg, out, args.quiet, args.overwrite, args.keep_checkpoints)
         if is_writer():
             print_summary(out, summary)
             from jaxnav.report.plots import plot_training_curves  # matplotlib only when done
@@ -103,7 +109,7 @@ def main(argv: list[str] | None = None) -> int:
             curves = plot_training_curves(out, out / "plots" / "training_curves.png")
             print(f"training curves: {curves}")
 
-    return cli.run(p.prog, work, interrupted=f"interrupted; continue with --resume {out}")
+    return cli.run(p.prog, work, interrupted=interrupted_text)
 
 
 if __name__ == "__main__":

@@ -3,7 +3,7 @@
 Reads OUT/<option>/sim2sim/sim2sim.csv for every option the campaign trains and
 writes docs/sim2sim_realism.csv (those rows, an ``option`` column first) and
 docs/sim2sim_realism.md (the table, recomputed from that CSV alone by
-``jaxnav.experiments.sim2sim.realism_markdown``, then how it was made: the options' overrides,
+``jaxnav.report.sim2sim_tables.realism_markdown``, then how it was made: the options' overrides,
 the commit that ran them and the wall-clock of each step from its files). Run from the
 repository root: ``python scripts/publish_realism.py OUT [--dst PATH]``.
 """
@@ -15,7 +15,7 @@ import sys
 from pathlib import Path
 
 from jaxnav.core.rundir import csv_text
-from jaxnav.experiments.sim2sim import REALISM_COLUMNS, realism_markdown
+from jaxnav.report.sim2sim_tables import REALISM_COLUMNS, realism_markdown
 
 # The campaign's options (scripts/sim2sim_realism.sh), by the name of their directory.
 OPTIONS = {

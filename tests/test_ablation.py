@@ -100,10 +100,10 @@ def test_the_committed_ablation_is_computed_from_its_scores():
     tables = ablation.ablation_markdown(rows)
     committed = (doc / "ablation.md").read_text()
     assert committed.startswith(tables)
-    readme = (ROOT / "README.md").read_text()
-    quoted = [line for line in readme.splitlines() if line.startswith("| jaxnav |")]
-    assert quoted, "the README quotes the ablation's reference rows"
-    for line in readme.splitlines():
+    page = (ROOT / "docs" / "reproducing.md").read_text()
+    quoted = [line for line in page.splitlines() if line.startswith("| jaxnav |")]
+    assert quoted, "docs/reproducing.md quotes the ablation's reference rows"
+    for line in page.splitlines():
         if line.startswith("| ") and any(line.startswith(f"| {v} |") for v in ablation.VARIANTS):
             assert line in tables, line
 

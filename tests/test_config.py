@@ -59,3 +59,51 @@ def test_a_preset_sets_the_training_constants_of_one_table():
     )
     paper = load_config(None)
     assert (paper.episodes, paper.dqn.gamma) == (PRESETS["paper"].episodes, PRESETS["paper"].gamma)
+
+
+def test_a_batch_larger_than_the_replay_memory_is_refused():
+    # smoke: 40 episodes of 200 steps, so a run's replay memory holds 8000 transitions
+    with pytest.raises(ConfigError, match=r"dqn.batch_size \(8001\) is larger than the replay"):
+        load_config("smoke", ["dqn.batch_size=8001"])
+    assert load_config("smoke", ["dqn.batch_size=8000"]).dqn.batch_size == 8000
+
+
+@pytest.mark.parametrize("overrides", [[], ["env.maze=square4_obstacles", "env.n_beams=360"]])
+def test_memory_estimate_bounds_the_replay_buffers_within_ten_percent(overrides):
+    from jaxnav.agent.replay import nbytes
+    from jaxnav.env import from_config
+
+    cfg = load_config("smoke", ["seeds=3", *overrides])
+    env, params = from_config(cfg)
+    real = cfg.n_runs * nbytes(cfg.buffer_capacity, env.obs_size, int(params.max_steps))
+    assert real <= cfg.memory_estimate() <= 1.1 * real
+
+
+def test_a_run_too_big_for_the_machine_says_so_before_allocating(monkeypatch):
+    from jaxnav.core import cli
+    from jaxnav.core.errors import JaxnavError
+
+    gib = 2**30
+    cfg = load_config("smoke", ["seeds=100000"])  # about 180 GiB of replay memory
+    with pytest.raises(JaxnavError, match=r"needs about 1\d\d\.\d GiB .*more than this machine"):
+        cli.confirm_memory(cfg.memory_estimate(), yes=True, memory=24 * gib)
+    monkeypatch.setattr("sys.stdin", None)  # not a terminal: refused with the estimate
+    with pytest.raises(JaxnavError, match="over half of this machine's 24.0 GiB: --yes starts"):
+        cli.confirm_memory(15 * gib, yes=False, memory=24 * gib)
+    cli.confirm_memory(15 * gib, yes=True, memory=24 * gib)  # --yes: goes on
+    cli.confirm_memory(11 * gib, yes=False, memory=24 * gib)  # under half: no question
+
+
+def test_the_memory_question_takes_yes_at_a_terminal(monkeypatch):
+    from jaxnav.core import cli
+    from jaxnav.core.errors import JaxnavError
+
+    class Tty:
+        def isatty(self):
+            return True
+
+    monkeypatch.setattr("sys.stdin", Tty())
+    gib = 2**30
+    cli.confirm_memory(15 * gib, yes=False, memory=24 * gib, ask=lambda _: "y")
+    with pytest.raises(JaxnavError, match="not started"):
+        cli.confirm_memory(15 * gib, yes=False, memory=24 * gib, ask=lambda _: "")

@@ -23,7 +23,7 @@ from jaxnav.dqn import QNetwork
 from jaxnav.env import from_config
 from jaxnav.robot import deploy, export
 from jaxnav.robot.deploy import Policy, nearest_rays
-from jaxnav.run.training import params_arrays
+from jaxnav.run.checkpoint import params_arrays
 from jaxnav.world.geometry import ray_distances_dir
 from jaxnav.world.maps import ROBOT_RADIUS, clearance
 from jaxnav.world.sensor import beam_angles, beam_directions

@@ -7,26 +7,31 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from jaxnav.core.config import STRATEGIES, ExplorationConfig, load_config
-from jaxnav.dqn import (
-    EXPLORATION,
-    QNetwork,
+from jaxnav.agent.exploration import (
     boltzmann,
-    dropout16,
     ebe,
     epsilon_greedy,
     epsilon_schedule,
     explore_action,
     explore_or_greedy,
+    normalised_entropy,
+)
+from jaxnav.core import strategies as registry
+from jaxnav.core.config import ExplorationConfig, load_config
+from jaxnav.dqn import (
+    QNetwork,
+    dropout16,
     make_train,
     make_trainer,
-    normalised_entropy,
+    network_of,
     run_inputs,
     run_limits,
     still_training,
     td_loss,
     td_target,
 )
+
+STRATEGIES = registry.names()
 
 # -- TD target and loss -------------------------------------------------------
 
@@ -102,7 +107,7 @@ def test_epsilon_greedy_rate_and_schedule():
 
 
 def test_strategy_table_gives_each_strategy_its_tested_act():
-    assert tuple(EXPLORATION) == STRATEGIES  # a run's strategy index picks its entry
+    assert STRATEGIES[:3] == ("ebe", "epsilon_greedy", "boltzmann")  # the built-in ones
     x = ExplorationConfig(
         ebe_temperature=2.0, eps_start=0.8, eps_decay=0.9, eps_min=0.1, boltzmann_temperature=0.5
     )
@@ -291,7 +296,7 @@ def test_trainer_acts_with_the_tested_exploration_functions(strategy):
     explore = log.explore
     # The trainer's own key for acting, and its network's Q-values at the observation.
     _, k_act, _, _, _ = jax.random.split(ts.key, 5)
-    q = tr.network.apply(ts.params, ts.obs)
+    q = network_of(cfg).apply(ts.params, ts.obs)
     x = cfg.exploration
     if strategy == "ebe":
         action, prob = ebe(k_act, q, x.ebe_temperature)
@@ -316,8 +321,9 @@ def test_still_training_is_one_rule_for_numpy_and_jax():
     never = int(jnp.iinfo(jnp.int32).max)
     assert run_limits(_tiny()) == (3, never)
     assert run_limits(_tiny("episodes=null", "total_steps=100")) == (never, 100)
-    tr = make_trainer(_tiny())
-    ts = tr.init(*_run(run_inputs(tr.config), 0)).replace(episode=jnp.int32(3))
+    cfg = _tiny()
+    tr = make_trainer(cfg)
+    ts = tr.init(*_run(run_inputs(cfg), 0)).replace(episode=jnp.int32(3))
     assert not bool(tr.active(ts))
 
 

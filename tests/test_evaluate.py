@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from _tiny_run import tiny_run
 
-from jaxnav.dqn import ebe, epsilon_greedy, epsilon_schedule
+from jaxnav.agent.exploration import ebe, epsilon_greedy, epsilon_schedule
 from jaxnav.evaluate import main
 from jaxnav.experiments.evaluation import evaluate, evaluate_to_dir, load_run
 from jaxnav.experiments.rollout import eval_keys, padded_mazes, run_tests

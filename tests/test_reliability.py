@@ -135,7 +135,7 @@ def test_resume_removes_the_temporary_files_of_a_killed_writer(tmp_path):
 
 def test_out_into_a_finished_run_needs_overwrite_and_never_a_busy_one(tmp_path, capsys):
     out = tmp_path / "run"
-    tiny = ["configs/smoke.yaml", "seeds=1", "episodes=2", "env.max_steps=20"]
+    tiny = ["configs/smoke.yaml", "seeds=1", "episodes=2", "env.max_steps=20", "dqn.batch_size=16"]
     assert train_main([*tiny, "--quiet", "--out", str(out)]) == 0
     capsys.readouterr()
     before = (out / rundir.PARAMS).read_bytes()
@@ -210,7 +210,14 @@ def _files(run_dir) -> dict[str, bytes]:
 def test_resume_of_a_run_with_only_its_config_starts_it(tmp_path, capsys):
     """A directory holding only config.yaml (and a cut metrics.csv): killed before its
     first checkpoint, so --resume trains it from the start."""
-    tiny = ["configs/smoke.yaml", "seeds=1", "episodes=2", "env.max_steps=20", "--quiet"]
+    tiny = [
+        "configs/smoke.yaml",
+        "seeds=1",
+        "episodes=2",
+        "env.max_steps=20",
+        "dqn.batch_size=16",
+        "--quiet",
+    ]
     ref, out = tmp_path / "ref", tmp_path / "run"
     assert train_main([*tiny, "--out", str(ref)]) == 0
     out.mkdir()

@@ -3,7 +3,7 @@
 docs/report holds what ``python -m jaxnav.reproduce --seeds 32`` wrote: each
 experiment's metrics.csv and eval/results.csv, the claims table and the report.
 The claims table must be exactly what the claims code computes from those files,
-and the README must quote it unchanged.
+and the README, docs/reproducing.md and the report must quote it unchanged.
 """
 
 from pathlib import Path
@@ -34,10 +34,12 @@ def test_the_committed_claims_are_computed_from_the_committed_runs(committed_cla
     assert {v.claim.experiment for v in verdicts} == {name for name, _ in EXPERIMENTS}
 
 
-def test_the_readme_and_the_report_quote_the_claims_table_unchanged(committed_claims):
+def test_the_readme_the_docs_and_the_report_quote_the_claims_table_unchanged(committed_claims):
     rows = _table_rows(committed_claims)
     readme = (ROOT / "README.md").read_text()
+    reproducing = (ROOT / "docs" / "reproducing.md").read_text()
     report = (REPORT / "report.md").read_text()
     for row in rows:
         assert row in readme, row
+        assert row in reproducing, row
         assert row in report, row

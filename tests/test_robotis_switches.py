@@ -1,4 +1,4 @@
-"""The ROBOTIS-faithful switches of the environment (spec.md, "ROBOTIS' code in detail"):
+"""The ROBOTIS-faithful switches of the environment (docs/paper.md, "ROBOTIS' code in detail"):
 each against an independent reference, and each off by default without a trace."""
 
 from __future__ import annotations

@@ -97,7 +97,7 @@ def test_a_run_directory_has_one_writer_and_a_killed_one_leaves_no_lock(tmp_path
                 pass
     # A process that holds the lock and dies by SIGKILL: the lock goes with it.
     code = (
-        "import os, signal, sys; from jaxnav import rundir\n"
+        "import os, signal, sys; from jaxnav.core import rundir\n"
         f"rundir.Lock({str(tmp_path)!r}).__enter__()\n"
         "print('locked', flush=True); os.kill(os.getpid(), signal.SIGKILL)\n"
     )

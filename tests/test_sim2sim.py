@@ -16,16 +16,20 @@ import pytest
 
 mujoco = pytest.importorskip(
     "mujoco",
-    reason="MuJoCo is not installed (pip install mujoco): jaxnav.experiments.sim2sim needs it",
+    reason="MuJoCo is not installed (pip install mujoco): jaxnav.sim2sim needs it",
 )
 
 from _tiny_run import tiny_run  # noqa: E402
 
+from jaxnav import sim2sim  # noqa: E402
 from jaxnav.core.config import load_config  # noqa: E402
 from jaxnav.env import from_config  # noqa: E402
-from jaxnav.experiments import sim2sim  # noqa: E402
-from jaxnav.experiments.sim2sim import SUMMARY_COLUMNS, Burger, wheel_speeds  # noqa: E402
+from jaxnav.experiments.sim2sim import goals_of, task_of  # noqa: E402
+from jaxnav.report.sim2sim_tables import SUMMARY_COLUMNS, gap_markdown  # noqa: E402
+from jaxnav.robot import mujoco_model, mujoco_rollout  # noqa: E402
 from jaxnav.robot.deploy import FORMAT, FORMAT_VERSION, Policy, clean_ranges  # noqa: E402
+from jaxnav.robot.mujoco_model import wheel_speeds  # noqa: E402
+from jaxnav.robot.mujoco_rollout import Burger  # noqa: E402
 from jaxnav.world.maps import make_maze  # noqa: E402
 from jaxnav.world.reward import reward_fn  # noqa: E402
 from jaxnav.world.sensor import lidar_scan  # noqa: E402
@@ -53,7 +57,7 @@ def _drive(robot: Burger, v: float, omega: float, periods: int) -> np.ndarray:
 
 def test_wheel_speeds_are_the_differential_drive_inverse():
     left, right = wheel_speeds(0.15, 1.5)
-    r, L = sim2sim.WHEEL_RADIUS, sim2sim.WHEEL_SEPARATION
+    r, L = mujoco_model.WHEEL_RADIUS, mujoco_model.WHEEL_SEPARATION
     assert (right + left) * r / 2 == pytest.approx(0.15)
     assert (right - left) * r / L == pytest.approx(1.5)
     assert (left, right) == pytest.approx(((0.15 - 0.12) / 0.033, (0.15 + 0.12) / 0.033))
@@ -147,14 +151,14 @@ def test_driving_into_a_wall_is_a_contact_collision():
     collided = [robot.drive(0.15, 0.0, DT) for _ in range(30)]
     assert collided == [False] * 29 + [True]
     assert robot.touching()
-    front = robot.pose()[0] + (sim2sim.CHASSIS_POS[0] + sim2sim.CHASSIS_SIZE[0] / 2)
+    front = robot.pose()[0] + (mujoco_model.CHASSIS_POS[0] + mujoco_model.CHASSIS_SIZE[0] / 2)
     assert front == pytest.approx(0.925, abs=0.003)
 
 
 @pytest.mark.parametrize("preset", ["paper", "robotis"])
 def test_the_numpy_reward_is_jaxnavs(preset):
     cfg = load_config(None, [f"preset={preset}"])
-    task = sim2sim.task_of(cfg)
+    task = task_of(cfg)
     _, params = from_config(cfg)
     rng = np.random.default_rng(2)
     for _ in range(60):
@@ -164,30 +168,30 @@ def test_the_numpy_reward_is_jaxnavs(preset):
         want = reward_fn(
             params, a, jnp.float32(heading), jnp.float32(dist), jnp.float32(d0), reached, collided
         )
-        got = sim2sim.reward(task, a, heading, dist, d0, reached, collided)
+        got = mujoco_rollout.reward(task, a, heading, dist, d0, reached, collided)
         assert got == pytest.approx(float(want), rel=1e-4, abs=1e-3)
 
 
 def test_goals_are_drawn_from_the_mazes_goal_set_away_from_the_last():
     cfg = load_config(None, [])
-    task = sim2sim.task_of(cfg)
+    task = task_of(cfg)
     maze = make_maze("square4")
-    goals = sim2sim.goals_of(maze, task)
+    goals = goals_of(maze, task)
     rng = np.random.default_rng(3)
     last = np.zeros(2)
     for _ in range(200):
-        g = sim2sim.draw_goal(rng, last, goals)
+        g = mujoco_rollout.draw_goal(rng, last, goals)
         assert (np.abs(goals.points - g).sum(axis=1) == 0).any()
         assert np.hypot(*(g - last)) >= task.goal_min_separation
         last = g
-    robotis = sim2sim.goals_of(maze, task._replace(goal_sampler="robotis"))
+    robotis = goals_of(maze, task._replace(goal_sampler="robotis"))
     np.testing.assert_allclose(robotis.first, (0.6, 0.0))
 
 
 def test_walls_are_boxes_behind_the_segments_on_the_side_away_from_free_space():
     m = make_maze(str(ROOT / "configs/mazes/corridor.yaml"))
     walls = m.walls().astype(np.float64)
-    inward = sim2sim.free_side_normals(walls)
+    inward = mujoco_model.free_side_normals(walls)
     mid = (walls[:, :2] + walls[:, 2:]) / 2
     outline = len(walls) - 4  # the last 4 segments are the box obstacle's
     box_centre = np.array([0.8, 1.8])
@@ -220,13 +224,15 @@ def _random_policy(obstacle_obs: bool = False, scale: float = 3.0) -> Policy:
 
 def test_the_same_seed_plays_the_same_episodes():
     cfg = load_config(None, [])
-    task = sim2sim.task_of(cfg)._replace(max_steps=25)
+    task = task_of(cfg)._replace(max_steps=25)
     maze = make_maze("square2")
-    robot, goals = Burger(maze), sim2sim.goals_of(maze, task)
+    robot, goals = Burger(maze), goals_of(maze, task)
     policy, start = _random_policy(), np.asarray(maze.start)
 
     def play(seed):
-        return sim2sim.play(policy, robot, start, goals, task, 3, sim2sim.sim_rng(seed, "square2"))
+        return mujoco_rollout.play(
+            policy, robot, start, goals, task, 3, mujoco_rollout.sim_rng(seed, "square2")
+        )
 
     a, b = play(0), play(0)
     for x, y in zip(a, b):
@@ -258,7 +264,7 @@ def test_the_command_writes_the_csv_and_the_gap_table(run, tmp_path, capsys):
     table = out.with_suffix(".md").read_text()
     assert "| EBE | return |" in table and "| square2 | epsilon-greedy |" in table
     title = table.splitlines()[0].removeprefix("# ")
-    assert table.startswith(sim2sim.gap_markdown(out.read_text(), title))  # from the CSV alone
+    assert table.startswith(gap_markdown(out.read_text(), title))  # from the CSV alone
 
 
 @pytest.mark.parametrize(
@@ -278,6 +284,52 @@ def test_bad_input_is_one_line_and_exit_2(run, tmp_path, capsys, argv, words):
     err = capsys.readouterr().err
     assert err.startswith("jaxnav.sim2sim: error: ") and err.count("\n") == 1
     assert words in err
+
+
+def test_an_existing_out_is_refused_before_any_work_unless_overwrite(
+    run, tmp_path, capsys, monkeypatch
+):
+    """--out FILE: an existing FILE or FILE's .md table is refused, untouched, before
+    anything is simulated; --overwrite replaces both."""
+    from jaxnav.experiments import sim2sim as pipeline
+
+    def simulate(*args, **kwargs):
+        raise AssertionError("simulated before the output was checked")
+
+    monkeypatch.setattr(pipeline, "jaxnav_results", simulate)
+    monkeypatch.setattr(pipeline, "mujoco_results", simulate)
+    _, run_dir = run
+    out = tmp_path / "gap.csv"
+    argv = [
+        str(run_dir),
+        "--mazes",
+        "square2",
+        "--episodes",
+        "1",
+        "--seeds",
+        "0",
+        "--out",
+        str(out),
+    ]
+    for existing in (out, out.with_suffix(".md")):
+        existing.write_text("earlier\n")
+        assert sim2sim.main(argv) == 2
+        err = capsys.readouterr().err
+        assert (
+            err == f"jaxnav.sim2sim: error: {existing} exists already (--overwrite replaces it)\n"
+        )
+        assert existing.read_text() == "earlier\n"
+        existing.unlink()
+
+    one = mujoco_rollout.Episodes(np.ones(1), np.zeros(1), np.zeros(1, bool), np.full(1, 60))
+    results = {("square2", s, 0): one for s in ("ebe", "epsilon_greedy")}
+    monkeypatch.setattr(pipeline, "jaxnav_results", lambda *args: (results, "stub"))
+    monkeypatch.setattr(pipeline, "mujoco_results", lambda *args, **kwargs: results)
+    out.write_text("earlier\n")
+    out.with_suffix(".md").write_text("earlier\n")
+    assert sim2sim.main([*argv, "--overwrite"]) == 0
+    assert tuple(next(csv.reader(out.open()))) == SUMMARY_COLUMNS
+    assert out.with_suffix(".md").read_text().startswith("# Sim-to-sim gap of ")
 
 
 def test_the_reproduction_adds_the_sim_to_sim_gap_of_its_first_seeds(run, tmp_path):

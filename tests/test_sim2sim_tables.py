@@ -14,8 +14,8 @@ import pytest
 from rliable import metrics
 
 from jaxnav.core.rundir import csv_text
-from jaxnav.experiments.sim2sim import REALISM_COLUMNS, gap_markdown, realism_markdown
 from jaxnav.report import stats
+from jaxnav.report.sim2sim_tables import REALISM_COLUMNS, gap_markdown, realism_markdown
 
 ROOT = Path(__file__).resolve().parent.parent
 MAZES = ("square4", "triangle")

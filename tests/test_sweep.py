@@ -10,8 +10,9 @@ import numpy as np
 import pytest
 
 from jaxnav import dqn
+from jaxnav.core import strategies as registry
 from jaxnav.core import sweep
-from jaxnav.core.config import STRATEGIES, load_config
+from jaxnav.core.config import SWEEPABLE, load_config
 from jaxnav.core.errors import ConfigError
 from jaxnav.run.training import Run, resume, train_new
 
@@ -96,18 +97,18 @@ class _Reads:
         return getattr(load_config(None).exploration, name)
 
 
-@pytest.mark.parametrize("strategy", STRATEGIES)
+@pytest.mark.parametrize("strategy", registry.names())
 def test_each_strategy_reads_exactly_its_listed_settings(strategy):
     reads = _Reads()
     q = jnp.asarray([0.1, 0.5, 0.2, 0.0, 0.3])
-    dqn.EXPLORATION[strategy](jax.random.PRNGKey(0), q, jnp.int32(3), reads)
-    listed = {k.split(".", 1)[1] for k in sweep.EXPLORATION_KEYS[strategy]}
+    registry.get(strategy).function()(jax.random.PRNGKey(0), q, jnp.int32(3), reads)
+    listed = {k.split(".", 1)[1] for k in registry.get(strategy).keys}
     assert reads.read == listed
 
 
 def test_every_sweepable_key_is_one_field_of_the_run_settings():
     fields = {f.name for f in dataclasses.fields(dqn.Hyper)}
-    assert {k.rsplit(".", 1)[1] for k in sweep.SWEEPABLE} == fields
+    assert {k.rsplit(".", 1)[1] for k in SWEEPABLE} == fields
 
 
 @pytest.mark.parametrize(
@@ -353,10 +354,10 @@ def test_the_committed_temperature_studies_are_computed_from_their_results(name,
     results = gzip.decompress(packed).decode()
     text = doc.read_text()
     assert "\n".join(sweep_markdown(results, seed)) in text
-    # What the README says of the studies is their own words.
-    readme = (root / "README.md").read_text()
+    # What docs/studies.md says of the studies is their own words.
+    page = (root / "docs" / "studies.md").read_text()
     begin, end = f"<!-- {name} study: begin -->", f"<!-- {name} study: end -->"
-    quoted = readme[readme.index(begin) + len(begin) : readme.index(end)].strip().splitlines()
+    quoted = page[page.index(begin) + len(begin) : page.index(end)].strip().splitlines()
     assert quoted
     for line in (q for q in quoted if q.startswith("- ")):
         assert line in text, line

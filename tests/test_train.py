@@ -17,7 +17,10 @@ from jaxnav.core import rundir
 from jaxnav.core.config import load_config
 from jaxnav.dqn import make_train, run_inputs
 from jaxnav.env import from_config
-from jaxnav.run.training import Run, chunk_slots, train_new
+from jaxnav.experiments.evaluation import evaluate_to_dir
+from jaxnav.run import training
+from jaxnav.run.checkpoint import chunk_slots
+from jaxnav.run.training import Run, train_new
 from jaxnav.train import main
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -69,7 +72,7 @@ def test_smoke_run_writes_the_run_directory(smoke_run):
     cfg, out = smoke_run
     for name in ("config.yaml", "metrics.csv", "explore.csv", "params.npz", "summary.json"):
         assert (out / name).is_file(), name
-    assert (out / "checkpoints" / "last.npz").is_file()
+    assert not (out / "checkpoints").exists()  # a finished run needs no checkpoint
     rows = _metrics(out)
     assert list(rows[0]) == [
         "strategy",
@@ -253,3 +256,54 @@ def test_a_checkpoint_restores_the_whole_state_from_its_row_segments(tmp_path, b
     assert again.segments == 3 and len(list((out / "checkpoints").glob("rows-*.npz"))) == 3
     for a, b in zip(jax.tree.leaves(live), jax.tree.leaves(restored), strict=True):
         np.testing.assert_array_equal(a, b)
+
+
+def test_a_finished_run_keeps_no_checkpoints_and_evaluates(smoke_run, tmp_path):
+    _, out = smoke_run
+    assert not list(out.rglob("rows-*.npz")) and not list(out.rglob("*.npz.tmp*"))
+    assert rundir.finished(out)
+    evaluated = evaluate_to_dir(out, ["square2"], 1, tmp_path / "eval")
+    assert (evaluated / "results.csv").is_file()
+
+
+def test_keep_checkpoints_and_resume_of_a_finished_run(tmp_path, capsys):
+    out = tmp_path / "run"
+    assert main([*TINY, "episodes=3", "--keep-checkpoints", "--quiet", "--out", str(out)]) == 0
+    segments = sorted(p.name for p in (out / "checkpoints").glob("rows-*.npz"))
+    assert segments and (out / rundir.CHECKPOINT).is_file() and not rundir.finished(out)
+    params, summary = (out / rundir.PARAMS).read_bytes(), (out / rundir.SUMMARY).read_bytes()
+    # resumed, nothing is left to train: the same parameters, and the checkpoints go
+    assert main(["--resume", str(out), "--quiet"]) == 0
+    assert (out / rundir.PARAMS).read_bytes() == params and rundir.finished(out)
+    assert not (out / "checkpoints").exists()
+    # again, without checkpoints: its summary, nothing written
+    summary = (out / rundir.SUMMARY).read_bytes()
+    capsys.readouterr()
+    assert main(["--resume", str(out), "--quiet"]) == 0
+    assert f"results in {out}/" in capsys.readouterr().out
+    assert (out / rundir.PARAMS).read_bytes() == params
+    assert (out / rundir.SUMMARY).read_bytes() == summary
+
+
+@pytest.mark.parametrize("existed", [False, True])
+def test_interrupted_before_the_first_checkpoint_leaves_nothing_of_its_own(
+    tmp_path, capsys, monkeypatch, existed
+):
+    """Ctrl-C where no handler ends the process (a KeyboardInterrupt): what the command
+    made goes, never a directory that was there before; one line, 130."""
+
+    def interrupted(self, ts):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(Run, "train", interrupted)
+    out = tmp_path / "run"
+    if existed:
+        out.mkdir()
+    assert main([*TINY, "--quiet", "--out", str(out)]) == 130
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and "Traceback" not in err
+    if existed:
+        assert err.endswith(f"{out} was left empty") and out.is_dir() and not any(out.iterdir())
+    else:
+        assert err.endswith(f"{out} was removed") and not out.exists()
+    assert training.interrupted_text().endswith(("was left empty", "was removed"))

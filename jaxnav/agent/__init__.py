@@ -1,3 +1,2 @@
-"""The agent's parts around ``jaxnav/dqn.py``: the replay buffer and the run axis.
-
-Imports the environment and :mod:`jaxnav.core`; never reads or writes files."""
+"""The agent's parts around ``jaxnav/dqn.py``: exploration strategies, the replay
+buffer and the run axis over devices. Imports the environment and below; no files."""

@@ -1,3 +1,4 @@
-"""Settings and command-line plumbing: config, settings, sweep axes, errors, start-up.
+"""Settings and plumbing, no JAX: config, settings, sweep axes, the strategy registry,
+errors, the command-line helpers, start-up and the run directory on disk.
 
-Imports no JAX (a contract in pyproject.toml checks it) and nothing else of jaxnav."""
+Imports nothing of jaxnav outside this subpackage (a contract in pyproject.toml checks it)."""

@@ -13,10 +13,12 @@ import sys
 from collections.abc import Callable
 from pathlib import Path
 
+from jaxnav.core import startup
 from jaxnav.core.errors import JaxnavError
 
 EXIT_ERROR = 2
-EXIT_INTERRUPTED = 130
+EXIT_INTERRUPTED = startup.EXIT_INTERRUPTED
+_depth = [0]  # run() calls under way (a command may run another's main)
 
 
 def command_name(prog: str) -> str:
@@ -58,6 +60,38 @@ def check_output(path: str | os.PathLike, overwrite: bool, *, is_dir: bool = Fal
     return path
 
 
+def machine_memory() -> int | None:
+    """This machine's physical memory in bytes, where the system says."""
+    try:
+        return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    except (ValueError, OSError, AttributeError):
+        return None
+
+
+def gib(n: float) -> str:
+    return f"{n / 2**30:.1f} GiB"
+
+
+def confirm_memory(estimate: int, yes: bool, memory: int | None = None, ask=input) -> None:
+    """Before allocating ``estimate`` bytes: more than this machine's memory is refused;
+    more than half of it needs ``--yes``, or a "y" where stdin is a terminal (elsewhere
+    it is refused with the estimate). Raises :class:`JaxnavError` with one line."""
+    memory = machine_memory() if memory is None else memory
+    if memory is None or estimate <= memory // 2:
+        return
+    need = f"this run needs about {gib(estimate)} of replay memory"
+    if estimate > memory:
+        raise JaxnavError(f"{need}, more than this machine's {gib(memory)}: use fewer seeds")
+    if yes:
+        return
+    if sys.stdin is not None and sys.stdin.isatty():
+        answer = ask(f"{need}, over half of this machine's {gib(memory)}. Go on? [y/N] ")
+        if answer.strip().lower() in ("y", "yes"):
+            return
+        raise JaxnavError("not started")
+    raise JaxnavError(f"{need}, over half of this machine's {gib(memory)}: --yes starts it")
+
+
 def os_error_text(e: OSError) -> str:
     """An OSError as one line: what failed and on which path."""
     what = e.strerror or type(e).__name__
@@ -69,22 +103,41 @@ def one_line(text: str) -> str:
     return text.replace("\r", "\\r").replace("\n", "\\n")
 
 
-def run(prog: str, work: Callable[[], int | None], interrupted: str = "interrupted") -> int:
+def run(
+    prog: str, work: Callable[[], int | None], interrupted: str | Callable[[], str] = "interrupted"
+) -> int:
     """Call ``work()``; one line and exit status 2 for a user's problem.
 
     Returns ``work``'s status (0 if it returns None), 2 after a JaxnavError or
-    OSError, 130 after Ctrl-C (``interrupted`` says how to go on).
+    OSError, 130 after Ctrl-C (``interrupted`` says how to go on; a function is asked
+    at the moment, after the tidy-ups). In a command's process Ctrl-C is answered by
+    :func:`jaxnav.core.startup.catch_interrupts`, which ends the process there and then
+    with this line; the ``KeyboardInterrupt`` branch is for callers without it.
     """
     prog = command_name(prog)
+    startup.catch_interrupts_in_command()  # where the command did not do it first thing
+    before = startup.interrupt_text(prog, interrupted)
+    startup.exit_status(None)
+    _depth[0] += 1
     try:
         status = work()
     except JaxnavError as e:
         print(f"{prog}: error: {one_line(str(e))}", file=sys.stderr)
-        return EXIT_ERROR
+        status = EXIT_ERROR
     except OSError as e:
         print(f"{prog}: error: {one_line(os_error_text(e))}", file=sys.stderr)
-        return EXIT_ERROR
+        status = EXIT_ERROR
     except KeyboardInterrupt:
-        print(f"\n{prog}: {interrupted}", file=sys.stderr)
-        return EXIT_INTERRUPTED
-    return 0 if status is None else status
+        text = interrupted() if callable(interrupted) else interrupted
+        print(f"\n{prog}: {text}", file=sys.stderr)
+        status = EXIT_INTERRUPTED
+    except BaseException:  # a bug: Python's own traceback and exit status
+        startup.exit_status(None)
+        raise
+    finally:
+        _depth[0] -= 1
+        if _depth[0]:  # a command run inside another: its line again; else the last stays
+            startup.interrupt_text(*before)
+    status = 0 if status is None else status
+    startup.exit_status(status)
+    return status

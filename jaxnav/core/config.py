@@ -16,108 +16,184 @@ number of transitions the run can produce (``episodes * env.max_steps`` or
 from __future__ import annotations
 
 import dataclasses
-import math
 import os
-import re
-import types
 import typing
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import yaml
 
+from jaxnav.core import strategies as registry
 from jaxnav.core import sweep as sweeps
 from jaxnav.core.errors import ConfigError
-from jaxnav.core.settings import PRESETS, env_setting_problem
+from jaxnav.core.settings import (
+    AT_LEAST_1,
+    NON_NEGATIVE,
+    PAIR_NON_NEGATIVE,
+    POSITIVE,
+    PRESETS,
+    SCALE_RANGE,
+    UNIT,
+    UNIT_OPEN,
+    one_of,
+    problem,
+    setting,
+)
+from jaxnav.core.values import coerce, flatten, parse_override
 
-# Every exploration strategy (jaxnav.dqn.EXPLORATION has one function each); the
-# paper compares the first two.
-STRATEGIES = ("ebe", "epsilon_greedy", "boltzmann")
+# The strategies the paper compares; jaxnav.core.strategies has every registered one.
 PAPER_STRATEGIES = ("ebe", "epsilon_greedy")
-CONFIG_DIR = Path(__file__).resolve().parent.parent / "configs"  # the project's configs
+# The shipped configs and maze files: package data, so they work from an installed wheel.
+CONFIG_DIR = Path(__file__).resolve().parent.parent / "configs"
 
 
 @dataclass(frozen=True)
 class EnvConfig:
-    maze: str = "square4"  # built-in maze name or a maze YAML file
-    n_beams: int = 24
-    max_steps: int = 500  # an episode is truncated after this many steps
-    lidar_noise_std: float = 0.0  # m; 0.01 reproduces Gazebo's range noise
-    # Reward constants; null takes them from the preset (spec.md).
-    R_plus: float | None = None
-    R_minus: float | None = None
-    reward_span: float | None = None
-    reward_distance_exp: bool | None = None
-    obstacle_obs: bool | None = None  # null: on for mazes with obstacles
+    maze: str = setting("square4", "built-in maze name or a maze YAML file")
+    n_beams: int = setting(24, "LiDAR beams (360 on the robot)", rule=AT_LEAST_1)
+    max_steps: int = setting(500, "an episode is truncated after this many steps", rule=AT_LEAST_1)
+    lidar_noise_std: float = setting(
+        0.0, "std of Gaussian range noise, m (0.01: Gazebo's)", rule=NON_NEGATIVE, sweep=True
+    )
+    R_plus: float | None = setting(None, "reward for a goal (null: the preset's)", sweep=True)
+    R_minus: float | None = setting(None, "reward for a collision (null: the preset's)", sweep=True)
+    reward_span: float | None = setting(
+        None, "the heading term's phi_a spans +-this, rad (null: the preset's)", sweep=True
+    )
+    reward_distance_exp: bool | None = setting(
+        None, "D = 2^(d_c / d_0) (ROBOTIS) instead of d_c (null: the preset's)"
+    )
+    obstacle_obs: bool | None = setting(
+        None, "observe the smallest range and its beam (null: on for mazes with obstacles)"
+    )
     # Realism for a real robot, all off in the paper (see jaxnav.env.NavEnv):
-    beam_dropout: float = 0.0  # probability a beam returns nothing (reads max range)
-    odom_noise: tuple[float, ...] = (0.0, 0.0)  # std of (position m, yaw rad) odometry noise
-    random_start: bool = False  # each episode starts at a random free pose
-    maze_scale: tuple[float, ...] = (1.0, 1.0)  # per-episode maze scale drawn from [low, high]
+    beam_dropout: float = setting(
+        0.0, "probability a beam returns nothing (reads max range)", rule=UNIT_OPEN
+    )
+    odom_noise: tuple[float, ...] = setting(
+        (0.0, 0.0), "std of (position m, yaw rad) odometry noise", rule=PAIR_NON_NEGATIVE
+    )
+    random_start: bool = setting(False, "each episode starts at a random free pose")
+    maze_scale: tuple[float, ...] = setting(
+        (1.0, 1.0), "per-episode maze scale drawn from [low, high]", rule=SCALE_RANGE
+    )
     # ROBOTIS-faithful switches, all off by default (see jaxnav.env.NavEnv):
-    collision: str = "disc"  # or "lidar": smallest observed beam below 0.13 m
-    goal_sampler: str = "free"  # or "robotis": respawnGoal.py's grid, boxes and rules
-    beam_layout: str = "even"  # or "gazebo": n beams over [0, 2 pi] inclusive
-    action_delay: bool = False  # each action applied one step late
+    collision: str = setting(
+        "disc",
+        "disc (exact) or lidar (ROBOTIS: smallest beam below 0.13 m)",
+        rule=one_of("disc", "lidar"),
+    )
+    goal_sampler: str = setting(
+        "free",
+        "free, or robotis (respawnGoal.py's grid, boxes and rules)",
+        rule=one_of("free", "robotis"),
+    )
+    beam_layout: str = setting(
+        "even",
+        "even, or gazebo (n beams over [0, 2 pi] inclusive)",
+        rule=one_of("even", "gazebo"),
+    )
+    action_delay: bool = setting(False, "each action applied one step late (ROBOTIS' loop)")
 
 
 @dataclass(frozen=True)
 class DQNConfig:
-    gamma: float = PRESETS["paper"].gamma
-    lr: float = 0.00025
-    rms_decay: float = 0.9  # RMSprop rho
-    rms_eps: float = 1e-6
-    batch_size: int = 64
-    buffer_size: int = 1_000_000  # capped at the run's largest possible step count
-    learning_starts: int = 64  # stored transitions before the first gradient step
-    hidden: tuple[int, ...] = (64, 64)
-    dropout: float = 0.2
+    gamma: float = setting(PRESETS["paper"].gamma, "discount", rule=UNIT, sweep=True)
+    lr: float = setting(0.00025, "RMSprop learning rate", rule=POSITIVE, sweep=True)
+    rms_decay: float = setting(0.9, "RMSprop rho", rule=UNIT_OPEN, sweep=True)
+    rms_eps: float = setting(1e-6, "RMSprop epsilon", rule=POSITIVE, sweep=True)
+    batch_size: int = setting(64, "transitions per gradient step", rule=AT_LEAST_1)
+    buffer_size: int = setting(
+        1_000_000, "replay capacity, capped at the run's largest step count", rule=AT_LEAST_1
+    )
+    learning_starts: int = setting(
+        64, "stored transitions before the first gradient step", rule=AT_LEAST_1, sweep=True
+    )
+    hidden: tuple[int, ...] = setting(
+        (64, 64),
+        "hidden layer widths",
+        rule=(lambda v: len(v) > 0 and min(v) >= 1, "must be a non-empty list of positive widths"),
+    )
+    dropout: float = setting(0.2, "dropout after the hidden layers", rule=UNIT_OPEN, sweep=True)
     # "periodic": hard copy every target_update_every env steps (paper).
     # "episode_end": online net gives the targets for the first target_update_every
     # steps, then the target net is synced at every episode end (ROBOTIS code).
-    target_update: str = PRESETS["paper"].target_update
-    target_update_every: int = 2000
+    target_update: str = setting(
+        PRESETS["paper"].target_update,
+        "periodic (paper) or episode_end (ROBOTIS)",
+        rule=one_of("periodic", "episode_end"),
+    )
+    target_update_every: int = setting(
+        2000,
+        "env steps between target syncs (warm-up for episode_end)",
+        rule=AT_LEAST_1,
+        sweep=True,
+    )
 
 
 @dataclass(frozen=True)
 class ExplorationConfig:
-    ebe_temperature: float = 1.0  # softmax temperature of EBE; 1 in the paper
-    ebe_power: float = 1.0  # explore with probability H(s)^power; 1 in the paper
-    boltzmann_temperature: float = 1.0  # Boltzmann samples from softmax(Q / T)
-    eps_start: float = 1.0
-    eps_decay: float = 0.99  # per episode
-    eps_min: float = 0.05
+    ebe_temperature: float = setting(
+        1.0, "softmax temperature of EBE (1 in the paper)", rule=POSITIVE, sweep=True
+    )
+    ebe_power: float = setting(
+        1.0,
+        "EBE explores with probability H(s)^power (1 in the paper)",
+        rule=POSITIVE,
+        sweep=True,
+    )
+    boltzmann_temperature: float = setting(
+        1.0, "Boltzmann samples from softmax(Q / T)", rule=POSITIVE, sweep=True
+    )
+    eps_start: float = setting(1.0, "epsilon of the first episode", rule=UNIT, sweep=True)
+    eps_decay: float = setting(0.99, "epsilon's factor per episode", rule=UNIT, sweep=True)
+    eps_min: float = setting(0.05, "epsilon's floor", rule=UNIT, sweep=True)
 
 
 @dataclass(frozen=True)
 class RunConfig:
-    chunk_steps: int = 10_000  # env steps per jitted chunk (progress, checkpoint)
-    test_mazes: tuple[str, ...] = ("square4", "square8", "square2", "triangle", "pentagon")
-    test_episodes: int = 10
-    # A run whose loss, Q-values or parameters stop being finite: "stop" the command
-    # with an error (the last good checkpoint kept), or "drop" that run (frozen and
-    # listed in summary.json as diverged) and let the others finish.
-    on_divergence: str = "stop"
-    # Training curves for TensorBoard in RUN_DIR/tensorboard (jaxnav.run.tblog; needs the
-    # optional extra "tensorboard").
-    tensorboard: bool = False
+    chunk_steps: int = setting(
+        10_000, "env steps per compiled chunk (progress, checkpoint)", rule=AT_LEAST_1
+    )
+    test_mazes: tuple[str, ...] = setting(
+        ("square4", "square8", "square2", "triangle", "pentagon"), "mazes of the test"
+    )
+    test_episodes: int = setting(10, "consecutive test episodes per maze", rule=AT_LEAST_1)
+    on_divergence: str = setting(
+        "stop",
+        "a run whose numbers stop being finite: stop the command, or drop that run",
+        rule=one_of("stop", "drop"),
+    )
+    tensorboard: bool = setting(
+        False, "training curves for TensorBoard in RUN_DIR/tensorboard (extra 'tensorboard')"
+    )
 
 
 @dataclass(frozen=True)
 class Config:
-    preset: str = "paper"
-    seed: int = 0  # first seed; a run uses seed, seed + 1, ..., seed + seeds - 1
-    seeds: int = 8  # seeds per strategy
-    strategies: tuple[str, ...] = PAPER_STRATEGIES
-    episodes: int | None = PRESETS[
-        "paper"
-    ].episodes  # per seed (null: only total_steps limits the run)
-    total_steps: int | None = None  # env steps per seed (null: only episodes limits)
-    env: EnvConfig = field(default_factory=EnvConfig)
-    dqn: DQNConfig = field(default_factory=DQNConfig)
-    exploration: ExplorationConfig = field(default_factory=ExplorationConfig)
-    run: RunConfig = field(default_factory=RunConfig)
+    preset: str = setting("paper", "paper or robotis: the defaults of the other settings")
+    seed: int = setting(0, "first seed; a run uses seed, ..., seed + seeds - 1", rule=NON_NEGATIVE)
+    seeds: int = setting(8, "seeds per arm", rule=AT_LEAST_1)
+    strategies: tuple[str, ...] = setting(
+        PAPER_STRATEGIES,
+        "exploration strategies, one arm each (jaxnav list)",
+        rule=(lambda v: len(v) > 0, "must name at least one strategy"),
+    )
+    episodes: int | None = setting(
+        PRESETS["paper"].episodes,
+        "episodes per run (null: only total_steps limits the run)",
+        rule=(lambda v: v is None or v >= 1, "must be at least 1"),
+    )
+    total_steps: int | None = setting(
+        None,
+        "env steps per run (null: only episodes limits the run)",
+        rule=(lambda v: v is None or v >= 1, "must be at least 1"),
+    )
+    env: EnvConfig = setting(factory=EnvConfig)
+    dqn: DQNConfig = setting(factory=DQNConfig)
+    exploration: ExplorationConfig = setting(factory=ExplorationConfig)
+    run: RunConfig = setting(factory=RunConfig)
     # ((dotted key, (value, ...)), ...): the settings this run varies across its runs,
     # their grid trained in the same program (jaxnav.core.sweep); () for none.
     sweep: tuple[tuple[str, tuple[Any, ...]], ...] = ()
@@ -132,7 +208,7 @@ class Config:
 
     def arms(self) -> list[tuple[str, sweeps.Point]]:
         """(strategy, sweep point) of each arm, strategy-major; a strategy's points
-        vary only the swept keys it reads (jaxnav.core.sweep.EXPLORATION_KEYS)."""
+        vary only the swept keys it reads (jaxnav.core.strategies)."""
         return [(s, p) for s in self.strategies for p in self.points(s)]
 
     def arm_names(self) -> list[str]:
@@ -188,6 +264,17 @@ class Config:
     def buffer_capacity(self) -> int:
         return min(self.dqn.buffer_size, self.max_total_steps)
 
+    def memory_estimate(self) -> int:
+        """Bytes the runs' replay memories will take, an upper bound within 10% (for
+        24 beams), before anything is allocated: jaxnav.agent.replay keeps per slot
+        an f32 observation of at most n_beams + 4 values and 11 bytes of action,
+        reward, flags and ring index, and a ring of capacity // max_steps + 2 final
+        observations; the networks and the environment are small beside it."""
+        obs = 4 * (self.env.n_beams + 4)
+        capacity = self.buffer_capacity
+        ring = capacity // self.env.max_steps + 3  # the final-observation ring and tail
+        return self.n_runs * (capacity * (obs + 11) + ring * obs + 12)  # + 3 i32 counters
+
     def env_kwargs(self) -> dict[str, Any]:
         """The environment's settings as ``jaxnav.env.make`` keywords (besides the maze
         and preset); the reward constants left null come from the preset there."""
@@ -201,19 +288,6 @@ class Config:
 # ----------------------------------------------------------------------------
 # Loading and validation
 # ----------------------------------------------------------------------------
-
-
-def _flatten(d: dict, prefix: str = "") -> dict[str, Any]:
-    out = {}
-    for k, v in d.items():
-        if not isinstance(k, str):
-            raise ConfigError(f"config: key {k!r} must be a string")
-        name = f"{prefix}{k}"
-        if isinstance(v, dict):
-            out.update(_flatten(v, name + "."))
-        else:
-            out[name] = v
-    return out
 
 
 def _field_types(cls, prefix: str = "") -> dict[str, Any]:
@@ -234,123 +308,60 @@ FIELD_TYPES = _field_types(Config)
 SECTIONS = {k.split(".")[0] for k in FIELD_TYPES if "." in k}
 
 
-def _type_name(t) -> str:
-    args = typing.get_args(t)
-    origin = typing.get_origin(t)
-    if origin in (types.UnionType, typing.Union):
-        inner = [a for a in args if a is not type(None)]
-        return _type_name(inner[0]) + " or null"
-    if origin is tuple:
-        return f"list of {_type_name(args[0])}"
-    return {int: "an integer", float: "a number", bool: "true or false", str: "a string"}[t]
+@dataclass(frozen=True)
+class Setting:
+    """One setting as declared (:func:`jaxnav.core.settings.setting`)."""
+
+    key: str  # dotted: "dqn.gamma"
+    type: Any
+    default: Any
+    help: str
+    rule: Any  # (predicate, message) or None
+    sweep: bool
 
 
-# A number as people write one: 1e-4, 5E3, 1_000_000, -2.5. YAML 1.1 (PyYAML) reads
-# "1e-4" (no dot) and "1_000" in a file as strings; they are numbers here.
-_NUMBER = re.compile(r"[+-]?(\d[\d_]*(\.[\d_]*)?|\.\d[\d_]*)([eE][+-]?\d+)?")
+def _settings(cls, prefix: str = "") -> dict[str, Setting]:
+    hints = typing.get_type_hints(cls)
+    out = {}
+    for f in dataclasses.fields(cls):
+        if f.name == "sweep":
+            continue
+        t = hints[f.name]
+        if dataclasses.is_dataclass(t):
+            out.update(_settings(t, f"{prefix}{f.name}."))
+            continue
+        m = f.metadata
+        out[f"{prefix}{f.name}"] = Setting(
+            f"{prefix}{f.name}", t, f.default, m["help"], m["rule"], m["sweep"]
+        )
+    return out
 
 
-def _number(value: Any) -> int | float | None:
-    """An int or float from a YAML scalar (int, float or numeric string), else None."""
-    if isinstance(value, bool):
+# Every setting, from its one declaration in the dataclasses above.
+SETTINGS: dict[str, Setting] = _settings(Config)
+# The settings a sweep may vary: data in the compiled step (jaxnav.dqn.Hyper).
+SWEEPABLE: tuple[str, ...] = tuple(k for k, s in SETTINGS.items() if s.sweep)
+# Environment settings that are not config keys (jaxnav.env.NavEnv's own knobs).
+_ENV_ONLY_RULES = {"goal_candidates": AT_LEAST_1}
+
+
+def env_setting_problem(name: str, value: Any) -> str | None:
+    """What is wrong with an environment setting's value ("must be ..."), or None: the
+    rule a config applies to ``env.NAME``, applied by ``jaxnav.env.NavEnv`` too."""
+    s = SETTINGS.get(f"env.{name}")
+    return problem(s.rule if s else _ENV_ONLY_RULES.get(name), value)
+
+
+def sweep_refusal(key: str) -> str | None:
+    """Why ``key`` cannot be swept, or None if it can."""
+    if key in SWEEPABLE:
         return None
-    if isinstance(value, (int, float)):
-        return value
-    if isinstance(value, str):
-        text = value.strip()
-        if text.lower() in (".inf", "+.inf", "-.inf", ".nan", "inf", "-inf", "nan"):
-            return math.nan if "nan" in text.lower() else math.inf
-        if _NUMBER.fullmatch(text) and "__" not in text and not text.endswith("_"):
-            number = float(text.replace("_", ""))
-            is_int = number.is_integer() and not any(c in text for c in ".eE")
-            return int(text.replace("_", "")) if is_int else number
-    return None
-
-
-def _coerce(name: str, value: Any, t) -> Any:
-    """Check ``value`` against type ``t``; return it in canonical form."""
-    origin = typing.get_origin(t)
-    args = typing.get_args(t)
-    bad = ConfigError(f"config: {name} must be {_type_name(t)}, got {value!r}")
-    if origin in (types.UnionType, typing.Union):
-        if value is None:
-            return None
-        inner = [a for a in args if a is not type(None)][0]
-        return _coerce(name, value, inner)
-    if origin is tuple:
-        if isinstance(value, str) or not isinstance(value, (list, tuple)):
-            raise bad
-        return tuple(_coerce(name, v, args[0]) for v in value)
-    if t is bool:
-        if not isinstance(value, bool):
-            raise bad
-        return value
-    if t in (int, float):
-        number = _number(value)
-        if number is None:
-            raise bad
-        if not math.isfinite(number):
-            raise ConfigError(f"config: {name} must be a finite number, got {value!r}")
-        if t is float:
-            return float(number)
-        if number != int(number):
-            raise bad
-        return int(number)
-    if t is str:
-        if not isinstance(value, str):
-            raise bad
-        return value
-    raise bad
-
-
-def _parse_override(item: str) -> tuple[str, Any]:
-    if "=" not in item:
-        raise ConfigError(f"config: override '{item}' must look like key=value")
-    key, raw = item.split("=", 1)
-    key = key.strip()
-    try:
-        value = yaml.safe_load(raw) if raw.strip() else None
-    except yaml.YAMLError:
-        value = raw
-    return key, value
-
-
-_AT_LEAST_1 = (lambda v: v >= 1, "must be at least 1")
-_POSITIVE = (lambda v: v > 0, "must be positive")
-_UNIT = (lambda v: 0.0 <= v <= 1.0, "must be in [0, 1]")
-_UNIT_OPEN = (lambda v: 0.0 <= v < 1.0, "must be in [0, 1)")
-
-# field -> (rule, what it says when it fails); the environment's fields have their
-# rules in jaxnav.core.settings (NavEnv applies the same ones).
-_RULES: dict[str, tuple[Any, str]] = {
-    "seeds": _AT_LEAST_1,
-    "seed": (lambda v: v >= 0, "must be non-negative"),
-    "strategies": (lambda v: len(v) > 0, "must name at least one strategy"),
-    "episodes": (lambda v: v is None or v >= 1, "must be at least 1"),
-    "total_steps": (lambda v: v is None or v >= 1, "must be at least 1"),
-    "dqn.gamma": _UNIT,
-    "dqn.lr": _POSITIVE,
-    "dqn.rms_decay": _UNIT_OPEN,
-    "dqn.rms_eps": _POSITIVE,
-    "dqn.batch_size": _AT_LEAST_1,
-    "dqn.buffer_size": _AT_LEAST_1,
-    "dqn.learning_starts": _AT_LEAST_1,
-    "dqn.hidden": (
-        lambda v: len(v) > 0 and min(v) >= 1,
-        "must be a non-empty list of positive layer widths",
-    ),
-    "dqn.dropout": _UNIT_OPEN,
-    "dqn.target_update_every": _AT_LEAST_1,
-    "exploration.ebe_temperature": _POSITIVE,
-    "exploration.ebe_power": _POSITIVE,
-    "exploration.boltzmann_temperature": _POSITIVE,
-    "exploration.eps_start": _UNIT,
-    "exploration.eps_decay": _UNIT,
-    "exploration.eps_min": _UNIT,
-    "run.chunk_steps": _AT_LEAST_1,
-    "run.test_episodes": _AT_LEAST_1,
-    "run.on_divergence": (lambda v: v in ("stop", "drop"), "must be stop or drop"),
-}
+    if key in ("seed", "seeds", "strategies", "preset"):
+        return f"sweep.{key} is not a sweep key: set {key} itself"
+    return (
+        f"sweep.{key} cannot be swept: it changes array shapes or the compiled program "
+        "(run one config per value; jaxnav list marks the keys that can be swept)"
+    )
 
 
 def _get(cfg: Config, name: str) -> Any:
@@ -368,24 +379,24 @@ def _check(cfg: Config) -> Config:
 
     if cfg.preset not in PRESETS:
         fail("preset", f"must be one of {', '.join(PRESETS)}, got {cfg.preset!r}")
-    for name, (ok, says) in _RULES.items():
-        if not ok(_get(cfg, name)):
+    for name, s in SETTINGS.items():
+        says = problem(s.rule, _get(cfg, name))
+        if says:
             fail(name, says)
-    for f in dataclasses.fields(cfg.env):
-        problem = env_setting_problem(f.name, getattr(cfg.env, f.name))
-        if problem:
-            fail(f"env.{f.name}", problem)
+    known = registry.names()
     for s in cfg.strategies:
-        if s not in STRATEGIES:
-            fail("strategies", f"has unknown strategy {s!r} (choose from {', '.join(STRATEGIES)})")
+        if s not in known:
+            fail("strategies", f"has unknown strategy {s!r} (choose from {', '.join(known)})")
     if len(set(cfg.strategies)) != len(cfg.strategies):
         fail("strategies", "lists a strategy twice")
     if cfg.episodes is None and cfg.total_steps is None:
         fail("episodes", "and total_steps cannot both be null")
-    if cfg.dqn.target_update not in ("periodic", "episode_end"):
+    capacity = cfg.buffer_capacity
+    if cfg.dqn.batch_size > capacity:
         fail(
-            "dqn.target_update",
-            f"must be periodic or episode_end, got {cfg.dqn.target_update!r}",
+            "dqn.batch_size",
+            f"({cfg.dqn.batch_size}) is larger than the replay memory, {capacity} "
+            "transitions (the smaller of dqn.buffer_size and the most steps a run takes)",
         )
     return cfg
 
@@ -401,14 +412,14 @@ def _sweep(values: dict[str, Any]) -> tuple[tuple[str, tuple[Any, ...]], ...]:
         key, raw = name[len("sweep.") :], values.pop(name)
         if key not in FIELD_TYPES:
             raise ConfigError(f"config: unknown key {key!r} in sweep")
-        why = sweeps.refusal(key)
+        why = sweep_refusal(key)
         if why:
             raise ConfigError(f"config: {why}")
         if raw is None:  # sweep.KEY=null (or an empty YAML entry) removes the key
             continue
         if isinstance(raw, str) or not isinstance(raw, (list, tuple)) or not raw:
             raise ConfigError(f"config: {name} must be a non-empty list of values, got {raw!r}")
-        typed = tuple(_coerce(name, v, FIELD_TYPES[key]) for v in raw)
+        typed = tuple(coerce(name, v, FIELD_TYPES[key]) for v in raw)
         if len(set(typed)) != len(typed):
             raise ConfigError(f"config: {name} lists a value twice")
         out.append((key, typed))
@@ -430,7 +441,7 @@ def build_config(values: dict[str, Any]) -> Config:
             if name in SECTIONS:
                 raise ConfigError(f"config: {name} must be a mapping of its fields")
             raise ConfigError(f"config: unknown key {name!r}")
-    typed = {name: _coerce(name, v, FIELD_TYPES[name]) for name, v in merged.items()}
+    typed = {name: coerce(name, v, FIELD_TYPES[name]) for name, v in merged.items()}
     sections: dict[str, dict[str, Any]] = {}
     top: dict[str, Any] = {}
     for name, v in typed.items():
@@ -451,20 +462,44 @@ def build_config(values: dict[str, Any]) -> Config:
     return cfg
 
 
+def shipped_path(path: str) -> str:
+    """``path`` if it exists, else the shipped file it names: ``configs/smoke.yaml`` or
+    ``configs/mazes/corridor.yaml`` resolve to the package's copy from any folder."""
+    if os.path.exists(path):
+        return path
+    rel = Path(path)
+    if rel.parts[:1] == ("configs",):
+        cand = CONFIG_DIR.joinpath(*rel.parts[1:])
+        if cand.is_file():
+            return str(cand)
+    return path
+
+
 def resolve_config_path(name: str) -> str:
-    """A config path, or a bare name of a file in the project's configs/."""
+    """A config path, a built-in config's name (``smoke``: ``configs/smoke.yaml``), or
+    a path under ``configs/`` from any folder; a missing one is returned unchanged."""
     if os.path.exists(name):
         return name
     for cand in (CONFIG_DIR / name, CONFIG_DIR / f"{name}.yaml"):
-        if cand.is_file():
+        if cand.is_file() and "/" not in name:
             return str(cand)
-    return name  # load_config reports it missing
+    return shipped_path(name)
+
+
+def builtin_configs() -> dict[str, str]:
+    """Each shipped config's name and the first line of its opening comment."""
+    out = {}
+    for path in sorted(CONFIG_DIR.glob("*.yaml")):
+        first = next((ln for ln in path.read_text().splitlines() if ln.startswith("#")), "#")
+        out[path.stem] = first.lstrip("# ").rstrip(" ,.:")
+    return out
 
 
 def load_config(path: str | None, overrides: list[str] = ()) -> Config:
     """Config from a YAML file (or the defaults if None) plus ``key=value`` overrides."""
     values: dict[str, Any] = {}
     if path is not None:
+        path = resolve_config_path(path)
         try:
             with open(path) as f:
                 doc = yaml.safe_load(f)
@@ -482,9 +517,9 @@ def load_config(path: str | None, overrides: list[str] = ()) -> Config:
             doc = {}
         if not isinstance(doc, dict):
             raise ConfigError(f"config: {path} must hold a mapping of keys")
-        values.update(_flatten(doc))
+        values.update(flatten(doc))
     for item in overrides:
-        key, value = _parse_override(item)
+        key, value = parse_override(item)
         values[key] = value
     return build_config(values)
 

@@ -2,11 +2,11 @@
 setting checked by one rule.
 
 A preset is the set of constants that differ between the paper's text and
-ROBOTIS' code (spec.md): training length, discount, target-network rule and the
+ROBOTIS' code (docs/paper.md): training length, discount, target-network rule and the
 reward. ``jaxnav.core.config`` applies a preset's training constants as config
 defaults; ``jaxnav.env.make`` takes its reward constants. The environment's
-settings that a config can set are checked here, by the same rule for a YAML
-config and for ``jaxnav.make(..., beam_dropout=...)``.
+settings are declared once each with :func:`setting` (in ``jaxnav.core.config``'s
+dataclasses), with the rules below.
 
 No JAX here: configs are read and checked before JAX starts.
 """
@@ -14,13 +14,13 @@ No JAX here: configs are read and checked before JAX starts.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 
 @dataclass(frozen=True)
 class Preset:
-    """Constants of one preset (spec.md, tables "Reward" and "DQN")."""
+    """Constants of one preset (docs/paper.md, "Reward" and "DQN")."""
 
     episodes: int
     gamma: float
@@ -77,34 +77,44 @@ PRESETS: dict[str, Preset] = {
 REALISM = ("lidar_noise_std", "beam_dropout", "odom_noise", "random_start", "maze_scale")
 
 
+def setting(default: Any = None, help: str = "", *, rule=None, sweep: bool = False, factory=None):
+    """One setting's declaration, as a config dataclass field: its default, a line of
+    help, its rule ``(predicate, what it says when it fails)`` and whether a sweep may
+    vary it (it is then data in the compiled step: ``jaxnav.dqn.Hyper``). The type is
+    the field's annotation. ``jaxnav.core.config`` derives validation, the sweep keys,
+    ``jaxnav list`` and the settings table of the docs from these declarations."""
+    meta = {"help": help, "rule": rule, "sweep": sweep}
+    if factory is not None:
+        return field(default_factory=factory, metadata=meta)
+    return field(default=default, metadata=meta)
+
+
 def _pair(x: Any) -> bool:
     return isinstance(x, (tuple, list)) and len(x) == 2
 
 
-# name -> (rule, what the rule says when it fails)
-_RULES: dict[str, tuple[Any, str]] = {
-    "n_beams": (lambda x: x >= 1, "must be at least 1"),
-    "max_steps": (lambda x: x >= 1, "must be at least 1"),
-    "goal_candidates": (lambda x: x >= 1, "must be at least 1"),
-    "lidar_noise_std": (lambda x: x >= 0, "must be non-negative"),
-    "beam_dropout": (lambda x: 0.0 <= x < 1.0, "must be in [0, 1)"),
-    "odom_noise": (
-        lambda x: _pair(x) and min(x) >= 0,
-        "must be [position std, yaw std], both non-negative",
-    ),
-    "maze_scale": (
-        lambda x: _pair(x) and 0.5 <= x[0] <= x[1] <= 2.0,
-        "must be [low, high] with 0.5 <= low <= high <= 2",
-    ),
-    "collision": (lambda x: x in ("disc", "lidar"), "must be disc or lidar"),
-    "goal_sampler": (lambda x: x in ("free", "robotis"), "must be free or robotis"),
-    "beam_layout": (lambda x: x in ("even", "gazebo"), "must be even or gazebo"),
-}
+AT_LEAST_1 = (lambda v: v >= 1, "must be at least 1")
+NON_NEGATIVE = (lambda v: v >= 0, "must be non-negative")
+POSITIVE = (lambda v: v > 0, "must be positive")
+UNIT = (lambda v: 0.0 <= v <= 1.0, "must be in [0, 1]")
+UNIT_OPEN = (lambda v: 0.0 <= v < 1.0, "must be in [0, 1)")
+PAIR_NON_NEGATIVE = (
+    lambda x: _pair(x) and min(x) >= 0,
+    "must be [position std, yaw std], both non-negative",
+)
+SCALE_RANGE = (
+    lambda x: _pair(x) and 0.5 <= x[0] <= x[1] <= 2.0,
+    "must be [low, high] with 0.5 <= low <= high <= 2",
+)
 
 
-def env_setting_problem(name: str, value: Any) -> str | None:
-    """What is wrong with an environment setting's value ("must be ..."), or None."""
-    rule = _RULES.get(name)
+def one_of(*choices: str):
+    """The rule of a setting that takes one of ``choices``."""
+    return (lambda x: x in choices, "must be " + " or ".join(choices))
+
+
+def problem(rule, value: Any) -> str | None:
+    """What ``rule`` says of ``value`` ("must be ..."), or None if it holds."""
     if rule is None:
         return None
     ok, says = rule

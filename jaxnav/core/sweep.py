@@ -5,7 +5,7 @@ A config's ``sweep`` maps dotted config keys to lists of values; several keys fo
 their product (the first key varies slowest). A strategy's arms vary only the swept
 keys it reads: sweeping ``exploration.ebe_temperature`` gives EBE one arm per value
 and epsilon-greedy one arm, since the two would otherwise train identical runs
-(:data:`EXPLORATION_KEYS`). Every run of the grid trains in the
+(each strategy's ``keys`` in :mod:`jaxnav.core.strategies`). Every run of the grid trains in the
 same compiled program: a swept setting is carried as data in the training state
 (:class:`jaxnav.dqn.Hyper`), so a point costs what a seed costs. A key whose value
 changes an array shape or the compiled program (batch size, hidden sizes, beams,
@@ -21,56 +21,17 @@ import itertools
 from collections.abc import Mapping, Sequence
 from typing import Any
 
-# Settings carried as data in the compiled step (jaxnav.dqn.Hyper has one field each).
-SWEEPABLE = (
-    "dqn.gamma",
-    "dqn.lr",
-    "dqn.rms_decay",
-    "dqn.rms_eps",
-    "dqn.dropout",
-    "dqn.target_update_every",
-    "dqn.learning_starts",
-    "exploration.ebe_temperature",
-    "exploration.ebe_power",
-    "exploration.boltzmann_temperature",
-    "exploration.eps_start",
-    "exploration.eps_decay",
-    "exploration.eps_min",
-    "env.lidar_noise_std",
-    "env.R_plus",
-    "env.R_minus",
-    "env.reward_span",
-)
-
-# The exploration settings each strategy reads (jaxnav.dqn.EXPLORATION; a test checks
-# the functions against this table). Every other sweepable key applies to all.
-EXPLORATION_KEYS = {
-    "ebe": ("exploration.ebe_temperature", "exploration.ebe_power"),
-    "epsilon_greedy": ("exploration.eps_start", "exploration.eps_decay", "exploration.eps_min"),
-    "boltzmann": ("exploration.boltzmann_temperature",),
-}
+from jaxnav.core import strategies as registry
 
 # A sweep point: ((dotted key, value), ...) in the sweep's key order; () without a sweep.
 Point = tuple[tuple[str, Any], ...]
-
-
-def refusal(key: str) -> str | None:
-    """Why ``key`` cannot be swept, or None if it can."""
-    if key in SWEEPABLE:
-        return None
-    if key in ("seed", "seeds", "strategies", "preset"):
-        return f"sweep.{key} is not a sweep key: set {key} itself"
-    return (
-        f"sweep.{key} cannot be swept: it changes array shapes or the compiled program "
-        "(run one config per value; sweepable keys are listed in jaxnav.core.sweep.SWEEPABLE)"
-    )
 
 
 def applies(key: str, strategy: str | None) -> bool:
     """Whether ``strategy``'s runs read ``key`` (every key applies to None)."""
     if strategy is None or not key.startswith("exploration."):
         return True
-    return key in EXPLORATION_KEYS.get(strategy, ())
+    return strategy in registry.names() and key in registry.get(strategy).keys
 
 
 def grid(sweep: Sequence[tuple[str, Sequence[Any]]], strategy: str | None = None) -> list[Point]:

@@ -31,6 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
+from jaxnav.core import strategies as registry
 from jaxnav.core.config import PAPER_STRATEGIES
 from jaxnav.core.rundir import atomic_write_text
 from jaxnav.experiments.evaluation import evaluate_to_dir
@@ -45,7 +46,7 @@ from jaxnav.experiments.reproduce import (
 from jaxnav.report import stats
 from jaxnav.report.claims import CLAIMS, OTHER, Claim, claim_scores, judge
 from jaxnav.report.paper import PAPER_TABLES
-from jaxnav.report.results import MODE_NAMES, STRATEGY_NAMES
+from jaxnav.report.results import MODE_NAMES
 
 # name -> (what it changes, config overrides). The first is the reference.
 VARIANTS: dict[str, tuple[str, tuple[str, ...]]] = {
@@ -183,7 +184,7 @@ def ablation_markdown(rows: list[dict[str, str]], quick: bool = False) -> str:
         "",
         f"{'/'.join(map(str, seeds))} seeds per strategy and variant; every variant trains "
         "and tests both of the paper's experiments with the paper's config plus its "
-        'switches (spec.md, "ROBOTIS\' code in detail"; `jaxnav.env.NavEnv`).',
+        'switches (docs/paper.md, "ROBOTIS\' code in detail"; `jaxnav.env.NavEnv`).',
         "",
     ]
     if quick:
@@ -212,7 +213,7 @@ def ablation_markdown(rows: list[dict[str, str]], quick: bool = False) -> str:
                 "",
                 "| variant | "
                 + " | ".join(
-                    f"{STRATEGY_NAMES[s]} (paper {sel[[r[3] for r in sel].index(s)][5]:.0f})"
+                    f"{registry.label(s)} (paper {sel[[r[3] for r in sel].index(s)][5]:.0f})"
                     for s in PAPER_STRATEGIES
                 )
                 + " | ratio EBE | ratio epsilon-greedy |",

@@ -27,7 +27,7 @@ from jaxnav.core import rundir
 from jaxnav.core.config import Config, load_config
 from jaxnav.core.errors import JaxnavError, RunError
 from jaxnav.core.sweep import with_swept
-from jaxnav.dqn import QNetwork, run_inputs
+from jaxnav.dqn import network_of, run_inputs
 from jaxnav.env import from_config
 from jaxnav.experiments.rollout import MODES, Policies, first_episode, padded_mazes, run_tests
 from jaxnav.report.results import RESULT_COLUMNS, Episodes, episode_rows, episodes_npz
@@ -45,7 +45,7 @@ def load_run(run_dir: str | Path) -> LoadedRun:
     cfg_path, params_path = run_dir / rundir.CONFIG, run_dir / rundir.PARAMS
     cfg = load_config(str(cfg_path))
     env, env_params = from_config(cfg)
-    network = QNetwork(env.num_actions, tuple(cfg.dqn.hidden), cfg.dqn.dropout)
+    network = network_of(cfg, env)
     template = network.init(jax.random.PRNGKey(0), jnp.zeros(env.obs_size))
     dropped = diverged_runs(run_dir)
     all_labels = cfg.run_labels()

@@ -20,8 +20,10 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from jaxnav.agent.episodes import Episodes
+from jaxnav.agent.exploration import explore_action
 from jaxnav.agent.sharding import RunSharding
-from jaxnav.dqn import Hyper, QNetwork, explore_action
+from jaxnav.dqn import Hyper, QNetwork
 from jaxnav.env import EnvParams, NavEnv
 from jaxnav.world.maps import MAX_GOAL_POINTS, Maze, make_maze, pad_maze
 
@@ -40,7 +42,7 @@ class Policies(NamedTuple):
     env: NavEnv  # the training env (static settings)
     env_params: EnvParams  # the training env's params
     network: QNetwork
-    strategy: np.ndarray  # i32[policies] index into STRATEGIES
+    strategy: np.ndarray  # i32[policies] registered strategy number
     hyper: Hyper  # each policy's settings in training (a sweep point's), [policies]
     episodes_trained: int  # episodes each policy trained for (epsilon's last value)
 
@@ -92,7 +94,7 @@ def make_rollout(
     Greedy (``exploring`` None): dropout off, action = argmax Q. Exploring
     (``exploring`` = the episodes trained): each strategy explores
     as at the end of its training, through the trainer's own
-    :func:`jaxnav.dqn.explore_action` (EBE with probability H(s), epsilon-greedy with
+    :func:`jaxnav.agent.exploration.explore_action` (EBE with probability H(s), epsilon-greedy with
     the schedule's last epsilon, Boltzmann sampling softmax(Q / T)); the environment's
     keys are the greedy test's, so both modes start from the same goals.
     """
@@ -113,20 +115,11 @@ def make_rollout(
         env_params = hyper.env_params(env_params)
         k_reset, key = jax.random.split(key)
         obs, state = env.reset(k_reset, env_params)
-        zeros_f = jnp.zeros(E, jnp.float32)
-        zeros_i = jnp.zeros(E, jnp.int32)
-        carry0 = (
-            obs,
-            state,
-            key,
-            jnp.zeros((), jnp.int32),  # episode being played
-            jnp.zeros((), jnp.float32),  # its return so far
-            jnp.zeros((), jnp.int32),  # its goals so far
-            (zeros_f, zeros_i, jnp.zeros(E, bool), zeros_i),
-        )
+        # the episode being played, and the test's episodes (jaxnav.agent.episodes)
+        carry0 = (obs, state, key, jnp.zeros((), jnp.int32), Episodes.zeros(E))
 
         def body(carry, _):
-            obs, state, key, ep, cur_ret, cur_goals, (rets, goals, coll, lens) = carry
+            obs, state, key, ep, episodes = carry
             key, k_step = jax.random.split(key)
             # ACT: greedy, or the strategy's own exploration.
             action = act(params, obs, k_step, strategy, hyper)
@@ -135,14 +128,9 @@ def make_rollout(
                 k_step, state, action, env_params
             )
             done = terminated | truncated
-            cur_ret = cur_ret + reward
-            cur_goals = cur_goals + info["goal_reached"].astype(jnp.int32)
-            # RECORD the finished episode (index E: dropped, the test is over).
-            i = jnp.where(done & (ep < E), ep, E)
-            rets = rets.at[i].set(cur_ret, mode="drop")
-            goals = goals.at[i].set(cur_goals, mode="drop")
-            coll = coll.at[i].set(terminated, mode="drop")
-            lens = lens.at[i].set(state.t + 1, mode="drop")
+            # RECORD the step and the finished episode (slot E: dropped, the test is over).
+            slot = jnp.where(done & (ep < E), ep, E)
+            episodes = episodes.record(slot, reward, info["goal_reached"], terminated, done)
             out = None
             if record:
                 out = Trajectory(
@@ -156,20 +144,12 @@ def make_rollout(
                     collided=terminated,
                     episode=ep,
                 )
-            carry = (
-                obs2,
-                state2,
-                key,
-                ep + done.astype(jnp.int32),
-                jnp.where(done, 0.0, cur_ret),
-                jnp.where(done, 0, cur_goals),
-                (rets, goals, coll, lens),
-            )
+            carry = (obs2, state2, key, ep + done.astype(jnp.int32), episodes)
             return carry, out
 
         carry, traj = jax.lax.scan(body, carry0, None, length=n_steps)
-        rets, goals, coll, lens = carry[-1]
-        return Rollout(rets, goals, coll, lens, traj)
+        e = carry[-1]
+        return Rollout(e.ep_return, e.ep_goals, e.ep_collided, e.ep_length, traj)
 
     return rollout
 

@@ -29,6 +29,7 @@ import numpy as np
 
 from jaxnav.core.sweep import row_arm
 from jaxnav.report import stats
+from jaxnav.report.markdown import interval
 from jaxnav.report.results import MODE_NAMES, display_name, per_seed_scores, read_results
 
 FINAL_EPISODES = 50  # the "final training return" window, per seed
@@ -245,10 +246,7 @@ def claims_markdown(verdicts: list[Verdict], quick: bool = False) -> str:
         "|---|---|---|---|---|---|",
     ]
     for v in verdicts:
-        iv = v.p
-        ci = f"{iv.value:.2f}"
-        if not math.isnan(iv.low):
-            ci += f" [{iv.low:.2f}, {iv.high:.2f}]"
+        ci = interval(v.p, 2, missing="")
         L.append(
             f"| {v.claim.source} | {v.claim.statement} | {v.mode or 'training'} | {ci} "
             f"| {v.verdict} | {_needed_text(v)} |"

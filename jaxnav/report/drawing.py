@@ -2,7 +2,7 @@
 
 Every function draws data it is given onto a matplotlib ``Axes``; nothing here
 computes a scan or runs the environment (``jaxnav.render`` does that for its
-pictures; ``jaxnav.report.plots`` puts trajectories on top).
+pictures; ``jaxnav.report.fig_trajectory`` puts trajectories on top).
 """
 
 from __future__ import annotations
@@ -114,6 +114,20 @@ def draw_robot(ax, x: float, y: float, yaw: float, robot_radius: float = ROBOT_R
             color=HEADING_COLOR,
             zorder=6,
         )
+    )
+
+
+def draw_start(ax, maze: Maze) -> None:
+    """The maze's start pose as a grey square with an arrow (not a robot disc: for
+    figures where paths show the robot)."""
+    sx, sy, syaw = (float(v) for v in np.asarray(maze.start, np.float64))
+    ax.plot([sx], [sy], marker="s", color="0.3", ms=5, zorder=4)
+    ax.annotate(
+        "",
+        xy=(sx + 0.3 * math.cos(syaw), sy + 0.3 * math.sin(syaw)),
+        xytext=(sx, sy),
+        arrowprops=dict(arrowstyle="->", color="0.3", lw=1.2),
+        zorder=4,
     )
 
 

@@ -15,7 +15,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from jaxnav.core.config import STRATEGIES
+from jaxnav.core import strategies as registry
 from jaxnav.core.errors import RunError
 from jaxnav.core.sweep import row_arm
 from jaxnav.report import stats
@@ -37,7 +37,6 @@ MODE_NAMES = {
     "greedy": "greedy (argmax Q, no exploration)",
     "exploring": "exploring (each strategy's own exploration as at the end of training)",
 }
-STRATEGY_NAMES = {"ebe": "EBE", "epsilon_greedy": "epsilon-greedy", "boltzmann": "Boltzmann"}
 
 
 def arm_strategy(arm: str) -> str:
@@ -47,15 +46,16 @@ def arm_strategy(arm: str) -> str:
 
 def arms_in(arms) -> list[str]:
     """The distinct arms among ``arms`` (strategies, or strategies at sweep points),
-    strategy by strategy in STRATEGIES order, each strategy's points in the order met."""
-    found = [a for a in ordered_unique(arms) if arm_strategy(a) in STRATEGIES]
-    return sorted(found, key=lambda a: STRATEGIES.index(arm_strategy(a)))
+    strategy by strategy in registration order, each strategy's points in the order met."""
+    known = registry.names()
+    found = [a for a in ordered_unique(arms) if arm_strategy(a) in known]
+    return sorted(found, key=lambda a: known.index(arm_strategy(a)))
 
 
 def display_name(arm: str) -> str:
     """An arm as tables and figures name it: ``EBE``, ``EBE ebe_temperature=0.1``."""
     strategy, _, point = arm.partition(" ")
-    return " ".join(x for x in (STRATEGY_NAMES[strategy], point) if x)
+    return " ".join(x for x in (registry.label(strategy), point) if x)
 
 
 # robustness.csv: the same columns, the perturbation in place of the test mode.

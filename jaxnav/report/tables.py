@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -11,6 +10,7 @@ from jaxnav.core.config import PAPER_STRATEGIES
 from jaxnav.core.errors import RunError
 from jaxnav.core.sweep import row_arm
 from jaxnav.report import stats
+from jaxnav.report.markdown import interval, markdown_table
 from jaxnav.report.paper import PAPER_TABLES
 from jaxnav.report.results import (
     MODE_NAMES,
@@ -31,18 +31,6 @@ from jaxnav.report.results import (
 
 def _pm(mean: float, std: float) -> str:
     return f"{mean:.2f} ± {std:.2f}"
-
-
-def _ci(iv: stats.Interval, digits: int = 1) -> str:
-    if np.isnan(iv.low):
-        return f"{iv.value:.{digits}f} [n/a]"
-    return f"{iv.value:.{digits}f} [{iv.low:.{digits}f}, {iv.high:.{digits}f}]"
-
-
-def _table(header: Sequence[str], rows: Sequence[Sequence[str]]) -> list[str]:
-    lines = ["| " + " | ".join(header) + " |", "|" + "|".join("---" for _ in header) + "|"]
-    lines += ["| " + " | ".join(str(c) for c in r) + " |" for r in rows]
-    return lines
 
 
 class _Test(NamedTuple):
@@ -116,12 +104,12 @@ def _paper_form_section(t: _Test) -> list[str]:
         f"seed {t.seed0}",
         "",
     ]
-    L += _table(
+    L += markdown_table(
         ["maze"] + t.names,
         [[m] + [t.paper_form(m, s, t.seed0) for s in t.strategies] for m in t.mazes],
     )
     L += ["", "## Paper form, every seed", ""]
-    L += _table(
+    L += markdown_table(
         ["maze", "seed"] + t.names,
         [
             [m, str(k)] + [t.paper_form(m, s, k) for s in t.strategies]
@@ -155,13 +143,13 @@ def _across_seeds_section(t: _Test) -> list[str]:
                 [
                     m,
                     display_name(s),
-                    _ci(stats.mean_ci(x)),
-                    _ci(stats.iqm_ci(x)),
+                    interval(stats.mean_ci(x)),
+                    interval(stats.iqm_ci(x)),
                     f"{goals.mean():.2f}",
                     f"{coll.mean():.2f}",
                 ]
             )
-    L += _table(
+    L += markdown_table(
         ["maze", "strategy", "mean [95% CI]", "IQM [95% CI]", "goals / episode", "collision rate"],
         rows,
     )
@@ -240,7 +228,7 @@ def sweep_answers(summary: SweepSummary) -> list[str]:
         lines.append(text + ".")
     for c in summary.best_against_best:
         verdict = {1: "is better than", -1: "is worse than", 0: "is not detectably different from"}
-        p = _ci(c.p, 2)
+        p = interval(c.p, 2)
         x = f"{display_name(c.x)} (the best {display_name(arm_strategy(c.x))} point)"
         y = f"{display_name(c.y)} (the best {display_name(arm_strategy(c.y))} point)"
         if c.side is None:
@@ -250,7 +238,7 @@ def sweep_answers(summary: SweepSummary) -> list[str]:
     return lines
 
 
-def _too_few(summary: SweepSummary, arms: Sequence[str]) -> str:
+def _too_few(summary: SweepSummary, arms: list[str]) -> str:
     n = min(len(summary.scores[a]) for a in arms)
     return f"{stats.TOO_FEW_SEEDS} for a verdict ({n} per arm; it needs {stats.MIN_SEEDS})"
 
@@ -288,16 +276,16 @@ def _sweep_section(t: _Test) -> list[str]:
     for s in t.strategies:
         mark = "**" if summary.best[arm_strategy(s)] == s and s != arm_strategy(s) else ""
         row = [f"{mark}{display_name(s)}{mark}"]
-        row += [_ci(stats.mean_ci(t.scores(m, s))) for m in mazes]
-        row.append(_ci(stats.mean_ci(summary.scores[s])))
+        row += [interval(stats.mean_ci(t.scores(m, s))) for m in mazes]
+        row.append(interval(stats.mean_ci(summary.scores[s])))
         if summary.against_eps:
             c = summary.against_eps.get(s)
-            row += ["", ""] if c is None else [_ci(c.p, 2), _better(c)]
+            row += ["", ""] if c is None else [interval(c.p, 2), _better(c)]
         rows.append(row)
     header = ["arm"] + mazes + ["all mazes" if mazes else "mean [95% CI]"]
     if summary.against_eps:
         header += ["P(arm > epsilon-greedy) [95% CI]", "verdict"]
-    L += _table(header, rows)
+    L += markdown_table(header, rows)
     if summary.best_against_best:
         L += [
             "",
@@ -306,10 +294,10 @@ def _sweep_section(t: _Test) -> list[str]:
             "",
         ]
         rows = [
-            [display_name(c.x), display_name(c.y), _ci(c.p, 2), _better(c)]
+            [display_name(c.x), display_name(c.y), interval(c.p, 2), _better(c)]
             for c in summary.best_against_best
         ]
-        L += _table(["X", "Y", "P(X > Y) [95% CI]", "verdict"], rows)
+        L += markdown_table(["X", "Y", "P(X > Y) [95% CI]", "verdict"], rows)
     return L + ["", "In words:", ""] + [f"- {line}" for line in sweep_answers(summary)]
 
 
@@ -357,11 +345,11 @@ def _improvement_section(t: _Test) -> list[str]:
         x, y = t.scores(m, "ebe"), t.scores(m, "epsilon_greedy")
         xs.append(x)
         ys.append(y)
-        rows.append([m, _ci(stats.probability_of_improvement_ci(x, y), 2)])
+        rows.append([m, interval(stats.probability_of_improvement_ci(x, y), 2)])
     if len(t.mazes) > 1:
         pooled = stats.probability_of_improvement_ci(np.stack(xs, 1), np.stack(ys, 1))
-        rows.append(["all mazes", _ci(pooled, 2)])
-    return L + _table(["maze", "P(EBE > epsilon-greedy) [95% CI]"], rows)
+        rows.append(["all mazes", interval(pooled, 2)])
+    return L + markdown_table(["maze", "P(EBE > epsilon-greedy) [95% CI]"], rows)
 
 
 def _beside_paper_section(t: _Test, train_maze: str) -> list[str]:
@@ -377,7 +365,7 @@ def _beside_paper_section(t: _Test, train_maze: str) -> list[str]:
                 row += [
                     _pm(*vals[s]) if s in vals else "not in the paper",
                     t.paper_form(m, s, t.seed0),
-                    _ci(stats.mean_ci(t.scores(m, s))),
+                    interval(stats.mean_ci(t.scores(m, s))),
                 ]
             rows.append(row)
     if not rows:
@@ -393,7 +381,7 @@ def _beside_paper_section(t: _Test, train_maze: str) -> list[str]:
     header = ["maze", "paper row"]
     for n in t.names:
         header += [f"{n} paper", f"{n} ours, seed {t.seed0}", f"{n} ours, all seeds"]
-    return L + _table(header, rows)
+    return L + markdown_table(header, rows)
 
 
 def _seeds_by_arm(rows: list[dict[str, str]]) -> dict[str, list[list[dict[str, str]]]]:
@@ -423,9 +411,9 @@ def _outcome_cells(per_seed: list[list[dict[str, str]]], last: int | None) -> li
     [95% bootstrap CI] of each seed's mean return, goals and collisions per episode."""
     return [
         str(len(per_seed)),
-        _ci(stats.mean_ci(_seed_means(per_seed, "return", last)), 0),
-        _ci(stats.mean_ci(_seed_means(per_seed, "goals", last)), 2),
-        _ci(stats.mean_ci(_seed_means(per_seed, "collided", last)), 2),
+        interval(stats.mean_ci(_seed_means(per_seed, "return", last)), 0),
+        interval(stats.mean_ci(_seed_means(per_seed, "goals", last)), 2),
+        interval(stats.mean_ci(_seed_means(per_seed, "collided", last)), 2),
     ]
 
 
@@ -454,8 +442,12 @@ def training_markdown(metrics_rows: list[dict[str, str]], last: int = 50) -> str
     for s, per_seed in _seeds_by_arm(metrics_rows).items():
         rows.append(
             [display_name(s), *_outcome_cells(per_seed, last)]
-            + [_ci(stats.mean_ci(_seed_means(per_seed, "return", None)), 0)]
-            + ([_ci(stats.mean_ci(_seed_means(per_seed, "explore", last)), 2)] if explore else [])
+            + [interval(stats.mean_ci(_seed_means(per_seed, "return", None)), 0)]
+            + (
+                [interval(stats.mean_ci(_seed_means(per_seed, "explore", last)), 2)]
+                if explore
+                else []
+            )
         )
     header = [
         "strategy",
@@ -475,7 +467,7 @@ def training_markdown(metrics_rows: list[dict[str, str]], last: int = 50) -> str
             else ""
         )
     )
-    return "\n".join([intro, "", *_table(header, rows)]) + "\n"
+    return "\n".join([intro, "", *markdown_table(header, rows)]) + "\n"
 
 
 def _signed_ci(iv: stats.Interval, digits: int = 1) -> str:
@@ -542,7 +534,7 @@ def robustness_markdown(
         if len(mazes) > 1:
             L += [f"## {m}", ""]
         table = [_robustness_row(r, perturbations) for r in rows if r.maze == m]
-        L += _table(ROBUSTNESS_HEADER, table)
+        L += markdown_table(ROBUSTNESS_HEADER, table)
         L += [""]
     return "\n".join(L)
 
@@ -557,7 +549,7 @@ def _robustness_row(r: RobustnessRow, perturbations: dict[str, dict[str, Any]]) 
         r.perturbation,
         setting,
         display_name(r.strategy),
-        _ci(r.mean),
+        interval(r.mean),
         "" if r.change is None else _signed_ci(r.change),
         "" if np.isnan(r.change_pct) else f"{r.change_pct:+.0f}%",
         f"{r.goals:.2f}",

@@ -1,3 +1,4 @@
-"""The robot side: NumPy-only policy inference (``deploy``) and the portable policy file.
+"""The robot side: NumPy-only policy inference (``deploy``), the portable policy file
+(``export``) and the TurtleBot3 burger in MuJoCo (``mujoco_model``, ``mujoco_rollout``).
 
-``deploy`` imports neither JAX nor anything above :mod:`jaxnav.core`."""
+``deploy`` and the MuJoCo modules import no JAX; ``export`` reads a run with it."""

@@ -16,7 +16,8 @@ import numpy as np
 
 from jaxnav import __version__
 from jaxnav.core import rundir
-from jaxnav.core.config import STRATEGIES, dump_config, load_config
+from jaxnav.core import strategies as registry
+from jaxnav.core.config import dump_config, load_config
 from jaxnav.core.errors import PolicyError
 from jaxnav.env import from_config
 from jaxnav.robot.deploy import FORMAT, FORMAT_VERSION, INVALID_READING
@@ -32,8 +33,9 @@ def export_policy(
     """
     run_dir = rundir.existing(run_dir, finished=True)
     cfg_path, params_path = run_dir / rundir.CONFIG, run_dir / rundir.PARAMS
-    if strategy.split(" ", 1)[0] not in STRATEGIES:
-        raise PolicyError(f"unknown strategy '{strategy}' (choose from {', '.join(STRATEGIES)})")
+    known = registry.names()
+    if strategy.split(" ", 1)[0] not in known:
+        raise PolicyError(f"unknown strategy '{strategy}' (choose from {', '.join(known)})")
     runs = rundir.runs_in(params_path)
     cfg = load_config(str(cfg_path))
     arms = dict(zip(cfg.arm_names(), cfg.arms()))

@@ -1,3 +1,2 @@
-"""The host side of a training run: the loop around the compiled trainer, the run
-
-directory, checkpoints and TensorBoard. Imports the agent and everything below it."""
+"""The host side of a training run: the loop around the compiled trainer (chunks,
+progress, checkpoints, resume) and TensorBoard curves. Imports the agent and below."""

@@ -7,6 +7,12 @@ that records the training state and how long the logs were, so a run killed at a
 moment (even by SIGKILL) resumes from its last chunk (:func:`resume`) and ends with
 exactly the metrics and parameters of an uninterrupted run. The files and their
 checks are :mod:`jaxnav.core.rundir`'s.
+
+A finished run removes its checkpoints (unless asked to keep them): nothing reads
+them once ``params.npz`` and ``summary.json`` are written. Ctrl-C
+(:mod:`jaxnav.core.startup`) never cuts a write of the logs, a checkpoint or the
+final files in two; it leaves the run resumable from its last checkpoint, or, before
+the first one, removes what the command made (:func:`interrupted_text` says which).
 """
 
 from __future__ import annotations
@@ -15,6 +21,7 @@ import contextlib
 import json
 import os
 import platform
+import shutil
 import sys
 import time
 from pathlib import Path
@@ -25,12 +32,21 @@ import numpy as np
 
 from jaxnav.agent import replay
 from jaxnav.agent.sharding import RunSharding, is_writer
-from jaxnav.core import rundir, sweep
+from jaxnav.core import rundir, startup, sweep
 from jaxnav.core.config import Config, dump_config, load_config
 from jaxnav.core.errors import RunError
 from jaxnav.core.startup import process_age
 from jaxnav.dqn import TrainState, make_trainer, run_inputs, run_limits, still_training
 from jaxnav.run import tblog
+from jaxnav.run.checkpoint import (
+    ROW_SEGMENT,
+    checkpoint_arrays,
+    chunk_slots,
+    params_arrays,
+    rows_at,
+    state_from_checkpoint,
+    without_rows,
+)
 
 # A swept run's logs have one more column per swept key, named by it, after "strategy"
 # (jaxnav.core.sweep.with_swept).
@@ -40,103 +56,6 @@ EXPLORE_COLUMNS = ("strategy", "seed", "step", "explore")
 EXPLORE_BLOCK = 100  # env steps averaged per row of explore.csv
 PROGRESS_EPISODES = 20  # episodes per seed in the progress bar's mean return
 
-# The replay buffer's per-slot arrays. A checkpoint stores them incrementally: each
-# chunk's checkpoint writes the slots written in that chunk to a segment file of its
-# own (ROW_SEGMENT), and checkpoints/last.npz, the rest of the state, says how many
-# segments it covers; restoring applies them in order. So a checkpoint costs what its
-# chunk added, not the whole buffer, which grows to 28 MB per run in a paper run.
-_BUFFER_ROWS = ("obs", "action", "reward", "terminated", "truncated", "final_index")
-ROW_SEGMENT = "checkpoints/rows-{:05d}.npz"
-
-
-# ----------------------------------------------------------------------------
-# Pytrees <-> named arrays
-# ----------------------------------------------------------------------------
-
-
-def _leaf_names(tree) -> list[str]:
-    paths, _ = jax.tree_util.tree_flatten_with_path(tree)
-    return [jax.tree_util.keystr(p) for p, _ in paths]
-
-
-def _is_buffer_rows(name: str) -> bool:
-    return any(name == f".buffer.{r}" for r in _BUFFER_ROWS)
-
-
-def without_rows(ts: TrainState) -> TrainState:
-    """The training state without the replay buffer's per-slot arrays."""
-    return ts.replace(buffer=ts.buffer.replace(**{r: None for r in _BUFFER_ROWS}))
-
-
-def rows_at(ts: TrainState, slots: jax.Array) -> dict[str, jax.Array]:
-    """The replay buffer's per-slot arrays at ``slots`` (i32[n]) of every run."""
-    return {r: getattr(ts.buffer, r)[:, slots] for r in _BUFFER_ROWS}
-
-
-def chunk_slots(step_before: np.ndarray, step_after: np.ndarray, capacity: int) -> np.ndarray:
-    """The buffer slots a chunk wrote (i32[n]): runs that step, step together, each
-    adding slot ``step % capacity`` per step, so they are those of the steps from the
-    most advanced run's step before the chunk to its step after (the last
-    ``capacity`` of them)."""
-    first, last = int(step_before.max()), int(step_after.max())
-    steps = np.arange(max(first, last - capacity), last)
-    return (steps % capacity).astype(np.int32)
-
-
-def checkpoint_arrays(state: TrainState, host: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
-    """Host copies of the training state without its per-slot replay arrays
-    (:func:`without_rows`), and the host loop's own counters."""
-    arrays = {
-        "state" + n: np.asarray(a) for n, a in zip(_leaf_names(state), jax.tree.leaves(state))
-    }
-    arrays.update({"host." + k: v for k, v in host.items()})
-    return arrays
-
-
-def state_from_checkpoint(
-    arrays: dict[str, np.ndarray],
-    segments: list[dict[str, np.ndarray]],
-    template: TrainState,
-    path: Path,
-) -> tuple[TrainState, dict[str, np.ndarray]]:
-    """Inverse of :func:`checkpoint_arrays` and the row segments (each ``slots`` and
-    one array per per-slot field), against a template of the right shapes."""
-    leaves = []
-    for name, leaf in zip(_leaf_names(template), jax.tree.leaves(template)):
-        if _is_buffer_rows(name):
-            a = np.zeros(leaf.shape, leaf.dtype)
-            for seg in segments:
-                rows = seg.get("rows" + name)
-                if rows is None or rows.shape[0] != a.shape[0] or seg["slots"].max() >= a.shape[1]:
-                    raise RunError(f"checkpoint {path} does not match the run's config ({name})")
-                a[:, seg["slots"]] = rows
-            leaves.append(a)
-            continue
-        a = arrays.get("state" + name)
-        if a is None:
-            raise RunError(
-                f"checkpoint {path} does not match this run (no {name}: another config or "
-                "another jaxnav version)"
-            )
-        if a.shape != leaf.shape:
-            raise RunError(f"checkpoint {path} does not match the run's config ({name})")
-        leaves.append(np.asarray(a, leaf.dtype))
-    ts = jax.tree.unflatten(jax.tree.structure(template), leaves)
-    host = {k[5:]: v for k, v in arrays.items() if k.startswith("host.")}
-    return ts, host
-
-
-def params_arrays(cfg: Config, params) -> dict[str, np.ndarray]:
-    """``params.npz`` entries: every array of every run, by strategy, seed and layer."""
-    arrays = {}
-    flat, _ = jax.tree_util.tree_flatten_with_path(params)
-    for r, (strategy, seed) in enumerate(cfg.run_labels()):
-        for p, leaf in flat:
-            name = "/".join(str(getattr(k, "key", k)) for k in p)
-            arrays[rundir.params_key(strategy, seed, name)] = np.asarray(leaf[r])
-    return arrays
-
-
 # ----------------------------------------------------------------------------
 # The run
 # ----------------------------------------------------------------------------
@@ -145,9 +64,13 @@ def params_arrays(cfg: Config, params) -> dict[str, np.ndarray]:
 class Run:
     """Host loop around the compiled chunk: progress, metrics, checkpoints."""
 
-    def __init__(self, cfg: Config, out: Path | None, quiet: bool = False):
-        """``out`` None: a run that only computes (tests, benchmarks), no files."""
+    def __init__(
+        self, cfg: Config, out: Path | None, quiet: bool = False, keep_checkpoints: bool = False
+    ):
+        """``out`` None: a run that only computes (tests, benchmarks), no files.
+        ``keep_checkpoints``: a finished run keeps its checkpoints (they go otherwise)."""
         self.cfg, self.out, self.quiet = cfg, out, quiet
+        self.keep_checkpoints = keep_checkpoints
         if cfg.run.tensorboard:
             tblog.check_available()
         self.trainer = make_trainer(cfg)
@@ -307,6 +230,11 @@ class Run:
         rows = self.shard.get(self.rows_at(ts, slots)) if checkpoint else None
         if not is_writer():
             return
+        with startup.no_interrupt():  # Ctrl-C: after the checkpoint, never between
+            self._write(metric_rows, explore_rows, slots, rows, state, checkpoint)
+
+    def _write(self, metric_rows, explore_rows, slots, rows, state, checkpoint: bool) -> None:
+        """:meth:`save`'s writes, on the host copies it gathered."""
         logs = (self.metrics, self.explore)
         before = [log.size() for log in logs]
         try:
@@ -473,9 +401,13 @@ class Run:
         params = self.shard.get(ts.params)  # every process: collective across hosts
         if is_writer():
             params = params_arrays(self.cfg, params)
-            rundir.atomic_write_npz(self.out / rundir.PARAMS, params)
             text = json.dumps(summary, indent=2) + "\n"
-            rundir.atomic_write_text(self.out / rundir.SUMMARY, text)
+            with startup.no_interrupt():  # Ctrl-C: a finished run, or one to resume
+                rundir.atomic_write_npz(self.out / rundir.PARAMS, params)
+                rundir.atomic_write_text(self.out / rundir.SUMMARY, text)
+                if not self.keep_checkpoints:  # only after both: until then, resume needs them
+                    rundir.remove_checkpoints(self.out)
+                _interrupt.update(finished=True)  # before the block ends: a Ctrl-C acts then
         if len(self.diverged) == self.cfg.n_runs:
             raise RunError("training diverged: every run (summary.json lists them; lower dqn.lr)")
         return summary
@@ -515,29 +447,94 @@ def _writer_lock(out: Path):
     return rundir.Lock(out) if is_writer() else contextlib.nullcontext()
 
 
+# What a Ctrl-C left of the run this process trains: its directory, whether the
+# command made it, and how far it got; interrupted_text says it in words.
+_interrupt: dict[str, Any] = {}
+
+
+def interrupted_text() -> str:
+    """The line ``jaxnav.train`` ends with on Ctrl-C: what it left and how to go on."""
+    out, left = _interrupt.get("out"), _interrupt.get("left")
+    if out is None:
+        return "interrupted"
+    if _interrupt.get("finished"):
+        return (
+            f"interrupted after training finished: the results are in {out} "
+            f"({startup.invocation('plots')} {out} draws its figures)"
+        )
+    if left == "removed":
+        return f"interrupted before the first checkpoint; {out} was removed"
+    if left == "emptied":
+        return f"interrupted before the first checkpoint; {out} was left empty"
+    resume = startup.invocation("train")
+    return f"interrupted; the run can be resumed with {resume} --resume {out}"
+
+
+@contextlib.contextmanager
+def _tidy_on_interrupt(out: Path, made: bool | None):
+    """On Ctrl-C within the block: a run without a checkpoint has nothing worth
+    resuming, so what this command wrote goes (``made``: the whole directory, which it
+    created; False: its contents, the directory was there before; None, a resume:
+    nothing). Otherwise only this process's half-written temporary files go."""
+    _interrupt.clear()
+    _interrupt.update(out=out)
+
+    def tidy() -> None:
+        if not is_writer() or not out.is_dir():
+            return
+        resumable = (out / rundir.CHECKPOINT).is_file() or (out / rundir.PARAMS).is_file()
+        if resumable or made is None:
+            rundir.remove_stale_temps(out, pid=os.getpid())
+        elif made:
+            shutil.rmtree(out, ignore_errors=True)
+            _interrupt.update(left="removed")
+        else:
+            rundir.empty(out)
+            _interrupt.update(left="emptied")
+
+    with startup.on_interrupt(tidy):
+        yield
+
+
 def train_new(
-    cfg: Config, out: Path, quiet: bool = False, overwrite: bool = False
+    cfg: Config,
+    out: Path,
+    quiet: bool = False,
+    overwrite: bool = False,
+    keep_checkpoints: bool = False,
 ) -> dict[str, Any]:
     """Start a new run in ``out`` (absent or empty; with ``overwrite``, an existing run
     directory is emptied first, under its lock) and train it to the end."""
-    run = Run(cfg, out, quiet)  # builds the env first: a bad maze leaves no directory
+    # builds the env first: a bad maze leaves no directory
+    run = Run(cfg, out, quiet, keep_checkpoints)
     replace = overwrite and (out / rundir.CONFIG).is_file()
-    if is_writer() and not replace:
-        rundir.create(out)
-    with _writer_lock(out):
-        if is_writer():
-            if replace:
-                rundir.clear(out)
-            rundir.atomic_write_text(out / rundir.CONFIG, dump_config(cfg))
-        return run.finish(run.train(run.fresh_state()))
+    with _tidy_on_interrupt(out, made=not out.exists()):
+        with startup.no_interrupt():
+            if is_writer() and not replace:
+                rundir.create(out)
+        with _writer_lock(out):
+            if is_writer():
+                with startup.no_interrupt():
+                    if replace:
+                        rundir.clear(out)
+                    rundir.atomic_write_text(out / rundir.CONFIG, dump_config(cfg))
+            return run.finish(run.train(run.fresh_state()))
 
 
-def resume(out: Path, quiet: bool = False) -> dict[str, Any]:
-    """Continue a run from its last checkpoint (or from the start if it has none)."""
+def resume(out: Path, quiet: bool = False, keep_checkpoints: bool = False) -> dict[str, Any]:
+    """Continue a run from its last checkpoint (or from the start if it has none). A
+    finished run whose checkpoints are gone has nothing left to train: its summary."""
     out = rundir.existing(out)
     cfg = load_config(str(out / rundir.CONFIG))
-    run = Run(cfg, out, quiet)
-    with _writer_lock(out):
+    if rundir.finished(out):
+        with _writer_lock(out):
+            if is_writer():
+                rundir.remove_stale_temps(out)
+                rundir.remove_checkpoints(out)  # left by a finish that was killed
+            # as a resume with nothing left to train reports it: no start-up this time
+            return {**rundir.read_summary(out), "startup_s": None, "compile_s": None}
+    run = Run(cfg, out, quiet, keep_checkpoints)
+    with _tidy_on_interrupt(out, made=None), _writer_lock(out):
         if is_writer():
             rundir.remove_stale_temps(out)
             run.checkpoint.parent.mkdir(exist_ok=True)  # killed before create() finished

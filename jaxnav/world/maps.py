@@ -55,7 +55,17 @@ import jax.numpy as jnp
 import numpy as np
 from flax import struct
 
+from jaxnav.core.config import shipped_path
 from jaxnav.core.errors import MazeError
+from jaxnav.world.polygons import (
+    centroid,
+    clearance,
+    points_in_polygon,
+    polygon_segments,
+    segments_intersect,
+    self_intersecting,
+    signed_area,
+)
 
 # Geometry constants shared with the environment (robot and goal sampler).
 ROBOT_RADIUS = 0.13  # m, ROBOTIS collision threshold
@@ -147,105 +157,6 @@ class Maze:
 
 
 # ----------------------------------------------------------------------------
-# Geometry helpers (NumPy, host side)
-# ----------------------------------------------------------------------------
-
-
-def _polygon_segments(poly: np.ndarray) -> np.ndarray:
-    """Closed polygon vertices (N, 2), without the repeated last point -> (N, 4)."""
-    return np.concatenate([poly, np.roll(poly, -1, axis=0)], axis=1)
-
-
-def _signed_area(poly: np.ndarray) -> float:
-    x, y = poly[:, 0], poly[:, 1]
-    return 0.5 * float(np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y))
-
-
-def _centroid(poly: np.ndarray) -> np.ndarray:
-    x, y = poly[:, 0], poly[:, 1]
-    cross = x * np.roll(y, -1) - np.roll(x, -1) * y
-    a = 0.5 * cross.sum()
-    cx = ((x + np.roll(x, -1)) * cross).sum() / (6 * a)
-    cy = ((y + np.roll(y, -1)) * cross).sum() / (6 * a)
-    return np.array([cx, cy])
-
-
-def _segments_intersect(p1, p2, q1, q2, eps: float = 1e-12) -> bool:
-    """Closed segments p1p2 and q1q2 share a point."""
-
-    def orient(a, b, c):
-        v = (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
-        return 0 if abs(v) < eps else (1 if v > 0 else -1)
-
-    def on_seg(a, b, c):
-        return (
-            min(a[0], b[0]) - eps <= c[0] <= max(a[0], b[0]) + eps
-            and min(a[1], b[1]) - eps <= c[1] <= max(a[1], b[1]) + eps
-        )
-
-    o1, o2 = orient(p1, p2, q1), orient(p1, p2, q2)
-    o3, o4 = orient(q1, q2, p1), orient(q1, q2, p2)
-    if o1 != o2 and o3 != o4:
-        return True
-    return (
-        (o1 == 0 and on_seg(p1, p2, q1))
-        or (o2 == 0 and on_seg(p1, p2, q2))
-        or (o3 == 0 and on_seg(q1, q2, p1))
-        or (o4 == 0 and on_seg(q1, q2, p2))
-    )
-
-
-def _self_intersecting(poly: np.ndarray) -> bool:
-    n = len(poly)
-    for i in range(n):
-        a1, a2 = poly[i], poly[(i + 1) % n]
-        for j in range(i + 1, n):
-            if j == i or (j + 1) % n == i or (i + 1) % n == j:
-                continue  # adjacent edges share a vertex
-            if _segments_intersect(a1, a2, poly[j], poly[(j + 1) % n]):
-                return True
-    return False
-
-
-def point_segment_distance(p: np.ndarray, seg: np.ndarray) -> np.ndarray:
-    """Distances from points p (N, 2) to segments seg (S, 4) -> (N, S)."""
-    p = np.asarray(p, np.float64)[:, None, :]
-    a = seg[None, :, :2].astype(np.float64)
-    b = seg[None, :, 2:].astype(np.float64)
-    ab = b - a
-    denom = np.maximum((ab**2).sum(-1), 1e-18)
-    t = np.clip(((p - a) * ab).sum(-1) / denom, 0.0, 1.0)
-    closest = a + t[..., None] * ab
-    return np.linalg.norm(p - closest, axis=-1)
-
-
-def points_in_polygon(p: np.ndarray, poly: np.ndarray) -> np.ndarray:
-    """Even-odd rule: which of the points p (N, 2) lie inside polygon (M, 2)."""
-    x, y = p[:, 0:1], p[:, 1:2]
-    x1, y1 = poly[None, :, 0], poly[None, :, 1]
-    x2, y2 = np.roll(poly[:, 0], -1)[None], np.roll(poly[:, 1], -1)[None]
-    crosses = (y1 > y) != (y2 > y)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        xint = x1 + (y - y1) * (x2 - x1) / (y2 - y1)
-    return (crosses & (x < xint)).sum(axis=1) % 2 == 1
-
-
-def clearance(
-    points: np.ndarray,
-    segments: np.ndarray,
-    circles: np.ndarray,
-) -> np.ndarray:
-    """Distance from each point (N, 2) to the nearest wall or obstacle surface."""
-    d = np.full(len(points), np.inf)
-    if len(segments):
-        d = np.minimum(d, point_segment_distance(points, segments).min(axis=1))
-    if len(circles):
-        dc = np.linalg.norm(points[:, None, :] - circles[None, :, :2], axis=-1)
-        d = np.minimum(d, (dc - circles[None, :, 2]).min(axis=1))
-    return d
-
-
-# ----------------------------------------------------------------------------
 # Construction
 # ----------------------------------------------------------------------------
 
@@ -299,15 +210,16 @@ def _builtin(name: str):
     raise KeyError(name)
 
 
-BUILTIN_MAZES = (
-    "square2",
-    "square4",
-    "square8",
-    "triangle",
-    "pentagon",
-    "square4_obstacles",
-    "pentagon_obstacles",
-)
+# The built-in mazes, each with what ``jaxnav list`` says of it.
+BUILTIN_MAZES = {
+    "square2": "square room of half square4's side (1.85 m free)",
+    "square4": "TurtleBot3 stage 1: square room, 3.7 m x 3.7 m free (the paper's training maze)",
+    "square8": "square room of twice square4's side (7.4 m free)",
+    "triangle": "equilateral triangle of square4's area",
+    "pentagon": "regular pentagon of square4's area",
+    "square4_obstacles": "TurtleBot3 stage 2: square4, four cylinders (r 0.15 m) at (+-0.6, +-0.6)",
+    "pentagon_obstacles": "pentagon with five cylinders (r 0.15 m) 0.85 m from the centre",
+}
 
 
 def _goal_grid(
@@ -367,7 +279,7 @@ def _build(
     start: np.ndarray,
     where: str,
 ) -> Maze:
-    segs = [_polygon_segments(outline)] + [_polygon_segments(p) for p in polygons]
+    segs = [polygon_segments(outline)] + [polygon_segments(p) for p in polygons]
     segments = np.concatenate(segs, axis=0)
     goals = _goal_grid(outline, segments, circles, polygons, start)
     if len(goals) < MIN_GOAL_POINTS:
@@ -423,9 +335,9 @@ def _closed_polygon(value, what: str, where: str) -> np.ndarray:
     poly = pts[:-1]
     if np.any(np.linalg.norm(np.diff(np.vstack([poly, poly[:1]]), axis=0), axis=1) < 1e-9):
         raise MazeError(f"{where}: {what} has a repeated vertex")
-    if abs(_signed_area(poly)) < 1e-9:
+    if abs(signed_area(poly)) < 1e-9:
         raise MazeError(f"{where}: {what} encloses no area")
-    if _self_intersecting(poly):
+    if self_intersecting(poly):
         raise MazeError(f"{where}: {what} is self-intersecting")
     return poly
 
@@ -437,9 +349,7 @@ def load_maze_file(path: str) -> Maze:
     outline = _closed_polygon(doc["outline"], "outline", where)
     circles, polygons = _obstacles(doc.get("obstacles") or [], outline, where)
     circles_arr = np.asarray(circles).reshape(-1, 3)
-    segments = np.concatenate(
-        [_polygon_segments(outline)] + [_polygon_segments(p) for p in polygons]
-    )
+    segments = np.concatenate([polygon_segments(outline)] + [polygon_segments(p) for p in polygons])
     start = _start_pose(doc, outline, polygons, segments, circles_arr, where)
     return _build(outline, circles_arr, polygons, start, where)
 
@@ -499,16 +409,16 @@ def _obstacles(obstacles, outline: np.ndarray, where: str):
                 raise MazeError(f"{where}: {what} circle must be [x, y, r] with r > 0")
             if (
                 not points_in_polygon(c[None, :2], outline)[0]
-                or clearance(c[None, :2], _polygon_segments(outline), np.zeros((0, 3)))[0] < c[2]
+                or clearance(c[None, :2], polygon_segments(outline), np.zeros((0, 3)))[0] < c[2]
             ):
                 raise MazeError(f"{where}: {what} is not inside the outline")
             circles.append(c)
         else:
             poly = _closed_polygon(val, what, where)
             if not points_in_polygon(poly, outline).all() or any(
-                _segments_intersect(a[:2], a[2:], b[:2], b[2:])
-                for a in _polygon_segments(poly)
-                for b in _polygon_segments(outline)
+                segments_intersect(a[:2], a[2:], b[:2], b[2:])
+                for a in polygon_segments(poly)
+                for b in polygon_segments(outline)
             ):
                 raise MazeError(f"{where}: {what} is not inside the outline")
             polygons.append(poly)
@@ -526,7 +436,7 @@ def _start_pose(doc, outline, polygons, segments, circles, where: str) -> np.nda
         if start.shape != (3,) or not np.isfinite(start).all():
             raise MazeError(f"{where}: start must be [x, y, yaw]")
     else:
-        c = _centroid(outline)
+        c = centroid(outline)
         start = np.array([c[0], c[1], 0.0])
     inside = points_in_polygon(start[None, :2], outline)[0] and not any(
         points_in_polygon(start[None, :2], p)[0] for p in polygons
@@ -547,7 +457,7 @@ def make_maze(name_or_path: str) -> Maze:
         outline, circles, polys, start = _builtin(name_or_path)
         return _build(outline, circles, polys, start, f"maze {name_or_path}")
     if os.path.splitext(name_or_path)[1] in (".yaml", ".yml") or os.path.exists(name_or_path):
-        return load_maze_file(name_or_path)
+        return load_maze_file(shipped_path(name_or_path))
     raise MazeError(
         f"unknown maze '{name_or_path}' (built-in: {', '.join(BUILTIN_MAZES)}; "
         "or a path to a .yaml maze file)"

@@ -1,0 +1,57 @@
+"""``jaxnav COMMAND [ARGS ...]``: every command under one name.
+
+``jaxnav train CONFIG`` is ``python -m jaxnav.train CONFIG``, and so on for each
+command below; ``jaxnav --help`` lists them, ``jaxnav COMMAND --help`` shows one.
+"""
+
+from __future__ import annotations
+
+import importlib
+import sys
+from collections.abc import Sequence
+
+# command -> (what it does in one line, whether it runs JAX)
+COMMANDS: dict[str, tuple[str, bool]] = {
+    "train": ("train every seed and strategy of a config in one compiled program", True),
+    "evaluate": ("test a finished run's policies on the test mazes (greedy and exploring)", True),
+    "plots": ("draw a run's figures from its files", False),
+    "render": ("draw a maze with the robot, a goal and its LiDAR beams", True),
+    "export": ("write one trained policy to a portable NumPy file for a robot", True),
+    "reproduce": ("the paper's two experiments end to end, and report.md", True),
+    "ablation": ("both experiments under each ROBOTIS-faithful switch", True),
+    "study": ("a config's sweep trained, tested and written up with computed verdicts", True),
+    "sim2sim": ("a run's policies driving a TurtleBot3 burger in MuJoCo physics", True),
+    "list": ("the built-in mazes, the shipped configs and every setting", False),
+}
+
+
+def usage() -> str:
+    width = max(map(len, COMMANDS))
+    lines = [
+        "usage: jaxnav COMMAND [ARGS ...]   (jaxnav COMMAND --help for one command)",
+        "",
+        "commands:",
+    ]
+    lines += [f"  {name:<{width}}  {what}" for name, (what, _) in COMMANDS.items()]
+    return "\n".join(lines)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    args = list(sys.argv[1:] if argv is None else argv)
+    if not args or args[0] in ("-h", "--help", "help"):
+        print(usage())
+        return 0
+    name, rest = args[0], args[1:]
+    if name not in COMMANDS:
+        print(f"jaxnav: error: unknown command {name!r}\n\n{usage()}", file=sys.stderr)
+        return 2
+    from jaxnav.core.startup import before_jax, catch_interrupts_in_command
+
+    catch_interrupts_in_command()  # first thing: Ctrl-C ends any command cleanly
+    if COMMANDS[name][1]:  # before JAX starts: one CPU device per core, compile cache
+        before_jax()
+    return importlib.import_module(f"jaxnav.{name}").main(rest)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,114 @@
+"""A training run's checkpoint: the trainer's state as named arrays, and back.
+
+The replay buffer's per-slot arrays are stored incrementally (row segments, below);
+the rest of the state, in ``checkpoints/last.npz``, says how many segments it covers.
+:mod:`jaxnav.run.training` writes and reads them through these functions.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import jax
+import numpy as np
+
+from jaxnav.core import rundir
+from jaxnav.core.config import Config
+from jaxnav.core.errors import RunError
+from jaxnav.dqn import TrainState
+
+# The replay buffer's per-slot arrays. A checkpoint stores them incrementally: each
+# chunk's checkpoint writes the slots written in that chunk to a segment file of its
+# own (ROW_SEGMENT), and checkpoints/last.npz, the rest of the state, says how many
+# segments it covers; restoring applies them in order. So a checkpoint costs what its
+# chunk added, not the whole buffer, which grows to 28 MB per run in a paper run.
+_BUFFER_ROWS = ("obs", "action", "reward", "terminated", "truncated", "final_index")
+ROW_SEGMENT = "checkpoints/rows-{:05d}.npz"
+
+
+# ----------------------------------------------------------------------------
+# Pytrees <-> named arrays
+# ----------------------------------------------------------------------------
+
+
+def _leaf_names(tree) -> list[str]:
+    paths, _ = jax.tree_util.tree_flatten_with_path(tree)
+    return [jax.tree_util.keystr(p) for p, _ in paths]
+
+
+def _is_buffer_rows(name: str) -> bool:
+    return any(name == f".buffer.{r}" for r in _BUFFER_ROWS)
+
+
+def without_rows(ts: TrainState) -> TrainState:
+    """The training state without the replay buffer's per-slot arrays."""
+    return ts.replace(buffer=ts.buffer.replace(**{r: None for r in _BUFFER_ROWS}))
+
+
+def rows_at(ts: TrainState, slots: jax.Array) -> dict[str, jax.Array]:
+    """The replay buffer's per-slot arrays at ``slots`` (i32[n]) of every run."""
+    return {r: getattr(ts.buffer, r)[:, slots] for r in _BUFFER_ROWS}
+
+
+def chunk_slots(step_before: np.ndarray, step_after: np.ndarray, capacity: int) -> np.ndarray:
+    """The buffer slots a chunk wrote (i32[n]): runs that step, step together, each
+    adding slot ``step % capacity`` per step, so they are those of the steps from the
+    most advanced run's step before the chunk to its step after (the last
+    ``capacity`` of them)."""
+    first, last = int(step_before.max()), int(step_after.max())
+    steps = np.arange(max(first, last - capacity), last)
+    return (steps % capacity).astype(np.int32)
+
+
+def checkpoint_arrays(state: TrainState, host: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """Host copies of the training state without its per-slot replay arrays
+    (:func:`without_rows`), and the host loop's own counters."""
+    arrays = {
+        "state" + n: np.asarray(a) for n, a in zip(_leaf_names(state), jax.tree.leaves(state))
+    }
+    arrays.update({"host." + k: v for k, v in host.items()})
+    return arrays
+
+
+def state_from_checkpoint(
+    arrays: dict[str, np.ndarray],
+    segments: list[dict[str, np.ndarray]],
+    template: TrainState,
+    path: Path,
+) -> tuple[TrainState, dict[str, np.ndarray]]:
+    """Inverse of :func:`checkpoint_arrays` and the row segments (each ``slots`` and
+    one array per per-slot field), against a template of the right shapes."""
+    leaves = []
+    for name, leaf in zip(_leaf_names(template), jax.tree.leaves(template)):
+        if _is_buffer_rows(name):
+            a = np.zeros(leaf.shape, leaf.dtype)
+            for seg in segments:
+                rows = seg.get("rows" + name)
+                if rows is None or rows.shape[0] != a.shape[0] or seg["slots"].max() >= a.shape[1]:
+                    raise RunError(f"checkpoint {path} does not match the run's config ({name})")
+                a[:, seg["slots"]] = rows
+            leaves.append(a)
+            continue
+        a = arrays.get("state" + name)
+        if a is None:
+            raise RunError(
+                f"checkpoint {path} does not match this run (no {name}: another config or "
+                "another jaxnav version)"
+            )
+        if a.shape != leaf.shape:
+            raise RunError(f"checkpoint {path} does not match the run's config ({name})")
+        leaves.append(np.asarray(a, leaf.dtype))
+    ts = jax.tree.unflatten(jax.tree.structure(template), leaves)
+    host = {k[5:]: v for k, v in arrays.items() if k.startswith("host.")}
+    return ts, host
+
+
+def params_arrays(cfg: Config, params) -> dict[str, np.ndarray]:
+    """``params.npz`` entries: every array of every run, by strategy, seed and layer."""
+    arrays = {}
+    flat, _ = jax.tree_util.tree_flatten_with_path(params)
+    for r, (strategy, seed) in enumerate(cfg.run_labels()):
+        for p, leaf in flat:
+            name = "/".join(str(getattr(k, "key", k)) for k in p)
+            arrays[rundir.params_key(strategy, seed, name)] = np.asarray(leaf[r])
+    return arrays

@@ -1,0 +1,110 @@
+"""The ``jaxnav`` console command, ``jaxnav list`` and the shipped configs."""
+
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from jaxnav.__main__ import COMMANDS
+from jaxnav.__main__ import main as jaxnav_main
+from jaxnav.core.config import FIELD_TYPES, SETTINGS, SWEEPABLE, builtin_configs, load_config
+from jaxnav.list import catalog, settings_markdown
+from jaxnav.world.maps import BUILTIN_MAZES, make_maze
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def test_the_top_level_holds_env_dqn_and_the_commands_only():
+    """Every other top-level module is a command, and ``jaxnav`` lists each one."""
+    modules = {p.stem for p in (ROOT / "jaxnav").glob("*.py")}
+    assert modules - {"__init__", "__main__", "env", "dqn"} == set(COMMANDS)
+
+
+def test_help_lists_every_command_with_one_line(capsys):
+    assert jaxnav_main(["--help"]) == 0
+    out = capsys.readouterr().out
+    for name, (what, _) in COMMANDS.items():
+        assert f"  {name}" in out and what in out
+
+
+def test_unknown_command_is_one_line_and_exit_2(capsys):
+    assert jaxnav_main(["trian"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("jaxnav: error: unknown command 'trian'")
+
+
+def test_list_shows_mazes_configs_and_every_setting_with_its_sweep_mark():
+    text = catalog()
+    for name, what in BUILTIN_MAZES.items():
+        assert f"  {name}" in text and what in text
+    configs = builtin_configs()
+    assert {"smoke", "paper_no_obstacles", "paper_obstacles"} <= set(configs)
+    for name in configs:
+        assert f"  {name}  " in text
+    settings = text.split("settings (")[1].splitlines()[1:-1]
+    rows = {ln[4:].split()[0]: ln for ln in settings}
+    for key in FIELD_TYPES:
+        assert key in rows, key
+        assert rows[key].startswith("  *") == (key in SWEEPABLE), key
+
+
+def test_builtin_config_names_and_configs_paths_work_from_any_folder(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    by_name = load_config("smoke")
+    assert by_name == load_config("configs/smoke.yaml") == load_config("smoke.yaml")
+    assert by_name.seeds == 2 and by_name.episodes == 40
+    shipped = make_maze(str(ROOT / "configs" / "mazes" / "corridor.yaml"))
+    maze = make_maze("configs/mazes/corridor.yaml")
+    assert (maze.segments == shipped.segments).all() and (maze.start == shipped.start).all()
+
+
+@pytest.mark.slow
+def test_a_wheel_runs_the_quick_start_from_an_empty_folder(tmp_path):
+    """Built from the repository and installed elsewhere, the package finds its configs."""
+    wheels, site, empty = tmp_path / "wheels", tmp_path / "site", tmp_path / "empty"
+    empty.mkdir()
+    # A copy of the sources: building in the checkout would leave build/ there, whose
+    # stale modules a later wheel could pick up.
+    src = tmp_path / "src"
+    skip = (".venv*", ".git", "build", "runs", "*.egg-info", "__pycache__", ".*cache", ".hyp*")
+    shutil.copytree(ROOT, src, symlinks=True, ignore=shutil.ignore_patterns(*skip))
+    pip = [sys.executable, "-m", "pip", "--disable-pip-version-check", "-q"]
+    subprocess.run([*pip, "wheel", "--no-deps", "-w", wheels, src], check=True, timeout=300)
+    (wheel,) = wheels.glob("jaxnav-*.whl")
+    subprocess.run([*pip, "install", "--no-deps", "--target", site, wheel], check=True)
+    assert (site / "jaxnav" / "configs" / "smoke.yaml").is_file()
+    env = {**os.environ, "PYTHONPATH": str(site)}
+    for config in ("smoke", "configs/smoke.yaml"):
+        out = empty / config.replace("/", "_")
+        run = subprocess.run(
+            [
+                sys.executable,
+                "-m",
+                "jaxnav",
+                "train",
+                config,
+                "seeds=1",
+                "episodes=2",
+                "env.max_steps=20",
+                "dqn.batch_size=16",
+                "--out",
+                out,
+            ],
+            cwd=empty,
+            env=env,
+            capture_output=True,
+            text=True,
+            timeout=300,
+        )
+        assert run.returncode == 0, run.stderr
+        assert (out / "metrics.csv").is_file()
+
+
+def test_the_settings_page_is_generated_from_the_declarations():
+    page = (ROOT / "docs" / "settings.md").read_text()
+    assert page == settings_markdown(), "regenerate: jaxnav list --markdown > docs/settings.md"
+    for key, s in SETTINGS.items():
+        assert f"| `{key}` |" in page and s.help in page
