@@ -15,11 +15,38 @@ if __name__ == "__main__":  # before JAX starts: one CPU device per core, compil
     before_jax()
 
 import sys
+from collections.abc import Sequence
+from pathlib import Path
 
-from jaxnav.core import cli
+from jaxnav.core import cli, rundir
+from jaxnav.core.rundir import CsvLog
 from jaxnav.experiments.evaluation import evaluate_to_dir
 from jaxnav.experiments.robustness import PERTURBATIONS, robustness_to_dir
-from jaxnav.report.tables import setting_text
+from jaxnav.report.results import ordered_unique
+from jaxnav.report.tables import outcome_text, setting_text
+
+
+def check_outputs(out: Path, names: Sequence[str], overwrite: bool) -> None:
+    """Refuse, before the test starts, an output folder that cannot be written or files
+    in it that would be replaced without ``--overwrite``. The folder may exist already
+    (it holds the run's other results)."""
+    if out.is_dir():
+        for name in names:
+            cli.check_output(out / name, overwrite)
+    else:  # absent (then its parent must exist) or not a folder (refused)
+        cli.check_output(out, overwrite, is_dir=True)
+
+
+def print_summary(rows: list[dict[str, str]]) -> None:
+    """Per test mode, train's table of the test episodes: all of each seed's, all mazes."""
+    for mode in ordered_unique(r["mode"] for r in rows):
+        mine = [r for r in rows if r["mode"] == mode]
+        mazes = ordered_unique(r["maze"] for r in mine)
+        print(
+            f"{mode} test on {', '.join(mazes)}, every test episode of each seed, "
+            "mean over seeds [95% CI]:"
+        )
+        print(outcome_text(mine))
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -44,6 +71,7 @@ def main(argv: list[str] | None = None) -> int:
         help="consecutive test episodes per seed (default run.test_episodes)",
     )
     p.add_argument("--out", metavar="DIR", help="output directory (default RUN_DIR/eval)")
+    cli.add_overwrite(p, "a result file in --out")
     sweep = "; ".join(
         f"{k} ({setting_text(v)})" if v else f"{k} (as trained)" for k, v in PERTURBATIONS.items()
     )
@@ -58,13 +86,19 @@ def main(argv: list[str] | None = None) -> int:
     args = p.parse_args(argv)
 
     def work() -> None:
+        run_dir = rundir.existing(args.run_dir, finished=True)
+        out = Path(args.out) if args.out else run_dir / "eval"
         if args.robustness:
-            out = robustness_to_dir(args.run_dir, args.mazes, args.episodes, args.out)
             written = ("robustness.csv", "robustness.md", "robustness.png")
+            check_outputs(out, written, args.overwrite)
+            out = robustness_to_dir(run_dir, args.mazes, args.episodes, out)
         else:
-            out = evaluate_to_dir(args.run_dir, args.mazes, args.episodes, args.out)
             written = ("results.csv", "tables.md", "trajectories.npz")
+            check_outputs(out, written, args.overwrite)
+            out = evaluate_to_dir(run_dir, args.mazes, args.episodes, out)
         print(f"wrote {out / written[0]}, {out / written[1]} and {out / written[2]}")
+        if not args.robustness:
+            print_summary(CsvLog(out / written[0], ()).read())
 
     return cli.run(p.prog, work)
 

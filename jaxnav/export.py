@@ -1,16 +1,79 @@
-"""``python -m jaxnav.export``: one trained policy to a portable file.
+"""``python -m jaxnav.export RUN_DIR [--strategy ebe] [--seed K] [--out policy.npz]``
 
-The work is :mod:`jaxnav.robot.export`; ``--help`` lists the options.
+One trained policy of a run to a portable file (:mod:`jaxnav.robot.export` builds
+and writes it), or ``--info POLICY``: an exported policy's metadata.
 """
 
-import sys
+from __future__ import annotations
 
 if __name__ == "__main__":  # first thing: Ctrl-C ends the command cleanly
     from jaxnav.core.startup import catch_interrupts_in_command
 
     catch_interrupts_in_command()
 
-from jaxnav.robot.export import main  # noqa: E402
+import json
+import sys
+from pathlib import Path
+
+from jaxnav.core import cli, rundir
+from jaxnav.core.config import load_config
+from jaxnav.robot.deploy import Policy
+from jaxnav.robot.export import export_policy, save_policy
+
+
+def default_out(run_dir: Path, strategy: str, seed: int | None) -> Path:
+    """``policy-<arm>-seed<k>.npz`` in the working directory (``k``: the run's first seed
+    by default)."""
+    if seed is None:
+        seed = load_config(str(run_dir / rundir.CONFIG)).seed
+    arm = strategy.replace(" ", "-").replace("=", "")
+    return Path(f"policy-{arm}-seed{seed}.npz")
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = cli.Parser(
+        prog="python -m jaxnav.export",
+        description="Write one trained policy of a run to a portable .npz for a real robot, "
+        "or (--info) print an exported policy's metadata.",
+    )
+    p.add_argument("run_dir", metavar="RUN_DIR", nargs="?", help="a finished training run")
+    p.add_argument(
+        "--strategy",
+        default="ebe",
+        help="ebe (default), epsilon_greedy or boltzmann; in a swept run, the arm as params.npz "
+        "names it ('ebe ebe_temperature=0.1')",
+    )
+    p.add_argument("--seed", type=int, default=None, help="which seed (default: the run's first)")
+    p.add_argument(
+        "--out", default=None, help="output file (default policy-<strategy>-seed<k>.npz)"
+    )
+    cli.add_overwrite(p, "the output file")
+    p.add_argument("--info", metavar="POLICY", help="print the metadata of a policy file")
+    args = p.parse_args(argv)
+    if (args.run_dir is None) == (args.info is None):
+        p.error("give RUN_DIR to export a policy, or --info POLICY to show one")
+
+    def work() -> None:
+        if args.info:
+            for k, v in Policy.load(args.info).meta.items():
+                if k not in ("config", "observation", "format", "version"):
+                    print(f"{k}: {v}")
+            return
+        run_dir = rundir.existing(args.run_dir, finished=True)
+        out = Path(args.out) if args.out else default_out(run_dir, args.strategy, args.seed)
+        cli.check_output(out, args.overwrite)
+        arrays = export_policy(run_dir, args.strategy, args.seed)
+        Policy.from_arrays(arrays)  # what the robot will load must load
+        meta = json.loads(str(arrays["meta"]))
+        save_policy(arrays, out)
+        features = ", obstacle features" if meta["obstacle_obs"] else ""
+        print(
+            f"wrote {out} ({meta['strategy']} seed {meta['seed']}, {meta['n_beams']} beams"
+            f"{features}, maze {meta['maze']})"
+        )
+
+    return cli.run(p.prog, work)
+
 
 if __name__ == "__main__":
     sys.exit(main())

@@ -1,4 +1,4 @@
-"""``python -m jaxnav.render MAZE [--out maze.png] [--beams 24] [--seed 0]``
+"""``python -m jaxnav.render MAZE [--out maze.png] [--beams 24] [--seed 0] [--overwrite]``
 
 A picture of a maze (built-in name or YAML file): walls, obstacles, the robot at
 its start pose, a goal drawn by ``reset``, and what its LiDAR beams see (cast by
@@ -14,10 +14,34 @@ if __name__ == "__main__":  # first thing: Ctrl-C ends the command cleanly
 
 import sys
 from collections.abc import Sequence
+from pathlib import Path
 
 from jaxnav.core import cli
 from jaxnav.core.errors import JaxnavError
 from jaxnav.experiments.scene import render_maze
+
+
+def image_formats() -> list[str]:
+    """The file extensions matplotlib writes a figure to by itself (pgf needs LaTeX)."""
+    from matplotlib.backend_bases import FigureCanvasBase
+
+    return sorted(set(FigureCanvasBase.get_supported_filetypes()) - {"pgf"})
+
+
+def check_picture_path(out: str, overwrite: bool) -> Path:
+    """The picture's path, refused in one line before any drawing: a folder, a missing
+    folder, an existing file (without ``--overwrite``), or an extension that names no
+    format matplotlib writes (the extension picks the format; none is added)."""
+    path = cli.check_output(out, overwrite)
+    formats = image_formats()
+    ext = path.suffix[1:].lower()
+    if ext not in formats:
+        what = f"'.{ext}' is not an image format" if ext else "it has no extension"
+        raise JaxnavError(
+            f"cannot write {path}: {what}; the extension picks the format, one of "
+            f"{', '.join('.' + f for f in formats)}"
+        )
+    return path
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -29,7 +53,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument(
         "maze", help="built-in maze name (e.g. square4_obstacles) or a maze .yaml file"
     )
-    parser.add_argument("--out", default="maze.png", help="output PNG (default: maze.png)")
+    parser.add_argument(
+        "--out",
+        default="maze.png",
+        help="output picture, its format from its extension: .png, .svg, .pdf, ... "
+        "(default: maze.png)",
+    )
+    cli.add_overwrite(parser, "the output picture")
     parser.add_argument("--beams", type=int, default=24, help="LiDAR beams to draw (default: 24)")
     parser.add_argument("--seed", type=int, default=0, help="seed of the goal draw (default: 0)")
     args = parser.parse_args(argv)
@@ -37,8 +67,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     def work() -> None:
         if args.beams < 0:
             raise JaxnavError("--beams must be 0 or more")
-        render_maze(args.maze, args.out, args.beams, args.seed)
-        print(f"wrote {args.out}")
+        out = check_picture_path(args.out, args.overwrite)
+        render_maze(args.maze, str(out), args.beams, args.seed)
+        print(f"wrote {out}")
 
     return cli.run(parser.prog, work)
 

@@ -1,16 +1,62 @@
-"""``python -m jaxnav.study``: a config's sweep trained, tested in both modes and written up.
+"""``python -m jaxnav.study CONFIG [key=value ...] --out DIR [--resume] [--doc PATH]``
 
-The work is :mod:`jaxnav.experiments.study`; ``--help`` lists the options.
+A config's sweep trained, tested in both modes and written up in ``DIR/study.md``:
+the work is :func:`jaxnav.experiments.study.study` (its module describes the
+layout); ``--help`` lists the options.
 """
 
-import sys
+from __future__ import annotations
 
 if __name__ == "__main__":  # before JAX starts: one CPU device per core, compile cache
     from jaxnav.core.startup import before_jax
 
     before_jax()
 
-from jaxnav.experiments.study import main  # noqa: E402
+import shlex
+import sys
+from pathlib import Path
+
+from jaxnav.core import cli
+from jaxnav.core.config import load_config, resolve_config_path
+from jaxnav.experiments.study import doc_files, study
+from jaxnav.report import stats
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = cli.Parser(
+        prog="python -m jaxnav.study",
+        description="Train a config's sweep, test every arm in both test modes and write "
+        "DIR/study.md with the sweep's tables, computed answers and figures.",
+    )
+    p.add_argument("items", nargs="+", metavar="CONFIG [key=value ...]")
+    p.add_argument("--out", required=True, metavar="DIR", help="output directory")
+    p.add_argument("--title", help="the study's title (default: the config's name)")
+    p.add_argument("--doc", metavar="PATH", help="also write the study here, figures beside it")
+    cli.add_overwrite(p, "a file --doc writes")
+    p.add_argument("--resume", action="store_true", help="continue the study in --out")
+    p.add_argument("--quiet", action="store_true", help="no progress output")
+    args = p.parse_intermixed_args(argv)
+    command = "python -m jaxnav.study " + shlex.join(argv if argv is not None else sys.argv[1:])
+
+    def work() -> None:
+        items = list(args.items)
+        config_path = None if "=" in items[0] else resolve_config_path(items.pop(0))
+        cfg = load_config(config_path, items)
+        title = args.title or f"Sweep study: {Path(config_path or 'defaults').stem}"
+        doc = Path(args.doc) if args.doc else None
+        for path in doc_files(doc) if doc else []:
+            cli.check_output(path, args.overwrite)
+        path = study(cfg, Path(args.out), title, command.strip(), args.resume, args.quiet, doc)
+        print(f"study: {path}" + (f" (and {doc})" if doc else ""))
+        if not stats.enough_seeds(cfg.seeds):
+            print(
+                f"{cfg.seeds} seeds per arm, fewer than the {stats.MIN_SEEDS} a verdict needs: "
+                f"its verdicts say {stats.TOO_FEW_SEEDS}"
+            )
+
+    again = f"interrupted; continue with --resume --out {args.out}"
+    return cli.run(p.prog, work, interrupted=again)
+
 
 if __name__ == "__main__":
     sys.exit(main())

@@ -22,7 +22,10 @@ from jaxnav.agent.sharding import initialize, is_writer
 from jaxnav.core import cli
 from jaxnav.core.config import load_config, resolve_config_path
 from jaxnav.core.errors import RunError
+from jaxnav.core.rundir import METRICS, CsvLog
 from jaxnav.run.training import interrupted_text, resume, train_new
+
+LAST = 50  # training episodes per seed in the summary (summary.json's last50)
 
 
 def default_out(config_path: str | None) -> Path:
@@ -46,12 +49,10 @@ def print_summary(out: Path, summary: dict[str, Any]) -> None:
             f"{100 * summary['lockstep_useful']:.0f}% of the steps computed in lockstep were "
             "real steps (the rest: finished runs waiting for the others)"
         )
-    for s, v in summary["last50"].items():
-        print(
-            f"  {s:15s} last-50-episode return {v['return_mean']:9.1f} "
-            f"(std over seeds {v['return_std_over_seeds']:.1f}), "
-            f"goals/episode {v['goals_per_episode']:.2f}"
-        )
+    from jaxnav.report.tables import outcome_text  # its statistics only when done
+
+    print(f"last {LAST} training episodes of each seed, mean over seeds [95% CI]:")
+    print(outcome_text(CsvLog(out / METRICS, ()).read(), last=LAST))
     for d in summary.get("diverged", []):
         print(f"  dropped: {d['strategy']} seed {d['seed']} diverged at step {d['step']}")
 

@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from jaxnav import ablation as ablation_command
 from jaxnav.experiments import ablation
 from jaxnav.report import stats
 from jaxnav.report.paper import PAPER_TABLES
@@ -86,7 +87,7 @@ def test_quick_tables_say_so_and_list_only_the_variants_run():
 
 
 def test_unknown_variant_is_one_line(capsys):
-    assert ablation.main(["--variants", "jaxnav,nope", "--out", "/tmp/x"]) == 2
+    assert ablation_command.main(["--variants", "jaxnav,nope", "--out", "/tmp/x"]) == 2
     err = capsys.readouterr().err.strip()
     assert "unknown variant 'nope'" in err and "\n" not in err
 

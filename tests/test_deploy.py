@@ -16,6 +16,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from jaxnav import export as export_command
 from jaxnav.core.config import dump_config, load_config
 from jaxnav.core.rundir import atomic_write_bytes, atomic_write_text, load_params, npz_bytes
 from jaxnav.dqn import QNetwork
@@ -298,7 +299,7 @@ def test_yaw_from_an_odometry_quaternion():
 def test_export_writes_a_file_that_policy_load_reads(runs, tmp_path):
     out = tmp_path / "policy.npz"
     assert (
-        export.main(
+        export_command.main(
             [str(runs["square4_obstacles"]), "--strategy", "ebe", "--seed", "0", "--out", str(out)]
         )
         == 0
@@ -345,11 +346,36 @@ def test_export_with_bad_input_fails_with_exit_2_and_one_line(runs, tmp_path, ca
     if case == "no_params":
         (tmp_path / "config.yaml").write_text((run / "config.yaml").read_text())
     if case != "out_dir":
-        argv += ["--out", str(out)]
-    assert export.main(argv) == 2
+        argv += ["--out", str(out), "--overwrite"]  # the error is the input's, not the file's
+    assert export_command.main(argv) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and err.startswith("jaxnav.export: error: ")
     assert out.read_bytes() == b"old"  # the old file is untouched
+
+
+def test_export_refuses_an_existing_file_before_exporting(runs, tmp_path, capsys, monkeypatch):
+    """An existing --out (or default file) needs --overwrite, checked before any work."""
+
+    def no_export(*a, **k):
+        raise AssertionError("exported before the output was checked")
+
+    run = runs["square4"]
+    out = tmp_path / "policy.npz"
+    out.write_bytes(b"old")
+    with monkeypatch.context() as m:
+        m.setattr(export_command, "export_policy", no_export)
+        assert export_command.main([str(run), "--out", str(out)]) == 2
+        err = capsys.readouterr().err
+        assert err == f"jaxnav.export: error: {out} exists already (--overwrite replaces it)\n"
+        m.chdir(tmp_path)  # the default name, policy-ebe-seed0.npz, in the working directory
+        (tmp_path / "policy-ebe-seed0.npz").write_bytes(b"old")
+        assert export_command.main([str(run)]) == 2
+        assert "policy-ebe-seed0.npz exists already" in capsys.readouterr().err
+        assert export_command.main([str(run), "--out", str(tmp_path)]) == 2
+        assert "is not a file" in capsys.readouterr().err
+    assert out.read_bytes() == b"old"
+    assert export_command.main([str(run), "--out", str(out), "--overwrite"]) == 0
+    assert Policy.load(out).meta["strategy"] == "ebe"
 
 
 def test_command_line_error_is_one_line_without_traceback(tmp_path):
@@ -396,7 +422,7 @@ def test_load_rejects_a_file_that_is_not_a_policy(tmp_path):
 def test_info_prints_the_metadata(runs, tmp_path, capsys):
     out = tmp_path / "p.npz"
     export.save_policy(export.export_policy(runs["square4"]), out)
-    assert export.main(["--info", str(out)]) == 0
+    assert export_command.main(["--info", str(out)]) == 0
     text = capsys.readouterr().out
     assert "n_beams: 24" in text and "strategy: ebe" in text
     assert json.loads(str(np.load(out)["meta"]))["format"] == "jaxnav-policy"

@@ -263,3 +263,79 @@ def test_bad_input_is_one_line_and_exit_2(run, case, message, tmp_path, capsys):
     err = capsys.readouterr().err.strip()
     assert message in err and "\n" not in err and "Traceback" not in err
     assert not (d / "eval").exists()  # nothing half-written
+
+
+def test_outputs_are_checked_before_the_test_starts(run, tmp_path, capsys, monkeypatch):
+    """An existing result file needs --overwrite, a file is no output folder, a missing
+    parent folder is refused: each in one line before anything is tested."""
+    import jaxnav.evaluate as command
+
+    _, src = run
+    tested = []
+
+    def evaluate_to_dir(*a):
+        tested.append(a)
+        Path(a[3]).mkdir(exist_ok=True)
+        (Path(a[3]) / "results.csv").write_text("strategy,seed,mode\n")  # no episodes
+        return Path(a[3])
+
+    monkeypatch.setattr(command, "evaluate_to_dir", evaluate_to_dir)
+    monkeypatch.setattr(command, "robustness_to_dir", lambda *a: tested.append(a) or Path(a[3]))
+    full = tmp_path / "full"
+    full.mkdir()
+    (full / "results.csv").write_text("mine")
+    (full / "robustness.md").write_text("mine")
+    a_file = tmp_path / "file"
+    a_file.write_text("mine")
+    for out, extra, message in (
+        (full, [], f"{full / 'results.csv'} exists already (--overwrite replaces it)"),
+        (full, ["--robustness"], f"{full / 'robustness.md'} exists already"),
+        (a_file, [], f"{a_file} exists and is not a folder"),
+        (tmp_path / "no" / "e", [], f"the folder {tmp_path / 'no'} does not exist"),
+    ):
+        assert main([str(src), "--out", str(out), *extra]) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and message in err, err
+    assert not tested and (full / "results.csv").read_text() == "mine"
+    capsys.readouterr()
+    assert main([str(src), "--out", str(full), "--overwrite"]) == 0
+    assert main([str(src), "--out", str(tmp_path / "new")]) == 0  # a new folder needs nothing
+    assert len(tested) == 2
+
+
+def test_evaluate_ends_with_trains_table_per_test_mode(run, tmp_path, capsys):
+    """Per test mode and strategy: seeds, return, goals, collisions, each a mean over
+    seeds with its interval, in the table train prints (report.tables.outcome_text)."""
+    from jaxnav.report.tables import outcome_text
+
+    cfg, out = run
+    assert main([str(out), "--out", str(tmp_path / "e")]) == 0
+    printed = capsys.readouterr().out
+    rows = _rows(tmp_path / "e" / "results.csv")
+    mazes = ", ".join(cfg.run.test_mazes)
+    tail = printed.split("\n", 1)[1]  # after the "wrote ..." line
+    expected = ""
+    for mode in ("greedy", "exploring"):
+        mine = [r for r in rows if r["mode"] == mode]
+        expected += f"{mode} test on {mazes}, every test episode of each seed, mean over seeds"
+        expected += f" [95% CI]:\n{outcome_text(mine)}\n"
+    assert tail == expected
+    header, ebe, eps = outcome_text([r for r in rows if r["mode"] == "greedy"]).splitlines()
+    assert (
+        header.split()
+        == "strategy seeds return goals per episode share ending in a collision".split()
+    )
+    per_seed = [
+        np.mean(
+            [
+                float(r["return"])
+                for r in rows
+                if (r["mode"], r["strategy"], r["seed"]) == ("greedy", "ebe", str(k))
+            ]
+        )
+        for k in range(cfg.seeds)
+    ]
+    iv = stats.mean_ci(per_seed)
+    assert ebe.split()[:2] == ["ebe", str(cfg.seeds)]
+    assert f"{iv.value:.0f} [{iv.low:.0f}, {iv.high:.0f}]" in ebe
+    assert eps.split()[0] == "epsilon_greedy"

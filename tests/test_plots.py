@@ -15,9 +15,9 @@ from matplotlib.figure import Figure
 from PIL import Image
 
 from jaxnav import plots as plots_command
+from jaxnav import reproduce
 from jaxnav.core import strategies as registry
 from jaxnav.core.sweep import row_arm
-from jaxnav.experiments import reproduce
 from jaxnav.experiments.evaluation import evaluate_to_dir
 from jaxnav.experiments.rollout import run_tests
 from jaxnav.report import plots

@@ -27,6 +27,46 @@ def test_render_writes_a_png(tmp_path, capsys):
     assert "wrote" in capsys.readouterr().out
 
 
+def test_render_writes_the_format_its_extension_names(tmp_path, capsys):
+    out = tmp_path / "maze.SVG"
+    assert main(["square4", "--out", str(out), "--beams", "0"]) == 0
+    assert capsys.readouterr().out == f"wrote {out}\n"
+    assert b"<svg" in out.read_bytes()[:400]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["maze.SVG"]
+
+
+@pytest.mark.parametrize(
+    "name, message",
+    [
+        ("x.txt", "'.txt' is not an image format; the extension picks the format, one of "),
+        ("x", "it has no extension"),
+        ("folder", "exists and is not a file"),
+        ("old.png", "exists already (--overwrite replaces it)"),
+        ("no/x.png", "does not exist"),
+    ],
+)
+def test_render_refuses_a_path_it_cannot_write_in_one_line(tmp_path, capsys, name, message):
+    (tmp_path / "folder").mkdir()
+    (tmp_path / "old.png").write_bytes(b"old")
+    before = sorted(p.name for p in tmp_path.iterdir())
+    assert main(["square4", "--out", str(tmp_path / name)]) == 2
+    captured = capsys.readouterr()
+    assert captured.out == "" and captured.err.count("\n") == 1
+    assert captured.err.startswith("jaxnav.render: error: ") and message in captured.err
+    if name == "x.txt":
+        assert ".png" in captured.err and ".svg" in captured.err and ".pgf" not in captured.err
+    assert sorted(p.name for p in tmp_path.iterdir()) == before  # nothing written
+    assert (tmp_path / "old.png").read_bytes() == b"old"
+
+
+def test_render_replaces_a_picture_with_overwrite(tmp_path, capsys):
+    out = tmp_path / "maze.png"
+    out.write_bytes(b"old")
+    assert main(["square2", "--out", str(out), "--beams", "0", "--overwrite"]) == 0
+    assert out.read_bytes().startswith(PNG_MAGIC)
+    assert capsys.readouterr().out == f"wrote {out}\n"
+
+
 def test_draw_maze_draws_walls_obstacles_robot_goal_and_beams():
     maze = make_maze(str(ROOT / "configs" / "mazes" / "corridor.yaml"))
     ax = Figure().add_subplot()

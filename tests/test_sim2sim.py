@@ -353,7 +353,7 @@ def test_the_reproduction_adds_the_sim_to_sim_gap_of_its_first_seeds(run, tmp_pa
 def test_the_reproduction_says_at_once_when_mujoco_is_missing(monkeypatch, tmp_path, capsys):
     import importlib.util
 
-    from jaxnav.experiments import reproduce
+    from jaxnav import reproduce
 
     real = importlib.util.find_spec
     monkeypatch.setattr(

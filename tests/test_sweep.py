@@ -268,9 +268,10 @@ def test_a_swept_environment_setting_changes_the_reward_of_its_runs():
 
 
 def test_the_study_command_tests_tabulates_and_draws_a_sweep(tmp_path, capsys):
-    from jaxnav.experiments.study import main
+    from jaxnav.study import main
 
     out, doc = tmp_path / "study", tmp_path / "docs" / "temperature.md"
+    doc.parent.mkdir()
     argv = [
         "configs/temperature.yaml",
         *TINY,
@@ -283,7 +284,9 @@ def test_the_study_command_tests_tabulates_and_draws_a_sweep(tmp_path, capsys):
         "--quiet",
     ]
     assert main(argv) == 0
-    assert f"study: {out / 'study.md'}" in capsys.readouterr().out
+    printed = capsys.readouterr().out
+    assert f"study: {out / 'study.md'}" in printed
+    assert "2 seeds per arm, fewer than the 4 a verdict needs" in printed
     results = _rows(out / "run" / "eval" / "results.csv")
     columns = ["strategy", "exploration.ebe_temperature", "exploration.boltzmann_temperature"]
     assert list(results[0])[:4] == [*columns, "seed"]
@@ -294,7 +297,9 @@ def test_the_study_command_tests_tabulates_and_draws_a_sweep(tmp_path, capsys):
     for mode in ("greedy", "exploring"):
         assert f"### Test mode: {mode}" in text
     assert "EBE ebe_temperature=0.1" in text and "Best points against each other" in text
-    assert "EBE beats epsilon-greedy at" in text  # the answers, in words
+    # the answers, in words: at 2 seeds per arm, too few for any verdict
+    assert "EBE against epsilon-greedy: too few seeds for a verdict (2 per arm" in text
+    assert "beats" not in text and "better |" not in text
     assert "![" in text and (doc.parent / "temperature-sweep.png").is_file()
     packed = (doc.parent / "temperature-results.csv.gz").read_bytes()
     assert gzip.decompress(packed).decode() == (out / "run" / "eval" / "results.csv").read_text()

@@ -50,10 +50,10 @@ def check_output(path: str | os.PathLike, overwrite: bool, *, is_dir: bool = Fal
     path = Path(path)
     kind = "folder" if is_dir else "file"
     if path.exists():
+        if path.is_dir() != is_dir:  # --overwrite would not help: say so first
+            raise JaxnavError(f"{path} exists and is not a {kind}: choose another path")
         if not overwrite:
             raise JaxnavError(f"{path} exists already (--overwrite replaces it)")
-        if path.is_dir() != is_dir:
-            raise JaxnavError(f"{path} exists and is not a {kind}: choose another path")
     parent = path.absolute().parent
     if not parent.is_dir():
         raise JaxnavError(f"cannot write {path}: the folder {parent} does not exist")

@@ -215,6 +215,10 @@ def create(out: str | os.PathLike) -> Path:
     if out.exists() and not out.is_dir():
         raise RunError(f"{out} exists and is not a directory")
     if out.is_dir() and any(out.iterdir()):
+        if not (out / CONFIG).is_file():  # neither flag applies: not a run to go on with
+            raise RunError(
+                f"{out} is not empty and holds no run (no {CONFIG}); choose another --out"
+            )
         raise RunError(
             f"run directory {out} already exists and is not empty (--resume {out} continues "
             "it, --overwrite replaces it)"

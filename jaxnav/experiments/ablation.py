@@ -31,15 +31,12 @@ from pathlib import Path
 
 import numpy as np
 
-from jaxnav.core import cli
 from jaxnav.core import strategies as registry
 from jaxnav.core.config import PAPER_STRATEGIES
-from jaxnav.core.errors import JaxnavError
 from jaxnav.core.rundir import atomic_write_text
 from jaxnav.experiments.evaluation import evaluate_to_dir
 from jaxnav.experiments.reproduce import (
     EXPERIMENTS,
-    QUICK,
     check_request,
     experiment_config,
     experiment_files,
@@ -297,86 +294,3 @@ def ablation(
     path = out / "ablation.md"
     atomic_write_text(path, md)
     return path
-
-
-def _parser() -> cli.Parser:
-    p = cli.Parser(
-        prog="python -m jaxnav.ablation",
-        description="Train and test both experiments under each ROBOTIS-faithful switch, "
-        "alone and together, and write DIR/ablation.md.",
-    )
-    p.add_argument(
-        "--seeds", type=int, metavar="N", help=f"seeds per strategy (default {DEFAULT_SEEDS})"
-    )
-    p.add_argument("--out", metavar="DIR", help="output directory (default runs/ablation-<time>)")
-    p.add_argument(
-        "--variants",
-        metavar="A,B",
-        help=f"comma-separated subset of {', '.join(VARIANTS)} (default all)",
-    )
-    p.add_argument(
-        "--experiments",
-        metavar="A,B",
-        help=f"comma-separated subset of {', '.join(n for n, _ in EXPERIMENTS)} (default both)",
-    )
-    p.add_argument(
-        "--quick",
-        action="store_true",
-        help=f"{QUICK['seeds']} seeds, {QUICK['episodes']} episodes of at most "
-        f"{QUICK['max_steps']} steps: checks that everything runs",
-    )
-    p.add_argument("--episodes", type=int, metavar="N", help="training episodes per seed")
-    p.add_argument("--max-steps", type=int, metavar="N", help="steps per episode")
-    p.add_argument("--test-episodes", type=int, metavar="N", help="test episodes per maze")
-    p.add_argument("--resume", action="store_true", help="reuse finished runs in --out")
-    p.add_argument("--quiet", action="store_true", help="no progress output")
-    return p
-
-
-def main(argv: list[str] | None = None) -> int:
-    p = _parser()
-    args = p.parse_args(argv)
-    q = QUICK if args.quick else {}
-    seeds = args.seeds if args.seeds is not None else q.get("seeds", DEFAULT_SEEDS)
-    sizes = {
-        "episodes": args.episodes if args.episodes is not None else q.get("episodes"),
-        "max_steps": args.max_steps if args.max_steps is not None else q.get("max_steps"),
-        "test_episodes": (
-            args.test_episodes if args.test_episodes is not None else q.get("test_episodes")
-        ),
-    }
-    stamp = time.strftime("%Y%m%d-%H%M%S")
-    out = Path(args.out) if args.out else Path("runs") / f"ablation-{stamp}"
-
-    def work() -> None:
-        variants = args.variants.split(",") if args.variants else list(VARIANTS)
-        unknown = [v for v in variants if v not in VARIANTS]
-        if unknown:
-            raise JaxnavError(f"unknown variant '{unknown[0]}' (choose from {', '.join(VARIANTS)})")
-        for flag, v in sizes.items():
-            if v is not None and v < 1:
-                raise JaxnavError(f"--{flag.replace('_', '-')} must be at least 1")
-        known = [n for n, _ in EXPERIMENTS]
-        experiments = args.experiments.split(",") if args.experiments else known
-        unknown = [e for e in experiments if e not in known]
-        if unknown:
-            raise JaxnavError(f"unknown experiment '{unknown[0]}' (choose from {', '.join(known)})")
-        if args.resume and not args.out:
-            raise JaxnavError("--resume needs --out DIR")
-        command = "python -m jaxnav.ablation " + " ".join(
-            argv if argv is not None else sys.argv[1:]
-        )
-        path = ablation(
-            out,
-            seeds,
-            variants,
-            sizes,
-            args.quick,
-            args.resume,
-            args.quiet,
-            experiments,
-            command.strip(),
-        )
-        print(f"ablation: {path}")
-
-    return cli.run(p.prog, work, interrupted=f"interrupted; continue with --resume --out {out}")

@@ -41,7 +41,6 @@ from pathlib import Path
 
 import jax
 
-from jaxnav.core import cli
 from jaxnav.core.config import CONFIG_DIR, Config, load_config
 from jaxnav.core.errors import JaxnavError
 from jaxnav.core.rundir import METRICS, CsvLog, atomic_write_text
@@ -371,85 +370,3 @@ def experiment_files(
         rows = CsvLog(run_dir / METRICS, ()).read()
         files[name] = (rows, (run_dir / "eval" / "results.csv").read_text())
     return files
-
-
-def _parser() -> cli.Parser:
-    p = cli.Parser(
-        prog="python -m jaxnav.reproduce",
-        description="Train, test and plot both of the paper's experiments (no obstacles and "
-        "obstacles, EBE and epsilon-greedy) and write DIR/report.md.",
-    )
-    p.add_argument(
-        "--seeds",
-        type=int,
-        metavar="N",
-        help=f"seeds per strategy (default {DEFAULT_SEEDS}; {QUICK['seeds']} with --quick)",
-    )
-    p.add_argument("--out", metavar="DIR", help="output directory (default runs/reproduce-<time>)")
-    p.add_argument(
-        "--quick",
-        action="store_true",
-        help="small version in about a minute and a half: "
-        f"{QUICK['seeds']} seeds, {QUICK['episodes']} episodes "
-        f"of at most {QUICK['max_steps']} steps, {QUICK['test_episodes']} test episodes",
-    )
-    p.add_argument(
-        "--episodes",
-        type=int,
-        metavar="N",
-        help="training episodes per seed (overrides the config / --quick)",
-    )
-    p.add_argument(
-        "--max-steps",
-        type=int,
-        metavar="N",
-        help="steps per episode, training and test (overrides)",
-    )
-    p.add_argument(
-        "--test-episodes",
-        type=int,
-        metavar="N",
-        help="consecutive test episodes per seed and maze (overrides)",
-    )
-    p.add_argument(
-        "--resume",
-        action="store_true",
-        help="continue an interrupted reproduction in --out: reuse finished trainings, "
-        "resume the rest",
-    )
-    p.add_argument(
-        "--sim2sim",
-        type=int,
-        default=0,
-        metavar="K",
-        help="also test the first K seeds of each experiment in MuJoCo physics "
-        "(python -m jaxnav.sim2sim; needs the extra 'sim'; about 6 s per policy and maze "
-        "at 10 test episodes of 500 steps) and add the sim-to-sim gap to the report",
-    )
-    p.add_argument("--quiet", action="store_true", help="no progress output")
-    return p
-
-
-def main(argv: list[str] | None = None) -> int:
-    p = _parser()
-    args = p.parse_args(argv)
-    q = QUICK if args.quick else {}
-    seeds = args.seeds if args.seeds is not None else q.get("seeds", DEFAULT_SEEDS)
-    episodes = args.episodes if args.episodes is not None else q.get("episodes")
-    max_steps = args.max_steps if args.max_steps is not None else q.get("max_steps")
-    test_episodes = args.test_episodes if args.test_episodes is not None else q.get("test_episodes")
-    out = (
-        Path(args.out) if args.out else Path("runs") / f"reproduce-{time.strftime('%Y%m%d-%H%M%S')}"
-    )
-    command = "python -m jaxnav.reproduce " + " ".join(argv if argv is not None else sys.argv[1:])
-
-    def work() -> None:
-        if args.resume and not args.out:
-            raise JaxnavError("--resume needs --out DIR")
-        sizes = (seeds, episodes, max_steps, test_episodes)
-        report = reproduce(
-            out, *sizes, args.quick, args.resume, args.quiet, command.strip(), args.sim2sim
-        )
-        print(f"report: {report}")
-
-    return cli.run(p.prog, work, interrupted=f"interrupted; continue with --resume --out {out}")

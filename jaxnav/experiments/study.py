@@ -20,20 +20,18 @@ Layout::
 from __future__ import annotations
 
 import gzip
-import shlex
 import shutil
 import sys
 import time
 from pathlib import Path
 
-from jaxnav.core import cli
-from jaxnav.core.config import Config, load_config, resolve_config_path
+from jaxnav.core.config import Config
 from jaxnav.core.errors import JaxnavError
 from jaxnav.core.rundir import METRICS, CsvLog, atomic_write_bytes, atomic_write_text
 from jaxnav.core.sweep import short_names, value_text
 from jaxnav.experiments.evaluation import evaluate_to_dir
 from jaxnav.experiments.reproduce import check_request, machine_info, train_stage
-from jaxnav.report import plots
+from jaxnav.report import plots, stats
 from jaxnav.report.tables import sweep_markdown, training_markdown
 
 
@@ -78,7 +76,13 @@ def study_markdown(
         "is chosen on the same seeds that score it, which flatters it, and with "
         f"{max(n_arms - 1, 1)} arms compared with epsilon-greedy one verdict in twenty "
         "names a winner by chance: a verdict at one point of several is a hypothesis "
-        "until a fresh set of seeds confirms it (`seed=` another range).",
+        "until a fresh set of seeds confirms it (`seed=` another range)."
+        + (
+            f" With {cfg.seeds} seeds per arm, fewer than the {stats.MIN_SEEDS} a verdict needs, "
+            f"every verdict below says {stats.TOO_FEW_SEEDS}."
+            if not stats.enough_seeds(cfg.seeds)
+            else ""
+        ),
         "",
         "## Results",
     ]
@@ -92,6 +96,15 @@ def study_markdown(
     L += [f"| total | {total:.0f} | |", ""]
     L += [f"- {k}: {v}" for k, v in machine_info().items()]
     return "\n".join(L) + "\n"
+
+
+FIGURES = ("sweep.png", "training_curves.png")  # in DIR, and beside --doc PATH
+RESULTS = "results.csv.gz"  # beside --doc PATH
+
+
+def doc_files(doc: Path) -> list[Path]:
+    """What ``--doc PATH`` writes: PATH, and its figures and results beside it."""
+    return [doc] + [doc.parent / f"{doc.stem}-{name}" for name in (*FIGURES, RESULTS)]
 
 
 def study(
@@ -118,10 +131,10 @@ def study(
     t0 = time.perf_counter()
     names = short_names([k for k, _ in cfg.sweep])
     figures = {
-        "sweep": plots.plot_sweep(results, out / "sweep.png", ", ".join(names.values())),
-        "training_curves": plots.plot_training_curves(run_dir, out / "training_curves.png"),
+        "sweep": plots.plot_sweep(results, out / FIGURES[0], ", ".join(names.values())),
+        "training_curves": plots.plot_training_curves(run_dir, out / FIGURES[1]),
     }
-    timings.append(("figures", time.perf_counter() - t0, "sweep.png, training_curves.png"))
+    timings.append(("figures", time.perf_counter() - t0, ", ".join(FIGURES)))
     captions = {
         "sweep": "Test return against the swept values, both test modes: mean over seeds "
         "with 95% bootstrap intervals (strategies that do not read the key: a band).",
@@ -139,35 +152,7 @@ def study(
             text = text.replace(f"]({p.name})", f"]({doc.stem}-{p.name})")
         # The data behind every number: results.csv, gzipped (mtime 0: same bytes, same file).
         packed = gzip.compress(results.encode(), mtime=0)
-        atomic_write_bytes(doc.parent / f"{doc.stem}-results.csv.gz", packed)
-        text += f"\nThe test results behind every number above: `{doc.stem}-results.csv.gz`.\n"
+        atomic_write_bytes(doc.parent / f"{doc.stem}-{RESULTS}", packed)
+        text += f"\nThe test results behind every number above: `{doc.stem}-{RESULTS}`.\n"
         atomic_write_text(doc, text)
     return path
-
-
-def main(argv: list[str] | None = None) -> int:
-    p = cli.Parser(
-        prog="python -m jaxnav.study",
-        description="Train a config's sweep, test every arm in both test modes and write "
-        "DIR/study.md with the sweep's tables, computed answers and figures.",
-    )
-    p.add_argument("items", nargs="+", metavar="CONFIG [key=value ...]")
-    p.add_argument("--out", required=True, metavar="DIR", help="output directory")
-    p.add_argument("--title", help="the study's title (default: the config's name)")
-    p.add_argument("--doc", metavar="PATH", help="also write the study here, figures beside it")
-    p.add_argument("--resume", action="store_true", help="continue the study in --out")
-    p.add_argument("--quiet", action="store_true", help="no progress output")
-    args = p.parse_intermixed_args(argv)
-    command = "python -m jaxnav.study " + shlex.join(argv if argv is not None else sys.argv[1:])
-
-    def work() -> None:
-        items = list(args.items)
-        config_path = None if "=" in items[0] else resolve_config_path(items.pop(0))
-        cfg = load_config(config_path, items)
-        title = args.title or f"Sweep study: {Path(config_path or 'defaults').stem}"
-        doc = Path(args.doc) if args.doc else None
-        path = study(cfg, Path(args.out), title, command.strip(), args.resume, args.quiet, doc)
-        print(f"study: {path}" + (f" (and {doc})" if doc else ""))
-
-    again = f"interrupted; continue with --resume --out {args.out}"
-    return cli.run(p.prog, work, interrupted=again)

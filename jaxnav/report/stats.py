@@ -127,12 +127,27 @@ def probability_of_improvement_ci(x, y, confidence: float = CONFIDENCE) -> Inter
     return Interval(value, *_percentile_ci(bs, _p_greater, confidence))
 
 
+# The fewest seeds per arm with which the rule of side() may name a better arm. With n
+# seeds each, every seed of X scoring above every seed of Y happens by chance alone (no
+# difference at all) with probability 2 / C(2n, n), either way round: 1/3 at 2 seeds,
+# 1/10 at 3, 1/35 at 4. The bootstrap interval of that outcome is [1, 1] however few the
+# seeds, so below this count an interval that excludes 0.5 is no evidence of a difference.
+MIN_SEEDS = next(n for n in range(2, 64) if 2 / math.comb(2 * n, n) <= 1 - CONFIDENCE)
+TOO_FEW_SEEDS = "too few seeds"  # what a verdict says instead below MIN_SEEDS
+
+
 def side(p: Interval) -> int:
     """Where the interval of P(X > Y) lies: 1 above 0.5 (X better), -1 below (Y
-    better), 0 across it or without an interval (no detectable difference)."""
+    better), 0 across it or without an interval (no detectable difference). A
+    verdict needs :data:`MIN_SEEDS` seeds per arm (:func:`enough_seeds`)."""
     if math.isnan(p.low):
         return 0
     return 1 if p.low > 0.5 else -1 if p.high < 0.5 else 0
+
+
+def enough_seeds(*n_seeds: int) -> bool:
+    """Whether every arm has the :data:`MIN_SEEDS` seeds that a verdict by :func:`side` needs."""
+    return min(n_seeds) >= MIN_SEEDS
 
 
 def seeds_to_resolve(p: Interval, n_seeds: int) -> float:

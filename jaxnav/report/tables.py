@@ -162,7 +162,8 @@ class SweepComparison(NamedTuple):
     x: str
     y: str
     p: stats.Interval
-    side: int  # stats.side: 1 x better, -1 y better, 0 no detectable difference
+    side: int | None  # stats.side: 1 x better, -1 y better, 0 no detectable difference;
+    # None: too few seeds for a verdict (stats.MIN_SEEDS)
 
 
 class SweepSummary(NamedTuple):
@@ -190,7 +191,8 @@ def sweep_summary(t: _Test) -> SweepSummary | None:
 
     def compare(x: str, y: str) -> SweepComparison:
         p = stats.probability_of_improvement_ci(score[x], score[y])
-        return SweepComparison(x, y, p, stats.side(p))
+        decided = stats.enough_seeds(len(score[x]), len(score[y]))
+        return SweepComparison(x, y, p, stats.side(p) if decided else None)
 
     eps = best.get("epsilon_greedy")
     against = {s: compare(s, eps) for s in t.strategies if eps and arm_strategy(s) != eps}
@@ -208,9 +210,12 @@ def sweep_answers(summary: SweepSummary) -> list[str]:
         arms = [a for a in summary.arms if arm_strategy(a) == strategy]
         if not summary.against_eps:
             break
+        name = display_name(strategy)
+        if any(summary.against_eps[a].side is None for a in arms):
+            lines.append(f"{name} against epsilon-greedy: {_too_few(summary, arms)}.")
+            continue
         won = [_point(a) for a in arms if summary.against_eps[a].side == 1]
         lost = [_point(a) for a in arms if summary.against_eps[a].side == -1]
-        name = display_name(strategy)
         text = f"{name} beats epsilon-greedy at " + (
             ", ".join(won) if won else "none of its points"
         )
@@ -224,12 +229,18 @@ def sweep_answers(summary: SweepSummary) -> list[str]:
     for c in summary.best_against_best:
         verdict = {1: "is better than", -1: "is worse than", 0: "is not detectably different from"}
         p = interval(c.p, 2)
-        lines.append(
-            f"{display_name(c.x)} (the best {display_name(arm_strategy(c.x))} point) "
-            f"{verdict[c.side]} {display_name(c.y)} (the best "
-            f"{display_name(arm_strategy(c.y))} point): P = {p}."
-        )
+        x = f"{display_name(c.x)} (the best {display_name(arm_strategy(c.x))} point)"
+        y = f"{display_name(c.y)} (the best {display_name(arm_strategy(c.y))} point)"
+        if c.side is None:
+            lines.append(f"{x} against {y}: P = {p}; {_too_few(summary, [c.x, c.y])}.")
+        else:
+            lines.append(f"{x} {verdict[c.side]} {y}: P = {p}.")
     return lines
+
+
+def _too_few(summary: SweepSummary, arms: list[str]) -> str:
+    n = min(len(summary.scores[a]) for a in arms)
+    return f"{stats.TOO_FEW_SEEDS} for a verdict ({n} per arm; it needs {stats.MIN_SEEDS})"
 
 
 def _point(arm: str) -> str:
@@ -252,7 +263,13 @@ def _sweep_section(t: _Test) -> list[str]:
         + (" on each maze and averaged over the mazes" if mazes else "")
         + "; the best point of each strategy (highest mean) in bold. P(point > epsilon-"
         "greedy): rliable's probability of improvement with its bootstrap CI; the verdict "
-        "says which is better when the interval excludes 0.5, else no detectable difference.",
+        "says which is better when the interval excludes 0.5, else no detectable difference"
+        + (
+            f"; with fewer than {stats.MIN_SEEDS} seeds per arm it says {stats.TOO_FEW_SEEDS}, "
+            "since every seed of one arm can score above every seed of the other by chance."
+            if _undecided(summary)
+            else "."
+        ),
         "",
     ]
     rows = []
@@ -284,6 +301,12 @@ def _sweep_section(t: _Test) -> list[str]:
     return L + ["", "In words:", ""] + [f"- {line}" for line in sweep_answers(summary)]
 
 
+def _undecided(summary: SweepSummary) -> bool:
+    """Whether some comparison of ``summary`` had too few seeds for a verdict."""
+    comparisons = [*summary.against_eps.values(), *summary.best_against_best]
+    return any(c.side is None for c in comparisons)
+
+
 def sweep_markdown(results_csv: str, first_seed: int) -> list[str]:
     """The sweep section of every test mode of results.csv text, each under a
     ``### Test mode`` heading (empty without a sweep)."""
@@ -298,6 +321,8 @@ def sweep_markdown(results_csv: str, first_seed: int) -> list[str]:
 
 def _better(c: SweepComparison) -> str:
     x, y = display_name(c.x), display_name(c.y)
+    if c.side is None:
+        return stats.TOO_FEW_SEEDS
     return {1: f"{x} better", -1: f"{y} better", 0: "no detectable difference"}[c.side]
 
 
@@ -359,32 +384,70 @@ def _beside_paper_section(t: _Test, train_maze: str) -> list[str]:
     return L + markdown_table(header, rows)
 
 
+def _seeds_by_arm(rows: list[dict[str, str]]) -> dict[str, list[list[dict[str, str]]]]:
+    """Episode rows (metrics.csv or results.csv) per arm, in arm order: one list per
+    seed, in the order the seeds are met, each in episode order."""
+    by: dict[str, dict[int, list[dict[str, str]]]] = {}
+    for r in rows:
+        by.setdefault(row_arm(r), {}).setdefault(int(r["seed"]), []).append(r)
+    return {
+        s: [sorted(eps, key=lambda r: int(r["episode"])) for eps in by[s].values()]
+        for s in arms_in(by)
+    }
+
+
+def _seed_means(per_seed: list[list[dict[str, str]]], column: str, last: int | None) -> np.ndarray:
+    """Each seed's mean of ``column`` over its last ``last`` episodes (all if None)."""
+    return np.asarray(
+        [np.mean([float(r[column]) for r in (e[-last:] if last else e)]) for e in per_seed]
+    )
+
+
+OUTCOME_HEADER = ("seeds", "return", "goals per episode", "share ending in a collision")
+
+
+def _outcome_cells(per_seed: list[list[dict[str, str]]], last: int | None) -> list[str]:
+    """An arm's outcome (:data:`OUTCOME_HEADER`): its seeds, and the mean over seeds
+    [95% bootstrap CI] of each seed's mean return, goals and collisions per episode."""
+    return [
+        str(len(per_seed)),
+        interval(stats.mean_ci(_seed_means(per_seed, "return", last)), 0),
+        interval(stats.mean_ci(_seed_means(per_seed, "goals", last)), 2),
+        interval(stats.mean_ci(_seed_means(per_seed, "collided", last)), 2),
+    ]
+
+
+def outcome_text(rows: list[dict[str, str]], last: int | None = None) -> str:
+    """The small table the commands print: per arm (named as the files name it), the
+    outcome of its episodes (:func:`_outcome_cells`; the last ``last`` per seed, or all),
+    in aligned columns. ``rows``: metrics.csv or results.csv rows."""
+    table = [["strategy", *OUTCOME_HEADER]]
+    table += [[s, *_outcome_cells(eps, last)] for s, eps in _seeds_by_arm(rows).items()]
+    widths = [max(len(row[i]) for row in table) for i in range(len(table[0]))]
+    return "\n".join(
+        "  "
+        + "  ".join(
+            c.ljust(w) if i == 0 else c.rjust(w) for i, (c, w) in enumerate(zip(row, widths))
+        )
+        for row in table
+    )
+
+
 def training_markdown(metrics_rows: list[dict[str, str]], last: int = 50) -> str:
     """Training outcome per strategy from metrics.csv rows: the last ``last`` episodes
     of each seed (return, goals, collisions) and the mean return over all episodes,
     each a mean over seeds with a 95% bootstrap CI."""
-    by: dict[str, dict[int, list[dict[str, str]]]] = {}
-    for r in metrics_rows:
-        by.setdefault(row_arm(r), {}).setdefault(int(r["seed"]), []).append(r)
     explore = bool(metrics_rows) and all("explore" in r for r in metrics_rows)
     rows = []
-    for s in arms_in(by):
-        per_seed = [sorted(eps, key=lambda r: int(r["episode"])) for eps in by[s].values()]
-
-        def mean_of(column, eps_of, per_seed=per_seed):
-            return np.asarray([np.mean([float(r[column]) for r in eps_of(e)]) for e in per_seed])
-
-        tail = lambda e: e[-last:]  # noqa: E731
+    for s, per_seed in _seeds_by_arm(metrics_rows).items():
         rows.append(
-            [
-                display_name(s),
-                str(len(per_seed)),
-                interval(stats.mean_ci(mean_of("return", tail)), 0),
-                interval(stats.mean_ci(mean_of("goals", tail)), 2),
-                interval(stats.mean_ci(mean_of("collided", tail)), 2),
-                interval(stats.mean_ci(mean_of("return", lambda e: e)), 0),
-            ]
-            + ([interval(stats.mean_ci(mean_of("explore", tail)), 2)] if explore else [])
+            [display_name(s), *_outcome_cells(per_seed, last)]
+            + [interval(stats.mean_ci(_seed_means(per_seed, "return", None)), 0)]
+            + (
+                [interval(stats.mean_ci(_seed_means(per_seed, "explore", last)), 2)]
+                if explore
+                else []
+            )
         )
     header = [
         "strategy",

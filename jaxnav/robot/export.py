@@ -15,12 +15,12 @@ from pathlib import Path
 import numpy as np
 
 from jaxnav import __version__
-from jaxnav.core import cli, rundir
+from jaxnav.core import rundir
 from jaxnav.core import strategies as registry
 from jaxnav.core.config import dump_config, load_config
 from jaxnav.core.errors import PolicyError
 from jaxnav.env import from_config
-from jaxnav.robot.deploy import FORMAT, FORMAT_VERSION, INVALID_READING, Policy
+from jaxnav.robot.deploy import FORMAT, FORMAT_VERSION, INVALID_READING
 
 
 def export_policy(
@@ -122,46 +122,3 @@ def save_policy(arrays: dict[str, np.ndarray], out: str | os.PathLike) -> None:
         rundir.atomic_write_npz(out, arrays)
     except OSError as e:
         raise PolicyError(f"cannot write {out} ({e.strerror or type(e).__name__})") from None
-
-
-def main(argv: list[str] | None = None) -> int:
-    p = cli.Parser(
-        prog="python -m jaxnav.export",
-        description="Write one trained policy of a run to a portable .npz for a real robot, "
-        "or (--info) print an exported policy's metadata.",
-    )
-    p.add_argument("run_dir", metavar="RUN_DIR", nargs="?", help="a finished training run")
-    p.add_argument(
-        "--strategy",
-        default="ebe",
-        help="ebe (default), epsilon_greedy or boltzmann; in a swept run, the arm as params.npz "
-        "names it ('ebe ebe_temperature=0.1')",
-    )
-    p.add_argument("--seed", type=int, default=None, help="which seed (default: the run's first)")
-    p.add_argument(
-        "--out", default=None, help="output file (default policy-<strategy>-seed<k>.npz)"
-    )
-    p.add_argument("--info", metavar="POLICY", help="print the metadata of a policy file")
-    args = p.parse_args(argv)
-    if (args.run_dir is None) == (args.info is None):
-        p.error("give RUN_DIR to export a policy, or --info POLICY to show one")
-
-    def work() -> None:
-        if args.info:
-            for k, v in Policy.load(args.info).meta.items():
-                if k not in ("config", "observation", "format", "version"):
-                    print(f"{k}: {v}")
-            return
-        arrays = export_policy(args.run_dir, args.strategy, args.seed)
-        Policy.from_arrays(arrays)  # what the robot will load must load
-        meta = json.loads(str(arrays["meta"]))
-        arm = meta["strategy"].replace(" ", "-").replace("=", "")
-        out = Path(args.out or f"policy-{arm}-seed{meta['seed']}.npz")
-        save_policy(arrays, out)
-        features = ", obstacle features" if meta["obstacle_obs"] else ""
-        print(
-            f"wrote {out} ({meta['strategy']} seed {meta['seed']}, {meta['n_beams']} beams"
-            f"{features}, maze {meta['maze']})"
-        )
-
-    return cli.run(p.prog, work)

@@ -1,0 +1,68 @@
+"""What the commands say about their outputs: the flags their messages name."""
+
+from __future__ import annotations
+
+import jaxnav.train as train_command
+
+SMOKE = [
+    "configs/smoke.yaml",
+    "seeds=1",
+    "episodes=2",
+    "env.max_steps=20",
+    "dqn.batch_size=16",  # fits the 40 transitions of the run's replay memory
+    "--quiet",
+]
+
+
+def test_train_into_a_folder_that_holds_no_run_names_no_flag_that_cannot_help(tmp_path, capsys):
+    """--resume and --overwrite both refuse a folder without config.yaml: the message
+    must not offer them."""
+    out = tmp_path / "mine"
+    out.mkdir()
+    (out / "notes.txt").write_text("mine")
+    for extra in ([], ["--overwrite"]):
+        assert train_command.main([*SMOKE, "--out", str(out), *extra]) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and "holds no run" in err and "choose another --out" in err
+        assert "--overwrite" not in err and "--resume" not in err
+    assert [p.name for p in out.iterdir()] == ["notes.txt"]
+
+
+def test_study_checks_its_doc_files_before_training(tmp_path, capsys, monkeypatch):
+    import jaxnav.study as study_command
+
+    def no_study(*a, **k):
+        raise AssertionError("the study started before its outputs were checked")
+
+    monkeypatch.setattr(study_command, "study", no_study)
+    doc = tmp_path / "temperature.md"
+    argv = ["configs/temperature.yaml", "--out", str(tmp_path / "s"), "--quiet"]
+    for existing in ("temperature.md", "temperature-sweep.png", "temperature-results.csv.gz"):
+        (tmp_path / existing).write_text("mine")
+        assert study_command.main([*argv, "--doc", str(doc)]) == 2
+        err = capsys.readouterr().err
+        assert err == (
+            f"jaxnav.study: error: {tmp_path / existing} exists already (--overwrite replaces it)\n"
+        )
+        (tmp_path / existing).unlink()
+    missing = tmp_path / "no" / "t.md"
+    assert study_command.main([*argv, "--doc", str(missing)]) == 2
+    assert f"the folder {missing.parent} does not exist" in capsys.readouterr().err
+    assert not (tmp_path / "s").exists()
+
+
+def test_train_ends_with_the_outcome_table(tmp_path, capsys):
+    """The table evaluate prints too (report.tables.outcome_text), of the last 50
+    training episodes of each seed."""
+    from jaxnav.core.rundir import METRICS, CsvLog
+    from jaxnav.report.tables import outcome_text
+
+    out = tmp_path / "run"
+    assert train_command.main([*SMOKE, "seeds=2", "--out", str(out)]) == 0
+    printed = capsys.readouterr().out
+    table = outcome_text(CsvLog(out / METRICS, ()).read(), last=50)
+    assert (
+        f"last 50 training episodes of each seed, mean over seeds [95% CI]:\n{table}\n" in printed
+    )
+    assert table.splitlines()[0].split()[:3] == ["strategy", "seeds", "return"]
+    assert [line.split()[0] for line in table.splitlines()[1:]] == ["ebe", "epsilon_greedy"]
