@@ -83,6 +83,11 @@ def main(argv: list[str] | None = None) -> int:
         action="store_true",
         help="keep checkpoints/ once training has finished (removed otherwise: nothing reads them)",
     )
+    p.add_argument(
+        "--yes",
+        action="store_true",
+        help="start a run that needs over half of this machine's memory without asking",
+    )
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     args = p.parse_intermixed_args(argv)  # overrides may follow the flags too
 
@@ -99,6 +104,7 @@ def main(argv: list[str] | None = None) -> int:
             if overrides and "=" not in overrides[0]:
                 config_path = resolve_config_path(overrides.pop(0))
             cfg = load_config(config_path, overrides)
+            cli.confirm_memory(cfg.memory_estimate(), args.yes)  # before anything is allocated
             out = Path(args.out) if args.out else default_out(config_path)
             summary = train_new(cfg, out, args.quiet, args.overwrite, args.keep_checkpoints)
         if is_writer():

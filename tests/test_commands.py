@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import subprocess
+import sys
+
 import jaxnav.train as train_command
 
 SMOKE = [
@@ -66,3 +69,17 @@ def test_train_ends_with_the_outcome_table(tmp_path, capsys):
     )
     assert table.splitlines()[0].split()[:3] == ["strategy", "seeds", "return"]
     assert [line.split()[0] for line in table.splitlines()[1:]] == ["ebe", "epsilon_greedy"]
+
+
+def test_train_refuses_a_run_larger_than_the_machine_before_allocating(tmp_path):
+    """seeds=100000 used to allocate for minutes with no progress."""
+    run = subprocess.run(
+        [sys.executable, "-m", "jaxnav.train", "smoke", "seeds=100000", "--out", tmp_path / "r"],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert run.returncode == 2
+    assert run.stderr.startswith("jaxnav.train: error: this run needs about ")
+    assert "GiB of replay memory" in run.stderr and run.stderr.count("\n") == 1
+    assert not (tmp_path / "r").exists()
