@@ -24,7 +24,6 @@ from __future__ import annotations
 
 import csv
 import io
-import math
 import sys
 import time
 from pathlib import Path
@@ -45,6 +44,7 @@ from jaxnav.experiments.reproduce import (
 )
 from jaxnav.report import stats
 from jaxnav.report.claims import CLAIMS, OTHER, Claim, claim_scores, judge
+from jaxnav.report.markdown import interval
 from jaxnav.report.paper import PAPER_TABLES
 from jaxnav.report.results import MODE_NAMES
 
@@ -139,13 +139,6 @@ def _scores(rows: list[dict[str, str]]) -> dict[tuple, np.ndarray]:
     return out
 
 
-def _fmt(iv: stats.Interval, digits: int = 0) -> str:
-    s = f"{iv.value:.{digits}f}"
-    if not math.isnan(iv.low):
-        s += f" [{iv.low:.{digits}f}, {iv.high:.{digits}f}]"
-    return s
-
-
 def _table_claims(experiment: str) -> list[Claim]:
     """The one-maze test claims of an experiment's paper table (Table 3 or 4 rows)."""
     return [
@@ -223,7 +216,7 @@ def ablation_markdown(rows: list[dict[str, str]], quick: bool = False) -> str:
                 by = {r[3]: r for r in sel if r[0] == v}
                 if len(by) < len(PAPER_STRATEGIES):
                     continue
-                cells = [_fmt(by[s][4]) for s in PAPER_STRATEGIES]
+                cells = [interval(by[s][4], 0, missing="") for s in PAPER_STRATEGIES]
                 ratios = [f"{by[s][6]:.2f}" for s in PAPER_STRATEGIES]
                 L.append(f"| {v} | " + " | ".join(cells + ratios) + " |")
             L.append("")
@@ -254,7 +247,7 @@ def ablation_markdown(rows: list[dict[str, str]], quick: bool = False) -> str:
             if x.shape[1] == 1:
                 x, y = x[:, 0], y[:, 0]
             res = judge(claim, mode, x, y)
-            cells.append(f"{_fmt(res.p, 2)} {letter[res.verdict]}")
+            cells.append(f"{interval(res.p, 2, missing='')} {letter[res.verdict]}")
         L.append(f"| {source}: {statement} | {mode or 'training'} | " + " | ".join(cells) + " |")
     return "\n".join(L) + "\n"
 
