@@ -10,6 +10,12 @@ Paper equations in one place each:
 
 * Q-network (Table 2): :class:`QNetwork`.
 * TD target ``y = r + gamma * max_b Q(s', b; theta^-)``, squared error: :func:`td_loss`.
+
+Beyond the paper, each off by default (``dqn.*``, the paper's agent when off): double
+DQN (:func:`td_target`'s ``next_q_online``), the dueling head (:func:`dueling_q`),
+Polyak target updates (:func:`soft_update`), the Huber loss and Adam
+(:func:`optimizer_of`). Each is chosen in Python from the static config, so a switch
+that is off leaves the compiled program as it was.
 * EBE (Sec. 5), epsilon-greedy and Boltzmann exploration: :mod:`jaxnav.agent.exploration`.
   The trainer acts through the run's registered strategy
   (:mod:`jaxnav.core.strategies`, :func:`jaxnav.agent.exploration.explore_action`).
@@ -43,11 +49,17 @@ from jaxnav.env import EnvParams, EnvState, NavEnv, from_config
 
 
 class QNetwork(nn.Module):
-    """Paper Table 2: Dense 64 ReLU, Dense 64 ReLU, Dropout 0.2, Dense |A| linear."""
+    """Paper Table 2: Dense 64 ReLU, Dense 64 ReLU, Dropout 0.2, Dense |A| linear.
+
+    ``dueling`` (Wang et al. 2016) replaces the last layer by two linear streams on
+    the same hidden features, a value ``value`` (1 output) and an advantage
+    ``advantage`` (|A| outputs), joined by :func:`dueling_q`.
+    """
 
     num_actions: int = 5
     hidden: tuple[int, ...] = (64, 64)
     dropout: float = 0.2
+    dueling: bool = False
 
     @nn.compact
     def __call__(self, obs: chex.Array, train: bool = False, dropout=None) -> chex.Array:
@@ -59,13 +71,24 @@ class QNetwork(nn.Module):
         if train and (dropout is not None or self.dropout > 0.0):
             rate = self.dropout if dropout is None else dropout
             x = dropout16(self.make_rng("dropout"), x, rate)
-        return nn.Dense(self.num_actions, kernel_init=init)(x)
+        if not self.dueling:
+            return nn.Dense(self.num_actions, kernel_init=init)(x)
+        value = nn.Dense(1, kernel_init=init, name="value")(x)
+        advantage = nn.Dense(self.num_actions, kernel_init=init, name="advantage")(x)
+        return dueling_q(value, advantage)
+
+
+def dueling_q(value: chex.Array, advantage: chex.Array) -> chex.Array:
+    """Q = V + A - mean_a A (Wang et al. 2016, eq. 9): ``value`` f32[..., 1],
+    ``advantage`` f32[..., A] -> f32[..., A]."""
+    return value + advantage - jnp.mean(advantage, axis=-1, keepdims=True)
 
 
 def network_of(config: Config, env: NavEnv | None = None) -> QNetwork:
     """The Q-network of a config's runs (``env``: its environment, if already made)."""
     env = from_config(config)[0] if env is None else env
-    return QNetwork(env.num_actions, tuple(config.dqn.hidden), config.dqn.dropout)
+    d = config.dqn
+    return QNetwork(env.num_actions, tuple(d.hidden), d.dropout, d.dueling)
 
 
 def dropout16(key: chex.PRNGKey, x: chex.Array, rate) -> chex.Array:
@@ -179,18 +202,34 @@ def stack(trees: list) -> chex.ArrayTree:
 # ----------------------------------------------------------------------------
 
 
-def td_target(reward, terminated, next_q_target, gamma) -> chex.Array:
+def td_target(reward, terminated, next_q_target, gamma, next_q_online=None) -> chex.Array:
     """y = r + gamma * max_b Q(s', b; theta^-), no bootstrap after a collision.
 
-    Truncation (the step limit) is not terminal, so it bootstraps.
+    Truncation (the step limit) is not terminal, so it bootstraps. With
+    ``next_q_online`` (double DQN, van Hasselt et al. 2016) the online network picks
+    the next action and the target network values it:
+    y = r + gamma * Q(s', argmax_b Q(s', b; theta); theta^-).
     """
-    return reward + gamma * (1.0 - terminated.astype(jnp.float32)) * jnp.max(next_q_target, -1)
+    if next_q_online is None:
+        next_v = jnp.max(next_q_target, -1)
+    else:
+        pick = jnp.argmax(next_q_online, -1)
+        next_v = jnp.take_along_axis(next_q_target, pick[..., None], axis=-1)[..., 0]
+    return reward + gamma * (1.0 - terminated.astype(jnp.float32)) * next_v
 
 
-def td_loss(q: chex.Array, action: chex.Array, target: chex.Array) -> chex.Array:
-    """Mean squared TD error of the taken actions."""
+def td_loss(q: chex.Array, action: chex.Array, target: chex.Array, kind: str = "mse"):
+    """Mean TD loss of the taken actions: squared error (``mse``, the paper's) or
+    Huber with delta 1 (``huber``: 0.5 x^2 for |x| <= 1, |x| - 0.5 beyond)."""
     q_a = jnp.take_along_axis(q, action[:, None], axis=-1)[:, 0]
+    if kind == "huber":
+        return jnp.mean(optax.huber_loss(q_a, jax.lax.stop_gradient(target), delta=1.0))
     return jnp.mean((q_a - jax.lax.stop_gradient(target)) ** 2)
+
+
+def soft_update(params, target_params, tau: float):
+    """Polyak target update theta^- <- tau theta + (1 - tau) theta^- (tau 1: a copy)."""
+    return jax.tree.map(lambda p, t: tau * p + (1.0 - tau) * t, params, target_params)
 
 
 # ----------------------------------------------------------------------------
@@ -267,7 +306,7 @@ def make_trainer(config: Config) -> Trainer:
     env, base_params = from_config(config)
     d = config.dqn
     network = network_of(config, env)
-    optimizer = optimizer_of(d)  # the state's layout; a step uses the run's settings
+    optimizer = optimizer_of(d, d.optimizer)  # the state's layout; a step uses the run's
     slots = config.episodes if config.episodes is not None else config.run.chunk_steps
     limits = run_limits(config)
 
@@ -314,9 +353,14 @@ def make_trainer(config: Config) -> Trainer:
         diverged = (ts.diverged_at < 0) & run & (broke | ~q_finite)
         diverged_at = jnp.where(diverged, n_steps, ts.diverged_at)
 
-        # TARGET SYNC
-        sync = run & _target_sync_due(d, h, n_steps, done)
-        target_params = _select(sync, params, ts.target_params)
+        # TARGET SYNC (or, with dqn.tau < 1, a Polyak step every env step)
+        if d.tau < 1.0:
+            target_params = _select(
+                run, soft_update(params, ts.target_params, d.tau), ts.target_params
+            )
+        else:
+            sync = run & _target_sync_due(d, h, n_steps, done)
+            target_params = _select(sync, params, ts.target_params)
 
         # EPISODE METRICS
         slot = jnp.where(run & done, ts.episode % slots, slots)  # out of range: not filed
@@ -401,16 +445,32 @@ def _act(network: QNetwork, config: Config, ts: TrainState, key: chex.PRNGKey):
     return action, prob, jnp.all(jnp.isfinite(q)), jnp.max(q)
 
 
-def _loss(network: QNetwork, h: Hyper, params, target_params, batch: replay.Batch, key):
+def _loss(
+    network: QNetwork,
+    h: Hyper,
+    params,
+    target_params,
+    batch: replay.Batch,
+    key,
+    *,
+    double: bool = False,
+    kind: str = "mse",
+):
     q = network.apply(params, batch.obs, train=True, dropout=h.dropout, rngs={"dropout": key})
     next_q = network.apply(target_params, batch.next_obs)  # dropout off, as Keras predict
-    y = td_target(batch.reward, batch.terminated, next_q, h.gamma)
-    return td_loss(q, batch.action, y)
+    online = None
+    if double:  # the online network's choice of next action, dropout off too
+        online = network.apply(jax.lax.stop_gradient(params), batch.next_obs)
+    y = td_target(batch.reward, batch.terminated, next_q, h.gamma, online)
+    return td_loss(q, batch.action, y, kind)
 
 
-def optimizer_of(h: Hyper | DQNConfig) -> optax.GradientTransformation:
-    """RMSprop as ROBOTIS' Keras uses it (eps outside the root), its settings a
-    config's or a run's (data): optax takes traced hyperparameters as they are."""
+def optimizer_of(h: Hyper | DQNConfig, kind: str = "rmsprop") -> optax.GradientTransformation:
+    """RMSprop as ROBOTIS' Keras uses it (eps outside the root), or ``adam`` (optax's
+    defaults: b1 0.9, b2 0.999, eps 1e-8), at the learning rate of a config or of a
+    run (data): optax takes traced hyperparameters as they are."""
+    if kind == "adam":
+        return optax.adam(h.lr)
     return optax.rmsprop(h.lr, decay=h.rms_decay, eps=h.rms_eps, eps_in_sqrt=False)
 
 
@@ -428,9 +488,9 @@ def _learn(network, d: DQNConfig, ts, buffer, n_steps, run, k_sample, k_drop):
             ts.params,
             ts.target_params,
         )
-    loss_fn = functools.partial(_loss, network, h)
+    loss_fn = functools.partial(_loss, network, h, double=d.double, kind=d.loss)
     loss, grads = jax.value_and_grad(loss_fn)(ts.params, bootstrap, batch, k_drop)
-    updates, opt_state = optimizer_of(h).update(grads, ts.opt_state, ts.params)
+    updates, opt_state = optimizer_of(h, d.optimizer).update(grads, ts.opt_state, ts.params)
     new_params = optax.apply_updates(ts.params, updates)
     finite = jnp.isfinite(loss) & all_finite(new_params)
     due = run & replay.can_sample(buffer, h.learning_starts)
