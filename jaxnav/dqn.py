@@ -10,15 +10,16 @@ Paper equations in one place each:
 
 * Q-network (Table 2): :class:`QNetwork`.
 * TD target ``y = r + gamma * max_b Q(s', b; theta^-)``, squared error: :func:`td_loss`.
-
-Beyond the paper, each off by default (``dqn.*``, the paper's agent when off): double
-DQN (:func:`td_target`'s ``next_q_online``), the dueling head (:func:`dueling_q`),
-Polyak target updates (:func:`soft_update`), the Huber loss and Adam
-(:func:`optimizer_of`). Each is chosen in Python from the static config, so a switch
-that is off leaves the compiled program as it was.
 * EBE (Sec. 5), epsilon-greedy and Boltzmann exploration: :mod:`jaxnav.agent.exploration`.
   The trainer acts through the run's registered strategy
   (:mod:`jaxnav.core.strategies`, :func:`jaxnav.agent.exploration.explore_action`).
+
+Beyond the paper, each off by default (``dqn.*``; off is the paper's agent): double
+DQN (:func:`td_target`'s ``next_q_online``), the dueling head (:func:`dueling_q`),
+Polyak target updates (:func:`soft_update`), the Huber loss, Adam
+(:func:`optimizer_of`) and n-step returns
+(:func:`jaxnav.agent.replay.sample_n_step`). Each picks its code in Python from the
+static config, so a switch that is off leaves the compiled program as it was.
 """
 
 from __future__ import annotations
@@ -461,7 +462,8 @@ def _loss(
     online = None
     if double:  # the online network's choice of next action, dropout off too
         online = network.apply(jax.lax.stop_gradient(params), batch.next_obs)
-    y = td_target(batch.reward, batch.terminated, next_q, h.gamma, online)
+    gamma = h.gamma if batch.discount is None else batch.discount  # n-step: gamma^k
+    y = td_target(batch.reward, batch.terminated, next_q, gamma, online)
     return td_loss(q, batch.action, y, kind)
 
 
@@ -480,7 +482,10 @@ def _learn(network, d: DQNConfig, ts, buffer, n_steps, run, k_sample, k_drop):
     ``loss`` is NaN where no gradient step was due."""
     h = ts.hyper
     with jax.named_scope("replay_sample"):
-        batch = replay.sample(buffer, k_sample, d.batch_size)
+        if d.n_step > 1:
+            batch = replay.sample_n_step(buffer, k_sample, d.batch_size, d.n_step, h.gamma)
+        else:
+            batch = replay.sample(buffer, k_sample, d.batch_size)
     bootstrap = ts.target_params
     if d.target_update != "periodic":  # ROBOTIS: online net gives the targets during warm-up
         bootstrap = jax.tree.map(

@@ -433,7 +433,15 @@ def test_adam_first_update_is_optax_adam():
 
 
 @pytest.mark.parametrize(
-    "switch", ["dqn.double=true", "dqn.dueling=true", "dqn.loss=huber", "dqn.optimizer=adam"]
+    "switch",
+    [
+        "dqn.double=true",
+        "dqn.dueling=true",
+        "dqn.loss=huber",
+        "dqn.optimizer=adam",
+        "dqn.tau=0.5",
+        "dqn.n_step=3",
+    ],
 )
 def test_each_switch_trains_and_changes_the_updates(switch):
     # a large learning rate, so the online and target networks' argmax part early
@@ -458,6 +466,7 @@ def test_each_switch_trains_and_changes_the_updates(switch):
         ("dqn.tau=1.5", "dqn.tau"),
         ("dqn.loss=l1", "dqn.loss"),
         ("dqn.optimizer=sgd", "dqn.optimizer"),
+        ("dqn.n_step=0", "dqn.n_step"),
     ],
 )
 def test_bad_agent_switches_are_one_line_naming_the_setting(override, key):

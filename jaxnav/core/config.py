@@ -148,6 +148,9 @@ class DQNConfig:
         "rmsprop (paper, rms_decay and rms_eps) or adam (optax defaults)",
         rule=one_of("rmsprop", "adam"),
     )
+    n_step: int = setting(
+        1, "n-step returns: up to n rewards, then gamma^k bootstrap (1: paper)", rule=AT_LEAST_1
+    )
 
 
 @dataclass(frozen=True)
