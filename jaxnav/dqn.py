@@ -122,7 +122,10 @@ class Hyper:
     Every run carries them, with or without a sweep, so the runs of a sweep and a run
     without one are the same program (PureJaxRL's hyperparameters-as-data). The
     environment's settings are None (not carried, so range noise 0 draws no noise)
-    unless swept.
+    unless swept, and so are the agent switches ``double``, ``tau`` and ``loss``: the
+    config's value is compiled in unless they are swept; then both paths are
+    compiled side by side and the run's value picks one (:func:`_loss`,
+    :func:`_target`).
     """
 
     gamma: chex.Array
@@ -142,6 +145,9 @@ class Hyper:
     R_plus: chex.Array | None = None
     R_minus: chex.Array | None = None
     reward_span: chex.Array | None = None
+    double: chex.Array | None = None  # bool
+    tau: chex.Array | None = None
+    loss: chex.Array | None = None  # bool: True for huber, False for mse
 
     def env_params(self, params: EnvParams) -> EnvParams:
         """``params`` with the run's swept environment settings."""
@@ -150,15 +156,21 @@ class Hyper:
 
 
 ENV_HYPER = ("lidar_noise_std", "R_plus", "R_minus", "reward_span")
+AGENT_HYPER = ("double", "tau", "loss")
 
 
 def hyper(
-    config: Config, env_params: EnvParams | None = None, env_keys: tuple[str, ...] = ()
+    config: Config,
+    env_params: EnvParams | None = None,
+    env_keys: tuple[str, ...] = (),
+    agent_keys: tuple[str, ...] = (),
 ) -> Hyper:
     """A run's :class:`Hyper` (NumPy scalars) from its config; ``env_keys``: the
-    environment settings to carry (the swept ones), read from ``env_params``."""
+    environment settings to carry (the swept ones), read from ``env_params``;
+    ``agent_keys``: the agent switches to carry (the swept ones of AGENT_HYPER)."""
     d, x = config.dqn, config.exploration
     f32 = np.float32
+    agent = {"double": np.bool_(d.double), "tau": f32(d.tau), "loss": np.bool_(d.loss == "huber")}
     return Hyper(
         gamma=f32(d.gamma),
         lr=f32(d.lr),
@@ -174,6 +186,7 @@ def hyper(
         eps_decay=f32(x.eps_decay),
         eps_min=f32(x.eps_min),
         **{k: f32(getattr(env_params, k)) for k in env_keys},
+        **{k: agent[k] for k in agent_keys},
     )
 
 
@@ -183,13 +196,20 @@ def swept_env_keys(config: Config) -> tuple[str, ...]:
     return tuple(k for k in ENV_HYPER if k in swept)
 
 
+def swept_agent_keys(config: Config) -> tuple[str, ...]:
+    """The agent switches a config sweeps (carried in its runs' Hyper)."""
+    swept = {key.split(".", 1)[1] for key, _ in config.sweep if key.startswith("dqn.")}
+    return tuple(k for k in AGENT_HYPER if k in swept)
+
+
 def arm_hypers(config: Config) -> list[Hyper]:
     """The :class:`Hyper` of each arm of a config (jaxnav.core.config.Config.arms)."""
-    env_keys = swept_env_keys(config)
+    env_keys, agent_keys = swept_env_keys(config), swept_agent_keys(config)
     out = []
     for _, point in config.arms():
         at = config.at(point)
-        out.append(hyper(at, from_config(at)[1] if env_keys else None, env_keys))
+        env_params = from_config(at)[1] if env_keys else None
+        out.append(hyper(at, env_params, env_keys, agent_keys))
     return out
 
 
@@ -219,13 +239,17 @@ def td_target(reward, terminated, next_q_target, gamma, next_q_online=None) -> c
     return reward + gamma * (1.0 - terminated.astype(jnp.float32)) * next_v
 
 
-def td_loss(q: chex.Array, action: chex.Array, target: chex.Array, kind: str = "mse"):
+def td_loss(q: chex.Array, action: chex.Array, target: chex.Array, kind="mse"):
     """Mean TD loss of the taken actions: squared error (``mse``, the paper's) or
-    Huber with delta 1 (``huber``: 0.5 x^2 for |x| <= 1, |x| - 0.5 beyond)."""
+    Huber with delta 1 (``huber``: 0.5 x^2 for |x| <= 1, |x| - 0.5 beyond); ``kind``
+    may be data, bool[] true for Huber (both computed, one kept)."""
     q_a = jnp.take_along_axis(q, action[:, None], axis=-1)[:, 0]
-    if kind == "huber":
-        return jnp.mean(optax.huber_loss(q_a, jax.lax.stop_gradient(target), delta=1.0))
-    return jnp.mean((q_a - jax.lax.stop_gradient(target)) ** 2)
+    if isinstance(kind, str) and kind == "mse":
+        return jnp.mean((q_a - jax.lax.stop_gradient(target)) ** 2)
+    huber = jnp.mean(optax.huber_loss(q_a, jax.lax.stop_gradient(target), delta=1.0))
+    if isinstance(kind, str):
+        return huber
+    return jnp.where(kind, huber, jnp.mean((q_a - jax.lax.stop_gradient(target)) ** 2))
 
 
 def soft_update(params, target_params, tau: float):
@@ -355,13 +379,7 @@ def make_trainer(config: Config) -> Trainer:
         diverged_at = jnp.where(diverged, n_steps, ts.diverged_at)
 
         # TARGET SYNC (or, with dqn.tau < 1, a Polyak step every env step)
-        if d.tau < 1.0:
-            target_params = _select(
-                run, soft_update(params, ts.target_params, d.tau), ts.target_params
-            )
-        else:
-            sync = run & _target_sync_due(d, h, n_steps, done)
-            target_params = _select(sync, params, ts.target_params)
+        target_params = _target(d, h, ts.target_params, params, run, n_steps, done)
 
         # EPISODE METRICS
         slot = jnp.where(run & done, ts.episode % slots, slots)  # out of range: not filed
@@ -454,16 +472,21 @@ def _loss(
     batch: replay.Batch,
     key,
     *,
-    double: bool = False,
-    kind: str = "mse",
+    double=False,
+    kind="mse",
 ):
+    """The TD loss of a batch; ``double`` (bool, or bool[] data: both targets, one
+    kept) and ``kind`` (:func:`td_loss`) are the run's dqn.double and dqn.loss."""
     q = network.apply(params, batch.obs, train=True, dropout=h.dropout, rngs={"dropout": key})
     next_q = network.apply(target_params, batch.next_obs)  # dropout off, as Keras predict
-    online = None
-    if double:  # the online network's choice of next action, dropout off too
-        online = network.apply(jax.lax.stop_gradient(params), batch.next_obs)
     gamma = h.gamma if batch.discount is None else batch.discount  # n-step: gamma^k
-    y = td_target(batch.reward, batch.terminated, next_q, gamma, online)
+    y = None
+    if double is not True:  # False, or data (bool[]): the plain target
+        y = td_target(batch.reward, batch.terminated, next_q, gamma)
+    if double is not False:  # the online network picks the next action, dropout off
+        online = network.apply(jax.lax.stop_gradient(params), batch.next_obs)
+        y_double = td_target(batch.reward, batch.terminated, next_q, gamma, online)
+        y = y_double if y is None else jnp.where(double, y_double, y)
     return td_loss(q, batch.action, y, kind)
 
 
@@ -493,7 +516,9 @@ def _learn(network, d: DQNConfig, ts, buffer, n_steps, run, k_sample, k_drop):
             ts.params,
             ts.target_params,
         )
-    loss_fn = functools.partial(_loss, network, h, double=d.double, kind=d.loss)
+    double = d.double if h.double is None else h.double  # swept: the run's, as data
+    kind = d.loss if h.loss is None else h.loss
+    loss_fn = functools.partial(_loss, network, h, double=double, kind=kind)
     loss, grads = jax.value_and_grad(loss_fn)(ts.params, bootstrap, batch, k_drop)
     updates, opt_state = optimizer_of(h, d.optimizer).update(grads, ts.opt_state, ts.params)
     new_params = optax.apply_updates(ts.params, updates)
@@ -508,6 +533,24 @@ def _learn(network, d: DQNConfig, ts, buffer, n_steps, run, k_sample, k_drop):
 def all_finite(tree) -> chex.Array:
     """bool[]: every element of every leaf is finite."""
     return jnp.all(jnp.stack([jnp.all(jnp.isfinite(leaf)) for leaf in jax.tree.leaves(tree)]))
+
+
+def _target(d: DQNConfig, h: Hyper, target_params, params, run, n_steps, done):
+    """The target network after a step: a copy when a sync is due (tau 1, the
+    paper's), or tau of the way to the online network every step (tau < 1). A swept
+    tau is data: both are computed and the run's tau picks one."""
+    tau = d.tau if h.tau is None else h.tau
+    static = isinstance(tau, (int, float))
+
+    def copied():
+        return _select(run & _target_sync_due(d, h, n_steps, done), params, target_params)
+
+    if static and tau >= 1.0:
+        return copied()
+    polyak = _select(run, soft_update(params, target_params, tau), target_params)
+    if static:
+        return polyak
+    return _select(tau < 1.0, polyak, copied())
 
 
 def _target_sync_due(d: DQNConfig, h: Hyper, n_steps: chex.Array, done: chex.Array):

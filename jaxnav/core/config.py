@@ -132,16 +132,19 @@ class DQNConfig:
     )
     # Agent variants beyond the paper, all off by default (the paper's agent):
     double: bool = setting(
-        False, "double DQN: the online net picks the next action, the target net values it"
+        False,
+        "double DQN: the online net picks the next action, the target net values it",
+        sweep=True,
     )
     dueling: bool = setting(False, "dueling head: Q = V + A - mean(A)")
     tau: float = setting(
         1.0,
         "Polyak target rate per step; 1: a copy every target_update_every steps (paper)",
         rule=(lambda v: 0.0 < v <= 1.0, "must be in (0, 1]"),
+        sweep=True,
     )
     loss: str = setting(
-        "mse", "TD loss: mse (paper) or huber (delta 1)", rule=one_of("mse", "huber")
+        "mse", "TD loss: mse (paper) or huber (delta 1)", rule=one_of("mse", "huber"), sweep=True
     )
     optimizer: str = setting(
         "rmsprop",
