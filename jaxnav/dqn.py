@@ -538,7 +538,9 @@ def all_finite(tree) -> chex.Array:
 def _target(d: DQNConfig, h: Hyper, target_params, params, run, n_steps, done):
     """The target network after a step: a copy when a sync is due (tau 1, the
     paper's), or tau of the way to the online network every step (tau < 1). A swept
-    tau is data: both are computed and the run's tau picks one."""
+    tau is data: both are computed and the run's tau picks one. Under ROBOTIS'
+    episode_end rule with tau < 1 the Polyak step replaces the episode-end copy; the
+    online network still gives the targets during the warm-up."""
     tau = d.tau if h.tau is None else h.tau
     static = isinstance(tau, (int, float))
 
