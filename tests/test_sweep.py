@@ -259,8 +259,24 @@ def test_the_command_trains_strategies_and_points_in_one_program(tmp_path, capsy
     }
 
 
-def test_a_swept_run_resumes_to_the_uninterrupted_result(tmp_path, monkeypatch):
-    cfg = load_config(None, [*TINY, "sweep.dqn.gamma=[0.9, 0.99]"])
+@pytest.mark.parametrize(
+    "settings",
+    [
+        ["sweep.dqn.gamma=[0.9, 0.99]"],
+        # the agent switches: Adam's state, the dueling parameters, the swept switches
+        # carried in Hyper, n-step sampling
+        [
+            "dqn.optimizer=adam",
+            "dqn.dueling=true",
+            "dqn.n_step=3",
+            "sweep.dqn.double=[false, true]",
+            "sweep.dqn.tau=[1.0, 0.5]",
+            "sweep.dqn.loss=[huber]",
+        ],
+    ],
+)
+def test_a_swept_run_resumes_to_the_uninterrupted_result(tmp_path, monkeypatch, settings):
+    cfg = load_config(None, [*TINY, *settings])
     train_new(cfg, tmp_path / "ref", quiet=True)
     saves = []
     save = Run.save
