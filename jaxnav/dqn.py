@@ -13,6 +13,13 @@ Paper equations in one place each:
 * EBE (Sec. 5), epsilon-greedy and Boltzmann exploration: :mod:`jaxnav.agent.exploration`.
   The trainer acts through the run's registered strategy
   (:mod:`jaxnav.core.strategies`, :func:`jaxnav.agent.exploration.explore_action`).
+
+Beyond the paper, each off by default (``dqn.*``; off is the paper's agent): double
+DQN (:func:`td_target`'s ``next_q_online``), the dueling head (:func:`dueling_q`),
+Polyak target updates (:func:`soft_update`), the Huber loss, Adam
+(:func:`optimizer_of`) and n-step returns
+(:func:`jaxnav.agent.replay.sample_n_step`). Each picks its code in Python from the
+static config, so a switch that is off leaves the compiled program as it was.
 """
 
 from __future__ import annotations
@@ -43,11 +50,17 @@ from jaxnav.env import EnvParams, EnvState, NavEnv, from_config
 
 
 class QNetwork(nn.Module):
-    """Paper Table 2: Dense 64 ReLU, Dense 64 ReLU, Dropout 0.2, Dense |A| linear."""
+    """Paper Table 2: Dense 64 ReLU, Dense 64 ReLU, Dropout 0.2, Dense |A| linear.
+
+    ``dueling`` (Wang et al. 2016) replaces the last layer by two linear streams on
+    the same hidden features, a value ``value`` (1 output) and an advantage
+    ``advantage`` (|A| outputs), joined by :func:`dueling_q`.
+    """
 
     num_actions: int = 5
     hidden: tuple[int, ...] = (64, 64)
     dropout: float = 0.2
+    dueling: bool = False
 
     @nn.compact
     def __call__(self, obs: chex.Array, train: bool = False, dropout=None) -> chex.Array:
@@ -59,13 +72,24 @@ class QNetwork(nn.Module):
         if train and (dropout is not None or self.dropout > 0.0):
             rate = self.dropout if dropout is None else dropout
             x = dropout16(self.make_rng("dropout"), x, rate)
-        return nn.Dense(self.num_actions, kernel_init=init)(x)
+        if not self.dueling:
+            return nn.Dense(self.num_actions, kernel_init=init)(x)
+        value = nn.Dense(1, kernel_init=init, name="value")(x)
+        advantage = nn.Dense(self.num_actions, kernel_init=init, name="advantage")(x)
+        return dueling_q(value, advantage)
+
+
+def dueling_q(value: chex.Array, advantage: chex.Array) -> chex.Array:
+    """Q = V + A - mean_a A (Wang et al. 2016, eq. 9): ``value`` f32[..., 1],
+    ``advantage`` f32[..., A] -> f32[..., A]."""
+    return value + advantage - jnp.mean(advantage, axis=-1, keepdims=True)
 
 
 def network_of(config: Config, env: NavEnv | None = None) -> QNetwork:
     """The Q-network of a config's runs (``env``: its environment, if already made)."""
     env = from_config(config)[0] if env is None else env
-    return QNetwork(env.num_actions, tuple(config.dqn.hidden), config.dqn.dropout)
+    d = config.dqn
+    return QNetwork(env.num_actions, tuple(d.hidden), d.dropout, d.dueling)
 
 
 def dropout16(key: chex.PRNGKey, x: chex.Array, rate) -> chex.Array:
@@ -98,7 +122,10 @@ class Hyper:
     Every run carries them, with or without a sweep, so the runs of a sweep and a run
     without one are the same program (PureJaxRL's hyperparameters-as-data). The
     environment's settings are None (not carried, so range noise 0 draws no noise)
-    unless swept.
+    unless swept, and so are the agent switches ``double``, ``tau`` and ``loss``: the
+    config's value is compiled in unless they are swept; then both paths are
+    compiled side by side and the run's value picks one (:func:`_loss`,
+    :func:`_target`).
     """
 
     gamma: chex.Array
@@ -118,6 +145,9 @@ class Hyper:
     R_plus: chex.Array | None = None
     R_minus: chex.Array | None = None
     reward_span: chex.Array | None = None
+    double: chex.Array | None = None  # bool
+    tau: chex.Array | None = None
+    loss: chex.Array | None = None  # bool: True for huber, False for mse
 
     def env_params(self, params: EnvParams) -> EnvParams:
         """``params`` with the run's swept environment settings."""
@@ -126,15 +156,21 @@ class Hyper:
 
 
 ENV_HYPER = ("lidar_noise_std", "R_plus", "R_minus", "reward_span")
+AGENT_HYPER = ("double", "tau", "loss")
 
 
 def hyper(
-    config: Config, env_params: EnvParams | None = None, env_keys: tuple[str, ...] = ()
+    config: Config,
+    env_params: EnvParams | None = None,
+    env_keys: tuple[str, ...] = (),
+    agent_keys: tuple[str, ...] = (),
 ) -> Hyper:
     """A run's :class:`Hyper` (NumPy scalars) from its config; ``env_keys``: the
-    environment settings to carry (the swept ones), read from ``env_params``."""
+    environment settings to carry (the swept ones), read from ``env_params``;
+    ``agent_keys``: the agent switches to carry (the swept ones of AGENT_HYPER)."""
     d, x = config.dqn, config.exploration
     f32 = np.float32
+    agent = {"double": np.bool_(d.double), "tau": f32(d.tau), "loss": np.bool_(d.loss == "huber")}
     return Hyper(
         gamma=f32(d.gamma),
         lr=f32(d.lr),
@@ -150,6 +186,7 @@ def hyper(
         eps_decay=f32(x.eps_decay),
         eps_min=f32(x.eps_min),
         **{k: f32(getattr(env_params, k)) for k in env_keys},
+        **{k: agent[k] for k in agent_keys},
     )
 
 
@@ -159,13 +196,20 @@ def swept_env_keys(config: Config) -> tuple[str, ...]:
     return tuple(k for k in ENV_HYPER if k in swept)
 
 
+def swept_agent_keys(config: Config) -> tuple[str, ...]:
+    """The agent switches a config sweeps (carried in its runs' Hyper)."""
+    swept = {key.split(".", 1)[1] for key, _ in config.sweep if key.startswith("dqn.")}
+    return tuple(k for k in AGENT_HYPER if k in swept)
+
+
 def arm_hypers(config: Config) -> list[Hyper]:
     """The :class:`Hyper` of each arm of a config (jaxnav.core.config.Config.arms)."""
-    env_keys = swept_env_keys(config)
+    env_keys, agent_keys = swept_env_keys(config), swept_agent_keys(config)
     out = []
     for _, point in config.arms():
         at = config.at(point)
-        out.append(hyper(at, from_config(at)[1] if env_keys else None, env_keys))
+        env_params = from_config(at)[1] if env_keys else None
+        out.append(hyper(at, env_params, env_keys, agent_keys))
     return out
 
 
@@ -179,18 +223,38 @@ def stack(trees: list) -> chex.ArrayTree:
 # ----------------------------------------------------------------------------
 
 
-def td_target(reward, terminated, next_q_target, gamma) -> chex.Array:
+def td_target(reward, terminated, next_q_target, gamma, next_q_online=None) -> chex.Array:
     """y = r + gamma * max_b Q(s', b; theta^-), no bootstrap after a collision.
 
-    Truncation (the step limit) is not terminal, so it bootstraps.
+    Truncation (the step limit) is not terminal, so it bootstraps. With
+    ``next_q_online`` (double DQN, van Hasselt et al. 2016) the online network picks
+    the next action and the target network values it:
+    y = r + gamma * Q(s', argmax_b Q(s', b; theta); theta^-).
     """
-    return reward + gamma * (1.0 - terminated.astype(jnp.float32)) * jnp.max(next_q_target, -1)
+    if next_q_online is None:
+        next_v = jnp.max(next_q_target, -1)
+    else:
+        pick = jnp.argmax(next_q_online, -1)
+        next_v = jnp.take_along_axis(next_q_target, pick[..., None], axis=-1)[..., 0]
+    return reward + gamma * (1.0 - terminated.astype(jnp.float32)) * next_v
 
 
-def td_loss(q: chex.Array, action: chex.Array, target: chex.Array) -> chex.Array:
-    """Mean squared TD error of the taken actions."""
+def td_loss(q: chex.Array, action: chex.Array, target: chex.Array, kind="mse"):
+    """Mean TD loss of the taken actions: squared error (``mse``, the paper's) or
+    Huber with delta 1 (``huber``: 0.5 x^2 for |x| <= 1, |x| - 0.5 beyond); ``kind``
+    may be data, bool[] true for Huber (both computed, one kept)."""
     q_a = jnp.take_along_axis(q, action[:, None], axis=-1)[:, 0]
-    return jnp.mean((q_a - jax.lax.stop_gradient(target)) ** 2)
+    if isinstance(kind, str) and kind == "mse":
+        return jnp.mean((q_a - jax.lax.stop_gradient(target)) ** 2)
+    huber = jnp.mean(optax.huber_loss(q_a, jax.lax.stop_gradient(target), delta=1.0))
+    if isinstance(kind, str):
+        return huber
+    return jnp.where(kind, huber, jnp.mean((q_a - jax.lax.stop_gradient(target)) ** 2))
+
+
+def soft_update(params, target_params, tau: float):
+    """Polyak target update theta^- <- tau theta + (1 - tau) theta^- (tau 1: a copy)."""
+    return jax.tree.map(lambda p, t: tau * p + (1.0 - tau) * t, params, target_params)
 
 
 # ----------------------------------------------------------------------------
@@ -267,7 +331,7 @@ def make_trainer(config: Config) -> Trainer:
     env, base_params = from_config(config)
     d = config.dqn
     network = network_of(config, env)
-    optimizer = optimizer_of(d)  # the state's layout; a step uses the run's settings
+    optimizer = optimizer_of(d, d.optimizer)  # the state's layout; a step uses the run's
     slots = config.episodes if config.episodes is not None else config.run.chunk_steps
     limits = run_limits(config)
 
@@ -314,9 +378,8 @@ def make_trainer(config: Config) -> Trainer:
         diverged = (ts.diverged_at < 0) & run & (broke | ~q_finite)
         diverged_at = jnp.where(diverged, n_steps, ts.diverged_at)
 
-        # TARGET SYNC
-        sync = run & _target_sync_due(d, h, n_steps, done)
-        target_params = _select(sync, params, ts.target_params)
+        # TARGET SYNC (or, with dqn.tau < 1, a Polyak step every env step)
+        target_params = _target(d, h, ts.target_params, params, run, n_steps, done)
 
         # EPISODE METRICS
         slot = jnp.where(run & done, ts.episode % slots, slots)  # out of range: not filed
@@ -401,16 +464,38 @@ def _act(network: QNetwork, config: Config, ts: TrainState, key: chex.PRNGKey):
     return action, prob, jnp.all(jnp.isfinite(q)), jnp.max(q)
 
 
-def _loss(network: QNetwork, h: Hyper, params, target_params, batch: replay.Batch, key):
+def _loss(
+    network: QNetwork,
+    h: Hyper,
+    params,
+    target_params,
+    batch: replay.Batch,
+    key,
+    *,
+    double=False,
+    kind="mse",
+):
+    """The TD loss of a batch; ``double`` (bool, or bool[] data: both targets, one
+    kept) and ``kind`` (:func:`td_loss`) are the run's dqn.double and dqn.loss."""
     q = network.apply(params, batch.obs, train=True, dropout=h.dropout, rngs={"dropout": key})
     next_q = network.apply(target_params, batch.next_obs)  # dropout off, as Keras predict
-    y = td_target(batch.reward, batch.terminated, next_q, h.gamma)
-    return td_loss(q, batch.action, y)
+    gamma = h.gamma if batch.discount is None else batch.discount  # n-step: gamma^k
+    y = None
+    if double is not True:  # False, or data (bool[]): the plain target
+        y = td_target(batch.reward, batch.terminated, next_q, gamma)
+    if double is not False:  # the online network picks the next action, dropout off
+        online = network.apply(jax.lax.stop_gradient(params), batch.next_obs)
+        y_double = td_target(batch.reward, batch.terminated, next_q, gamma, online)
+        y = y_double if y is None else jnp.where(double, y_double, y)
+    return td_loss(q, batch.action, y, kind)
 
 
-def optimizer_of(h: Hyper | DQNConfig) -> optax.GradientTransformation:
-    """RMSprop as ROBOTIS' Keras uses it (eps outside the root), its settings a
-    config's or a run's (data): optax takes traced hyperparameters as they are."""
+def optimizer_of(h: Hyper | DQNConfig, kind: str = "rmsprop") -> optax.GradientTransformation:
+    """RMSprop as ROBOTIS' Keras uses it (eps outside the root), or ``adam`` (optax's
+    defaults: b1 0.9, b2 0.999, eps 1e-8), at the learning rate of a config or of a
+    run (data): optax takes traced hyperparameters as they are."""
+    if kind == "adam":
+        return optax.adam(h.lr)
     return optax.rmsprop(h.lr, decay=h.rms_decay, eps=h.rms_eps, eps_in_sqrt=False)
 
 
@@ -420,7 +505,10 @@ def _learn(network, d: DQNConfig, ts, buffer, n_steps, run, k_sample, k_drop):
     ``loss`` is NaN where no gradient step was due."""
     h = ts.hyper
     with jax.named_scope("replay_sample"):
-        batch = replay.sample(buffer, k_sample, d.batch_size)
+        if d.n_step > 1:
+            batch = replay.sample_n_step(buffer, k_sample, d.batch_size, d.n_step, h.gamma)
+        else:
+            batch = replay.sample(buffer, k_sample, d.batch_size)
     bootstrap = ts.target_params
     if d.target_update != "periodic":  # ROBOTIS: online net gives the targets during warm-up
         bootstrap = jax.tree.map(
@@ -428,9 +516,11 @@ def _learn(network, d: DQNConfig, ts, buffer, n_steps, run, k_sample, k_drop):
             ts.params,
             ts.target_params,
         )
-    loss_fn = functools.partial(_loss, network, h)
+    double = d.double if h.double is None else h.double  # swept: the run's, as data
+    kind = d.loss if h.loss is None else h.loss
+    loss_fn = functools.partial(_loss, network, h, double=double, kind=kind)
     loss, grads = jax.value_and_grad(loss_fn)(ts.params, bootstrap, batch, k_drop)
-    updates, opt_state = optimizer_of(h).update(grads, ts.opt_state, ts.params)
+    updates, opt_state = optimizer_of(h, d.optimizer).update(grads, ts.opt_state, ts.params)
     new_params = optax.apply_updates(ts.params, updates)
     finite = jnp.isfinite(loss) & all_finite(new_params)
     due = run & replay.can_sample(buffer, h.learning_starts)
@@ -443,6 +533,26 @@ def _learn(network, d: DQNConfig, ts, buffer, n_steps, run, k_sample, k_drop):
 def all_finite(tree) -> chex.Array:
     """bool[]: every element of every leaf is finite."""
     return jnp.all(jnp.stack([jnp.all(jnp.isfinite(leaf)) for leaf in jax.tree.leaves(tree)]))
+
+
+def _target(d: DQNConfig, h: Hyper, target_params, params, run, n_steps, done):
+    """The target network after a step: a copy when a sync is due (tau 1, the
+    paper's), or tau of the way to the online network every step (tau < 1). A swept
+    tau is data: both are computed and the run's tau picks one. Under ROBOTIS'
+    episode_end rule with tau < 1 the Polyak step replaces the episode-end copy; the
+    online network still gives the targets during the warm-up."""
+    tau = d.tau if h.tau is None else h.tau
+    static = isinstance(tau, (int, float))
+
+    def copied():
+        return _select(run & _target_sync_due(d, h, n_steps, done), params, target_params)
+
+    if static and tau >= 1.0:
+        return copied()
+    polyak = _select(run, soft_update(params, target_params, tau), target_params)
+    if static:
+        return polyak
+    return _select(tau < 1.0, polyak, copied())
 
 
 def _target_sync_due(d: DQNConfig, h: Hyper, n_steps: chex.Array, done: chex.Array):

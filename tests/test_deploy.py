@@ -566,3 +566,16 @@ def test_controller_passes_the_invalid_reading_value_on():
         control.on_scan(ranges, *LDS01, 10.0)
         control.on_odom((0.0, 0.0, 0.0), "odom", 10.0)
         assert control.decide(10.0)[:2] == (0.15, omega)
+
+
+def test_a_dueling_network_exports_as_the_plain_network_it_equals():
+    net = QNetwork(num_actions=5, hidden=(8, 8), dropout=0.2, dueling=True)
+    x = jax.random.normal(jax.random.PRNGKey(0), (7, 26))
+    params = net.init(jax.random.PRNGKey(1), x)
+    folded = export.fold_dueling(jax.tree.map(np.asarray, params["params"]))
+    assert sorted(folded) == ["Dense_0", "Dense_1", "Dense_2"]
+    h = np.asarray(x)
+    for i in range(3):
+        h = h @ folded[f"Dense_{i}"]["kernel"] + folded[f"Dense_{i}"]["bias"]
+        h = np.maximum(h, 0.0) if i < 2 else h
+    np.testing.assert_allclose(h, net.apply(params, x), rtol=1e-5, atol=1e-5)

@@ -5,6 +5,7 @@ import math
 import jax
 import jax.numpy as jnp
 import numpy as np
+import optax
 import pytest
 
 from jaxnav.agent.exploration import (
@@ -18,14 +19,18 @@ from jaxnav.agent.exploration import (
 )
 from jaxnav.core import strategies as registry
 from jaxnav.core.config import ExplorationConfig, load_config
+from jaxnav.core.errors import ConfigError
 from jaxnav.dqn import (
     QNetwork,
     dropout16,
+    dueling_q,
     make_train,
     make_trainer,
     network_of,
+    optimizer_of,
     run_inputs,
     run_limits,
+    soft_update,
     still_training,
     td_loss,
     td_target,
@@ -340,3 +345,132 @@ def test_make_train_gives_the_state_of_repeated_chunks():
     assert chunks >= 2 and np.all(np.asarray(final.episode) == 2)
     for a, b in zip(jax.tree.leaves(final), jax.tree.leaves(ts), strict=True):
         np.testing.assert_array_equal(a, b)
+
+
+# -- Agent variants beyond the paper (dqn.double, dueling, tau, loss, optimizer) ----
+
+
+def test_double_target_differs_from_the_plain_one_exactly_where_the_argmaxes_disagree():
+    reward = jnp.array([1.0, 2.0, 0.0, -150.0])
+    terminated = jnp.array([False, False, False, True])
+    next_q_target = jnp.array([[0.0, 3.0, 1.0], [4.0, 1.0, 2.0], [1.0, 1.5, 0.5], [9.0, 0.0, 0.0]])
+    next_q_online = jnp.array([[0.0, 5.0, 1.0], [0.0, 1.0, 7.0], [2.0, 0.0, 0.0], [0.0, 9.0, 0.0]])
+    plain = td_target(reward, terminated, next_q_target, 0.9)
+    double = td_target(reward, terminated, next_q_target, 0.9, next_q_online)
+    # row 0: both pick action 1 -> 1 + 0.9 * 3; row 1: online picks 2 -> 2 + 0.9 * 2;
+    # row 2: online picks 0 -> 0.9 * 1; row 3: terminal, no bootstrap
+    np.testing.assert_allclose(double, [1.0 + 2.7, 2.0 + 1.8, 0.9, -150.0], rtol=1e-6)
+    disagree = np.argmax(next_q_online, -1) != np.argmax(next_q_target, -1)
+    np.testing.assert_array_equal(np.asarray(double) != np.asarray(plain), disagree & ~terminated)
+
+
+def test_dueling_head_is_value_plus_mean_subtracted_advantage():
+    value = jnp.array([[2.0], [-1.0]])
+    advantage = jnp.array([[1.0, 2.0, 6.0], [0.0, 0.0, 3.0]])
+    # means 3 and 1: [2 - 2, 2 - 1, 2 + 3], [-1 - 1, -1 - 1, -1 + 2]
+    np.testing.assert_allclose(dueling_q(value, advantage), [[0.0, 1.0, 5.0], [-2.0, -2.0, 1.0]])
+    net = QNetwork(num_actions=3, hidden=(4,), dropout=0.0, dueling=True)
+    x = jax.random.normal(jax.random.PRNGKey(0), (5, 6))
+    params = net.init(jax.random.PRNGKey(1), x)
+    p = jax.tree.map(np.asarray, params["params"])
+    assert set(p) == {"Dense_0", "value", "advantage"}
+    h = np.maximum(np.asarray(x) @ p["Dense_0"]["kernel"] + p["Dense_0"]["bias"], 0.0)
+    v = h @ p["value"]["kernel"] + p["value"]["bias"]
+    a = h @ p["advantage"]["kernel"] + p["advantage"]["bias"]
+    np.testing.assert_allclose(net.apply(params, x), v + a - a.mean(-1, keepdims=True), atol=1e-5)
+
+
+def test_soft_update_tau_one_is_a_copy_and_one_half_the_average():
+    params = {"w": jnp.array([1.0, 2.0, -3.0]), "b": jnp.array(0.25)}
+    target = {"w": jnp.array([3.0, 0.0, 1.0]), "b": jnp.array(-0.75)}
+    copy = soft_update(params, target, 1.0)
+    for k in params:
+        np.testing.assert_array_equal(copy[k], params[k])
+    half = soft_update(params, target, 0.5)
+    np.testing.assert_array_equal(half["w"], [2.0, 1.0, -1.0])
+    assert float(half["b"]) == -0.25
+
+
+def test_trainer_with_tau_moves_the_target_by_polyak_every_step():
+    cfg = _tiny("dqn.tau=0.5", "dqn.learning_starts=1", "dqn.target_update_every=1000")
+    tr = make_trainer(cfg)
+    ts = tr.init(*_run(run_inputs(cfg), 0))
+    step = jax.jit(tr.step)
+    for _ in range(3):
+        new, _ = step(ts, None)
+        want = jax.tree.map(lambda p, t: 0.5 * p + 0.5 * t, new.params, ts.target_params)
+        for a, b in zip(jax.tree.leaves(new.target_params), jax.tree.leaves(want), strict=True):
+            np.testing.assert_allclose(a, b, rtol=1e-6)
+        ts = new
+    assert not np.array_equal(
+        ts.params["params"]["Dense_0"]["kernel"], ts.target_params["params"]["Dense_0"]["kernel"]
+    )
+
+
+def test_huber_loss_against_a_hand_computed_value():
+    q = jnp.array([[1.0, 2.0, 3.0], [4.0, 5.0, 6.0]])
+    action = jnp.array([2, 0])
+    target = jnp.array([2.5, 7.0])
+    # errors 0.5 and -3: 0.5 * 0.5^2 = 0.125 and 3 - 0.5 = 2.5 -> mean 1.3125
+    assert float(td_loss(q, action, target, "huber")) == pytest.approx(1.3125)
+    g = jax.grad(lambda q: td_loss(q, action, target, "huber"))(q)
+    np.testing.assert_allclose(g, [[0, 0, 0.25], [-0.5, 0, 0]])  # clipped at 1, over 2
+    assert float(td_loss(q, action, target)) == pytest.approx((0.25 + 9.0) / 2)
+
+
+def test_adam_first_update_is_optax_adam():
+    d = _tiny("dqn.optimizer=adam", "dqn.lr=0.01").dqn
+    params = {"w": jnp.array([0.5, -1.0, 2.0]), "b": jnp.array([0.1])}
+    grads = {"w": jnp.array([0.3, -2.0, 1e-3]), "b": jnp.array([-0.7])}
+    ours = optimizer_of(d, d.optimizer)
+    updates, _ = ours.update(grads, ours.init(params), params)
+    ref = optax.adam(0.01)
+    want, _ = ref.update(grads, ref.init(params), params)
+    for k in params:
+        np.testing.assert_array_equal(updates[k], want[k])
+    # Adam's first step: m / sqrt(v) = g / |g| after bias correction, so -lr * sign(g)
+    np.testing.assert_allclose(updates["w"], [-0.01, 0.01, -0.01], rtol=1e-4)
+
+
+@pytest.mark.parametrize(
+    "switch",
+    [
+        "dqn.double=true",
+        "dqn.dueling=true",
+        "dqn.loss=huber",
+        "dqn.optimizer=adam",
+        "dqn.tau=0.5",
+        "dqn.n_step=3",
+    ],
+)
+def test_each_switch_trains_and_changes_the_updates(switch):
+    # a large learning rate, so the online and target networks' argmax part early
+    common = ("seeds=1", "strategies=[ebe]", "dqn.learning_starts=2", "dqn.lr=0.01")
+    base, cfg = _tiny(*common), _tiny(*common, switch)
+    out = []
+    for c in (base, cfg):
+        tr = make_trainer(c)
+        ts = tr.init(*_run(run_inputs(c), 0))
+        ts, _ = jax.lax.scan(tr.step, ts, None, length=30)  # 29 gradient steps
+        assert all(np.all(np.isfinite(x)) for x in jax.tree.leaves(ts.params))
+        out.append(ts)
+    if switch != "dqn.dueling=true":  # the same network: the switch changed the update
+        k0, k1 = (t.params["params"]["Dense_2"]["kernel"] for t in out)
+        assert not np.array_equal(k0, k1)
+
+
+@pytest.mark.parametrize(
+    "override, key",
+    [
+        ("dqn.tau=0", "dqn.tau"),
+        ("dqn.tau=1.5", "dqn.tau"),
+        ("dqn.loss=l1", "dqn.loss"),
+        ("dqn.optimizer=sgd", "dqn.optimizer"),
+        ("dqn.n_step=0", "dqn.n_step"),
+    ],
+)
+def test_bad_agent_switches_are_one_line_naming_the_setting(override, key):
+    with pytest.raises(ConfigError) as e:
+        load_config(None, [override])
+    msg = str(e.value)
+    assert key in msg and "\n" not in msg

@@ -181,3 +181,64 @@ def test_truncation_ring_outlasts_the_buffer(max_steps):
     # buffer holds, so the older one has been overwritten before its row is reused.
     for capacity in range(1, 2000, 37):
         assert replay.final_rows(capacity, max_steps) * max_steps > capacity
+
+
+# -- n-step returns (dqn.n_step) -----------------------------------------------------
+
+
+def _episodes(n_adds, capacity, max_steps, seed=0):
+    """A buffer of random episodes (collisions at random, time-outs at exactly
+    max_steps) and the transitions as a list, each with its true next observation."""
+    rng = np.random.default_rng(seed)
+    buf = replay.init(capacity, 2, max_steps)
+    out, length = [], 0
+    for t in range(n_adds):
+        length += 1
+        trunc = length == max_steps
+        term = not trunc and rng.random() < 0.25
+        length = 0 if trunc or term else length
+        reward = float(rng.normal())
+        nxt = 1000.0 + t if trunc or term else t + 1.0  # pre-reset obs, or the next one
+        out.append((reward, term, trunc, nxt))
+        buf = replay.add(
+            buf, jnp.full(2, float(t)), jnp.int32(t % 5), jnp.float32(reward), term, trunc,
+            jnp.full(2, nxt),
+        )  # fmt: skip
+    return buf, out
+
+
+def _np_n_step(trans, t, n, gamma):
+    """(return, terminated, discount, next obs) of transition t, by a plain loop."""
+    ret = 0.0
+    for k in range(n):
+        reward, term, trunc, nxt = trans[t + k]
+        ret += gamma**k * reward
+        if term or trunc or t + k == len(trans) - 1 or k == n - 1:
+            return ret, term, gamma ** (k + 1), nxt
+    raise AssertionError
+
+
+@pytest.mark.parametrize("n", [1, 2, 3, 6])
+def test_n_step_returns_stop_at_episode_ends_and_time_outs_as_a_numpy_loop(n):
+    capacity, n_adds, gamma = 12, 31, 0.9  # wrapped: slots hold transitions 19..30
+    buf, trans = _episodes(n_adds, capacity, max_steps=4)
+    assert any(x[1] for x in trans[19:]) and any(x[2] for x in trans[19:])  # both kinds
+    ts = np.arange(n_adds - capacity, n_adds)
+    batch = replay.n_step_batch(buf, jnp.asarray(ts % capacity), n, gamma)
+    for i, t in enumerate(ts):
+        ret, term, discount, nxt = _np_n_step(trans, int(t), n, gamma)
+        assert float(batch.obs[i, 0]) == t
+        assert float(batch.reward[i]) == pytest.approx(ret, rel=1e-5, abs=1e-6), t
+        assert bool(batch.terminated[i]) == term, t
+        assert float(batch.discount[i]) == pytest.approx(discount, rel=1e-6), t
+        if not term:  # after a collision the next observation is never used
+            assert float(batch.next_obs[i, 0]) == nxt, t  # a time-out's own pre-reset obs
+
+
+def test_one_step_sample_n_step_is_sample():
+    buf, _ = _episodes(31, 12, max_steps=4)
+    key = jax.random.PRNGKey(5)
+    one, n1 = replay.sample(buf, key, 64), replay.sample_n_step(buf, key, 64, 1, 0.9)
+    for name in ("obs", "action", "reward", "next_obs", "terminated"):
+        np.testing.assert_array_equal(getattr(one, name), getattr(n1, name))
+    np.testing.assert_allclose(n1.discount, 0.9)

@@ -186,6 +186,40 @@ def test_each_point_of_a_sweep_trains_as_the_run_of_its_values(tmp_path):
     assert not np.array_equal(ret[0], ret[swept.seeds])
 
 
+def test_agent_switches_swept_train_each_point_as_the_run_of_its_values():
+    """dqn.double, dqn.tau and dqn.loss are data when swept: their 8 points share one
+    program, and a point gives the numbers of a separate run with its switches set.
+
+    The separate runs have as many seeds as the sweep has runs, so the run axis has
+    the same size: spread over the CPU devices, a different size can round the
+    network's matrix products differently, whatever is swept."""
+    base = [*TINY, "strategies=[ebe]", "dqn.learning_starts=16", "dqn.lr=0.003"]
+    swept = load_config(
+        None,
+        [*base, "sweep.dqn.double=[false, true]", "sweep.dqn.tau=[1.0, 0.5]",
+         "sweep.dqn.loss=[mse, huber]"],
+    )  # fmt: skip
+    run, ts_swept = _train_state(swept)
+    assert run.chunk._cache_size() == 1
+    arms = swept.run_labels()
+    points = {
+        "ebe double=False tau=1 loss=mse": [],
+        "ebe double=True tau=0.5 loss=huber": ["dqn.double=true", "dqn.tau=0.5", "dqn.loss=huber"],
+        "ebe double=True tau=1 loss=mse": ["dqn.double=true"],
+        "ebe double=False tau=0.5 loss=huber": ["dqn.tau=0.5", "dqn.loss=huber"],
+    }
+    returns = []
+    for arm, overrides in points.items():
+        alone = load_config(None, [*base, *overrides, f"seeds={swept.n_runs}"])
+        _, ts_alone = _train_state(alone)
+        for r in range(swept.seeds):
+            s = arms.index((arm, swept.seed + r))
+            for a, b in zip(jax.tree.leaves(ts_alone.params), jax.tree.leaves(ts_swept.params)):
+                np.testing.assert_allclose(np.asarray(a)[r], np.asarray(b)[s], rtol=0, atol=0)
+        returns.append(np.asarray(ts_alone.metrics.ep_return))
+    assert not np.array_equal(returns[0], returns[1])
+
+
 def _train_state(cfg):
     """(the Run, its final state) of a run trained in memory, without files."""
     run = Run(cfg, None, quiet=True)
@@ -225,8 +259,24 @@ def test_the_command_trains_strategies_and_points_in_one_program(tmp_path, capsy
     }
 
 
-def test_a_swept_run_resumes_to_the_uninterrupted_result(tmp_path, monkeypatch):
-    cfg = load_config(None, [*TINY, "sweep.dqn.gamma=[0.9, 0.99]"])
+@pytest.mark.parametrize(
+    "settings",
+    [
+        ["sweep.dqn.gamma=[0.9, 0.99]"],
+        # the agent switches: Adam's state, the dueling parameters, the swept switches
+        # carried in Hyper, n-step sampling
+        [
+            "dqn.optimizer=adam",
+            "dqn.dueling=true",
+            "dqn.n_step=3",
+            "sweep.dqn.double=[false, true]",
+            "sweep.dqn.tau=[1.0, 0.5]",
+            "sweep.dqn.loss=[huber]",
+        ],
+    ],
+)
+def test_a_swept_run_resumes_to_the_uninterrupted_result(tmp_path, monkeypatch, settings):
+    cfg = load_config(None, [*TINY, *settings])
     train_new(cfg, tmp_path / "ref", quiet=True)
     saves = []
     save = Run.save

@@ -16,6 +16,14 @@ observation of slot i is the obs of slot i + 1, except for
 
 After a collision (``terminated``) the next observation is never used.
 
+n-step returns (:func:`sample_n_step`, ``dqn.n_step``). From slot i the return sums
+the rewards of slots i, i + 1, ... for at most n slots and stops at the first slot
+that ends its episode or is the newest: after a collision it does not bootstrap;
+after a truncation it bootstraps from that slot's ``final_obs`` row, never from the
+next episode's start; at the newest slot from ``tail``. The k slots summed give the
+bootstrap's discount gamma^k. The slots read lie between i and the newest slot, all
+live, so the truncation-ring invariant below covers them too.
+
 Truncation-ring invariant. ``final_obs`` has ``K = capacity // max_steps + 2`` rows;
 the j-th truncation stored writes row ``j % K`` and the slot remembers the row in
 ``final_index``. Requirement: a row may be reused only once the slot that last wrote
@@ -66,13 +74,18 @@ class Buffer:
 
 
 class Batch(NamedTuple):
-    """A sampled minibatch; ``next_obs`` is resolved (following slot, tail or final_obs)."""
+    """A sampled minibatch; ``next_obs`` is resolved (following slot, tail or final_obs).
+
+    From :func:`sample_n_step`, ``reward`` is the n-step return, ``next_obs`` the
+    observation it bootstraps from and ``discount`` (f32[B]) its gamma^k; None from
+    :func:`sample` (one step: the run's gamma)."""
 
     obs: chex.Array  # f32[B, D]
     action: chex.Array  # i32[B]
     reward: chex.Array  # f32[B]
     next_obs: chex.Array  # f32[B, D]
     terminated: chex.Array  # bool[B]
+    discount: chex.Array | None = None
 
 
 def validate(capacity: int, obs_dim: int, max_steps: int) -> None:
@@ -179,4 +192,43 @@ def sample(buf: Buffer, key: chex.PRNGKey, batch_size: int) -> Batch:
         reward=buf.reward[idx],
         next_obs=next_obs,
         terminated=buf.terminated[idx],
+    )
+
+
+def sample_n_step(buf: Buffer, key: chex.PRNGKey, batch_size: int, n: int, gamma) -> Batch:
+    """Uniform sample (the slots :func:`sample` draws from the same key) of n-step
+    returns: see the module docstring. ``n`` is static, ``gamma`` may be data."""
+    idx = jax.random.randint(key, (batch_size,), 0, jnp.maximum(buf.size, 1))
+    return n_step_batch(buf, idx, n, gamma)
+
+
+def n_step_batch(buf: Buffer, idx: chex.Array, n: int, gamma) -> Batch:
+    """The n-step :class:`Batch` starting at slots ``idx`` (i32[B])."""
+    size = buf.obs.shape[0]
+    newest = (buf.pos - 1) % size
+    gamma = jnp.asarray(gamma, jnp.float32)
+    ret = jnp.zeros(idx.shape, jnp.float32)
+    discount = jnp.ones(idx.shape, jnp.float32)
+    alive = jnp.ones(idx.shape, bool)
+    end = idx
+    for k in range(n):
+        j = (idx + k) % size
+        ret = ret + jnp.where(alive, discount * buf.reward[j], 0.0)
+        discount = jnp.where(alive, discount * gamma, discount)
+        end = jnp.where(alive, j, end)
+        alive = alive & ~(buf.terminated[j] | buf.truncated[j] | (j == newest))
+    following = buf.obs[(end + 1) % size]
+    final = buf.final_obs[buf.final_index[end]]
+    next_obs = jnp.where(
+        (end == newest)[:, None],
+        buf.tail[None, :],
+        jnp.where(buf.truncated[end][:, None], final, following),
+    )
+    return Batch(
+        obs=buf.obs[idx],
+        action=buf.action[idx].astype(jnp.int32),
+        reward=ret,
+        next_obs=next_obs,
+        terminated=buf.terminated[end],
+        discount=discount,
     )

@@ -100,7 +100,7 @@ class EnvConfig:
 @dataclass(frozen=True)
 class DQNConfig:
     gamma: float = setting(PRESETS["paper"].gamma, "discount", rule=UNIT, sweep=True)
-    lr: float = setting(0.00025, "RMSprop learning rate", rule=POSITIVE, sweep=True)
+    lr: float = setting(0.00025, "learning rate (RMSprop or Adam)", rule=POSITIVE, sweep=True)
     rms_decay: float = setting(0.9, "RMSprop rho", rule=UNIT_OPEN, sweep=True)
     rms_eps: float = setting(1e-6, "RMSprop epsilon", rule=POSITIVE, sweep=True)
     batch_size: int = setting(64, "transitions per gradient step", rule=AT_LEAST_1)
@@ -129,6 +129,30 @@ class DQNConfig:
         "env steps between target syncs (warm-up for episode_end)",
         rule=AT_LEAST_1,
         sweep=True,
+    )
+    # Agent variants beyond the paper, all off by default (the paper's agent):
+    double: bool = setting(
+        False,
+        "double DQN: the online net picks the next action, the target net values it",
+        sweep=True,
+    )
+    dueling: bool = setting(False, "dueling head: Q = V + A - mean(A)")
+    tau: float = setting(
+        1.0,
+        "Polyak target rate per step; 1: a copy every target_update_every steps (paper)",
+        rule=(lambda v: 0.0 < v <= 1.0, "must be in (0, 1]"),
+        sweep=True,
+    )
+    loss: str = setting(
+        "mse", "TD loss: mse (paper) or huber (delta 1)", rule=one_of("mse", "huber"), sweep=True
+    )
+    optimizer: str = setting(
+        "rmsprop",
+        "rmsprop (paper, rms_decay and rms_eps) or adam (optax defaults)",
+        rule=one_of("rmsprop", "adam"),
+    )
+    n_step: int = setting(
+        1, "n-step returns: up to n rewards, then gamma^k bootstrap (1: paper)", rule=AT_LEAST_1
     )
 
 

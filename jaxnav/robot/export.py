@@ -48,7 +48,7 @@ def export_policy(
             f"{params_path} has no parameters for {strategy} seed {seed} (it has {have or 'none'})"
         )
     env, params = from_config(cfg)
-    net = rundir.load_params(params_path, strategy, seed).get("params", {})
+    net = fold_dueling(rundir.load_params(params_path, strategy, seed).get("params", {}))
     names = _dense_layers(net, env.obs_size, len(np.asarray(params.omegas)), params_path)
     meta = _meta(cfg, env, params, strategy, seed, names, run_dir)
     arrays: dict[str, np.ndarray] = {"meta": np.asarray(json.dumps(meta, indent=1))}
@@ -59,6 +59,22 @@ def export_policy(
     arrays["maze/obstacles"] = np.asarray(params.maze.obstacles(), np.float32)
     arrays["maze/start"] = np.asarray(params.maze.start, np.float32)
     return arrays
+
+
+def fold_dueling(net: dict) -> dict:
+    """A dueling network's parameters (``dqn.dueling``) as the plain network it equals:
+    both streams are linear in the last hidden features, so Q = V + A - mean(A) is one
+    linear layer, appended as the next ``Dense_<i>``. Other networks are unchanged."""
+    if "value" not in net or "advantage" not in net:
+        return net
+    out = {k: v for k, v in net.items() if k not in ("value", "advantage")}
+    v, a = net["value"], net["advantage"]
+    ka, ba = np.asarray(a["kernel"], np.float64), np.asarray(a["bias"], np.float64)
+    kernel = np.asarray(v["kernel"], np.float64) + ka - ka.mean(axis=1, keepdims=True)
+    bias = np.asarray(v["bias"], np.float64) + ba - ba.mean()
+    n = sum(1 for k in out if k.startswith("Dense_"))
+    out[f"Dense_{n}"] = {"kernel": kernel.astype(np.float32), "bias": bias.astype(np.float32)}
+    return out
 
 
 def _dense_layers(net: dict, obs_size: int, num_actions: int, params_path: Path) -> list[str]:
