@@ -43,7 +43,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from jaxnav.world.maps import _FAR, ROBOT_RADIUS, ROBOTIS_ARENA, Maze
+from jaxnav.core.settings import grid_problem
+from jaxnav.world.maps import _FAR, ROBOTIS_ARENA, Maze
 
 SPLITS = ("train", "test")
 # The ROBOTIS goal table a Maze carries (the generated mazes fill it with cell centres).
@@ -84,26 +85,6 @@ class Grid(NamedTuple):
     def max_min_path(self) -> int:
         """The longest minimum start-goal path that every maze allows: R + C - 2."""
         return self.rows + self.cols - 2
-
-
-def grid_problem(rows: int, cols: int, cell: float, loops: float, min_path: int) -> str | None:
-    """What is wrong with a grid family's settings, one line naming the setting, or None."""
-    if rows < 1:
-        return "env.grid_rows must be at least 1"
-    if cols < 1:
-        return "env.grid_cols must be at least 1"
-    if rows * cols < 2:
-        return "env.grid_rows x env.grid_cols must be at least 2 cells (1 x 1 has no goal)"
-    if not cell > 2 * ROBOT_RADIUS:
-        return f"env.grid_cell must be more than the robot's diameter ({2 * ROBOT_RADIUS} m)"
-    if not 0.0 <= loops <= 1.0:
-        return "env.grid_loops must be in [0, 1]"
-    if min_path > rows + cols - 2:
-        return (
-            f"env.min_path_cells must be at most grid_rows + grid_cols - 2 = {rows + cols - 2} "
-            "(corner to corner)"
-        )
-    return None
 
 
 # ----------------------------------------------------------------------------
