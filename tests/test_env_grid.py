@@ -176,3 +176,35 @@ def test_two_seeds_train_on_a_new_4x4_maze_every_episode(tmp_path):
     assert len(rows) == 2 * 6
     assert all(np.isfinite(float(r["return"])) for r in rows)
     assert load_config(str(out / "config.yaml")) == cfg
+
+
+def test_a_checkpoint_restores_the_drawn_maze_with_the_state(tmp_path):
+    from jaxnav.core import rundir
+    from jaxnav.run.checkpoint import chunk_slots
+    from jaxnav.run.training import Run
+
+    cfg = load_config(
+        None,
+        [
+            "env.generator=grid",
+            "strategies=[ebe]",
+            "seeds=2",
+            "episodes=4",
+            "env.max_steps=50",
+            "run.chunk_steps=60",
+            "dqn.batch_size=16",
+        ],
+    )
+    out = tmp_path / "run"
+    run = Run(cfg, out, quiet=True)
+    rundir.create(out)
+    ts = run.fresh_state()
+    before = run.shard.get(ts.step).copy()
+    ts, _ = run.chunk(ts, np.int32(run.steps_needed(ts)))
+    run.save(ts, [], [], chunk_slots(before, run.shard.get(ts.step), cfg.buffer_capacity))
+    live = run.shard.get(ts)
+    restored = Run(cfg, out, quiet=True)
+    again = restored.shard.get(restored.restored_state())
+    assert live.env_state.maze.segments.shape == (2, gen.Grid(4, 4).n_segments, 4)
+    for a, b in zip(jax.tree.leaves(live), jax.tree.leaves(again), strict=True):
+        np.testing.assert_array_equal(a, b)
