@@ -511,7 +511,9 @@ def make(
     """Build the environment and its params.
 
     Args:
-      maze: a built-in maze name, a path to a maze YAML file, or a ``Maze``.
+      maze: a built-in maze name, a path to a maze YAML file, or a ``Maze``; unused
+        with ``generator="grid"`` (the mazes are drawn, ``EnvParams.maze`` is one of
+        them as a template of their shapes).
       preset: ``"paper"`` (default) or ``"robotis"`` reward constants
         (:data:`jaxnav.core.settings.PRESETS`; ROBOTIS' R- depends on obstacles).
       **overrides: any ``EnvParams`` field (``R_plus=200``, ``lidar_noise_std=0.01``)
