@@ -15,7 +15,7 @@ import jaxnav
 from jaxnav.core.config import load_config
 from jaxnav.core.errors import ConfigError
 from jaxnav.env import from_config
-from jaxnav.experiments.evaluation import evaluate_to_dir
+from jaxnav.experiments.evaluation import drawn_policies, evaluate_to_dir, load_run
 from jaxnav.run.training import train_new
 from jaxnav.world import generators as gen
 
@@ -177,11 +177,16 @@ def test_two_seeds_train_on_a_new_4x4_maze_every_episode(tmp_path):
     assert len(rows) == 2 * 6
     assert all(np.isfinite(float(r["return"])) for r in rows)
     assert load_config(str(out / "config.yaml")) == cfg
-    # The test plays the fixed test mazes by name.
-    evaluated = evaluate_to_dir(out, ["square4"], 1)
+    # The test plays the fixed test mazes by name, then drawn mazes of the test split.
+    evaluated = evaluate_to_dir(out, ["square4"], 2)
     with open(evaluated / "results.csv") as f:
         results = list(csv.DictReader(f))
-    assert {r["maze"] for r in results} == {"square4"} and len(results) == 2 * 2  # 2 modes
+    assert [r["maze"] for r in results if r["mode"] == "greedy"] == ["square4"] * 4 + [
+        "grid:test"
+    ] * 4
+    assert len(results) == 2 * 2 * 2 * 2  # modes x mazes x seeds x episodes
+    drawn = drawn_policies(load_run(out))
+    assert drawn.env.generates and drawn.env.split == "test"
     assert "Trained on `4 x 4 grid mazes (train split)`" in (evaluated / "tables.md").read_text()
 
 
