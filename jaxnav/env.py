@@ -42,9 +42,9 @@ import jax.numpy as jnp
 import numpy as np
 from flax import struct
 
-from jaxnav.core.config import env_setting_problem
+from jaxnav.core.config import env_family_problem, env_setting_problem
 from jaxnav.core.settings import PRESETS
-from jaxnav.world import sensor
+from jaxnav.world import generators, sensor
 from jaxnav.world.geometry import (
     displacement,
     hypot,
@@ -112,6 +112,10 @@ class EnvState:
     # i32[] the action chosen last step, applied this step; None (no leaf) unless
     # NavEnv.action_delay, so the state is unchanged when the switch is off.
     pending_action: chex.Array | None = None
+    # The episode's maze and the episodes begun in it (i32[]) when NavEnv.generator
+    # draws the mazes; None (no leaves) with the fixed maze of EnvParams.
+    maze: Maze | None = None
+    maze_episodes: chex.Array | None = None
 
 
 @dataclasses.dataclass(frozen=True)
@@ -152,6 +156,16 @@ class NavEnv:
       action_delay: apply each action one step late, as ROBOTIS' real-time loop can
         (the reward still scores the chosen action, as ROBOTIS' does); an episode
         starts with the straight action pending.
+
+    Procedural mazes (off by default; :mod:`jaxnav.world.generators`):
+      generator: "" (the maze is ``EnvParams.maze``) or "grid": a perfect maze on a
+        ``grid_rows`` x ``grid_cols`` grid of ``grid_cell`` m cells, ``grid_loops`` of
+        its closed walls opened, drawn inside jit. The maze moves into the state
+        (``EnvState.maze``); ``EnvParams.maze`` is then only a template of its shapes.
+        A reset draws a maze, a start cell and a goal cell ``min_path_cells`` cells
+        away along the maze; every ``new_maze_every`` episodes the restart draws the
+        next (otherwise it keeps the maze, its start and the goal, as with a fixed
+        maze). ``split`` picks the train or the test layouts, never the same.
     """
 
     n_beams: int = 24
@@ -165,15 +179,45 @@ class NavEnv:
     goal_sampler: str = "free"
     beam_layout: str = "even"
     action_delay: bool = False
+    generator: str = ""
+    grid_rows: int = 4
+    grid_cols: int = 4
+    grid_cell: float = 1.0
+    grid_loops: float = 0.0
+    min_path_cells: int = 1
+    new_maze_every: int = 1
+    split: str = "train"
 
     def __post_init__(self):
         for f in dataclasses.fields(self):  # the rules of the config's env settings
             problem = env_setting_problem(f.name, getattr(self, f.name))
             if problem:
                 raise ValueError(f"{f.name} {problem}")
+        if self.generator:
+            problem = env_family_problem(self)
+            if problem:
+                raise ValueError(problem)
         lo, hi = self.maze_scale
         object.__setattr__(self, "odom_noise", tuple(float(x) for x in self.odom_noise))
         object.__setattr__(self, "maze_scale", (float(lo), float(hi)))
+
+    @property
+    def generates(self) -> bool:
+        """Whether the mazes are drawn (``generator`` set), so the state holds the maze."""
+        return bool(self.generator)
+
+    @property
+    def grid(self) -> generators.Grid:
+        """The grid family's static shape."""
+        return generators.Grid(self.grid_rows, self.grid_cols, self.grid_cell, self.grid_loops)
+
+    def draw_maze(self, key: chex.PRNGKey) -> tuple[Maze, chex.Array]:
+        """(maze, goal f32[2]): a maze of the family and split, start and goal in it."""
+        return generators.draw_maze(key, self.grid, self.split, self.min_path_cells)
+
+    def in_maze(self, params: EnvParams, state: EnvState) -> EnvParams:
+        """``params`` with the state's maze when the mazes are drawn (else unchanged)."""
+        return params.replace(maze=state.maze) if self.generates else params
 
     @property
     def scales_maze(self) -> bool:
@@ -305,20 +349,28 @@ class NavEnv:
     # -- API -----------------------------------------------------------------
 
     def reset(self, key: chex.PRNGKey, params: EnvParams) -> tuple[chex.Array, EnvState]:
-        """Robot at the start pose with a freshly drawn goal."""
+        """Robot at the start pose with a freshly drawn goal (and maze, if drawn)."""
         k_goal, k_obs = jax.random.split(key)
         scale = self._episode_scale(key)
         start = params.maze.start[:2]
-        if self.scales_maze:
-            start = start * scale
-        goal = self.first_goal(k_goal, start, params, scale)
+        maze = maze_episodes = None
+        if self.generates:  # a new maze, its start and a goal min_path_cells away
+            maze, goal = self.draw_maze(jax.random.fold_in(key, 5))
+            params = params.replace(maze=maze)
+            maze_episodes = jnp.zeros((), jnp.int32)
+            goal = goal * scale if self.scales_maze else goal
+        else:
+            if self.scales_maze:
+                start = start * scale
+            goal = self.first_goal(k_goal, start, params, scale)
         pos, yaw = self._start_pose(key, params, goal, scale)
         scale = jnp.asarray(scale, jnp.float32)
-        state = _new_episode(pos, yaw, goal, scale, self.action_delay)
+        state = _new_episode(pos, yaw, goal, scale, self.action_delay, maze, maze_episodes)
         return self.observe(k_obs, pos, yaw, goal, params, scale), state
 
     def step_env(self, key: chex.PRNGKey, state: EnvState, action: chex.Array, params: EnvParams):
         """One control period without the auto-reset."""
+        params = self.in_maze(params, state)
         k_goal, k_obs = _step_keys(key)
         applied = state.pending_action if self.action_delay else action
         omega = jnp.asarray(params.omegas)[applied]
@@ -352,6 +404,8 @@ class NavEnv:
             goal_distance0=d0,
             scale=state.scale,
             pending_action=action if self.action_delay else None,
+            maze=state.maze,
+            maze_episodes=state.maze_episodes,
         )
         obs = self.observe(k_obs, pos, yaw, goal, params, state.scale)
         info = {"goal_reached": reached, "collision": collided}
@@ -361,9 +415,12 @@ class NavEnv:
         self, key: chex.PRNGKey, state: EnvState, params: EnvParams
     ) -> tuple[chex.Array, EnvState]:
         """TurtleBot3's restart after a collision or the step limit: the start pose
-        (random if ``random_start``), the same goal, step count 0."""
+        (random if ``random_start``), the same goal, step count 0. With drawn mazes,
+        every ``new_maze_every`` episodes a new maze, start and goal instead."""
         # Without randomised starts the start-pose scan does not depend on the state:
         # under vmap with shared params it is computed once, not per environment.
+        if self.generates:
+            return self._restart_drawn(key, state, params)
         goal = state.goal
         scale = self._episode_scale(key)
         pos, yaw = self._start_pose(key, params, goal, scale)
@@ -372,6 +429,25 @@ class NavEnv:
             goal = goal * (scale / state.scale)
         obs = self.observe(key, pos, yaw, goal, params, scale)
         return obs, _new_episode(pos, yaw, goal, scale, self.action_delay)
+
+    def _restart_drawn(self, key, state: EnvState, params: EnvParams):
+        """:meth:`restart` with drawn mazes: the next maze from ``fold_in(key, 5)`` once
+        the current one has had ``new_maze_every`` episodes."""
+        episodes = state.maze_episodes + 1
+        fresh = episodes >= self.new_maze_every
+        new_maze, new_goal = self.draw_maze(jax.random.fold_in(key, 5))
+        maze = jax.tree.map(lambda a, b: jnp.where(fresh, a, b), new_maze, state.maze)
+        episodes = jnp.where(fresh, 0, episodes)
+        params = params.replace(maze=maze)
+        scale = self._episode_scale(key)
+        kept = state.goal
+        if self.scales_maze:  # the kept goal moves with the maze, the new one is scaled
+            kept, new_goal = kept * (scale / state.scale), new_goal * scale
+        goal = jnp.where(fresh, new_goal, kept)
+        pos, yaw = self._start_pose(key, params, goal, scale)
+        scale = jnp.asarray(scale, jnp.float32)
+        obs = self.observe(key, pos, yaw, goal, params, scale)
+        return obs, _new_episode(pos, yaw, goal, scale, self.action_delay, maze, episodes)
 
     def step(self, key: chex.PRNGKey, state: EnvState, action: chex.Array, params: EnvParams):
         """Step with auto-reset: after a collision or truncation the robot restarts at the
@@ -395,7 +471,9 @@ def _step_keys(key: chex.PRNGKey) -> tuple[chex.Array, chex.Array]:
     return k_goal, k_obs
 
 
-def _new_episode(pos, yaw, goal, scale, action_delay: bool = False) -> EnvState:
+def _new_episode(
+    pos, yaw, goal, scale, action_delay: bool = False, maze=None, maze_episodes=None
+) -> EnvState:
     """State at the start of an episode: step count 0, d_0 measured from here."""
     return EnvState(
         pos=pos,
@@ -405,6 +483,8 @@ def _new_episode(pos, yaw, goal, scale, action_delay: bool = False) -> EnvState:
         goal_distance0=norm2(goal - pos),
         scale=jnp.asarray(scale, jnp.float32),
         pending_action=jnp.asarray(STRAIGHT, jnp.int32) if action_delay else None,
+        maze=maze,
+        maze_episodes=maze_episodes,
     )
 
 
@@ -431,7 +511,9 @@ def make(
     """Build the environment and its params.
 
     Args:
-      maze: a built-in maze name, a path to a maze YAML file, or a ``Maze``.
+      maze: a built-in maze name, a path to a maze YAML file, or a ``Maze``; unused
+        with ``generator="grid"`` (the mazes are drawn, ``EnvParams.maze`` is one of
+        them as a template of their shapes).
       preset: ``"paper"`` (default) or ``"robotis"`` reward constants
         (:data:`jaxnav.core.settings.PRESETS`; ROBOTIS' R- depends on obstacles).
       **overrides: any ``EnvParams`` field (``R_plus=200``, ``lidar_noise_std=0.01``)
@@ -439,7 +521,11 @@ def make(
     """
     if preset not in PRESETS:
         raise ValueError(f"unknown preset '{preset}' (choose from {', '.join(PRESETS)})")
-    maze_obj = make_maze(maze) if isinstance(maze, str) else maze
+    if overrides.get("generator"):  # drawn mazes: params hold a template of their shapes
+        family = NavEnv(**{k: v for k, v in overrides.items() if k in ENV_FIELDS})
+        maze_obj = family.draw_maze(jax.random.PRNGKey(0))[0]
+    else:
+        maze_obj = make_maze(maze) if isinstance(maze, str) else maze
     has_obstacles = maze_obj.has_obstacles
     unknown = set(overrides) - PARAM_FIELDS - ENV_FIELDS
     if unknown:

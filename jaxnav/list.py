@@ -19,6 +19,8 @@ from jaxnav.world.maps import BUILTIN_MAZES
 def _shown(value) -> str:
     if value is None:
         return "null"
+    if value == "":
+        return '""'
     if isinstance(value, tuple):
         return "[" + ", ".join(map(str, value)) + "]"
     return str(value)

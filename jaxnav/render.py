@@ -2,7 +2,9 @@
 
 A picture of a maze (built-in name or YAML file): walls, obstacles, the robot at
 its start pose, a goal drawn by ``reset``, and what its LiDAR beams see (cast by
-the environment's own sensor). The drawing itself is :mod:`jaxnav.report.drawing`.
+the environment's own sensor). MAZE may also be a maze generator (``grid``) or a
+config (``grid4``, a YAML file): then one maze of its family, drawn by ``reset`` from
+``--seed``. The drawing itself is :mod:`jaxnav.report.drawing`.
 """
 
 from __future__ import annotations
@@ -12,13 +14,17 @@ if __name__ == "__main__":  # first thing: Ctrl-C ends the command cleanly
 
     catch_interrupts_in_command()
 
+import os
 import sys
 from collections.abc import Sequence
 from pathlib import Path
 
 from jaxnav.core import cli
+from jaxnav.core.config import CONFIG_DIR, Config, load_config, resolve_config_path
 from jaxnav.core.errors import JaxnavError
+from jaxnav.core.settings import GENERATORS
 from jaxnav.experiments.scene import render_maze
+from jaxnav.world.maps import BUILTIN_MAZES
 
 
 def image_formats() -> list[str]:
@@ -51,7 +57,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         "its LiDAR beams.",
     )
     parser.add_argument(
-        "maze", help="built-in maze name (e.g. square4_obstacles) or a maze .yaml file"
+        "maze",
+        help="built-in maze name (e.g. square4_obstacles), a maze .yaml file, a maze "
+        "generator (grid) or a config (e.g. grid4): a maze it draws",
     )
     parser.add_argument(
         "--out",
@@ -68,10 +76,42 @@ def main(argv: Sequence[str] | None = None) -> int:
         if args.beams < 0:
             raise JaxnavError("--beams must be 0 or more")
         out = check_picture_path(args.out, args.overwrite)
-        render_maze(args.maze, str(out), args.beams, args.seed)
+        cfg = _family_config(args.maze)
+        if cfg is None:
+            render_maze(args.maze, str(out), args.beams, args.seed)
+        else:
+            env_kwargs = cfg.env_kwargs() if cfg.env.generator else None
+            name = args.maze if cfg.env.generator else cfg.env.maze
+            render_maze(name, str(out), args.beams, args.seed, env_kwargs=env_kwargs)
         print(f"wrote {out}")
 
     return cli.run(parser.prog, work)
+
+
+def _family_config(name: str) -> Config | None:
+    """The config ``name`` stands for (a generator's defaults, a shipped config's name,
+    a config file), or None for a maze (built-in or a maze file)."""
+    if name in BUILTIN_MAZES:
+        return None
+    if name in GENERATORS and name:
+        return load_config(None, [f"env.generator={name}"])
+    path = resolve_config_path(name)
+    shipped = os.path.dirname(os.path.abspath(path)) == str(CONFIG_DIR)
+    if not os.path.isfile(path) or not (shipped or _is_config_file(path)):
+        return None
+    return load_config(path)
+
+
+def _is_config_file(path: str) -> bool:
+    """Whether a YAML file is a config (not a maze file: no outline)."""
+    import yaml
+
+    try:
+        with open(path) as f:
+            doc = yaml.safe_load(f)
+    except (OSError, yaml.YAMLError, UnicodeDecodeError):
+        return False  # the maze loader says what is wrong with it
+    return isinstance(doc, dict) and "outline" not in doc and "env" in doc
 
 
 if __name__ == "__main__":

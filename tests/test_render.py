@@ -119,3 +119,11 @@ def test_unknown_maze_name_exits_2_without_a_traceback(tmp_path):
     ), proc.stderr
     assert "Traceback" not in proc.stderr
     assert np.all([not p.exists() for p in tmp_path.iterdir()])
+
+
+@pytest.mark.parametrize("name", ["grid", "grid4"])
+def test_render_draws_a_maze_of_a_generator_or_a_config(name, tmp_path, capsys):
+    out = tmp_path / "grid.png"
+    assert main([name, "--out", str(out), "--seed", "2"]) == 0
+    assert out.read_bytes().startswith(PNG_MAGIC)
+    assert "wrote" in capsys.readouterr().out

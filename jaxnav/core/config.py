@@ -29,13 +29,16 @@ from jaxnav.core import sweep as sweeps
 from jaxnav.core.errors import ConfigError
 from jaxnav.core.settings import (
     AT_LEAST_1,
+    GENERATORS,
     NON_NEGATIVE,
     PAIR_NON_NEGATIVE,
     POSITIVE,
     PRESETS,
+    ROBOT_DIAMETER,
     SCALE_RANGE,
     UNIT,
     UNIT_OPEN,
+    grid_problem,
     one_of,
     problem,
     setting,
@@ -95,6 +98,34 @@ class EnvConfig:
         rule=one_of("even", "gazebo"),
     )
     action_delay: bool = setting(False, "each action applied one step late (ROBOTIS' loop)")
+    # Procedural mazes (jaxnav.world.generators), off by default: env.maze is the maze.
+    generator: str = setting(
+        "",
+        "empty: the fixed maze env.maze; grid: a random grid maze, new every new_maze_every "
+        "episodes",
+        rule=(lambda v: v in GENERATORS, 'must be "" (the fixed env.maze) or grid'),
+    )
+    grid_rows: int = setting(4, "grid: rows of cells", rule=AT_LEAST_1)
+    grid_cols: int = setting(4, "grid: columns of cells", rule=AT_LEAST_1)
+    grid_cell: float = setting(
+        1.0,
+        "grid: a cell's side, m",
+        rule=(lambda v: v > ROBOT_DIAMETER, f"must be more than {ROBOT_DIAMETER} m"),
+    )
+    grid_loops: float = setting(
+        0.0, "grid: fraction of the perfect maze's closed walls opened (loops)", rule=UNIT
+    )
+    min_path_cells: int = setting(
+        1,
+        "grid: cells between the start and the first goal along the maze, at least",
+        rule=AT_LEAST_1,
+    )
+    new_maze_every: int = setting(1, "grid: episodes in each maze", rule=AT_LEAST_1)
+    split: str = setting(
+        "train",
+        "grid: train or test mazes (a layout is in one split only)",
+        rule=one_of("train", "test"),
+    )
 
 
 @dataclass(frozen=True)
@@ -376,6 +407,16 @@ def env_setting_problem(name: str, value: Any) -> str | None:
     return problem(s.rule if s else _ENV_ONLY_RULES.get(name), value)
 
 
+def env_family_problem(env: Any) -> str | None:
+    """What is wrong with a maze generator's settings together (one line naming the
+    setting), or None; ``env`` is an EnvConfig or a ``jaxnav.env.NavEnv``."""
+    if env.goal_sampler == "robotis":
+        return "env.goal_sampler robotis needs a fixed maze (env.generator empty)"
+    return grid_problem(
+        env.grid_rows, env.grid_cols, env.grid_cell, env.grid_loops, env.min_path_cells
+    )
+
+
 def sweep_refusal(key: str) -> str | None:
     """Why ``key`` cannot be swept, or None if it can."""
     if key in SWEEPABLE:
@@ -407,6 +448,10 @@ def _check(cfg: Config) -> Config:
         says = problem(s.rule, _get(cfg, name))
         if says:
             fail(name, says)
+    if cfg.env.generator:
+        says = env_family_problem(cfg.env)
+        if says:
+            raise ConfigError(f"config: {says}")
     known = registry.names()
     for s in cfg.strategies:
         if s not in known:

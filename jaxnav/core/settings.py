@@ -108,6 +108,32 @@ SCALE_RANGE = (
 )
 
 
+GENERATORS = ("", "grid")  # "" : the fixed maze env.maze; jaxnav.world.generators
+# The robot's diameter (2 x jaxnav.world.maps.ROBOT_RADIUS): a grid cell must be wider.
+ROBOT_DIAMETER = 0.26
+
+
+def grid_problem(rows: int, cols: int, cell: float, loops: float, min_path: int) -> str | None:
+    """What is wrong with a grid maze family's settings together, one line naming the
+    setting, or None (each setting's own rule is checked before)."""
+    if rows < 1:
+        return "env.grid_rows must be at least 1"
+    if cols < 1:
+        return "env.grid_cols must be at least 1"
+    if rows * cols < 2:
+        return "env.grid_rows x env.grid_cols must be at least 2 cells (1 x 1 has no goal)"
+    if not cell > ROBOT_DIAMETER:
+        return f"env.grid_cell must be more than the robot's diameter ({ROBOT_DIAMETER} m)"
+    if not 0.0 <= loops <= 1.0:
+        return "env.grid_loops must be in [0, 1]"
+    if min_path > rows + cols - 2:
+        return (
+            f"env.min_path_cells must be at most grid_rows + grid_cols - 2 = {rows + cols - 2} "
+            "(corner to corner)"
+        )
+    return None
+
+
 def one_of(*choices: str):
     """The rule of a setting that takes one of ``choices``."""
     return (lambda x: x in choices, "must be " + " or ".join(choices))

@@ -13,6 +13,7 @@ layout) stay as trained and only the maze changes. Writes, atomically::
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import sys
 from collections.abc import Sequence
@@ -45,6 +46,8 @@ def load_run(run_dir: str | Path) -> LoadedRun:
     cfg_path, params_path = run_dir / rundir.CONFIG, run_dir / rundir.PARAMS
     cfg = load_config(str(cfg_path))
     env, env_params = from_config(cfg)
+    if env.generates:  # trained on drawn mazes: tested on the fixed test mazes by name
+        env = dataclasses.replace(env, generator="")  # (and on drawn ones: drawn_policies)
     network = network_of(cfg, env)
     template = network.init(jax.random.PRNGKey(0), jnp.zeros(env.obs_size))
     dropped = diverged_runs(run_dir)
@@ -83,6 +86,14 @@ def load_run(run_dir: str | Path) -> LoadedRun:
     fields = [all_fields[r] for r in kept]
     policies = Policies(labels, fields, params, env, env_params, network, strategy, hyper, episodes)
     return LoadedRun(cfg, policies)
+
+
+def trained_on(cfg: Config) -> str:
+    """What a run trained on: its maze, or its drawn mazes' family."""
+    e = cfg.env
+    if e.generator:
+        return f"{e.grid_rows} x {e.grid_cols} {e.generator} mazes ({e.split} split)"
+    return e.maze
 
 
 def diverged_runs(run_dir: Path) -> set[tuple[str, int]]:
@@ -129,8 +140,26 @@ def evaluate(
                 name: {labels[i][0]: first_episode(res, i) for i in first}
                 for name, res in zip(names, results)
             }
+        if run.config.env.generator:  # the family's test split: mazes training never saw
+            drawn = drawn_policies(run)
+            results = run_tests(drawn, [drawn.env_params.maze], n_episodes, mode=mode)
+            rows += episode_rows(drawn.fields, [drawn_name(run.config)], results, n_episodes, mode)
     columns = with_swept(RESULT_COLUMNS, run.config.sweep)
     return run, names, rundir.csv_text(columns, rows), episodes
+
+
+def drawn_name(cfg: Config) -> str:
+    """The results' maze name of a run's drawn test mazes: ``grid:test``."""
+    return f"{cfg.env.generator}:test"
+
+
+def drawn_policies(run: LoadedRun) -> Policies:
+    """A run trained on drawn mazes, its policies in the family's test split: every
+    test episode in a maze drawn as in training (a new one every new_maze_every
+    episodes), of the layouts training never draws."""
+    env, env_params = from_config(run.config)
+    env = dataclasses.replace(env, split="test")
+    return run.policies._replace(env=env, env_params=env_params)
 
 
 def evaluate_to_dir(
@@ -142,7 +171,7 @@ def evaluate_to_dir(
     """Evaluate; write results.csv, tables.md, trajectories.npz (each atomically) into ``out``."""
     run, names, text, episodes = evaluate(run_dir, maze_names, n_episodes)
     tables = tables_markdown(
-        text, run.config.env.maze, run.config.seed, title=f"Test results of {Path(run_dir).name}"
+        text, trained_on(run.config), run.config.seed, title=f"Test results of {Path(run_dir).name}"
     )
     out = Path(out) if out is not None else Path(run_dir) / "eval"
     out.mkdir(parents=True, exist_ok=True)

@@ -31,14 +31,28 @@ def draw_maze(ax, maze: Maze, *, n_beams: int = 0, min_range: float = 0.12, **kw
     return drawing.draw_maze(ax, maze, **kw)
 
 
-def render_maze(maze_name: str, out: str, n_beams: int = 24, seed: int = 0, dpi: int = 100) -> None:
-    """Draw a maze with its start pose, a goal drawn by ``reset(seed)``, and the beams."""
+def render_maze(
+    maze_name: str,
+    out: str,
+    n_beams: int = 24,
+    seed: int = 0,
+    dpi: int = 100,
+    env_kwargs: dict | None = None,
+) -> None:
+    """Draw a maze with its start pose, a goal drawn by ``reset(seed)``, and the beams.
+    With ``env_kwargs`` naming a generator (``jaxnav.env.make`` keywords), the maze is
+    the one ``reset(seed)`` draws, and ``maze_name`` only its title."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
-    maze = make_maze(maze_name)
-    env, params = make(maze, n_beams=max(n_beams, 1))
+    drawn = bool(env_kwargs and env_kwargs.get("generator"))
+    if drawn:
+        kwargs = dict(env_kwargs, n_beams=max(n_beams, 1))
+        env, params = make(**kwargs)
+    else:
+        env, params = make(make_maze(maze_name), n_beams=max(n_beams, 1))
     _, state = jax.jit(env.reset)(jax.random.PRNGKey(seed), params)
+    maze = jax.tree.map(np.asarray, state.maze) if drawn else params.maze
     fig = Figure(figsize=(6, 6), dpi=dpi)
     FigureCanvasAgg(fig)
     ax = fig.add_subplot()
@@ -48,6 +62,11 @@ def render_maze(maze_name: str, out: str, n_beams: int = 24, seed: int = 0, dpi:
         f"{_display_name(maze_name)}: {xmax - xmin:.2f} m x {ymax - ymin:.2f} m, "
         f"{n_obs} obstacle{'s' if n_obs != 1 else ''}"
     )
+    if drawn:
+        title = (
+            f"{_display_name(maze_name)}: {env.grid_rows} x {env.grid_cols} {env.generator}, "
+            f"{env.grid_cell:g} m cells, {env.split} maze of seed {seed}"
+        )
     draw_maze(ax, maze, goal=np.asarray(state.goal), n_beams=n_beams, title=title)
     _legend(ax, n_beams, float(params.goal_radius))
     fig.tight_layout()

@@ -1,0 +1,289 @@
+"""Procedural mazes drawn inside jit: the ``grid`` family, its shortest paths and its
+train/test split.
+
+A ``grid`` maze is an R x C grid of square cells of side ``cell`` metres, centred at
+the origin. Its internal walls are carved by randomised Kruskal (walls visited in a
+random order, each opened when it joins two cells not yet connected, the cells'
+labels merged in one vectorised step), which gives a perfect maze: every cell
+reachable, exactly R*C - 1 open internal walls, one path between any two cells.
+``loops`` then opens that fraction of the remaining closed walls (a fixed number,
+``round(loops * (E - R*C + 1))`` of the E internal walls), chosen at random, to
+make loops. Everything is fixed-shape: ``lax.fori_loop`` over the E walls, no Python
+loop over time, so a maze is drawn per episode inside the compiled step and vmaps
+over runs.
+
+Cells are numbered ``r * C + c`` (row r from the bottom, column c from the left).
+Internal walls are numbered: first the R(C-1) walls between (r, c) and (r, c+1), at
+``r * (C-1) + c``, then the (R-1)C walls between (r, c) and (r+1, c), at
+``R(C-1) + r * C + c``. A maze as a :class:`jaxnav.world.maps.Maze` has
+``2RC + R + C`` segment rows: the E internal walls (a closed one real, an open one a
+masked far-away row, as :func:`jaxnav.world.maps.pad_maze` pads), then the 2R + 2C
+boundary walls, one per cell side, always real. Its goal points are the cell
+centres (``cell / 2`` from every wall) and its start pose the centre of a start cell.
+
+Shortest paths: :func:`cell_distances` is breadth-first search over the open walls,
+all sources at once, as R*C - 1 rounds of frontier relaxation (no path in a connected
+graph of R*C cells is longer). Start and goal cells are drawn uniformly among the
+pairs at least ``min_path`` steps apart (a pair always exists for ``min_path <= R + C
+- 2``: corner to opposite corner is that far on any maze, a path being at least the
+Manhattan distance).
+
+Train/test split: a maze's split is a function of its layout alone, one bit of a
+hash of its open walls (:func:`layout_split`). A draw carves candidate mazes from
+successive keys until one of the requested split comes up (two tries on average), so
+a train maze and a test maze can never be the same layout.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import chex
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from jaxnav.core.settings import grid_problem
+from jaxnav.world.maps import _FAR, ROBOTIS_ARENA, Maze
+
+SPLITS = ("train", "test")
+# The ROBOTIS goal table a Maze carries (the generated mazes fill it with cell centres).
+_ROBOTIS_ROWS = 256
+_UNREACHED = 1 << 20  # the distance of a cell not (yet) reached
+_SPLIT_SALT = 0x6A09E667  # fixes the layout hash
+
+
+class Grid(NamedTuple):
+    """The static shape of a grid family (hashable: it fixes array shapes)."""
+
+    rows: int
+    cols: int
+    cell: float = 1.0
+    loops: float = 0.0
+
+    @property
+    def n_cells(self) -> int:
+        return self.rows * self.cols
+
+    @property
+    def n_walls(self) -> int:
+        """Internal walls, E = R(C-1) + (R-1)C."""
+        return self.rows * (self.cols - 1) + (self.rows - 1) * self.cols
+
+    @property
+    def n_segments(self) -> int:
+        """Segment rows of the maze: every wall, 2RC + R + C."""
+        return 2 * self.n_cells + self.rows + self.cols
+
+    @property
+    def n_extra_open(self) -> int:
+        """Walls opened beyond the perfect maze's R*C - 1 to make loops."""
+        closed = self.n_walls - (self.n_cells - 1)
+        return int(round(self.loops * closed))
+
+    @property
+    def max_min_path(self) -> int:
+        """The longest minimum start-goal path that every maze allows: R + C - 2."""
+        return self.rows + self.cols - 2
+
+
+# ----------------------------------------------------------------------------
+# The cell graph
+# ----------------------------------------------------------------------------
+
+
+def wall_cells(grid: Grid) -> tuple[np.ndarray, np.ndarray]:
+    """The two cells (a, b) i32[E] each internal wall separates, in wall order."""
+    r, c = grid.rows, grid.cols
+    rr, cc = np.meshgrid(np.arange(r), np.arange(c - 1), indexing="ij")
+    a_h = (rr * c + cc).ravel()
+    rr, cc = np.meshgrid(np.arange(r - 1), np.arange(c), indexing="ij")
+    a_v = (rr * c + cc).ravel()
+    a = np.concatenate([a_h, a_v]).astype(np.int32)
+    b = np.concatenate([a_h + 1, a_v + c]).astype(np.int32)
+    return a, b
+
+
+def carve(key: chex.PRNGKey, grid: Grid) -> chex.Array:
+    """bool[E]: which internal walls are open (randomised Kruskal, then the loops)."""
+    a, b = (jnp.asarray(x) for x in wall_cells(grid))
+    k_order, k_loops = jax.random.split(key)
+    order = jax.random.permutation(k_order, grid.n_walls)
+
+    def visit(i, carry):
+        label, open_ = carry
+        w = order[i]
+        la, lb = label[a[w]], label[b[w]]
+        join = la != lb
+        label = jnp.where(join & (label == la), lb, label)
+        return label, open_.at[w].set(join)
+
+    label0 = jnp.arange(grid.n_cells, dtype=jnp.int32)
+    open0 = jnp.zeros(grid.n_walls, bool)
+    _, open_ = jax.lax.fori_loop(0, grid.n_walls, visit, (label0, open0))
+    k = grid.n_extra_open
+    if k:  # the k closed walls of highest random priority
+        priority = jnp.where(open_, -1.0, jax.random.uniform(k_loops, (grid.n_walls,)))
+        _, extra = jax.lax.top_k(priority, k)
+        open_ = open_.at[extra].set(True)
+    return open_
+
+
+def cell_distances(open_: chex.Array, grid: Grid) -> chex.Array:
+    """i32[RC, RC]: path length in cells between every two cells through the open walls
+    (breadth-first, all sources at once); a large number for unreachable pairs."""
+    a, b = (jnp.asarray(x) for x in wall_cells(grid))
+    n = grid.n_cells
+    d0 = jnp.where(jnp.eye(n, dtype=bool), 0, _UNREACHED).astype(jnp.int32)
+
+    def expand(_, d):
+        # Each open wall lets a cell's distance (from every source) be its
+        # neighbour's plus one.
+        via_b = jnp.where(open_[None, :], d[:, b] + 1, _UNREACHED)
+        via_a = jnp.where(open_[None, :], d[:, a] + 1, _UNREACHED)
+        d = d.at[:, a].min(via_b)
+        return d.at[:, b].min(via_a)
+
+    return jax.lax.fori_loop(0, max(n - 1, 0), expand, d0)
+
+
+def layout_split(open_: chex.Array) -> chex.Array:
+    """i32[]: 0 (train) or 1 (test), a hash bit of the layout (its open walls) alone."""
+    e = open_.shape[-1]
+    consts = jax.random.bits(jax.random.PRNGKey(_SPLIT_SALT), (e,), jnp.uint32)
+    h = jnp.bitwise_xor.reduce(jnp.where(open_, consts, jnp.uint32(0)), axis=-1)
+    # murmur3's finaliser: every bit of h decides the top bit.
+    h = h ^ (h >> 16)
+    h = h * jnp.uint32(0x85EBCA6B)
+    h = h ^ (h >> 13)
+    h = h * jnp.uint32(0xC2B2AE35)
+    h = h ^ (h >> 16)
+    return (h >> 31).astype(jnp.int32)
+
+
+def carve_split(key: chex.PRNGKey, grid: Grid, split: str) -> chex.Array:
+    """bool[E]: a maze of ``split`` ("train" or "test"): candidates carved from
+    ``fold_in(key, i)``, i = 0, 1, ..., until one's :func:`layout_split` matches."""
+    want = SPLITS.index(split)
+
+    def candidate(i):
+        return carve(jax.random.fold_in(key, i), grid)
+
+    def again(carry):
+        _, open_ = carry
+        return layout_split(open_) != want
+
+    def next_(carry):
+        i, _ = carry
+        return i + 1, candidate(i + 1)
+
+    _, open_ = jax.lax.while_loop(again, next_, (jnp.int32(0), candidate(0)))
+    return open_
+
+
+# ----------------------------------------------------------------------------
+# The maze of a layout
+# ----------------------------------------------------------------------------
+
+
+def _geometry(grid: Grid) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(internal wall segments f32[E, 4], boundary segments f32[2R+2C, 4], cell centres
+    f32[RC, 2]), the grid centred at the origin."""
+    r, c, s = grid.rows, grid.cols, grid.cell
+    x0, y0 = -c * s / 2, -r * s / 2
+    a, b = wall_cells(grid)
+    ar, ac = a // c, a % c
+    horizontal_neighbour = b == a + 1  # a vertical wall at the cell's right side
+    x_right, y_top = x0 + (ac + 1) * s, y0 + (ar + 1) * s
+    x_left, y_bottom = x0 + ac * s, y0 + ar * s
+    inner = np.where(
+        horizontal_neighbour[:, None],
+        np.stack([x_right, y_bottom, x_right, y_top], 1),
+        np.stack([x_left, y_top, x_right, y_top], 1),
+    )
+    xs, ys = x0 + s * np.arange(c + 1), y0 + s * np.arange(r + 1)
+    bottom = np.stack([xs[:-1], np.full(c, ys[0]), xs[1:], np.full(c, ys[0])], 1)
+    top = np.stack([xs[:-1], np.full(c, ys[-1]), xs[1:], np.full(c, ys[-1])], 1)
+    left = np.stack([np.full(r, xs[0]), ys[:-1], np.full(r, xs[0]), ys[1:]], 1)
+    right = np.stack([np.full(r, xs[-1]), ys[:-1], np.full(r, xs[-1]), ys[1:]], 1)
+    boundary = np.concatenate([bottom, top, left, right])
+    centre_y, centre_x = y0 + s * (np.arange(r) + 0.5), x0 + s * (np.arange(c) + 0.5)
+    cy, cx = np.meshgrid(centre_y, centre_x, indexing="ij")
+    centres = np.stack([cx.ravel(), cy.ravel()], 1)
+    return inner.astype(np.float32), boundary.astype(np.float32), centres.astype(np.float32)
+
+
+def layout_maze(open_: chex.Array, grid: Grid, start_cell: chex.Array, yaw: chex.Array) -> Maze:
+    """The :class:`Maze` of a carved layout, the robot in ``start_cell`` facing ``yaw``."""
+    inner, boundary, centres = (jnp.asarray(x) for x in _geometry(grid))
+    segments = jnp.concatenate([jnp.where(open_[:, None], _FAR, inner), boundary])
+    mask = jnp.concatenate([~open_, jnp.ones(len(boundary), bool)])
+    size = max(grid.rows, grid.cols) * grid.cell
+    half = jnp.asarray([grid.cols, grid.rows], jnp.float32) * (grid.cell / 2)
+    start = jnp.concatenate([centres[start_cell], jnp.reshape(yaw, (1,))]).astype(jnp.float32)
+    return Maze(
+        segments=segments.astype(jnp.float32),
+        segment_mask=mask,
+        circles=jnp.asarray([[_FAR, _FAR, 0.0]], jnp.float32),
+        circle_mask=jnp.zeros(1, bool),
+        start=start,
+        goal_points=centres,
+        n_goal_points=jnp.asarray(grid.n_cells, jnp.int32),
+        bounds=jnp.concatenate([-half, half]),
+        n_obstacles=jnp.asarray(0, jnp.int32),
+        robotis_goals=jnp.resize(centres, (_ROBOTIS_ROWS, 2)),
+        n_robotis_goals=jnp.asarray(grid.n_cells, jnp.int32),
+        robotis_scale=jnp.asarray(size / ROBOTIS_ARENA, jnp.float32),
+    )
+
+
+class Draw(NamedTuple):
+    """One drawn maze: its layout, start and goal cells and the path between them."""
+
+    open: chex.Array  # bool[E] open internal walls
+    start_cell: chex.Array  # i32[]
+    goal_cell: chex.Array  # i32[]
+    path_cells: chex.Array  # i32[] shortest path from start to goal, in cells
+
+
+def draw(key: chex.PRNGKey, grid: Grid, split: str = "train", min_path: int = 1) -> Draw:
+    """A maze of ``split`` and a start and goal cell pair drawn uniformly among those at
+    least ``min_path`` cells apart (at least 1: different cells)."""
+    k_maze, k_pair = jax.random.split(key)
+    open_ = carve_split(k_maze, grid, split)
+    dist = cell_distances(open_, grid)
+    n = grid.n_cells
+    ok = dist >= max(min_path, 1)
+    ok &= dist < _UNREACHED
+    priority = jnp.where(ok, jax.random.uniform(k_pair, (n, n)), -1.0)
+    pair = jnp.argmax(priority.ravel())
+    s, g = pair // n, pair % n
+    return Draw(open_, s.astype(jnp.int32), g.astype(jnp.int32), dist[s, g])
+
+
+def draw_maze(
+    key: chex.PRNGKey, grid: Grid, split: str = "train", min_path: int = 1
+) -> tuple[Maze, chex.Array]:
+    """(maze, goal f32[2]): a maze of ``split`` with the robot at the centre of its start
+    cell facing a uniform yaw, and the centre of a goal cell ``min_path`` cells away."""
+    k_draw, k_yaw = jax.random.split(key)
+    d = draw(k_draw, grid, split, min_path)
+    yaw = jax.random.uniform(k_yaw, (), jnp.float32, -jnp.pi, jnp.pi)
+    maze = layout_maze(d.open, grid, d.start_cell, yaw)
+    return maze, maze.goal_points[d.goal_cell]
+
+
+__all__ = [
+    "SPLITS",
+    "Draw",
+    "Grid",
+    "carve",
+    "carve_split",
+    "cell_distances",
+    "draw",
+    "draw_maze",
+    "grid_problem",
+    "layout_maze",
+    "layout_split",
+    "wall_cells",
+]
