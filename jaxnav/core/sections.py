@@ -1,0 +1,198 @@
+"""The config's sections: every environment, DQN, exploration and run setting,
+declared once each with :func:`jaxnav.core.settings.setting` (default, a line of help,
+its rule, whether a sweep may vary it). :mod:`jaxnav.core.config` assembles them into
+:class:`~jaxnav.core.config.Config` and derives validation, sweeps and listings.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from jaxnav.core.settings import (
+    AT_LEAST_1,
+    GENERATORS,
+    NON_NEGATIVE,
+    PAIR_NON_NEGATIVE,
+    POSITIVE,
+    PRESETS,
+    ROBOT_DIAMETER,
+    SCALE_RANGE,
+    UNIT,
+    UNIT_OPEN,
+    one_of,
+    setting,
+)
+
+
+@dataclass(frozen=True)
+class EnvConfig:
+    maze: str = setting("square4", "built-in maze name or a maze YAML file")
+    n_beams: int = setting(24, "LiDAR beams (360 on the robot)", rule=AT_LEAST_1)
+    max_steps: int = setting(500, "an episode is truncated after this many steps", rule=AT_LEAST_1)
+    lidar_noise_std: float = setting(
+        0.0, "std of Gaussian range noise, m (0.01: Gazebo's)", rule=NON_NEGATIVE, sweep=True
+    )
+    R_plus: float | None = setting(None, "reward for a goal (null: the preset's)", sweep=True)
+    R_minus: float | None = setting(None, "reward for a collision (null: the preset's)", sweep=True)
+    reward_span: float | None = setting(
+        None, "the heading term's phi_a spans +-this, rad (null: the preset's)", sweep=True
+    )
+    reward_distance_exp: bool | None = setting(
+        None, "D = 2^(d_c / d_0) (ROBOTIS) instead of d_c (null: the preset's)"
+    )
+    obstacle_obs: bool | None = setting(
+        None, "observe the smallest range and its beam (null: on for mazes with obstacles)"
+    )
+    # Realism for a real robot, all off in the paper (see jaxnav.env.NavEnv):
+    beam_dropout: float = setting(
+        0.0, "probability a beam returns nothing (reads max range)", rule=UNIT_OPEN
+    )
+    odom_noise: tuple[float, ...] = setting(
+        (0.0, 0.0), "std of (position m, yaw rad) odometry noise", rule=PAIR_NON_NEGATIVE
+    )
+    random_start: bool = setting(False, "each episode starts at a random free pose")
+    maze_scale: tuple[float, ...] = setting(
+        (1.0, 1.0), "per-episode maze scale drawn from [low, high]", rule=SCALE_RANGE
+    )
+    # ROBOTIS-faithful switches, all off by default (see jaxnav.env.NavEnv):
+    collision: str = setting(
+        "disc",
+        "disc (exact) or lidar (ROBOTIS: smallest beam below 0.13 m)",
+        rule=one_of("disc", "lidar"),
+    )
+    goal_sampler: str = setting(
+        "free",
+        "free, or robotis (respawnGoal.py's grid, boxes and rules)",
+        rule=one_of("free", "robotis"),
+    )
+    beam_layout: str = setting(
+        "even",
+        "even, or gazebo (n beams over [0, 2 pi] inclusive)",
+        rule=one_of("even", "gazebo"),
+    )
+    action_delay: bool = setting(False, "each action applied one step late (ROBOTIS' loop)")
+    # Procedural mazes (jaxnav.world.generators), off by default: env.maze is the maze.
+    generator: str = setting(
+        "",
+        "empty: the fixed maze env.maze; grid: a random grid maze, new every new_maze_every "
+        "episodes",
+        rule=(lambda v: v in GENERATORS, 'must be "" (the fixed env.maze) or grid'),
+    )
+    grid_rows: int = setting(4, "grid: rows of cells", rule=AT_LEAST_1)
+    grid_cols: int = setting(4, "grid: columns of cells", rule=AT_LEAST_1)
+    grid_cell: float = setting(
+        1.0,
+        "grid: a cell's side, m",
+        rule=(lambda v: v > ROBOT_DIAMETER, f"must be more than {ROBOT_DIAMETER} m"),
+    )
+    grid_loops: float = setting(
+        0.0, "grid: fraction of the perfect maze's closed walls opened (loops)", rule=UNIT
+    )
+    min_path_cells: int = setting(
+        1,
+        "grid: cells between the start and the first goal along the maze, at least",
+        rule=AT_LEAST_1,
+    )
+    new_maze_every: int = setting(1, "grid: episodes in each maze", rule=AT_LEAST_1)
+    split: str = setting(
+        "train",
+        "grid: train or test mazes (a layout is in one split only)",
+        rule=one_of("train", "test"),
+    )
+
+
+@dataclass(frozen=True)
+class DQNConfig:
+    gamma: float = setting(PRESETS["paper"].gamma, "discount", rule=UNIT, sweep=True)
+    lr: float = setting(0.00025, "learning rate (RMSprop or Adam)", rule=POSITIVE, sweep=True)
+    rms_decay: float = setting(0.9, "RMSprop rho", rule=UNIT_OPEN, sweep=True)
+    rms_eps: float = setting(1e-6, "RMSprop epsilon", rule=POSITIVE, sweep=True)
+    batch_size: int = setting(64, "transitions per gradient step", rule=AT_LEAST_1)
+    buffer_size: int = setting(
+        1_000_000, "replay capacity, capped at the run's largest step count", rule=AT_LEAST_1
+    )
+    learning_starts: int = setting(
+        64, "stored transitions before the first gradient step", rule=AT_LEAST_1, sweep=True
+    )
+    hidden: tuple[int, ...] = setting(
+        (64, 64),
+        "hidden layer widths",
+        rule=(lambda v: len(v) > 0 and min(v) >= 1, "must be a non-empty list of positive widths"),
+    )
+    dropout: float = setting(0.2, "dropout after the hidden layers", rule=UNIT_OPEN, sweep=True)
+    # "periodic": hard copy every target_update_every env steps (paper).
+    # "episode_end": online net gives the targets for the first target_update_every
+    # steps, then the target net is synced at every episode end (ROBOTIS code).
+    target_update: str = setting(
+        PRESETS["paper"].target_update,
+        "periodic (paper) or episode_end (ROBOTIS)",
+        rule=one_of("periodic", "episode_end"),
+    )
+    target_update_every: int = setting(
+        2000,
+        "env steps between target syncs (warm-up for episode_end)",
+        rule=AT_LEAST_1,
+        sweep=True,
+    )
+    # Agent variants beyond the paper, all off by default (the paper's agent):
+    double: bool = setting(
+        False,
+        "double DQN: the online net picks the next action, the target net values it",
+        sweep=True,
+    )
+    dueling: bool = setting(False, "dueling head: Q = V + A - mean(A)")
+    tau: float = setting(
+        1.0,
+        "Polyak target rate per step; 1: a copy every target_update_every steps (paper)",
+        rule=(lambda v: 0.0 < v <= 1.0, "must be in (0, 1]"),
+        sweep=True,
+    )
+    loss: str = setting(
+        "mse", "TD loss: mse (paper) or huber (delta 1)", rule=one_of("mse", "huber"), sweep=True
+    )
+    optimizer: str = setting(
+        "rmsprop",
+        "rmsprop (paper, rms_decay and rms_eps) or adam (optax defaults)",
+        rule=one_of("rmsprop", "adam"),
+    )
+    n_step: int = setting(
+        1, "n-step returns: up to n rewards, then gamma^k bootstrap (1: paper)", rule=AT_LEAST_1
+    )
+
+
+@dataclass(frozen=True)
+class ExplorationConfig:
+    ebe_temperature: float = setting(
+        1.0, "softmax temperature of EBE (1 in the paper)", rule=POSITIVE, sweep=True
+    )
+    ebe_power: float = setting(
+        1.0,
+        "EBE explores with probability H(s)^power (1 in the paper)",
+        rule=POSITIVE,
+        sweep=True,
+    )
+    boltzmann_temperature: float = setting(
+        1.0, "Boltzmann samples from softmax(Q / T)", rule=POSITIVE, sweep=True
+    )
+    eps_start: float = setting(1.0, "epsilon of the first episode", rule=UNIT, sweep=True)
+    eps_decay: float = setting(0.99, "epsilon's factor per episode", rule=UNIT, sweep=True)
+    eps_min: float = setting(0.05, "epsilon's floor", rule=UNIT, sweep=True)
+
+
+@dataclass(frozen=True)
+class RunConfig:
+    chunk_steps: int = setting(
+        10_000, "env steps per compiled chunk (progress, checkpoint)", rule=AT_LEAST_1
+    )
+    test_mazes: tuple[str, ...] = setting(
+        ("square4", "square8", "square2", "triangle", "pentagon"), "mazes of the test"
+    )
+    test_episodes: int = setting(10, "consecutive test episodes per maze", rule=AT_LEAST_1)
+    on_divergence: str = setting(
+        "stop",
+        "a run whose numbers stop being finite: stop the command, or drop that run",
+        rule=one_of("stop", "drop"),
+    )
+    tensorboard: bool = setting(
+        False, "training curves for TensorBoard in RUN_DIR/tensorboard (extra 'tensorboard')"
+    )
