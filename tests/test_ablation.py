@@ -26,6 +26,7 @@ def report_rows():
     return ablation.score_rows("jaxnav", REPORT)
 
 
+@pytest.mark.slow
 def test_scores_round_trip_through_csv_and_give_the_claims_verdicts(report_rows):
     # docs/report/claims.md is the claims code's own output on the same runs
     # (tests/test_report.py); the ablation must judge every claim the same way.
@@ -92,6 +93,7 @@ def test_unknown_variant_is_one_line(capsys):
     assert "unknown variant 'nope'" in err and "\n" not in err
 
 
+@pytest.mark.slow
 def test_the_committed_ablation_is_computed_from_its_scores():
     doc = ROOT / "docs" / "ablation"
     if not (doc / "ablation.md").is_file():
@@ -108,6 +110,7 @@ def test_the_committed_ablation_is_computed_from_its_scores():
             assert line in tables, line
 
 
+@pytest.mark.slow
 def test_the_robotis_goals_confirmation_is_computed_from_its_results():
     import gzip
 

@@ -5,6 +5,8 @@ from __future__ import annotations
 import subprocess
 import sys
 
+import pytest
+
 import jaxnav.train as train_command
 
 SMOKE = [
@@ -54,6 +56,7 @@ def test_study_checks_its_doc_files_before_training(tmp_path, capsys, monkeypatc
     assert not (tmp_path / "s").exists()
 
 
+@pytest.mark.slow
 def test_train_ends_with_the_outcome_table(tmp_path, capsys):
     """The table evaluate prints too (report.tables.outcome_text), of the last 50
     training episodes of each seed."""

@@ -332,6 +332,7 @@ def test_still_training_is_one_rule_for_numpy_and_jax():
     assert not bool(tr.active(ts))
 
 
+@pytest.mark.slow
 def test_make_train_gives_the_state_of_repeated_chunks():
     cfg = _tiny("seeds=1", "episodes=2", "env.max_steps=20", "run.chunk_steps=16")
     tr = make_trainer(cfg)

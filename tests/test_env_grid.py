@@ -153,6 +153,7 @@ def test_bad_generator_is_refused():
     load_config("smoke", ["env.grid_rows=1", "env.grid_cols=1"])  # ignored without a generator
 
 
+@pytest.mark.slow
 def test_two_seeds_train_on_a_new_4x4_maze_every_episode(tmp_path):
     cfg = load_config(
         "smoke",
@@ -190,6 +191,7 @@ def test_two_seeds_train_on_a_new_4x4_maze_every_episode(tmp_path):
     assert "Trained on `4 x 4 grid mazes (train split)`" in (evaluated / "tables.md").read_text()
 
 
+@pytest.mark.slow
 def test_a_checkpoint_restores_the_drawn_maze_with_the_state(tmp_path):
     from jaxnav.core import rundir
     from jaxnav.run.checkpoint import chunk_slots

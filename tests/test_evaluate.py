@@ -39,6 +39,7 @@ def _rows(path):
         return list(csv.DictReader(f))
 
 
+@pytest.mark.slow
 def test_evaluation_covers_every_run_maze_and_episode(evaluated):
     cfg, out = evaluated
     rows = _rows(out / "eval" / "results.csv")
@@ -61,6 +62,7 @@ def test_evaluation_covers_every_run_maze_and_episode(evaluated):
     assert (out / "eval" / "tables.md").is_file() and (out / "eval" / "trajectories.npz").is_file()
 
 
+@pytest.mark.slow
 def test_tables_are_recomputed_from_results_csv(evaluated):
     cfg, out = evaluated
     text = (out / "eval" / "results.csv").read_text()
@@ -185,6 +187,7 @@ obstacles:
 """
 
 
+@pytest.mark.slow
 def test_evaluation_on_two_mazes_by_name_and_file(run, tmp_path):
     """A maze YAML path works like a name, and a policy trained without obstacles keeps
     its 26-value observation on a maze with an obstacle."""
@@ -303,6 +306,7 @@ def test_outputs_are_checked_before_the_test_starts(run, tmp_path, capsys, monke
     assert len(tested) == 2
 
 
+@pytest.mark.slow
 def test_evaluate_ends_with_trains_table_per_test_mode(run, tmp_path, capsys):
     """Per test mode and strategy: seeds, return, goals, collisions, each a mean over
     seeds with its interval, in the table train prints (report.tables.outcome_text)."""

@@ -88,6 +88,7 @@ def test_ctrl_c_tidies_says_one_line_and_exits_130(tmp_path, mode):
     assert took < 10, took  # native: the watcher thread acts after a second
 
 
+@pytest.mark.slow
 def test_ctrl_c_waits_for_a_no_interrupt_block_but_not_twice(tmp_path):
     proc = _start("block", str(tmp_path), "1.5")
     _ready(proc)

@@ -41,6 +41,7 @@ def _check_image(path: Path, signature: bytes, min_size=(200, 200)):
         assert colors is None or len(colors) > 8, path  # not a blank canvas
 
 
+@pytest.mark.slow
 def test_plots_of_a_tiny_run_are_written_and_non_empty(run, capsys):
     cfg, out = run
     evaluate_to_dir(out)  # the plots read its first test episodes
@@ -186,6 +187,7 @@ def test_a_registered_strategy_gets_its_own_colour(tmp_path, drawn, toy_strategy
 MODE_IN_TITLE = re.compile(r"test mode: (greedy|exploring)\b")
 
 
+@pytest.mark.slow
 def test_trajectory_and_episode_titles_name_the_test_mode_of_their_episodes(run, tmp_path, drawn):
     """The recorded episodes are one test mode's (results.csv tells which: the first
     episode of the config's seed); every figure drawn from them names that mode."""
@@ -274,6 +276,7 @@ def test_bad_input_is_one_line_and_exit_2(run, case, message, tmp_path, capsys):
     assert not (d / "plots").exists()
 
 
+@pytest.mark.slow
 def test_reproduce_quick_end_to_end(run, tmp_path, capsys):
     """Both experiments trained, tested and plotted; report.md holds tables and figures.
 

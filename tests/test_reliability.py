@@ -28,6 +28,7 @@ def _one_line(capsys) -> str:
     return lines[0]
 
 
+@pytest.mark.slow
 def test_divergence_stops_with_one_line_and_keeps_the_good_checkpoint(tmp_path, capsys):
     out = tmp_path / "run"
     # Chunks of 50 steps: the first ends before learning starts and is checkpointed.
@@ -61,6 +62,7 @@ def test_divergence_stops_with_one_line_and_keeps_the_good_checkpoint(tmp_path, 
         assert path.read_bytes() == before
 
 
+@pytest.mark.slow
 def test_divergence_drop_freezes_runs_and_evaluation_skips_them(tmp_path, capsys):
     out = tmp_path / "run"
     argv = [*DIVERGING, "run.on_divergence=drop", "--quiet", "--out", str(out)]
@@ -133,6 +135,7 @@ def test_resume_removes_the_temporary_files_of_a_killed_writer(tmp_path):
     assert not any(p.exists() for p in stale) and keep.exists()
 
 
+@pytest.mark.slow
 def test_out_into_a_finished_run_needs_overwrite_and_never_a_busy_one(tmp_path, capsys):
     out = tmp_path / "run"
     tiny = ["configs/smoke.yaml", "seeds=1", "episodes=2", "env.max_steps=20", "dqn.batch_size=16"]
@@ -155,6 +158,7 @@ def test_out_into_a_finished_run_needs_overwrite_and_never_a_busy_one(tmp_path, 
     assert (out / rundir.PARAMS).read_bytes() != before
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("failing", ["checkpoint", "metrics.csv"])
 def test_a_full_disk_mid_training_loses_nothing(tmp_path, capsys, monkeypatch, failing):
     """A write fails part-way (ENOSPC) in the third chunk: one line, exit 2, the logs
@@ -207,6 +211,7 @@ def _files(run_dir) -> dict[str, bytes]:
     return {name: (run_dir / name).read_bytes() for name in names}
 
 
+@pytest.mark.slow
 def test_resume_of_a_run_with_only_its_config_starts_it(tmp_path, capsys):
     """A directory holding only config.yaml (and a cut metrics.csv): killed before its
     first checkpoint, so --resume trains it from the start."""

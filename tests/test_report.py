@@ -28,6 +28,7 @@ def committed_claims():
     return (REPORT / "claims.md").read_text()
 
 
+@pytest.mark.slow
 def test_the_committed_claims_are_computed_from_the_committed_runs(committed_claims):
     verdicts = evaluate_claims(experiment_files(REPORT))
     assert claims_markdown(verdicts) == committed_claims

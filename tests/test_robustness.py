@@ -32,6 +32,7 @@ def _rows(path):
         return list(csv.DictReader(f))
 
 
+@pytest.mark.slow
 def test_robustness_files_are_written(swept):
     _, out = swept
     for name in ("robustness.csv", "robustness.md", "robustness.png"):

@@ -264,6 +264,7 @@ def loops(policy_file, tmp_path_factory):
 # ----------------------------------------------------------------------------
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", list(LOOPS))
 def test_the_node_drives_the_robot_to_each_goal_without_collision(loops, name):
     loop = loops[name]
@@ -277,6 +278,7 @@ def test_the_node_drives_the_robot_to_each_goal_without_collision(loops, name):
     assert "Traceback" not in node_log, loop.report()
 
 
+@pytest.mark.slow  # the closed loop: a ROS graph and a trained policy
 @pytest.mark.parametrize("name", list(LOOPS))
 def test_the_node_stops_without_goal_on_stale_odometry_bad_scans_and_shutdown(loops, name):
     loop = loops[name]

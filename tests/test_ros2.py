@@ -378,6 +378,7 @@ def loops(ros2_sim, policy_file, tmp_path_factory):
 # ----------------------------------------------------------------------------
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", list(LOOPS))
 def test_the_node_drives_the_robot_to_each_goal_without_collision(loops, name):
     loop = loops[name]
@@ -396,6 +397,7 @@ def test_the_node_drives_the_robot_to_each_goal_without_collision(loops, name):
     assert r["unstamped"] == 0, loop.report()  # every TwistStamped carries its time
 
 
+@pytest.mark.slow  # the closed loop: a ROS graph and a trained policy
 @pytest.mark.parametrize("name", list(LOOPS))
 def test_the_node_stops_without_goal_and_on_sigint(loops, name):
     loop = loops[name]
@@ -409,6 +411,7 @@ def test_the_node_stops_without_goal_and_on_sigint(loops, name):
     assert "interrupted: stopping the robot" in loop.node.log.read_text(), loop.report()
 
 
+@pytest.mark.slow  # the closed loop: a ROS graph and a trained policy
 def test_the_node_stops_on_stale_odometry_and_bad_scans_with_one_line_each(loops):
     loop = loops["stamped"]
     r = loop.result
@@ -424,6 +427,7 @@ def test_the_node_stops_on_stale_odometry_and_bad_scans_with_one_line_each(loops
     assert log.count("scan range_max 2 m is below the policy's max range") == 1, loop.report()
 
 
+@pytest.mark.slow  # the closed loop: a ROS graph and a trained policy
 def test_the_node_refuses_a_goal_in_another_frame_and_stops_on_an_odometry_jump(loops):
     loop = loops["stamped"]
     r = loop.result

@@ -7,6 +7,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
 TINY = ["episodes=6", "env.max_steps=80", "run.chunk_steps=100", "dqn.batch_size=16"]
@@ -54,6 +55,7 @@ def _close(a_dir, b_dir):
     np.testing.assert_allclose(ra, rb, rtol=1e-4, atol=1e-3)
 
 
+@pytest.mark.slow
 def test_sharded_run_matches_single_device_and_pads_odd_seed_counts(tmp_path):
     one = _run(tmp_path, "one", 1, seeds=3)
     four = _run(tmp_path, "four", 4, seeds=3)  # 6 runs on 4 devices: padded to 8
@@ -71,6 +73,7 @@ def test_sharded_run_matches_single_device_and_pads_odd_seed_counts(tmp_path):
     assert (n_dev, padded, spread, rows) == (4, 8, 4, 8)  # really spread over 4 devices
 
 
+@pytest.mark.slow
 def test_two_processes_write_one_run_directory_equal_to_one_process_with_two_devices(tmp_path):
     """jax.distributed on localhost: 2 processes x 1 CPU device == 1 process x 2 devices."""
     import socket

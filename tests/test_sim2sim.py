@@ -332,6 +332,7 @@ def test_an_existing_out_is_refused_before_any_work_unless_overwrite(
     assert out.with_suffix(".md").read_text().startswith("# Sim-to-sim gap of ")
 
 
+@pytest.mark.slow
 def test_the_reproduction_adds_the_sim_to_sim_gap_of_its_first_seeds(run, tmp_path):
     from jaxnav.experiments import reproduce
 

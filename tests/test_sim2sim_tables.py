@@ -96,6 +96,7 @@ def test_the_realism_table_refuses_runs_that_do_not_match(synthetic):
         realism_markdown(text, baseline="none")
 
 
+@pytest.mark.slow
 def test_the_committed_gap_table_is_computed_from_its_csv():
     title = "Sim-to-sim gap of paper_no_obstacles: jaxnav and MuJoCo"
     md = gap_markdown((ROOT / "docs" / "sim2sim.csv").read_text(), title)
@@ -103,6 +104,7 @@ def test_the_committed_gap_table_is_computed_from_its_csv():
     assert one_level_down in (ROOT / "docs" / "sim2sim.md").read_text()
 
 
+@pytest.mark.slow
 def test_the_committed_realism_table_is_computed_from_its_csv():
     md = realism_markdown((ROOT / "docs" / "sim2sim_realism.csv").read_text())
     assert md in (ROOT / "docs" / "sim2sim_realism.md").read_text()

@@ -56,6 +56,7 @@ def test_iqm_of_a_known_array():
     assert stats.iqm(x) == pytest.approx(trim_mean(x, 0.25))
 
 
+@pytest.mark.slow
 @settings(max_examples=25, deadline=None)
 @given(st.lists(st.floats(-1e4, 1e4), min_size=2, max_size=12))
 def test_bootstrap_intervals_contain_their_estimate(x):

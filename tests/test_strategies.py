@@ -39,6 +39,7 @@ def test_unknown_strategy_is_refused_until_registered(toy):
     assert load_config(None, ["strategies=[ebe, straight]"]).strategies == ("ebe", "straight")
 
 
+@pytest.mark.slow
 def test_a_registered_strategy_trains_evaluates_and_exports(toy, tmp_path):
     cfg = load_config(
         None,

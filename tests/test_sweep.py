@@ -154,6 +154,7 @@ def test_a_swept_config_survives_its_config_yaml(tmp_path):
 # ----------------------------------------------------------------------------
 
 
+@pytest.mark.slow
 def test_a_sweep_of_one_value_equals_the_run_without_a_sweep_bit_for_bit(tmp_path):
     plain = load_config(None, TINY)
     swept = load_config(None, [*TINY, f"sweep.exploration.ebe_temperature=[{1.0}]"])
@@ -168,6 +169,7 @@ def test_a_sweep_of_one_value_equals_the_run_without_a_sweep_bit_for_bit(tmp_pat
     assert all(np.array_equal(pa[k], renamed[k]) for k in pa)
 
 
+@pytest.mark.slow
 def test_each_point_of_a_sweep_trains_as_the_run_of_its_values(tmp_path):
     """Runs are independent along the run axis: a point of a 3-point sweep gives the
     numbers of a separate run at that point's values (same seeds)."""
@@ -186,6 +188,7 @@ def test_each_point_of_a_sweep_trains_as_the_run_of_its_values(tmp_path):
     assert not np.array_equal(ret[0], ret[swept.seeds])
 
 
+@pytest.mark.slow
 def test_agent_switches_swept_train_each_point_as_the_run_of_its_values():
     """dqn.double, dqn.tau and dqn.loss are data when swept: their 8 points share one
     program, and a point gives the numbers of a separate run with its switches set.
@@ -229,6 +232,7 @@ def _train_state(cfg):
     return run, ts
 
 
+@pytest.mark.slow
 def test_the_command_trains_strategies_and_points_in_one_program(tmp_path, capsys):
     from jaxnav.train import main
 
@@ -275,6 +279,7 @@ def test_the_command_trains_strategies_and_points_in_one_program(tmp_path, capsy
         ],
     ],
 )
+@pytest.mark.slow
 def test_a_swept_run_resumes_to_the_uninterrupted_result(tmp_path, monkeypatch, settings):
     cfg = load_config(None, [*TINY, *settings])
     train_new(cfg, tmp_path / "ref", quiet=True)
@@ -300,6 +305,7 @@ def test_a_swept_run_resumes_to_the_uninterrupted_result(tmp_path, monkeypatch, 
     assert a.keys() == b.keys() and all(np.array_equal(a[k], b[k]) for k in a)
 
 
+@pytest.mark.slow
 def test_a_swept_environment_setting_changes_the_reward_of_its_runs():
     cfg = load_config(None, [*TINY, "sweep.env.R_minus=[-150, -1000]", "strategies=[ebe]"])
     _, ts = _train_state(cfg)
@@ -317,6 +323,7 @@ def test_a_swept_environment_setting_changes_the_reward_of_its_runs():
 # ----------------------------------------------------------------------------
 
 
+@pytest.mark.slow
 def test_the_study_command_tests_tabulates_and_draws_a_sweep(tmp_path, capsys):
     from jaxnav.study import main
 
@@ -367,6 +374,7 @@ def test_the_study_command_tests_tabulates_and_draws_a_sweep(tmp_path, capsys):
     assert "has no sweep" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_exploring_test_uses_each_points_own_temperature(tmp_path):
     """The exploring test of a point explores with that point's temperature: at a tiny
     temperature EBE's entropy is near 0, so it acts almost greedily."""
@@ -390,6 +398,7 @@ def test_exploring_test_uses_each_points_own_temperature(tmp_path):
     assert not np.array_equal(exploring.ret[2:], greedy.ret[2:])
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name, seed", [("temperature", 0), ("temperature-confirm", 100)])
 def test_the_committed_temperature_studies_are_computed_from_their_results(name, seed):
     from pathlib import Path

@@ -51,6 +51,7 @@ def purge_steps(run_dir) -> list[int]:
     return [event.step for event in events(run_dir) if _purges(event)]
 
 
+@pytest.mark.slow
 def test_episode_and_step_curves_are_the_runs_own_numbers(tmp_path):
     out = tmp_path / "run"
     assert train_main([*TINY, "--out", str(out)]) == 0
@@ -77,6 +78,7 @@ def test_episode_and_step_curves_are_the_runs_own_numbers(tmp_path):
         assert set(max_q) >= set(loss)
 
 
+@pytest.mark.slow
 def test_a_resumed_run_purges_what_came_after_its_checkpoint(tmp_path, monkeypatch):
     ref, out = tmp_path / "ref", tmp_path / "run"
     assert train_main([*TINY, "--out", str(ref)]) == 0
@@ -103,6 +105,7 @@ def test_a_resumed_run_purges_what_came_after_its_checkpoint(tmp_path, monkeypat
     assert purge_steps(out / "tensorboard" / "episodes") == [0]
 
 
+@pytest.mark.slow
 def test_a_swept_run_has_one_curve_per_arm_averaged_over_its_seeds(tmp_path):
     out = tmp_path / "run"
     argv = [*TINY, "strategies=[ebe]", "sweep.exploration.ebe_temperature=[0.1,1]"]

@@ -68,6 +68,7 @@ def smoke_run(tmp_path_factory):
     return cfg, out
 
 
+@pytest.mark.slow
 def test_smoke_run_writes_the_run_directory(smoke_run):
     cfg, out = smoke_run
     for name in ("config.yaml", "metrics.csv", "explore.csv", "params.npz", "summary.json"):
@@ -113,6 +114,7 @@ def test_smoke_run_beats_a_random_policy(smoke_run):
         assert np.mean(last) > random_return + 100, (strategy, np.mean(last), random_return)
 
 
+@pytest.mark.slow
 def test_same_seed_same_numbers_and_seeds_differ(smoke_run, tmp_path):
     cfg, out = smoke_run
     train_new(cfg, tmp_path / "again", quiet=True)
@@ -129,6 +131,7 @@ def test_same_seed_same_numbers_and_seeds_differ(smoke_run, tmp_path):
     assert r0 != r1
 
 
+@pytest.mark.slow
 def test_compiled_train_function_matches_the_host_loop(tmp_path):
     cfg = load_config(None, TINY)
     train_new(cfg, tmp_path / "run", quiet=True)
@@ -140,6 +143,7 @@ def test_compiled_train_function_matches_the_host_loop(tmp_path):
     np.testing.assert_array_equal(k[3], p["epsilon_greedy/seed1/params/Dense_2/kernel"])
 
 
+@pytest.mark.slow
 def test_resume_after_sigkill_gives_identical_results(tmp_path):
     ref, killed = tmp_path / "ref", tmp_path / "killed"
     cmd = [sys.executable, "-m", "jaxnav.train", *TINY, "--quiet"]
@@ -202,6 +206,7 @@ def test_existing_run_directory_is_not_overwritten(smoke_run, capsys):
     assert (out / "metrics.csv").read_bytes() == before
 
 
+@pytest.mark.slow
 def test_three_strategies_train_in_one_program_and_the_command_draws_the_curves(tmp_path, capsys):
     out = tmp_path / "run"
     argv = ["configs/smoke.yaml", "seeds=1", "episodes=3", "env.max_steps=30", "--quiet"]
@@ -238,6 +243,7 @@ def test_tensorboard_without_its_writer_is_one_line_before_anything_is_written(
     assert not (tmp_path / "r").exists()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("buffer_size", [1_000_000, 150])  # 150: the ring wraps in a chunk
 def test_a_checkpoint_restores_the_whole_state_from_its_row_segments(tmp_path, buffer_size):
     cfg = load_config(None, [*TINY, "episodes=3", f"dqn.buffer_size={buffer_size}"])
@@ -258,6 +264,7 @@ def test_a_checkpoint_restores_the_whole_state_from_its_row_segments(tmp_path, b
         np.testing.assert_array_equal(a, b)
 
 
+@pytest.mark.slow
 def test_a_finished_run_keeps_no_checkpoints_and_evaluates(smoke_run, tmp_path):
     _, out = smoke_run
     assert not list(out.rglob("rows-*.npz")) and not list(out.rglob("*.npz.tmp*"))
@@ -266,6 +273,7 @@ def test_a_finished_run_keeps_no_checkpoints_and_evaluates(smoke_run, tmp_path):
     assert (evaluated / "results.csv").is_file()
 
 
+@pytest.mark.slow
 def test_keep_checkpoints_and_resume_of_a_finished_run(tmp_path, capsys):
     out = tmp_path / "run"
     assert main([*TINY, "episodes=3", "--keep-checkpoints", "--quiet", "--out", str(out)]) == 0
