@@ -1,5 +1,13 @@
 import os
+import signal
 import tempfile
+
+# Several tests send Ctrl-C (SIGINT) to commands and nodes they start. A process
+# started where SIGINT is ignored (a background job, nohup, some CI runners) passes
+# "ignored" on to every child, which would then never see it; a handler here is
+# reset to the default in each child instead.
+if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+    signal.signal(signal.SIGINT, signal.default_int_handler)
 
 # Share compiled programs between tests and their subprocesses: many tests build the
 # same tiny trainer, and compiling dominates their time on a 2-core machine.
