@@ -199,6 +199,7 @@ def _run(inputs, r: int):
     return jax.tree.map(lambda a: a[r], tuple(inputs))
 
 
+@pytest.mark.slow
 def test_target_sync_every_n_steps():
     cfg = _tiny("dqn.target_update_every=5", "dqn.learning_starts=1")
     tr = make_trainer(cfg)
@@ -213,6 +214,7 @@ def test_target_sync_every_n_steps():
         assert same == (n % 5 == 0), n
 
 
+@pytest.mark.slow
 def test_robotis_target_is_the_online_net_in_warm_up_then_last_episode_ends_copy():
     """ROBOTIS: targets from the online net while the step is at most N, then from the
     target net, which is copied at every episode end (warm-up included)."""
@@ -267,6 +269,7 @@ def test_learning_starts_after_enough_transitions():
         assert changed == (n >= 4), n
 
 
+@pytest.mark.slow
 def test_seeds_differ_and_strategies_share_the_seed_init():
     cfg = _tiny()
     tr = make_trainer(cfg)
@@ -392,6 +395,7 @@ def test_soft_update_tau_one_is_a_copy_and_one_half_the_average():
     assert float(half["b"]) == -0.25
 
 
+@pytest.mark.slow
 def test_trainer_with_tau_moves_the_target_by_polyak_every_step():
     cfg = _tiny("dqn.tau=0.5", "dqn.learning_starts=1", "dqn.target_update_every=1000")
     tr = make_trainer(cfg)
@@ -444,6 +448,7 @@ def test_adam_first_update_is_optax_adam():
         "dqn.n_step=3",
     ],
 )
+@pytest.mark.slow
 def test_each_switch_trains_and_changes_the_updates(switch):
     # a large learning rate, so the online and target networks' argmax part early
     common = ("seeds=1", "strategies=[ebe]", "dqn.learning_starts=2", "dqn.lr=0.01")

@@ -555,6 +555,7 @@ def test_jit_and_vmap_over_1000_environments(maze, obs_size):
     assert env.action_space(params).contains(int(actions[0]))
 
 
+@pytest.mark.slow
 def test_vmap_over_a_batch_of_different_mazes():
     names = ["square4", "triangle", "square4_obstacles", "corridor"]
     stacked = jax.tree.map(lambda x: x[np.array([NAMES.index(n) for n in names])], STACK)

@@ -36,6 +36,7 @@ def test_the_default_state_holds_no_maze():
     assert len(jax.tree.leaves(state)) == 6
 
 
+@pytest.mark.slow
 def test_reset_draws_a_maze_a_start_cell_and_a_far_goal():
     env, params = jaxnav.make(**GRID)
     assert params.maze.segments.shape == (gen.Grid(4, 4).n_segments, 4)
@@ -82,6 +83,7 @@ def test_the_lidar_in_a_drawn_maze_agrees_with_the_reference_caster():
             np.testing.assert_allclose(np.asarray(o[i, :24]), want, atol=1e-4)
 
 
+@pytest.mark.slow
 def test_collisions_are_with_the_state_maze():
     env, params = jaxnav.make(**GRID)
     _, state = env.reset(KEYS[0], params)
@@ -123,6 +125,7 @@ def test_a_new_maze_every_new_maze_every_episodes(every):
             np.testing.assert_array_equal(goals[i], goals[i - 1])
 
 
+@pytest.mark.slow
 def test_the_test_split_draws_test_layouts():
     env, params = jaxnav.make(**GRID, split="test")
     _, state = jax.vmap(env.reset, in_axes=(0, None))(KEYS, params)

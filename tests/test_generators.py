@@ -105,6 +105,7 @@ def test_shortest_paths_agree_with_numpy_bfs(grid):
         np.testing.assert_array_equal(d, want)
 
 
+@pytest.mark.slow
 def test_start_and_goal_are_at_least_min_path_cells_apart():
     grid = gen.Grid(4, 4, loops=0.2)
     a, b = gen.wall_cells(grid)

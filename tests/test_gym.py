@@ -86,6 +86,7 @@ def test_bad_action_and_step_before_reset_are_errors(noisy_env):
         noisy_env.reset(options={"goal": 1})
 
 
+@pytest.mark.slow
 def test_trajectory_equals_the_jax_step_env_for_the_same_keys(noisy_env):
     env, params = noisy_env.jax_env, noisy_env.jax_params
     step_env = jax.jit(env.step_env)

@@ -47,6 +47,7 @@ def test_beam_dropout_reads_max_range_at_the_given_rate():
     assert lost.mean() == pytest.approx(0.3, abs=0.01)
 
 
+@pytest.mark.slow
 def test_dropout_leaves_the_range_noise_of_the_kept_beams_unchanged():
     # Dropout draws from its own key: the beams it keeps read what they read without it.
     env0, p = jaxnav.make("square2", lidar_noise_std=0.01)  # every range < 3.5 here
@@ -61,6 +62,7 @@ def test_dropout_leaves_the_range_noise_of_the_kept_beams_unchanged():
     np.testing.assert_array_equal(o1[:, 24:], o0[:, 24:])
 
 
+@pytest.mark.slow
 def test_odometry_noise_moves_heading_and_distance_not_ranges():
     env0, p = jaxnav.make("square4")
     env1, _ = jaxnav.make("square4", odom_noise=(0.05, 0.05))
@@ -73,6 +75,7 @@ def test_odometry_noise_moves_heading_and_distance_not_ranges():
     assert 0.03 < dh.std() < 0.2 and 0.03 < dd.std() < 0.08
 
 
+@pytest.mark.slow
 def test_random_start_is_free_and_varied():
     env, params = jaxnav.make("square4_obstacles", random_start=True)
     keys = jax.random.split(jax.random.PRNGKey(2), 500)
@@ -92,6 +95,7 @@ def test_random_start_is_free_and_varied():
     assert np.unique(starts.round(3), axis=0).shape[0] == len(ends)
 
 
+@pytest.mark.slow
 def test_maze_scale_scales_walls_goals_and_scan():
     env, params = jaxnav.make("square4", maze_scale=(0.8, 1.25))
     keys = jax.random.split(jax.random.PRNGKey(4), 300)

@@ -121,6 +121,7 @@ def test_unknown_maze_name_exits_2_without_a_traceback(tmp_path):
     assert np.all([not p.exists() for p in tmp_path.iterdir()])
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", ["grid", "grid4"])
 def test_render_draws_a_maze_of_a_generator_or_a_config(name, tmp_path, capsys):
     out = tmp_path / "grid.png"
