@@ -18,7 +18,13 @@ from pathlib import Path
 
 from jaxnav.core import cli
 from jaxnav.core.errors import JaxnavError
-from jaxnav.experiments.reproduce import DEFAULT_SEEDS, QUICK, reproduce
+from jaxnav.experiments.reproduce import (
+    DEFAULT_SEEDS,
+    EXPERIMENTS,
+    QUICK,
+    experiment_config,
+    reproduce,
+)
 
 
 def _parser() -> cli.Parser:
@@ -74,6 +80,11 @@ def _parser() -> cli.Parser:
         "(python -m jaxnav.sim2sim; needs the extra 'sim'; about 6 s per policy and maze "
         "at 10 test episodes of 500 steps) and add the sim-to-sim gap to the report",
     )
+    p.add_argument(
+        "--yes",
+        action="store_true",
+        help="start a run that needs over half of this machine's memory without asking",
+    )
     p.add_argument("--quiet", action="store_true", help="no progress output")
     return p
 
@@ -95,6 +106,9 @@ def main(argv: list[str] | None = None) -> int:
         if args.resume and not args.out:
             raise JaxnavError("--resume needs --out DIR")
         sizes = (seeds, episodes, max_steps, test_episodes)
+        # the experiments train one after the other: the larger one's memory is the need
+        need = max(experiment_config(name, *sizes).memory_estimate() for name, _ in EXPERIMENTS)
+        cli.confirm_memory(need, args.yes)
         report = reproduce(
             out, *sizes, args.quick, args.resume, args.quiet, command.strip(), args.sim2sim
         )

@@ -34,6 +34,11 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--doc", metavar="PATH", help="also write the study here, figures beside it")
     cli.add_overwrite(p, "a file --doc writes")
     p.add_argument("--resume", action="store_true", help="continue the study in --out")
+    p.add_argument(
+        "--yes",
+        action="store_true",
+        help="start a run that needs over half of this machine's memory without asking",
+    )
     p.add_argument("--quiet", action="store_true", help="no progress output")
     args = p.parse_intermixed_args(argv)
     command = "python -m jaxnav.study " + shlex.join(argv if argv is not None else sys.argv[1:])
@@ -42,6 +47,7 @@ def main(argv: list[str] | None = None) -> int:
         items = list(args.items)
         config_path = None if "=" in items[0] else resolve_config_path(items.pop(0))
         cfg = load_config(config_path, items)
+        cli.confirm_memory(cfg.memory_estimate(), args.yes)  # before anything is allocated
         title = args.title or f"Sweep study: {Path(config_path or 'defaults').stem}"
         doc = Path(args.doc) if args.doc else None
         for path in doc_files(doc) if doc else []:

@@ -86,3 +86,24 @@ def test_train_refuses_a_run_larger_than_the_machine_before_allocating(tmp_path)
     assert run.stderr.startswith("jaxnav.train: error: this run needs about ")
     assert "GiB of replay memory" in run.stderr and run.stderr.count("\n") == 1
     assert not (tmp_path / "r").exists()
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["jaxnav.reproduce", "--seeds", "100000", "--out", "{out}"],
+        ["jaxnav.study", "smoke", "seeds=100000", "--out", "{out}"],
+    ],
+    ids=["reproduce", "study"],
+)
+def test_reproduce_and_study_ask_the_same_memory_question_as_train(tmp_path, argv):
+    out = tmp_path / "r"
+    run = subprocess.run(
+        [sys.executable, "-m", *(a.replace("{out}", str(out)) for a in argv)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert run.returncode == 2, run.stderr
+    assert run.stderr.count("\n") == 1 and "GiB of replay memory" in run.stderr
+    assert not out.exists()
