@@ -88,6 +88,7 @@ def test_train_refuses_a_run_larger_than_the_machine_before_allocating(tmp_path)
     assert not (tmp_path / "r").exists()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "argv",
     [
