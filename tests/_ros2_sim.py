@@ -37,7 +37,18 @@ import time
 from pathlib import Path
 
 import numpy as np
-from _ros_sim import DT, GOAL_RADIUS, N_RAYS, RANGE_MAX, RANGE_MIN, World
+from _ros_sim import (
+    DT,
+    N_RAYS,
+    RANGE_MAX,
+    RANGE_MIN,
+    Collision,
+    Interrupted,
+    Mission,
+    Timeout,
+    World,
+    points,
+)
 
 ODOM_GAP_S = 1.6  # odometry withheld this long during the first goal
 BAD_SCANS = 5  # then this many scans of each bad kind
@@ -46,19 +57,7 @@ ODOM_SHIFT = (1.0, 0.0)  # m: the odometry "reset" of the full mission
 WATCH_S = 1.2  # how long the robot must stay after a refused goal or a jump
 
 
-class Interrupted(Exception):
-    pass
-
-
-class Collision(Exception):
-    pass
-
-
-class Timeout(Exception):
-    pass
-
-
-class Sim:
+class Sim(Mission):
     """The ROS 2 side of a World, and the mission (module docstring)."""
 
     def __init__(self, args, world: World):
@@ -68,17 +67,10 @@ class Sim:
         from rclpy.qos import QoSProfile, qos_profile_sensor_data
         from sensor_msgs.msg import LaserScan
 
+        super().__init__(args, world, cmd_type=args.cmd_type)
         self.rclpy, self.msgs = rclpy, (LaserScan, Odometry, PoseStamped)
         self.node = rclpy.create_node("jaxnav_sim")
-        self.args, self.world = args, world
-        self.lock = threading.Lock()
-        self.t0 = time.monotonic()
-        self.result: dict = {"cmd_type": args.cmd_type, "goals": [], "events": []}
-        self.cmds: list[tuple[float, float, float]] = []  # (time, v, w) of every command
         self.unstamped = 0  # TwistStamped commands without a stamp
-        self.collided = False
-        self.goal: tuple[float, float] | None = None
-        self.reached = False  # stopped within the goal radius of self.goal
         self.shift = (0.0, 0.0)  # added to the published odometry after the "reset"
         self.scan_pub = self.node.create_publisher(LaserScan, "/scan", qos_profile_sensor_data)
         self.odom_pub = self.node.create_publisher(Odometry, "/odom", QoSProfile(depth=10))
@@ -86,27 +78,12 @@ class Sim:
         cmd_type = TwistStamped if args.cmd_type == "stamped" else Twist
         self.node.create_subscription(cmd_type, "/cmd_vel", self.on_cmd, QoSProfile(depth=10))
 
-    def now(self) -> float:
-        return time.monotonic() - self.t0
-
-    def event(self, what: str, **info):
-        self.result["events"].append({"t": round(self.now(), 2), "event": what, **info})
-
     def on_cmd(self, msg):
         if self.args.cmd_type == "stamped":
             if msg.header.stamp.sec == 0 and msg.header.stamp.nanosec == 0:
                 self.unstamped += 1
             msg = msg.twist
-        v, w = msg.linear.x, msg.angular.z
-        with self.lock:
-            self.cmds.append((self.now(), v, w))
-            if self.collided:
-                return
-            if self.world.move(v, w):
-                self.collided = True
-                self.event("collision", pose=self.world.pose, v=v, w=w)
-            elif v == 0.0 and w == 0.0 and self.goal is not None:
-                self.reached = self.world.distance(self.goal) < GOAL_RADIUS
+        self.command(msg.linear.x, msg.angular.z)
 
     # -- what the robot's drivers publish --------------------------------------
 
@@ -161,36 +138,8 @@ class Sim:
         if self.collided:
             raise Collision
 
-    def zeros_since(self, t: float) -> int:
-        with self.lock:
-            return sum(1 for tc, v, w in self.cmds if tc >= t and v == 0.0 and w == 0.0)
-
-    def moving_since(self, t: float) -> int:
-        with self.lock:
-            return sum(1 for tc, v, w in self.cmds if tc >= t and (v != 0.0 or w != 0.0))
-
-    def drive_to(self, i: int, goal) -> None:
-        """Send goal i and simulate until the robot stopped within its radius."""
-        self.send_goal(goal)
-        t_goal, deadline = self.now(), self.now() + self.args.goal_timeout
-        disturb = self.args.full and i == 0
-        while not self.reached:
-            if self.now() > deadline:
-                self.event("timeout", goal=list(goal), pose=self.world.pose)
-                raise Timeout
-            if disturb and self.now() - t_goal > 1.0:
-                disturb = False
-                self.disturb()
-            self.tick()
-        self.result["goals"].append(
-            {
-                "goal": list(goal),
-                "seconds": round(self.now() - t_goal, 2),
-                "steps": self.moving_since(t_goal),
-                "pose": self.world.pose,
-            }
-        )
-        self.event("reached", goal=list(goal))
+    def disturbs(self, i: int) -> bool:
+        return self.args.full and i == 0
 
     def disturb(self) -> None:
         """Odometry withheld, then scans the node must not act on: count its stops."""
@@ -257,14 +206,10 @@ class Sim:
             self.tick()
 
 
-def _points(text: str) -> list[tuple[float, float]]:
-    return [tuple(float(v) for v in p.split(",")) for p in text.split(";") if p.strip()]
-
-
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--goals", type=_points, required=True, help='"x,y;x,y;..." in odom frame')
-    p.add_argument("--last-goal", type=lambda s: _points(s)[0], default=(0.0, 0.0))
+    p.add_argument("--goals", type=points, required=True, help='"x,y;x,y;..." in odom frame')
+    p.add_argument("--last-goal", type=lambda s: points(s)[0], default=(0.0, 0.0))
     p.add_argument("--result", type=Path, required=True)
     p.add_argument("--maze", default="square4")
     p.add_argument("--cmd-type", choices=["twist", "stamped"], default="stamped")

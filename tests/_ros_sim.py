@@ -128,28 +128,32 @@ def offline_mission(
     return steps, "ok"
 
 
-class Sim:
-    """The ROS side of a World, and the mission (module docstring)."""
+class Interrupted(Exception):
+    pass
 
-    def __init__(self, args, world: World):
-        import rospy
-        from geometry_msgs.msg import PoseStamped, Twist
-        from nav_msgs.msg import Odometry
-        from sensor_msgs.msg import LaserScan
 
-        self.rospy, self.msgs = rospy, (LaserScan, Odometry, PoseStamped)
+class Collision(Exception):
+    pass
+
+
+class Timeout(Exception):
+    pass
+
+
+class Mission:
+    """What the ROS 1 and ROS 2 simulators share, whatever the middleware: the clock,
+    the events, the commands received and what they do to the World, and driving to a
+    goal. A subclass publishes the robot's topics (``tick``) and sends goals."""
+
+    def __init__(self, args, world: World, **result):
         self.args, self.world = args, world
         self.lock = threading.Lock()
         self.t0 = time.monotonic()
-        self.result: dict = {"no_return": args.no_return, "goals": [], "events": []}
-        self.cmds: list[tuple[float, float, float]] = []  # (time, v, w) of every Twist
+        self.result: dict = {**result, "goals": [], "events": []}
+        self.cmds: list[tuple[float, float, float]] = []  # (time, v, w) of every command
         self.collided = False
         self.goal: tuple[float, float] | None = None
         self.reached = False  # stopped within the goal radius of self.goal
-        self.scan_pub = rospy.Publisher("scan", LaserScan, queue_size=1, tcp_nodelay=True)
-        self.odom_pub = rospy.Publisher("odom", Odometry, queue_size=1, tcp_nodelay=True)
-        self.goal_pub = rospy.Publisher(args.goal_topic, PoseStamped, queue_size=1, latch=True)
-        rospy.Subscriber("cmd_vel", Twist, self.on_cmd, queue_size=10, tcp_nodelay=True)
 
     def now(self) -> float:
         return time.monotonic() - self.t0
@@ -157,8 +161,8 @@ class Sim:
     def event(self, what: str, **info):
         self.result["events"].append({"t": round(self.now(), 2), "event": what, **info})
 
-    def on_cmd(self, msg):
-        v, w = msg.linear.x, msg.angular.z
+    def command(self, v: float, w: float) -> None:
+        """A velocity command received: the World moves, a collision or arrival is noted."""
         with self.lock:
             self.cmds.append((self.now(), v, w))
             if self.collided:
@@ -168,6 +172,74 @@ class Sim:
                 self.event("collision", pose=self.world.pose, v=v, w=w)
             elif v == 0.0 and w == 0.0 and self.goal is not None:
                 self.reached = self.world.distance(self.goal) < GOAL_RADIUS
+
+    def zeros_since(self, t: float) -> int:
+        with self.lock:
+            return sum(1 for tc, v, w in self.cmds if tc >= t and v == 0.0 and w == 0.0)
+
+    def moving_since(self, t: float) -> int:
+        with self.lock:
+            return sum(1 for tc, v, w in self.cmds if tc >= t and (v != 0.0 or w != 0.0))
+
+    def disturbs(self, i: int) -> bool:
+        """Whether the way to goal i is disturbed (:meth:`disturb`)."""
+        return i == 1
+
+    def drive_to(self, i: int, goal) -> None:
+        """Send goal i and simulate until the robot stopped within its radius."""
+        self.send_goal(goal)
+        t_goal, deadline = self.now(), self.now() + self.args.goal_timeout
+        disturb = self.disturbs(i)
+        while not self.reached:
+            if self.now() > deadline:
+                self.event("timeout", goal=list(goal), pose=self.world.pose)
+                raise Timeout
+            if disturb and self.now() - t_goal > 1.0:
+                disturb = False
+                self.disturb()
+            self.tick()
+        self.result["goals"].append(
+            {
+                "goal": list(goal),
+                "seconds": round(self.now() - t_goal, 2),
+                "steps": self.moving_since(t_goal),
+                "pose": self.world.pose,
+            }
+        )
+        self.event("reached", goal=list(goal))
+
+
+def run_side_by_side(loops, deadline_s: float) -> None:
+    """Step every loop's mission (a generator) in turn until all end or the deadline."""
+    pending = [loop.mission() for loop in loops]
+    t = time.monotonic()
+    while pending and time.monotonic() - t < deadline_s:
+        for m in list(pending):
+            try:
+                next(m)
+            except StopIteration:
+                pending.remove(m)
+        time.sleep(0.05)
+
+
+class Sim(Mission):
+    """The ROS side of a World, and the mission (module docstring)."""
+
+    def __init__(self, args, world: World):
+        import rospy
+        from geometry_msgs.msg import PoseStamped, Twist
+        from nav_msgs.msg import Odometry
+        from sensor_msgs.msg import LaserScan
+
+        super().__init__(args, world, no_return=args.no_return)
+        self.rospy, self.msgs = rospy, (LaserScan, Odometry, PoseStamped)
+        self.scan_pub = rospy.Publisher("scan", LaserScan, queue_size=1, tcp_nodelay=True)
+        self.odom_pub = rospy.Publisher("odom", Odometry, queue_size=1, tcp_nodelay=True)
+        self.goal_pub = rospy.Publisher(args.goal_topic, PoseStamped, queue_size=1, latch=True)
+        rospy.Subscriber("cmd_vel", Twist, self.on_cmd, queue_size=10, tcp_nodelay=True)
+
+    def on_cmd(self, msg):
+        self.command(msg.linear.x, msg.angular.z)
 
     # -- what the robot's drivers publish --------------------------------------
 
@@ -219,37 +291,6 @@ class Sim:
         if self.collided:
             raise Collision
 
-    def zeros_since(self, t: float) -> int:
-        with self.lock:
-            return sum(1 for tc, v, w in self.cmds if tc >= t and v == 0.0 and w == 0.0)
-
-    def moving_since(self, t: float) -> int:
-        with self.lock:
-            return sum(1 for tc, v, w in self.cmds if tc >= t and (v != 0.0 or w != 0.0))
-
-    def drive_to(self, i: int, goal) -> None:
-        """Send goal i and simulate until the robot stopped within its radius."""
-        self.send_goal(goal)
-        t_goal, deadline = self.now(), self.now() + self.args.goal_timeout
-        disturb = i == 1
-        while not self.reached:
-            if self.now() > deadline:
-                self.event("timeout", goal=list(goal), pose=self.world.pose)
-                raise Timeout
-            if disturb and self.now() - t_goal > 1.0:
-                disturb = False
-                self.disturb()
-            self.tick()
-        self.result["goals"].append(
-            {
-                "goal": list(goal),
-                "seconds": round(self.now() - t_goal, 2),
-                "steps": self.moving_since(t_goal),
-                "pose": self.world.pose,
-            }
-        )
-        self.event("reached", goal=list(goal))
-
     def disturb(self) -> None:
         """Odometry withheld, then scans the policy cannot use: count the node's stops."""
         t = self.now()
@@ -288,26 +329,14 @@ class Sim:
             self.tick()
 
 
-class Interrupted(Exception):
-    pass
-
-
-class Collision(Exception):
-    pass
-
-
-class Timeout(Exception):
-    pass
-
-
-def _points(text: str) -> list[tuple[float, float]]:
+def points(text: str) -> list[tuple[float, float]]:
     return [tuple(float(v) for v in p.split(",")) for p in text.split(";") if p.strip()]
 
 
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--goals", type=_points, required=True, help='"x,y;x,y;..." in odom frame')
-    p.add_argument("--last-goal", type=lambda s: _points(s)[0], default=(0.0, 0.0))
+    p.add_argument("--goals", type=points, required=True, help='"x,y;x,y;..." in odom frame')
+    p.add_argument("--last-goal", type=lambda s: points(s)[0], default=(0.0, 0.0))
     p.add_argument("--result", type=Path, required=True)
     p.add_argument("--maze", default="square4")
     p.add_argument("--no-return", choices=["0", "inf"], default="0")

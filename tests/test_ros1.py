@@ -30,7 +30,7 @@ import xmlrpc.client
 from pathlib import Path
 
 import pytest
-from _ros_sim import DEBIAN_PYTHON, NOISE_STD, offline_mission
+from _ros_sim import DEBIAN_PYTHON, NOISE_STD, offline_mission, run_side_by_side
 
 ROOT = Path(__file__).resolve().parent.parent
 NODE = ROOT / "examples" / "ros1_policy_node.py"
@@ -241,15 +241,7 @@ def loops(policy_file, tmp_path_factory):
         for name, no_return in LOOPS.items():
             started[name] = ClosedLoop(name, tmp_path_factory.mktemp(name))
             started[name].start(no_return, policy_file)
-        pending = [loop.mission() for loop in started.values()]
-        t = time.monotonic()
-        while pending and time.monotonic() - t < DEADLINE_S:
-            for m in list(pending):
-                try:
-                    next(m)
-                except StopIteration:
-                    pending.remove(m)
-            time.sleep(0.05)
+        run_side_by_side(started.values(), DEADLINE_S)
         for loop in started.values():  # any still running at the deadline ends now
             loop.close()
             loop.read_result()

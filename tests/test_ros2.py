@@ -41,7 +41,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from _ros_sim import NOISE_STD, offline_mission
+from _ros_sim import NOISE_STD, offline_mission, run_side_by_side
 from test_ros1 import Proc
 
 from jaxnav.robot import deploy
@@ -355,15 +355,7 @@ def loops(ros2_sim, policy_file, tmp_path_factory):
         for name, domain in zip(LOOPS, domains):
             started[name] = ClosedLoop(name, tmp_path_factory.mktemp(name))
             started[name].start(ros2_sim, policy_file, domain)
-        pending = [loop.mission() for loop in started.values()]
-        t = time.monotonic()
-        while pending and time.monotonic() - t < DEADLINE_S:
-            for m in list(pending):
-                try:
-                    next(m)
-                except StopIteration:
-                    pending.remove(m)
-            time.sleep(0.05)
+        run_side_by_side(started.values(), DEADLINE_S)
         for loop in started.values():  # any still running at the deadline ends now
             loop.close()
             loop.read_result()
