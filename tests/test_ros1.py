@@ -152,7 +152,10 @@ class Proc:
 
 
 class ClosedLoop:
-    """A ROS master on a free loopback port, the simulated robot and the policy node."""
+    """A ROS master on a free loopback port, the simulated robot and the policy node.
+    The ROS 2 test's loop is this one started on a DDS domain instead."""
+
+    TAIL = 25  # log lines a failed check shows of each process
 
     def __init__(self, name: str, work: Path):
         self.name, self.work = name, work
@@ -217,7 +220,8 @@ class ClosedLoop:
     def report(self) -> str:
         """What a failed check shows: the result and the ends of the logs."""
         return "\n".join(
-            [f"loop {self.name}: {json.dumps(self.result)}"] + [p.tail() for p in self.procs]
+            [f"loop {self.name}: {json.dumps(self.result)}"]
+            + [p.tail(self.TAIL) for p in self.procs]
         )
 
 

@@ -33,16 +33,14 @@ import json
 import math
 import os
 import random
-import signal
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
 import pytest
 from _ros_sim import NOISE_STD, offline_mission, run_side_by_side
-from test_ros1 import Proc
+from test_ros1 import ClosedLoop as Ros1ClosedLoop
 
 from jaxnav.robot import deploy
 
@@ -278,14 +276,10 @@ def _ros2_libraries(ros2: dict) -> str:
     return os.pathsep.join(dirs + ([old] if old else []))
 
 
-class ClosedLoop:
+class ClosedLoop(Ros1ClosedLoop):
     """The simulated robot and the policy node on one DDS domain."""
 
-    def __init__(self, name: str, work: Path):
-        self.name, self.work = name, work
-        self.result_path = work / "result.json"
-        self.result: dict | None = None
-        self.procs: list[Proc] = []
+    TAIL = 40
 
     def start(self, ros2: dict, policy: Path, domain: int) -> None:
         goals, last, sim_args, node_env = LOOPS[self.name]
@@ -305,45 +299,6 @@ class ClosedLoop:
         if self.name == "stamped" and not node.default_stamped(None, ros2["rclpy"])[0]:
             argv += ["-p", "enable_stamped_cmd_vel:=true"]  # an rclpy older than Jazzy's
         self.node = self._start("node", argv, _robot_env(dict(env, **node_env)))
-
-    def _start(self, name: str, argv: list[str], env: dict) -> Proc:
-        proc = Proc(argv, env, self.work / f"{name}.log", self.work)
-        self.procs.append(proc)
-        return proc
-
-    def mission(self):
-        """Advance on each next(): wait for the robot to drive off after the last goal,
-        interrupt the node, then the simulated robot, and read its result."""
-        driving = Path(str(self.result_path) + ".driving")
-        while not driving.exists() and self.sim.running() and self.node.running():
-            yield
-        if driving.exists():
-            self.node.signal(signal.SIGINT)
-            t = time.monotonic()
-            while self.node.running() and time.monotonic() - t < 10:
-                yield
-            t = time.monotonic()
-            while time.monotonic() - t < 0.5:  # the node's last command reaches the robot
-                yield
-        self.sim.signal(signal.SIGINT)
-        t = time.monotonic()
-        while self.sim.running() and time.monotonic() - t < 10:
-            yield
-        self.read_result()
-
-    def read_result(self) -> None:
-        if self.result_path.exists():
-            self.result = json.loads(self.result_path.read_text())
-
-    def close(self) -> None:
-        for proc in reversed(self.procs):
-            proc.close()
-
-    def report(self) -> str:
-        """What a failed check shows: the result and the ends of the logs."""
-        return "\n".join(
-            [f"loop {self.name}: {json.dumps(self.result)}"] + [p.tail(40) for p in self.procs]
-        )
 
 
 @pytest.fixture(scope="module")
