@@ -42,9 +42,9 @@ import jax.numpy as jnp
 import numpy as np
 from flax import struct
 
-from jaxnav.core.config import env_family_problem, env_setting_problem
+from jaxnav.core.config import env_family_problem, env_reward_problem, env_setting_problem
 from jaxnav.core.settings import PRESETS
-from jaxnav.world import generators, sensor
+from jaxnav.world import generators, motion, sensor
 from jaxnav.world.geometry import (
     displacement,
     hypot,
@@ -60,7 +60,7 @@ from jaxnav.world.maps import (
     Maze,
     make_maze,
 )
-from jaxnav.world.reward import reward_fn
+from jaxnav.world.reward import reward_fn, sparse_reward
 from jaxnav.world.sensor import goal_heading_distance
 from jaxnav.world.spaces import Box, Discrete
 
@@ -116,6 +116,11 @@ class EnvState:
     # draws the mazes; None (no leaves) with the fixed maze of EnvParams.
     maze: Maze | None = None
     maze_episodes: chex.Array | None = None
+    # f32[k, 3]: every circular obstacle (x, y, r), static or moving, where it is at
+    # this step (the scan's time); padded rows have r = 0.
+    circles: chex.Array | None = None
+    # i16[RC, RC]: the drawn grid maze's cell distances, with reward "geodesic" only.
+    cell_dist: chex.Array | None = None
 
 
 @dataclasses.dataclass(frozen=True)
@@ -166,6 +171,18 @@ class NavEnv:
         away along the maze; every ``new_maze_every`` episodes the restart draws the
         next (otherwise it keeps the maze, its start and the goal, as with a fixed
         maze). ``split`` picks the train or the test layouts, never the same.
+
+    Reward (:mod:`jaxnav.world.reward`):
+      reward: "dense" (the paper's: R+, R-, else the heading shaping towards the goal),
+        "sparse" (R+ and R- only, 0 otherwise) or "geodesic" (grid mazes: the shaping
+        heads for the next opening on the shortest path through the maze and D is the
+        distance along it, so it never points into a dead end).
+
+    Moving obstacles: a maze with a ``motion`` (ROBOTIS' stages 3 and 4,
+    :mod:`jaxnav.world.stages`) moves its cylinders with the episode's time, t * dt;
+    the scan sees them where they are at its time, and collision is tested over the
+    whole step against their motion (:func:`jaxnav.world.motion.moving_clearance`).
+    ``EnvState.circles`` holds every cylinder, static or moving, at the state's time.
     """
 
     n_beams: int = 24
@@ -187,16 +204,17 @@ class NavEnv:
     min_path_cells: int = 1
     new_maze_every: int = 1
     split: str = "train"
+    reward: str = "dense"
 
     def __post_init__(self):
         for f in dataclasses.fields(self):  # the rules of the config's env settings
             problem = env_setting_problem(f.name, getattr(self, f.name))
             if problem:
                 raise ValueError(f"{f.name} {problem}")
-        if self.generator:
-            problem = env_family_problem(self)
-            if problem:
-                raise ValueError(problem)
+        problem = env_family_problem(self) if self.generator else None
+        problem = problem or env_reward_problem(self)
+        if problem:
+            raise ValueError(problem)
         lo, hi = self.maze_scale
         object.__setattr__(self, "odom_noise", tuple(float(x) for x in self.odom_noise))
         object.__setattr__(self, "maze_scale", (float(lo), float(hi)))
@@ -246,11 +264,22 @@ class NavEnv:
 
     # -- observation ---------------------------------------------------------
 
-    def maze_at(self, params: EnvParams, scale: chex.Array) -> Maze:
-        """The maze of an episode: ``params.maze``, scaled if ``maze_scale`` is on."""
-        if not self.scales_maze:
-            return params.maze
-        return scale_maze(params.maze, scale)
+    def maze_at(self, params: EnvParams, scale: chex.Array, time=None) -> Maze:
+        """The maze of an episode: ``params.maze``, scaled if ``maze_scale`` is on; at
+        ``time`` (s) its moving cylinders join the static ones where they are then."""
+        maze = scale_maze(params.maze, scale) if self.scales_maze else params.maze
+        if time is not None and maze.motion is not None:
+            moving = motion.circles_at(maze.motion, time)
+            maze = maze.replace(
+                circles=jnp.concatenate([maze.circles, moving]),
+                circle_mask=jnp.concatenate([maze.circle_mask, jnp.ones(len(moving), bool)]),
+                motion=None,
+            )
+        return maze
+
+    def circles_at(self, params: EnvParams, scale: chex.Array, t: chex.Array) -> chex.Array:
+        """f32[k, 3]: every cylinder (static, then moving) after ``t`` steps."""
+        return self.maze_at(params, scale, t * params.dt).circles
 
     def observe(
         self,
@@ -260,10 +289,12 @@ class NavEnv:
         goal: chex.Array,
         params: EnvParams,
         scale: chex.Array = 1.0,
+        time: chex.Array = 0.0,
     ) -> chex.Array:
-        """ROBOTIS state f32[obs_size]: [ranges, heading, distance(, min range, argmin beam)]."""
+        """ROBOTIS state f32[obs_size]: [ranges, heading, distance(, min range, argmin beam)],
+        the moving cylinders (if any) where they are at ``time`` (s into the episode)."""
         ranges = sensor.beam_ranges(
-            self.maze_at(params, scale), pos, yaw, self.n_beams, self.beam_layout == "gazebo"
+            self.maze_at(params, scale, time), pos, yaw, self.n_beams, self.beam_layout == "gazebo"
         )
         return sensor.observation(
             key,
@@ -366,7 +397,16 @@ class NavEnv:
         pos, yaw = self._start_pose(key, params, goal, scale)
         scale = jnp.asarray(scale, jnp.float32)
         state = _new_episode(pos, yaw, goal, scale, self.action_delay, maze, maze_episodes)
+        state = self._with_world(state, params)
         return self.observe(k_obs, pos, yaw, goal, params, scale), state
+
+    def _with_world(self, state: EnvState, params: EnvParams) -> EnvState:
+        """A new episode's state with its cylinders at time 0 and, for the geodesic
+        reward, its maze's cell distances."""
+        cell_dist = None
+        if self.reward == "geodesic":
+            cell_dist = generators.maze_cell_distances(params.maze, self.grid)
+        return state.replace(circles=self.circles_at(params, state.scale, 0), cell_dist=cell_dist)
 
     def step_env(self, key: chex.PRNGKey, state: EnvState, action: chex.Array, params: EnvParams):
         """One control period without the auto-reset."""
@@ -376,38 +416,54 @@ class NavEnv:
         omega = jnp.asarray(params.omegas)[applied]
         maze = self.maze_at(params, state.scale)
         clearance = path_clearance(maze, state.pos, state.yaw, omega, params.v, params.dt)
+        if maze.motion is not None:  # the moving cylinders, over the step's time
+            time0 = state.t * params.dt
+            moving = motion.moving_clearance(
+                maze.motion, state.pos, state.yaw, omega, params.v, params.dt, time0
+            )
+            clearance = jnp.minimum(clearance, moving)
         pos = state.pos + displacement(state.yaw, omega, params.v, params.dt)
         yaw = wrap_angle(state.yaw + omega * params.dt)
+        t = state.t + 1
+        time = t * params.dt  # the scan after the step sees the cylinders at this time
         if self.collision == "lidar":  # the scan after the step, as ROBOTIS reads it
-            ranges = self.observe(k_obs, pos, yaw, state.goal, params, state.scale)
+            ranges = self.observe(k_obs, pos, yaw, state.goal, params, state.scale, time)
             nearest = jnp.min(ranges[: self.n_beams])
             collided = (nearest < params.robot_radius) | (clearance < BURGER_RADIUS)
         else:
             collided = clearance < params.robot_radius
         distance = norm2(state.goal - pos)
         reached = (distance < params.goal_radius) & ~collided
-        heading, _ = goal_heading_distance(pos, yaw, state.goal)
-        reward = reward_fn(
-            params, action, heading, distance, state.goal_distance0, reached, collided
-        )
+        if self.reward == "geodesic":  # head for the next opening on the shortest path
+            target, distance_along = generators.geodesic_target(
+                params.maze, state.cell_dist, self.grid, pos, state.goal
+            )
+            heading, _ = goal_heading_distance(pos, yaw, target)
+            reward = reward_fn(
+                params, action, heading, distance_along, state.goal_distance0, reached, collided
+            )
+        else:
+            heading, _ = goal_heading_distance(pos, yaw, state.goal)
+            reward = reward_fn(
+                params, action, heading, distance, state.goal_distance0, reached, collided
+            )
+        if self.reward == "sparse":
+            reward = sparse_reward(params, reached, collided)
         new_goal = self.draw_goal(k_goal, state.goal, params, state.scale)
         goal = jnp.where(reached, new_goal, state.goal)
         d0 = jnp.where(reached, norm2(new_goal - pos), state.goal_distance0)
-        t = state.t + 1
         terminated = collided
         truncated = (t >= params.max_steps) & ~terminated
-        new_state = EnvState(
+        new_state = state.replace(
             pos=pos,
             yaw=yaw,
             goal=goal,
             t=t,
             goal_distance0=d0,
-            scale=state.scale,
             pending_action=action if self.action_delay else None,
-            maze=state.maze,
-            maze_episodes=state.maze_episodes,
+            circles=self.circles_at(params, state.scale, t),
         )
-        obs = self.observe(k_obs, pos, yaw, goal, params, state.scale)
+        obs = self.observe(k_obs, pos, yaw, goal, params, state.scale, time)
         info = {"goal_reached": reached, "collision": collided}
         return obs, new_state, reward.astype(jnp.float32), terminated, truncated, info
 
@@ -415,8 +471,9 @@ class NavEnv:
         self, key: chex.PRNGKey, state: EnvState, params: EnvParams
     ) -> tuple[chex.Array, EnvState]:
         """TurtleBot3's restart after a collision or the step limit: the start pose
-        (random if ``random_start``), the same goal, step count 0. With drawn mazes,
-        every ``new_maze_every`` episodes a new maze, start and goal instead."""
+        (random if ``random_start``), the same goal, step count 0, the moving cylinders
+        back at their first pose. With drawn mazes, every ``new_maze_every`` episodes a
+        new maze, start and goal instead."""
         # Without randomised starts the start-pose scan does not depend on the state:
         # under vmap with shared params it is computed once, not per environment.
         if self.generates:
@@ -428,7 +485,8 @@ class NavEnv:
         if self.scales_maze:  # the kept goal moves with the maze
             goal = goal * (scale / state.scale)
         obs = self.observe(key, pos, yaw, goal, params, scale)
-        return obs, _new_episode(pos, yaw, goal, scale, self.action_delay)
+        state = _new_episode(pos, yaw, goal, scale, self.action_delay)
+        return obs, self._with_world(state, params)
 
     def _restart_drawn(self, key, state: EnvState, params: EnvParams):
         """:meth:`restart` with drawn mazes: the next maze from ``fold_in(key, 5)`` once
@@ -447,7 +505,8 @@ class NavEnv:
         pos, yaw = self._start_pose(key, params, goal, scale)
         scale = jnp.asarray(scale, jnp.float32)
         obs = self.observe(key, pos, yaw, goal, params, scale)
-        return obs, _new_episode(pos, yaw, goal, scale, self.action_delay, maze, episodes)
+        state = _new_episode(pos, yaw, goal, scale, self.action_delay, maze, episodes)
+        return obs, self._with_world(state, params)
 
     def step(self, key: chex.PRNGKey, state: EnvState, action: chex.Array, params: EnvParams):
         """Step with auto-reset: after a collision or truncation the robot restarts at the
@@ -489,8 +548,13 @@ def _new_episode(
 
 
 def scale_maze(maze: Maze, scale: chex.Array) -> Maze:
-    """The maze scaled about the origin; circle radii keep their size."""
+    """The maze scaled about the origin; circle radii keep their size (moving ones'
+    paths scale too, their timing stays)."""
+    moving = maze.motion
+    if moving is not None:
+        moving = moving.replace(points=moving.points * scale, centre=moving.centre * scale)
     return maze.replace(
+        motion=moving,
         segments=maze.segments * scale,
         circles=maze.circles.at[:, :2].multiply(scale),
         start=maze.start.at[:2].multiply(scale),

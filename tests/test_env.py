@@ -20,9 +20,12 @@ from jaxnav.core.config import build_config
 from jaxnav.env import EnvParams, EnvState, NavEnv, from_config
 from jaxnav.world.maps import BUILTIN_MAZES, GOAL_CLEARANCE, make_maze, stack_mazes
 from jaxnav.world.reward import psi, reward_fn
+from jaxnav.world.stages import STAGES
 
 CORRIDOR = str(Path(__file__).resolve().parents[1] / "configs" / "mazes" / "corridor.yaml")
-NAMES = (*BUILTIN_MAZES, "corridor")
+# The mazes that stand still (the stages' moving cylinders: tests/test_moving.py).
+STILL = [n for n in BUILTIN_MAZES if n not in STAGES]
+NAMES = (*STILL, "corridor")
 MAZES = {n: make_maze(CORRIDOR if n == "corridor" else n) for n in NAMES}
 # All mazes padded to one shape: one compiled step serves every maze.
 STACK = stack_mazes([MAZES[n] for n in NAMES])

@@ -32,8 +32,8 @@ def maze_of(state, i=None):
 def test_the_default_state_holds_no_maze():
     env, params = jaxnav.make("square4")
     _, state = env.reset(KEYS[0], params)
-    assert state.maze is None and state.maze_episodes is None
-    assert len(jax.tree.leaves(state)) == 6
+    assert state.maze is None and state.maze_episodes is None and state.cell_dist is None
+    assert len(jax.tree.leaves(state)) == 7  # pose (2), goal, t, d0, scale, circles
 
 
 @pytest.mark.slow

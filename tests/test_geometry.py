@@ -30,6 +30,7 @@ from jaxnav.world.geometry import (
     wrap_angle,
 )
 from jaxnav.world.maps import BUILTIN_MAZES, make_maze, stack_mazes
+from jaxnav.world.stages import STAGES
 
 PI32 = float(np.float32(np.pi))  # float32's pi is a hair above the real one
 HYP = dict(deadline=None, suppress_health_check=[HealthCheck.too_slow], derandomize=True)
@@ -290,7 +291,9 @@ def test_min_over_skips_masked_rows_and_is_inf_when_none_is_left():
 # ----------------------------------------------------------------------------
 
 CORRIDOR = str(Path(__file__).resolve().parents[1] / "configs" / "mazes" / "corridor.yaml")
-NAMES = (*BUILTIN_MAZES, "corridor")
+# The mazes that stand still (the stages' moving cylinders: tests/test_moving.py).
+STILL = [n for n in BUILTIN_MAZES if n not in STAGES]
+NAMES = (*STILL, "corridor")
 
 
 @functools.cache

@@ -19,10 +19,13 @@ import pytest
 
 from jaxnav.world.maps import BUILTIN_MAZES, make_maze, stack_mazes
 from jaxnav.world.sensor import lidar_scan
+from jaxnav.world.stages import STAGES
 
 TOL = 1e-4  # m
 CORRIDOR = str(Path(__file__).resolve().parents[1] / "configs" / "mazes" / "corridor.yaml")
-ALL_MAZES = (*BUILTIN_MAZES, "corridor")  # the corridor has convex corners and a box
+# The mazes that stand still (the stages' moving cylinders: tests/test_moving.py).
+STILL = [n for n in BUILTIN_MAZES if n not in STAGES]
+ALL_MAZES = (*STILL, "corridor")  # the corridor has convex corners and a box
 
 
 @pytest.fixture(scope="module")

@@ -159,7 +159,7 @@ def test_switches_off_leave_no_trace():
     }
     _, state = env.reset(jax.random.PRNGKey(0), params)
     # the fields of the switches and of drawn mazes are absent, not zeros
-    optional = ("pending_action", "maze", "maze_episodes")
+    optional = ("pending_action", "maze", "maze_episodes", "cell_dist")
     assert all(getattr(state, k) is None for k in optional)
     assert len(jax.tree.leaves(state)) == len(EnvState.__dataclass_fields__) - len(optional)
 

@@ -236,6 +236,13 @@ def env_family_problem(env: Any) -> str | None:
     )
 
 
+def env_reward_problem(env: Any) -> str | None:
+    """What is wrong with the reward setting given the maze settings, or None."""
+    if env.reward == "geodesic" and env.generator != "grid":
+        return "env.reward geodesic needs env.generator grid (its shortest paths)"
+    return None
+
+
 def sweep_refusal(key: str) -> str | None:
     """Why ``key`` cannot be swept, or None if it can."""
     if key in SWEEPABLE:
@@ -271,6 +278,9 @@ def _check(cfg: Config) -> Config:
         says = env_family_problem(cfg.env)
         if says:
             raise ConfigError(f"config: {says}")
+    says = env_reward_problem(cfg.env)
+    if says:
+        raise ConfigError(f"config: {says}")
     known = registry.names()
     for s in cfg.strategies:
         if s not in known:

@@ -99,6 +99,12 @@ class EnvConfig:
         "grid: train or test mazes (a layout is in one split only)",
         rule=one_of("train", "test"),
     )
+    reward: str = setting(
+        "dense",
+        "dense (the paper's heading shaping), sparse (goal and collision only) or geodesic "
+        "(grid: the shaping follows the shortest path through the maze)",
+        rule=one_of("dense", "sparse", "geodesic"),
+    )
 
 
 @dataclass(frozen=True)

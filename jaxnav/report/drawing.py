@@ -13,6 +13,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from jaxnav.world.maps import ROBOT_RADIUS, Maze
+from jaxnav.world.motion import loop_paths
 
 WALL_COLOR = "#2b2b2b"
 OBSTACLE_COLOR = "#8c8c8c"
@@ -85,6 +86,23 @@ def draw_walls(ax, maze: Maze) -> None:
         ax.add_patch(Polygon(loop, closed=True, fc=OBSTACLE_COLOR, ec="none", zorder=3))
     for cx, cy, r in cylinders:
         ax.add_patch(Circle((cx, cy), r, fc=OBSTACLE_COLOR, ec=WALL_COLOR, lw=1.2, zorder=3))
+    if maze.motion is not None:  # moving cylinders at their first pose, and their paths
+        paths, radii = loop_paths(maze.motion), np.asarray(maze.motion.radius)
+        for path, r in zip(paths, radii):
+            if r <= 0:  # a parked placeholder
+                continue
+            ax.plot(path[:, 0], path[:, 1], ls=":", color=WALL_COLOR, lw=1, zorder=2)
+            ax.add_patch(
+                Circle(
+                    tuple(path[0]),
+                    r,
+                    fc=OBSTACLE_COLOR,
+                    ec=WALL_COLOR,
+                    lw=1.2,
+                    hatch="//",
+                    zorder=3,
+                )
+            )
     ax.plot(
         np.stack([walls[:, 0], walls[:, 2]]),
         np.stack([walls[:, 1], walls[:, 3]]),

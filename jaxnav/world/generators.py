@@ -44,6 +44,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from jaxnav.core.settings import grid_problem
+from jaxnav.world.geometry import norm2
 from jaxnav.world.maps import _FAR, ROBOTIS_ARENA, Maze
 
 SPLITS = ("train", "test")
@@ -273,6 +274,71 @@ def draw_maze(
     return maze, maze.goal_points[d.goal_cell]
 
 
+# ----------------------------------------------------------------------------
+# Shortest paths inside a drawn maze (the geodesic reward)
+# ----------------------------------------------------------------------------
+
+
+def maze_cell_distances(maze: Maze, grid: Grid) -> chex.Array:
+    """i16[RC, RC]: :func:`cell_distances` of a grid maze, read from its closed walls
+    (its first E segment rows are the internal walls, real when closed)."""
+    open_ = ~maze.segment_mask[: grid.n_walls]
+    return cell_distances(open_, grid).astype(jnp.int16)
+
+
+def _cell_of(p: chex.Array, grid: Grid) -> tuple[chex.Array, chex.Array]:
+    """(row, column) i32[] of the cell holding the point ``p`` (clipped to the grid)."""
+    col = jnp.floor(p[0] / grid.cell + grid.cols / 2).astype(jnp.int32)
+    row = jnp.floor(p[1] / grid.cell + grid.rows / 2).astype(jnp.int32)
+    return jnp.clip(row, 0, grid.rows - 1), jnp.clip(col, 0, grid.cols - 1)
+
+
+def _centre(row, col, grid: Grid) -> chex.Array:
+    return jnp.stack([(col + 0.5 - grid.cols / 2), (row + 0.5 - grid.rows / 2)]) * grid.cell
+
+
+def geodesic_target(
+    maze: Maze, cell_dist: chex.Array, grid: Grid, pos: chex.Array, goal: chex.Array
+) -> tuple[chex.Array, chex.Array]:
+    """(target f32[2], distance f32[]): where the shortest path from ``pos`` to ``goal``
+    through the maze heads next, and how long it is.
+
+    In the goal's cell the target is the goal and the distance the straight line.
+    Elsewhere the target is the middle of the opening into the neighbouring cell one
+    step nearer the goal (the first of right, left, up, down when several are), and the
+    distance runs from ``pos`` to that opening, on to the goal cell's centre through
+    the centres of the cells between, then to the goal.
+    """
+    r, c = _cell_of(pos, grid)
+    gr, gc = _cell_of(goal, grid)
+    cols, rows = grid.cols, grid.rows
+    here, there = r * cols + c, gr * cols + gc
+    d = cell_dist[here, there].astype(jnp.int32)
+    closed = maze.segment_mask[: grid.n_walls]
+    h0 = 0  # walls between (r, c) and (r, c + 1) start here, then the vertical ones
+    v0 = rows * (cols - 1)
+    # (row step, col step, wall index, exists) for right, left, up, down
+    moves = (
+        (0, 1, h0 + r * (cols - 1) + c, c < cols - 1),
+        (0, -1, h0 + r * (cols - 1) + c - 1, c > 0),
+        (1, 0, v0 + r * cols + c, r < rows - 1),
+        (-1, 0, v0 + (r - 1) * cols + c, r > 0),
+    )
+    best = jnp.asarray(-1)
+    for i, (dr, dc, wall, exists) in enumerate(moves):
+        wall = jnp.clip(wall, 0, max(grid.n_walls - 1, 0))
+        n = jnp.clip(r + dr, 0, rows - 1) * cols + jnp.clip(c + dc, 0, cols - 1)
+        ok = exists & ~closed[wall] & (cell_dist[n, there].astype(jnp.int32) == d - 1)
+        best = jnp.where((best < 0) & ok, i, best)
+    step = jnp.asarray([[0.0, 1.0], [0.0, -1.0], [1.0, 0.0], [-1.0, 0.0]])[jnp.maximum(best, 0)]
+    portal = _centre(r, c, grid) + 0.5 * grid.cell * step[::-1]
+    goal_offset = norm2(goal - _centre(gr, gc, grid))
+    along = norm2(portal - pos) + (d - 0.5) * grid.cell + goal_offset
+    in_goal_cell = (d == 0) | (best < 0)
+    target = jnp.where(in_goal_cell, goal, portal)
+    return target, jnp.where(in_goal_cell, norm2(goal - pos), along)
+
+
 __all__ = [
     "SPLITS",
     "Draw",
@@ -284,6 +350,8 @@ __all__ = [
     "draw_maze",
     "grid_problem",
     "layout_maze",
+    "geodesic_target",
     "layout_split",
+    "maze_cell_distances",
     "wall_cells",
 ]

@@ -27,13 +27,14 @@ from __future__ import annotations
 
 import functools
 from collections.abc import Callable
-from typing import NamedTuple
+from typing import TYPE_CHECKING, NamedTuple
 
 import chex
 import jax
 import jax.numpy as jnp
 
-from jaxnav.world.maps import Maze
+if TYPE_CHECKING:  # annotations only: the maze module builds on this one's neighbours
+    from jaxnav.world.maps import Maze
 
 _EPS = 1e-9
 

@@ -49,14 +49,17 @@ from __future__ import annotations
 import math
 import os
 from collections.abc import Sequence
+from typing import Any
 
 import chex
+import jax
 import jax.numpy as jnp
 import numpy as np
 from flax import struct
 
 from jaxnav.core.config import shipped_path
 from jaxnav.core.errors import MazeError
+from jaxnav.world.motion import Motion, pad_motion, parked
 from jaxnav.world.polygons import (
     centroid,
     clearance,
@@ -66,6 +69,7 @@ from jaxnav.world.polygons import (
     self_intersecting,
     signed_area,
 )
+from jaxnav.world.stages import STAGES, stage
 
 # Geometry constants shared with the environment (robot and goal sampler).
 ROBOT_RADIUS = 0.13  # m, ROBOTIS collision threshold
@@ -124,6 +128,8 @@ class Maze:
         least the robot radius from every surface), the rest repeat them.
       n_robotis_goals: i32[] number of real rows in ``robotis_goals``.
       robotis_scale: f32[] the maze's size over ROBOTIS' 3.7 m arena (1 for square4).
+      motion: the moving cylinders (:class:`jaxnav.world.motion.Motion`), or None (no
+        leaves) for a maze that stands still; ``circles`` holds the static ones only.
     """
 
     segments: chex.Array
@@ -138,6 +144,7 @@ class Maze:
     robotis_goals: chex.Array
     n_robotis_goals: chex.Array
     robotis_scale: chex.Array
+    motion: Motion | Any = None
 
     # Host-side accessors (not for use under jit).
     def walls(self) -> np.ndarray:
@@ -219,6 +226,7 @@ BUILTIN_MAZES = {
     "pentagon": "regular pentagon of square4's area",
     "square4_obstacles": "TurtleBot3 stage 2: square4, four cylinders (r 0.15 m) at (+-0.6, +-0.6)",
     "pentagon_obstacles": "pentagon with five cylinders (r 0.15 m) 0.85 m from the centre",
+    **STAGES,
 }
 
 
@@ -278,6 +286,7 @@ def _build(
     polygons: Sequence[np.ndarray],
     start: np.ndarray,
     where: str,
+    motion: Motion | None = None,
 ) -> Maze:
     segs = [polygon_segments(outline)] + [polygon_segments(p) for p in polygons]
     segments = np.concatenate(segs, axis=0)
@@ -302,10 +311,13 @@ def _build(
         goal_points=jnp.asarray(goals, jnp.float32),
         n_goal_points=jnp.asarray(len(goals), jnp.int32),
         bounds=jnp.asarray([lo[0], lo[1], hi[0], hi[1]], jnp.float32),
-        n_obstacles=jnp.asarray(n_circles + len(polygons), jnp.int32),
+        n_obstacles=jnp.asarray(
+            n_circles + len(polygons) + (motion.n if motion is not None else 0), jnp.int32
+        ),
         robotis_goals=jnp.asarray(robotis, jnp.float32),
         n_robotis_goals=jnp.asarray(n_robotis, jnp.int32),
         robotis_scale=jnp.asarray(robotis_scale, jnp.float32),
+        motion=motion,
     )
     return maze
 
@@ -453,6 +465,10 @@ def _start_pose(doc, outline, polygons, segments, circles, where: str) -> np.nda
 
 def make_maze(name_or_path: str) -> Maze:
     """A built-in maze by name, or a maze YAML file by path."""
+    if name_or_path in STAGES:
+        side, walls, start, motion = stage(name_or_path)
+        where = f"maze {name_or_path}"
+        return _build(_square(side), np.zeros((0, 3)), walls, start, where, motion)
     if name_or_path in BUILTIN_MAZES:
         outline, circles, polys, start = _builtin(name_or_path)
         return _build(outline, circles, polys, start, f"maze {name_or_path}")
@@ -489,6 +505,7 @@ def pad_maze(maze: Maze, n_segments: int, n_circles: int, n_goal_points: int) ->
         robotis_goals=maze.robotis_goals,
         n_robotis_goals=maze.n_robotis_goals,
         robotis_scale=maze.robotis_scale,
+        motion=maze.motion,
     )
 
 
@@ -498,7 +515,15 @@ def stack_mazes(mazes: Sequence[Maze]) -> Maze:
     c = max(max(m.circles.shape[0] for m in mazes), 1)
     g = max(m.goal_points.shape[0] for m in mazes)
     padded = [pad_maze(m, s, c, g) for m in mazes]
-    return Maze(*(jnp.stack(leaves) for leaves in zip(*(_fields(m) for m in padded))))
+    motion = None
+    if any(m.motion is not None for m in mazes):  # still mazes carry a parked cylinder
+        motions = [parked() if m.motion is None else m.motion for m in mazes]
+        n = max(x.n for x in motions)
+        k = max(x.times.shape[-1] for x in motions)
+        motions = [pad_motion(x, n, k) for x in motions]
+        motion = jax.tree.map(lambda *a: jnp.stack(a), *motions)
+    stacked = (jnp.stack(leaves) for leaves in zip(*(_fields(m) for m in padded)))
+    return Maze(*stacked, motion=motion)
 
 
 def _fields(m: Maze):

@@ -1,5 +1,7 @@
 """The paper's reward: R+ on reaching the goal, R- on a collision, else orientation
-shaping 5 psi(delta - phi_a) D (spec, "Reward").
+shaping 5 psi(delta - phi_a) D (spec, "Reward"); and its sparse form, R+ and R- only.
+The geodesic form is :func:`reward_fn` given the heading to the next opening on the
+shortest path and the distance along it (:func:`jaxnav.world.generators.geodesic_target`).
 
 Both presets' constants (paper and ROBOTIS) are data in ``EnvParams``; they come
 from :data:`jaxnav.core.settings.PRESETS`.
@@ -53,3 +55,8 @@ def reward_fn(
     D = jnp.where(params.reward_distance_exp, d_robotis, d_paper)
     shaping = 5.0 * psi(heading - phi) * D
     return jnp.where(collided, params.R_minus, jnp.where(reached, params.R_plus, shaping))
+
+
+def sparse_reward(params: Any, reached: chex.Array, collided: chex.Array) -> chex.Array:
+    """R+ on reaching the goal, R- on collision, else 0 (the time limit still applies)."""
+    return jnp.where(collided, params.R_minus, jnp.where(reached, params.R_plus, 0.0))

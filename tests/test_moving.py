@@ -1,0 +1,223 @@
+"""ROBOTIS' stages 3 and 4: their moving cylinders, seen by the LiDAR and collided with
+over the whole step, against an independent NumPy account of the same motion laws."""
+
+from __future__ import annotations
+
+import math
+
+import _nav_reference as ref
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import jaxnav
+from jaxnav.world import motion, stages
+from jaxnav.world.maps import make_maze, stack_mazes
+
+STRAIGHT = 2  # the paper's action with omega = 0
+
+
+# ----------------------------------------------------------------------------
+# An independent account of the motion laws (from the stage tables, in float64)
+# ----------------------------------------------------------------------------
+
+
+def stage3_centres(time: float, spin: float = 0.5) -> np.ndarray:
+    """The four stage-3 cylinders after ``time`` s: (+-0.6, +-0.6) turned by spin * t."""
+    a = spin * time
+    p = np.array([(0.6, 0.6), (-0.6, 0.6), (-0.6, -0.6), (0.6, -0.6)])
+    rot = np.array([[math.cos(a), -math.sin(a)], [math.sin(a), math.cos(a)]])
+    return p @ rot.T
+
+
+def waypoint_loop(waypoints, steps, time: float) -> np.ndarray:
+    """Where a stage-4 node's obstacle is after ``time`` s: each leg from waypoint i to
+    i + 1 at |step i| per 0.1 s, walked leg by leg."""
+    pts = [np.asarray(w, float) for w in waypoints] + [np.asarray(waypoints[0], float)]
+    durations = [
+        np.linalg.norm(pts[i + 1] - pts[i]) / (math.hypot(*steps[i]) / 0.1)
+        for i in range(len(steps))
+    ]
+    t = time % sum(durations)
+    for i, d in enumerate(durations):
+        if t <= d:
+            return pts[i] + (pts[i + 1] - pts[i]) * (t / d)
+        t -= d
+    return pts[0]
+
+
+def stage4_centres(time: float) -> np.ndarray:
+    return np.stack(
+        [
+            waypoint_loop(stages.OBSTACLE_1_WAYPOINTS, stages.OBSTACLE_1_STEPS, time),
+            waypoint_loop(stages.OBSTACLE_2_WAYPOINTS, stages.OBSTACLE_2_STEPS, time),
+        ]
+    )
+
+
+# ----------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("time", [0.0, 0.2, 3.7, 12.0, 40.1])
+def test_stage3_cylinders_spin_about_the_centre(time):
+    m = make_maze("stage3")
+    got = np.asarray(motion.positions(m.motion, jnp.float32(time)))
+    np.testing.assert_allclose(got, stage3_centres(time), atol=1e-5)
+
+
+@pytest.mark.parametrize("time", [0.0, 1.0, 9.99, 33.3, 77.0, 151.0, 400.0])
+def test_stage4_cylinders_follow_the_nodes_waypoint_loops(time):
+    m = make_maze("stage4")
+    got = np.asarray(motion.positions(m.motion, jnp.float32(time)))
+    np.testing.assert_allclose(got, stage4_centres(time), atol=2e-4)
+
+
+def test_stage4_loops_are_as_long_as_robotis_nodes_drive_them():
+    """The spec's loop lengths (about 17.7 m and 18.5 m) and the plaza's shape."""
+    for waypoints, length in (
+        (stages.OBSTACLE_1_WAYPOINTS, 17.7),
+        (stages.OBSTACLE_2_WAYPOINTS, 18.5),
+    ):
+        pts = np.asarray(list(waypoints) + [waypoints[0]], float)
+        assert np.linalg.norm(np.diff(pts, axis=0), axis=1).sum() == pytest.approx(length, abs=0.1)
+    m = make_maze("stage4")
+    np.testing.assert_allclose(np.asarray(m.start), [-0.7, 0.0, 0.0])
+    np.testing.assert_allclose(np.asarray(m.bounds), [-2.35, -2.35, 2.35, 2.35], atol=1e-6)
+    assert len(m.walls()) == 4 + 8 * 4  # the outline and eight 1 x 0.15 m walls
+    assert int(m.n_obstacles) == 8 + 2 and m.has_obstacles
+    assert len(make_maze("stage4_humble").walls()) == 4 + 7 * 4
+
+
+def test_the_state_holds_every_cylinder_where_it_is_at_the_step():
+    env, params = jaxnav.make("stage3")
+    _, state = env.reset(jax.random.PRNGKey(0), params)
+    step = jax.jit(env.step_env)
+    for t in range(1, 6):
+        _, state, *_ = step(jax.random.PRNGKey(t), state, jnp.int32(STRAIGHT), params)
+        real = np.asarray(state.circles)[np.asarray(state.circles)[:, 2] > 0]
+        np.testing.assert_allclose(real[:, :2], stage3_centres(0.2 * t), atol=1e-5)
+        np.testing.assert_allclose(real[:, 2], 0.15)
+    env, params = jaxnav.make("square4_obstacles")  # static cylinders are there too
+    _, state = env.reset(jax.random.PRNGKey(0), params)
+    np.testing.assert_allclose(np.asarray(state.circles), np.asarray(params.maze.circles))
+
+
+@pytest.mark.parametrize("name", ["stage3", "stage4"])
+def test_the_lidar_sees_the_cylinders_where_they_are_at_the_scan(name):
+    env, params = jaxnav.make(name, n_beams=360)
+    walls = params.maze.walls().astype(np.float64)
+    centres = stage3_centres if name == "stage3" else stage4_centres
+    radius = 0.15 if name == "stage3" else 0.12
+    rng = np.random.default_rng(0)
+    pts = ref.sample_free(rng, params.maze, 6, 0.2)
+    for i, pos in enumerate(pts):
+        time = 0.2 * (7 * i + 3)
+        yaw = float(rng.uniform(-np.pi, np.pi))
+        circles = np.concatenate(
+            [centres(time), np.full((2 if name == "stage4" else 4, 1), radius)], 1
+        )
+        want = ref.lidar(pos[None], np.array([yaw]), walls, circles, 360)[0]
+        obs = env.observe(
+            jax.random.PRNGKey(0),
+            jnp.asarray(pos, jnp.float32),
+            yaw,
+            jnp.zeros(2),
+            params,
+            1.0,
+            time,
+        )
+        np.testing.assert_allclose(np.asarray(obs[:360]), want, atol=2e-4)
+
+
+def _brute_clearance(pos, yaw, omega, dt, centres_at, radius, n=4001) -> float:
+    """Dense sampling of the true relative motion over the step (float64)."""
+    s = np.linspace(0.0, dt, n)
+    robot, _ = ref.unicycle(np.broadcast_to(pos, (n, 2)), np.full(n, yaw), np.full(n, omega), s)
+    discs = np.stack([centres_at(si) for si in s])  # [n, M, 2]
+    return float((np.linalg.norm(robot[:, None] - discs, axis=-1) - radius).min())
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_step_clearance_to_moving_cylinders_matches_dense_sampling(seed):
+    rng = np.random.default_rng(seed)
+    m = make_maze("stage3" if seed % 2 else "stage4")
+    centres, radius = (stage3_centres, 0.15) if seed % 2 else (stage4_centres, 0.12)
+    for _ in range(5):
+        time0 = float(rng.uniform(0, 60))
+        disc = centres(time0)[rng.integers(len(centres(time0)))]
+        pos = disc + rng.uniform(-0.5, 0.5, 2)  # near a cylinder, so the minimum matters
+        yaw, omega = float(rng.uniform(-np.pi, np.pi)), float(rng.choice(ref.OMEGAS))
+        got = float(
+            motion.moving_clearance(
+                m.motion, jnp.asarray(pos, jnp.float32), yaw, omega, 0.15, 0.2, time0
+            )
+        )
+        want = _brute_clearance(pos, yaw, omega, 0.2, lambda s, t0=time0: centres(t0 + s), radius)
+        assert got == pytest.approx(want, abs=2e-4)
+
+
+def test_a_robot_driven_into_a_spinning_cylinder_collides_at_the_right_step():
+    """Straight ahead from the start of stage 3: the first step whose sampled relative
+    motion comes within the robot's radius of a cylinder is the step that ends it."""
+    env, params = jaxnav.make("stage3")
+    _, state = env.reset(jax.random.PRNGKey(0), params)
+    state = state.replace(yaw=jnp.float32(0.3))  # towards the cylinders' ring
+    want = None
+    for t in range(40):
+        pos = np.asarray(state.pos, np.float64)
+        c = _brute_clearance(pos, 0.3, 0.0, 0.2, lambda s, t=t: stage3_centres(0.2 * t + s), 0.15)
+        if want is None and c < ref.ROBOT_R:
+            want = t
+        _, state, _, term, _, _ = env.step_env(
+            jax.random.PRNGKey(t), state, jnp.int32(STRAIGHT), params
+        )
+        if bool(term):
+            assert t == want
+            return
+    pytest.fail("the robot never met a cylinder")
+
+
+def test_a_cylinder_that_grazes_a_still_robot_mid_step_collides():
+    """Only the motion over the step catches it: a still robot just outside the
+    spinning ring is 0.276 m from a cylinder's centre half-way through the step and
+    0.2803 m at both ends, so a test at the ends alone (0.28 m = robot + cylinder
+    radius) would miss the contact."""
+    m = make_maze("stage3")
+    a = math.atan2(0.6, 0.6) + 0.5 * 0.1  # the first cylinder's angle 0.1 s in
+    pos = (0.6 * math.sqrt(2) + 0.276) * np.array([math.cos(a), math.sin(a)])
+    ends = [np.linalg.norm(stage3_centres(s)[0] - pos) - 0.15 for s in (0.0, 0.2)]
+    assert min(ends) > ref.ROBOT_R  # no contact at either end
+    clear = motion.moving_clearance(
+        m.motion, jnp.asarray(pos, jnp.float32), 0.0, 0.0, 0.0, 0.2, 0.0
+    )
+    assert float(clear) == pytest.approx(0.276 - 0.15, abs=1e-5)
+    assert float(clear) < ref.ROBOT_R
+
+
+def test_mazes_that_move_and_mazes_that_stand_still_stack_and_vmap():
+    """A still maze stacked beside stages carries parked cylinders that nothing sees."""
+    names = ["square4", "stage3", "stage4"]
+    stacked = stack_mazes([make_maze(n) for n in names])
+    env, params = jaxnav.make("square4")
+    params = jax.vmap(lambda m: params.replace(maze=m))(stacked)
+    obs, state = jax.vmap(env.reset)(jax.random.split(jax.random.PRNGKey(0), 3), params)
+    alone = [jaxnav.make(n)[0].reset(jax.random.PRNGKey(0), jaxnav.make(n)[1]) for n in names]
+    for i, (_, s) in enumerate(alone):
+        real = np.asarray(state.circles[i])[np.asarray(state.circles[i])[:, 2] > 0]
+        np.testing.assert_allclose(real, np.asarray(s.circles)[np.asarray(s.circles)[:, 2] > 0])
+    # square4's scan is unchanged by its parked cylinder
+    env4, p4 = jaxnav.make("square4")
+    np.testing.assert_allclose(
+        np.asarray(env4.observe(jax.random.PRNGKey(0), jnp.zeros(2), 0.0, jnp.ones(2), p4)),
+        np.asarray(
+            env.observe(
+                jax.random.PRNGKey(0),
+                jnp.zeros(2),
+                0.0,
+                jnp.ones(2),
+                jax.tree.map(lambda x: x[0], params),
+            )
+        ),
+        atol=1e-6,
+    )
