@@ -13,6 +13,7 @@ import numpy as np
 
 from jaxnav.env import make
 from jaxnav.report import drawing
+from jaxnav.world import motion
 from jaxnav.world.maps import ROBOT_RADIUS, Maze, make_maze
 from jaxnav.world.sensor import lidar_scan
 
@@ -27,7 +28,15 @@ def draw_maze(ax, maze: Maze, *, n_beams: int = 0, min_range: float = 0.12, **kw
         scan = jax.jit(lidar_scan, static_argnums=3)  # one compile beats op-by-op dispatch
         max_range = kw.get("max_range", 3.5)
         pos, yaw32 = np.array([x, y], np.float32), np.float32(yaw)
-        kw["ranges"] = np.asarray(scan(maze, pos, yaw32, n_beams, min_range, max_range))
+        seen = maze
+        if maze.motion is not None:  # the moving cylinders at their first pose
+            moving = np.asarray(motion.circles_at(maze.motion, 0.0))
+            seen = maze.replace(
+                circles=np.concatenate([maze.circles, moving]),
+                circle_mask=np.concatenate([maze.circle_mask, np.ones(len(moving), bool)]),
+                motion=None,
+            )
+        kw["ranges"] = np.asarray(scan(seen, pos, yaw32, n_beams, min_range, max_range))
     return drawing.draw_maze(ax, maze, **kw)
 
 
