@@ -22,11 +22,11 @@ boundary walls, one per cell side, always real. Its goal points are the cell
 centres (``cell / 2`` from every wall) and its start pose the centre of a start cell.
 
 Shortest paths: :func:`cell_distances` is breadth-first search over the open walls,
-all sources at once, as R*C - 1 rounds of frontier relaxation (no path in a connected
-graph of R*C cells is longer). Start and goal cells are drawn uniformly among the
-pairs at least ``min_path`` steps apart (a pair always exists for ``min_path <= R + C
-- 2``: corner to opposite corner is that far on any maze, a path being at least the
-Manhattan distance).
+all sources at once, rounds of relaxation until nothing changes (at most R*C - 1: no
+path in a connected graph of R*C cells is longer). Start and goal cells are drawn
+uniformly among the pairs at least ``min_path`` steps apart (a pair always exists for
+``min_path <= R + C - 2``: corner to opposite corner is that far on any maze, a path
+being at least the Manhattan distance).
 
 Train/test split: a maze's split is a function of its layout alone, one bit of a
 hash of its open walls (:func:`layout_split`). A draw carves candidate mazes from
@@ -130,22 +130,50 @@ def carve(key: chex.PRNGKey, grid: Grid) -> chex.Array:
     return open_
 
 
+def cell_neighbours(grid: Grid) -> tuple[np.ndarray, np.ndarray]:
+    """(neighbour i32[RC, 4], wall i32[RC, 4]): each cell's right, left, upper and lower
+    neighbour and the internal wall between them; a missing one (the grid's edge) is
+    the cell itself through wall -1."""
+    r, c = grid.rows, grid.cols
+    v0 = r * (c - 1)
+    nbr = np.tile(np.arange(r * c)[:, None], (1, 4)).astype(np.int32)
+    wall = np.full((r * c, 4), -1, np.int32)
+    for row in range(r):
+        for col in range(c):
+            i = row * c + col
+            if col < c - 1:
+                nbr[i, 0], wall[i, 0] = i + 1, row * (c - 1) + col
+            if col > 0:
+                nbr[i, 1], wall[i, 1] = i - 1, row * (c - 1) + col - 1
+            if row < r - 1:
+                nbr[i, 2], wall[i, 2] = i + c, v0 + row * c + col
+            if row > 0:
+                nbr[i, 3], wall[i, 3] = i - c, v0 + (row - 1) * c + col
+    return nbr, wall
+
+
 def cell_distances(open_: chex.Array, grid: Grid) -> chex.Array:
     """i32[RC, RC]: path length in cells between every two cells through the open walls
-    (breadth-first, all sources at once); a large number for unreachable pairs."""
-    a, b = (jnp.asarray(x) for x in wall_cells(grid))
+    (breadth-first, all sources at once: each round every cell takes its open
+    neighbours' distances plus one, a gather rather than a scatter, until a round
+    changes nothing); a large number for unreachable pairs."""
+    nbr, wall = cell_neighbours(grid)
     n = grid.n_cells
+    passable = jnp.asarray(wall >= 0) & open_[jnp.asarray(np.maximum(wall, 0))]  # [RC, 4]
     d0 = jnp.where(jnp.eye(n, dtype=bool), 0, _UNREACHED).astype(jnp.int32)
 
-    def expand(_, d):
-        # Each open wall lets a cell's distance (from every source) be its
-        # neighbour's plus one.
-        via_b = jnp.where(open_[None, :], d[:, b] + 1, _UNREACHED)
-        via_a = jnp.where(open_[None, :], d[:, a] + 1, _UNREACHED)
-        d = d.at[:, a].min(via_b)
-        return d.at[:, b].min(via_a)
+    def expand(carry):
+        i, d, _ = carry
+        via = jnp.where(passable[None], d[:, jnp.asarray(nbr)] + 1, _UNREACHED)  # [RC, RC, 4]
+        new = jnp.minimum(d, via.min(-1))
+        return i + 1, new, jnp.any(new != d)
 
-    return jax.lax.fori_loop(0, max(n - 1, 0), expand, d0)
+    def again(carry):
+        i, _, changed = carry
+        return changed & (i < n - 1)
+
+    _, d, _ = jax.lax.while_loop(again, expand, (jnp.int32(0), d0, jnp.bool_(n > 1)))
+    return d
 
 
 def layout_split(open_: chex.Array) -> chex.Array:
@@ -346,6 +374,7 @@ __all__ = [
     "carve",
     "carve_split",
     "cell_distances",
+    "cell_neighbours",
     "draw",
     "draw_maze",
     "grid_problem",
