@@ -133,12 +133,16 @@ class PathFinder:
         self.radius, self.cell = float(radius), float(cell)
         self._raster: _Raster | None = None
         self._trees: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+        self._lengths: dict[bytes, float] = {}
 
     # -- queries ---------------------------------------------------------------
 
     def length(self, start, goal) -> float:
         """The length (m) of the shortest path from ``start`` to ``goal`` (x, y)."""
-        return _polyline_length(self.path(start, goal))
+        key = np.concatenate([np.asarray(start, np.float64)[:2], np.asarray(goal)[:2]]).tobytes()
+        if key not in self._lengths:  # a restart's attempt repeats an earlier one
+            self._lengths[key] = _polyline_length(self.path(start, goal))
+        return self._lengths[key]
 
     def lengths(self, starts: np.ndarray, goals: np.ndarray) -> np.ndarray:
         """f64[K]: :meth:`length` of each start (K, 2) to its goal (K, 2); the pairs in
