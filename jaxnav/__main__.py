@@ -16,6 +16,7 @@ COMMANDS: dict[str, tuple[str, bool]] = {
     "evaluate": ("test a finished run's policies on the test mazes (greedy and exploring)", True),
     "plots": ("draw a run's figures from its files", False),
     "render": ("draw a maze with the robot, a goal and its LiDAR beams", True),
+    "mazes": ("write drawn mazes of a family as maze files (start, goal, shortest path)", True),
     "export": ("write one trained policy to a portable NumPy file for a robot", True),
     "reproduce": ("the paper's two experiments end to end, and report.md", True),
     "ablation": ("both experiments under each ROBOTIS-faithful switch", True),
