@@ -15,7 +15,7 @@ COMMANDS: dict[str, tuple[str, bool]] = {
     "train": ("train every seed and strategy of a config in one compiled program", True),
     "evaluate": ("test a finished run's policies on the test mazes (greedy and exploring)", True),
     "plots": ("draw a run's figures from its files", False),
-    "render": ("draw a maze with the robot, a goal and its LiDAR beams", True),
+    "render": ("draw a maze with the robot, a goal and LiDAR beams, or a sheet of samples", True),
     "mazes": ("write drawn mazes of a family as maze files (start, goal, shortest path)", True),
     "export": ("write one trained policy to a portable NumPy file for a robot", True),
     "reproduce": ("the paper's two experiments end to end, and report.md", True),

@@ -22,6 +22,7 @@ from jaxnav.core.config import CONFIG_DIR, Config, load_config, resolve_config_p
 from jaxnav.core.errors import JaxnavError, MazeError
 from jaxnav.core.settings import GENERATORS
 from jaxnav.env import NavEnv, make
+from jaxnav.report import drawing
 from jaxnav.world.maps import BUILTIN_MAZES, Maze, load_maze_file, make_maze
 from jaxnav.world.mazefiles import canonical_segments, maze_text
 from jaxnav.world.paths import PathFinder
@@ -167,3 +168,41 @@ def _check_round_trip(path: Path, s: Sample, i: int) -> None:
     )
     if not same:
         raise JaxnavError(f"maze {i} does not read back exactly from its maze file")
+
+
+def render_sheet(spec: str, out: str, n: int, seed: int = 0, split: str | None = None) -> None:
+    """A sheet of ``n`` panels: mazes of the family ``spec`` (or goals in a fixed
+    maze) drawn by ``reset`` from ``split(PRNGKey(seed), n)``, each with the robot at
+    its start, its goal and its shortest path."""
+    import math
+
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    if n < 1:
+        raise JaxnavError(f"--samples must be at least 1 (got {n})")
+    env, params, drawn = sample_env(spec, split)
+    samples = sample(env, params, n, seed)
+    cols = math.ceil(math.sqrt(n))
+    rows = math.ceil(n / cols)
+    fig = Figure(figsize=(2.6 * cols, 2.6 * rows + 0.5), dpi=100)
+    FigureCanvasAgg(fig)
+    for i, s in enumerate(samples):
+        ax = fig.add_subplot(rows, cols, i + 1)
+        drawing.draw_maze(
+            ax, s.maze, pose=s.start, goal=s.goal, goal_radius=float(params.goal_radius)
+        )
+        drawing.draw_path(ax, s.path)
+        length = f"{s.length:.2f} m" if np.isfinite(s.length) else "no path"
+        ax.set_title(f"{i}: shortest path {length}", fontsize=8)
+        ax.set_xlabel("")
+        ax.set_ylabel("")
+        ax.tick_params(labelsize=6)
+    what = f"{env.split} mazes of {spec}" if drawn else f"goals in {spec}"
+    fig.suptitle(
+        f"{n} {what}, seed {seed}: start (robot), goal (star), shortest path of the "
+        "robot's disc (dashed)",
+        fontsize=9,
+    )
+    fig.tight_layout()
+    fig.savefig(out)
