@@ -28,7 +28,6 @@ No JAX here: the per-step arrays come from the test rollout, the rest from files
 
 from __future__ import annotations
 
-from collections.abc import Sequence
 from typing import NamedTuple
 
 import numpy as np
@@ -144,8 +143,3 @@ def seed_metrics(episodes: dict[str, np.ndarray]) -> dict[str, float]:
         "spl": total["spl_sum"] / n,
         "time_to_goal_s": total["time_s"] / successes if successes else float("nan"),
     }
-
-
-def has_counts(columns: Sequence[str]) -> bool:
-    """Whether results.csv has the attempt counts (files written before them do not)."""
-    return set(COUNT_COLUMNS) <= set(columns)

@@ -165,9 +165,10 @@ class PathFinder:
         if clear_segments(s, g, self.walls, self.circles, self.radius)[0]:
             return np.stack([s, g])
         r = self._raster_of()
-        goal_cell = r.entry(g, self._nearest_visible(g, r))
-        if goal_cell < 0:
+        goal_near = self._nearest_visible(g, r)
+        if not len(goal_near):
             return _unreachable(s, g)
+        goal_cell = int(goal_near[0])  # the path's last cell: the goal's nearest in sight
         dist, pred = self._tree(goal_cell)
         near = self._nearest_visible(s, r)
         if not len(near):
@@ -342,10 +343,6 @@ class _Raster:
         ids = self.index[(ys[:, None] * nx + xs[None, :]).ravel()]
         ids = ids[ids >= 0]
         return ids[np.argsort(np.linalg.norm(self.centres[ids] - p, axis=1), kind="stable")]
-
-    def entry(self, p: np.ndarray, near: np.ndarray) -> int:
-        """The cell a path enters the raster by at ``p``: the nearest of ``near``."""
-        return int(near[0]) if len(near) else -1
 
 
 def _polyline_length(points: np.ndarray) -> float:
