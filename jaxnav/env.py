@@ -353,7 +353,10 @@ class NavEnv:
         return cx, cy
 
     def first_goal(self, key, start, params: EnvParams, scale) -> chex.Array:
-        """The goal of a reset: drawn away from the start, or ROBOTIS' fixed first one."""
+        """The goal of a reset: the maze file's own goal if it has one, else drawn away
+        from the start, or ROBOTIS' fixed first one."""
+        if params.maze.goal is not None:
+            return params.maze.goal * scale
         if self.goal_sampler == "robotis":
             return jnp.asarray(ROBOTIS_FIRST_GOAL) * (params.maze.robotis_scale * scale)
         return self.draw_goal(key, start, params, scale)

@@ -22,6 +22,7 @@ from jaxnav.core import cli, rundir
 from jaxnav.core.rundir import CsvLog
 from jaxnav.experiments.evaluation import evaluate_to_dir
 from jaxnav.experiments.robustness import PERTURBATIONS, robustness_to_dir
+from jaxnav.report.nav_tables import navigation_text
 from jaxnav.report.results import ordered_unique
 from jaxnav.report.tables import outcome_text, setting_text
 
@@ -47,6 +48,10 @@ def print_summary(rows: list[dict[str, str]]) -> None:
             "mean over seeds [95% CI]:"
         )
         print(outcome_text(mine))
+        nav = navigation_text(mine)
+        if nav:
+            print("per goal attempt, every attempt of each seed, mean over seeds [95% CI]:")
+            print(nav)
 
 
 def main(argv: list[str] | None = None) -> int:

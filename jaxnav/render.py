@@ -1,10 +1,13 @@
-"""``python -m jaxnav.render MAZE [--out maze.png] [--beams 24] [--seed 0] [--overwrite]``
+"""``python -m jaxnav.render MAZE [--out maze.png] [--beams 24] [--seed 0] [--samples N]``
 
 A picture of a maze (built-in name or YAML file): walls, obstacles, the robot at
 its start pose, a goal drawn by ``reset``, and what its LiDAR beams see (cast by
 the environment's own sensor). MAZE may also be a maze generator (``grid``) or a
 config (``grid4``, a YAML file): then one maze of its family, drawn by ``reset`` from
-``--seed``. The drawing itself is :mod:`jaxnav.report.drawing`.
+``--seed``. ``--samples N`` draws a sheet of N panels instead: mazes of the family
+(or goals in a fixed maze), each with its start, goal and shortest path
+(:func:`jaxnav.experiments.mazes.render_sheet`). The drawing itself is
+:mod:`jaxnav.report.drawing`.
 """
 
 from __future__ import annotations
@@ -14,17 +17,14 @@ if __name__ == "__main__":  # first thing: Ctrl-C ends the command cleanly
 
     catch_interrupts_in_command()
 
-import os
 import sys
 from collections.abc import Sequence
 from pathlib import Path
 
 from jaxnav.core import cli
-from jaxnav.core.config import CONFIG_DIR, Config, load_config, resolve_config_path
 from jaxnav.core.errors import JaxnavError
-from jaxnav.core.settings import GENERATORS
+from jaxnav.experiments.mazes import family_config, render_sheet
 from jaxnav.experiments.scene import render_maze
-from jaxnav.world.maps import BUILTIN_MAZES
 
 
 def image_formats() -> list[str]:
@@ -70,13 +70,26 @@ def main(argv: Sequence[str] | None = None) -> int:
     cli.add_overwrite(parser, "the output picture")
     parser.add_argument("--beams", type=int, default=24, help="LiDAR beams to draw (default: 24)")
     parser.add_argument("--seed", type=int, default=0, help="seed of the goal draw (default: 0)")
+    parser.add_argument(
+        "--samples",
+        type=int,
+        metavar="N",
+        help="instead, a sheet of N panels: mazes the family draws (or goals in a fixed "
+        "maze), each with its start, goal and shortest path",
+    )
     args = parser.parse_args(argv)
 
     def work() -> None:
         if args.beams < 0:
             raise JaxnavError("--beams must be 0 or more")
+        if args.samples is not None and args.samples < 1:
+            raise JaxnavError(f"--samples must be at least 1 (got {args.samples})")
         out = check_picture_path(args.out, args.overwrite)
-        cfg = _family_config(args.maze)
+        if args.samples is not None:
+            render_sheet(args.maze, str(out), args.samples, args.seed)
+            print(f"wrote {out}")
+            return
+        cfg = family_config(args.maze)
         if cfg is None:
             render_maze(args.maze, str(out), args.beams, args.seed)
         else:
@@ -86,32 +99,6 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"wrote {out}")
 
     return cli.run(parser.prog, work)
-
-
-def _family_config(name: str) -> Config | None:
-    """The config ``name`` stands for (a generator's defaults, a shipped config's name,
-    a config file), or None for a maze (built-in or a maze file)."""
-    if name in BUILTIN_MAZES:
-        return None
-    if name in GENERATORS and name:
-        return load_config(None, [f"env.generator={name}"])
-    path = resolve_config_path(name)
-    shipped = os.path.dirname(os.path.abspath(path)) == str(CONFIG_DIR)
-    if not os.path.isfile(path) or not (shipped or _is_config_file(path)):
-        return None
-    return load_config(path)
-
-
-def _is_config_file(path: str) -> bool:
-    """Whether a YAML file is a config (not a maze file: no outline)."""
-    import yaml
-
-    try:
-        with open(path) as f:
-            doc = yaml.safe_load(f)
-    except (OSError, yaml.YAMLError, UnicodeDecodeError):
-        return False  # the maze loader says what is wrong with it
-    return isinstance(doc, dict) and "outline" not in doc and "env" in doc
 
 
 if __name__ == "__main__":

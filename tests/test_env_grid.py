@@ -16,6 +16,7 @@ from jaxnav.core.config import load_config
 from jaxnav.core.errors import ConfigError
 from jaxnav.env import from_config
 from jaxnav.experiments.evaluation import drawn_policies, evaluate_to_dir, load_run
+from jaxnav.experiments.rollout import eval_keys, run_tests
 from jaxnav.run.training import train_new
 from jaxnav.world import generators as gen
 
@@ -192,6 +193,18 @@ def test_two_seeds_train_on_a_new_4x4_maze_every_episode(tmp_path):
     drawn = drawn_policies(load_run(out))
     assert drawn.env.generates and drawn.env.split == "test"
     assert "Trained on `4 x 4 grid mazes (train split)`" in (evaluated / "tables.md").read_text()
+    # Every attempt is counted in drawn mazes too, and the rollout keeps each test
+    # episode's maze: the first is the one the test's reset draws.
+    for r in results:
+        assert int(r["attempts"]) == int(r["goals"]) + int(r["collided"]) + int(r["timeouts"])
+    res = run_tests(drawn, [drawn.env_params.maze], 2, navigation=True)[0]
+    for i in range(2):
+        _, state = drawn.env.reset(
+            jax.random.split(eval_keys(drawn.labels)[i])[0], drawn.env_params
+        )
+        np.testing.assert_array_equal(res.mazes.segments[i, 0], state.maze.segments)
+        np.testing.assert_array_equal(res.mazes.segment_mask[i, 0], state.maze.segment_mask)
+        np.testing.assert_array_equal(res.steps.pos[i, 0], state.pos)
 
 
 @pytest.mark.slow

@@ -343,3 +343,23 @@ def test_evaluate_ends_with_trains_table_per_test_mode(run, tmp_path, capsys):
     assert ebe.split()[:2] == ["ebe", str(cfg.seeds)]
     assert f"{iv.value:.0f} [{iv.low:.0f}, {iv.high:.0f}]" in ebe
     assert eps.split()[0] == "epsilon_greedy"
+
+
+@pytest.mark.slow
+def test_results_count_every_goal_attempt_of_every_episode(evaluated):
+    """Each episode's attempts tile its steps: its goals are its successes, it ends
+    in a collision or (unless its last step reached a goal) a time-out, and the path
+    driven is its length times v dt."""
+    cfg, out = evaluated
+    rows = _rows(out / "eval" / "results.csv")
+    step_m, dt = 0.15 * 0.2, 0.2
+    for r in rows:
+        n = {c: float(r[c]) for c in ("attempts", "successes", "timeouts", "collided", "goals")}
+        assert n["successes"] == n["goals"]
+        assert n["attempts"] == n["successes"] + n["collided"] + n["timeouts"]
+        assert n["collided"] + n["timeouts"] <= 1
+        assert float(r["path_m"]) == pytest.approx(int(r["length"]) * step_m, abs=1e-4)
+        assert 0 <= float(r["spl_sum"]) <= n["successes"] + 1e-9
+        assert 0 <= float(r["time_s"]) <= int(r["length"]) * dt + 1e-4
+    tables = (out / "eval" / "tables.md").read_text()
+    assert "| maze | strategy | success | collision | timeout | path_length_m | spl |" in tables

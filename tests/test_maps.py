@@ -221,7 +221,7 @@ BAD_FILES = {
         "no room left for goals",
     ),
     "not valid YAML": ("outline: [[0, 0], [1, 0]\n  bad: : ]\n", "not valid YAML"),
-    "unknown key": (f"outline: {SQUARE}\nwalls: 3\n", "unknown key 'walls'"),
+    "unknown key": (f"outline: {SQUARE}\nfloor: 3\n", "unknown key 'floor'"),
     "missing outline": ("obstacles: []\n", "missing 'outline'"),
 }
 

@@ -128,3 +128,32 @@ def test_render_draws_a_maze_of_a_generator_or_a_config(name, tmp_path, capsys):
     assert main([name, "--out", str(out), "--seed", "2"]) == 0
     assert out.read_bytes().startswith(PNG_MAGIC)
     assert "wrote" in capsys.readouterr().out
+
+
+def test_render_draws_a_sheet_of_sampled_mazes_with_their_paths(tmp_path, capsys):
+    out = tmp_path / "sheet.png"
+    assert main(["grid", "--samples", "4", "--out", str(out), "--seed", "2"]) == 0
+    data = out.read_bytes()
+    assert data.startswith(PNG_MAGIC) and len(data) > 20_000
+    assert capsys.readouterr().out == f"wrote {out}\n"
+
+
+def test_a_sheet_panel_shows_the_start_goal_and_shortest_path():
+    from jaxnav.experiments.mazes import sample, sample_env
+
+    env, params, drawn = sample_env("square4_obstacles")
+    (s,) = sample(env, params, 1, 0)
+    assert not drawn
+    np.testing.assert_array_equal(s.path[0], s.start[:2])
+    np.testing.assert_array_equal(s.path[-1], s.goal)
+    assert s.length == pytest.approx(np.linalg.norm(np.diff(s.path, axis=0), axis=1).sum())
+    assert s.length >= np.linalg.norm(s.goal - s.start[:2]) - 1e-9
+
+
+@pytest.mark.parametrize("n", ["0", "-3"])
+def test_render_refuses_fewer_than_one_sample_in_one_line(tmp_path, capsys, n):
+    out = tmp_path / "sheet.png"
+    assert main(["grid", "--samples", n, "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err == f"jaxnav.render: error: --samples must be at least 1 (got {n})\n"
+    assert not out.exists()

@@ -5,8 +5,11 @@ Defaults are the run's ``run.test_mazes`` and ``run.test_episodes``; the trainin
 environment's settings (preset, beams, step limit, reward, noise, observation
 layout) stay as trained and only the maze changes. Writes, atomically::
 
-    RUN_DIR/eval/results.csv        strategy, seed, maze, episode, return, goals, collided, length
-    RUN_DIR/eval/tables.md          paper-form tables, across-seed statistics, the paper's numbers
+    RUN_DIR/eval/results.csv        strategy, seed, mode, maze, episode, return, goals, collided,
+                                    length, and the episode's sums over its goal attempts:
+                                    attempts, successes, timeouts, path_m, spl_sum, time_s
+    RUN_DIR/eval/tables.md          paper-form tables, across-seed statistics, the navigation
+                                    metrics, the paper's numbers
     RUN_DIR/eval/trajectories.npz   the first test episode of the config's seed, per strategy
                                     and maze, step by step (for jaxnav.report.plots)
 """
@@ -30,6 +33,7 @@ from jaxnav.core.errors import JaxnavError, RunError
 from jaxnav.core.sweep import with_swept
 from jaxnav.dqn import network_of, run_inputs
 from jaxnav.env import from_config
+from jaxnav.experiments.navigation import ShortestPaths, navigation_counts
 from jaxnav.experiments.rollout import MODES, Policies, first_episode, padded_mazes, run_tests
 from jaxnav.report.results import RESULT_COLUMNS, Episodes, episode_rows, episodes_npz
 from jaxnav.report.tables import tables_markdown
@@ -130,10 +134,24 @@ def evaluate(
     names, n_episodes = test_setup(run, maze_names, n_episodes, run.config.run.test_mazes)
     labels = run.policies.labels
     mazes = padded_mazes(names)
+    paths = ShortestPaths(float(run.policies.env_params.robot_radius))
+
+    def counts(policies: Policies, mazes, results):
+        """Each maze's, run's and episode's sums over its goal attempts."""
+        p = policies.env_params
+        step_m, dt = float(p.v) * float(p.dt), float(p.dt)
+        return [
+            navigation_counts(res, maze, n_episodes, step_m, dt, paths)
+            for maze, res in zip(mazes, results)
+        ]
+
     rows = []
     for mode in MODES:
-        results = run_tests(run.policies, mazes, n_episodes, record=mode == "greedy", mode=mode)
-        rows += episode_rows(run.policies.fields, names, results, n_episodes, mode)
+        results = run_tests(
+            run.policies, mazes, n_episodes, record=mode == "greedy", mode=mode, navigation=True
+        )
+        nav = counts(run.policies, mazes, results)
+        rows += episode_rows(run.policies.fields, names, results, n_episodes, mode, nav)
         if mode == "greedy":
             first = [i for i, (_, seed) in enumerate(labels) if seed == run.config.seed]
             episodes = {
@@ -142,8 +160,11 @@ def evaluate(
             }
         if run.config.env.generator:  # the family's test split: mazes training never saw
             drawn = drawn_policies(run)
-            results = run_tests(drawn, [drawn.env_params.maze], n_episodes, mode=mode)
-            rows += episode_rows(drawn.fields, [drawn_name(run.config)], results, n_episodes, mode)
+            template = [drawn.env_params.maze]
+            results = run_tests(drawn, template, n_episodes, mode=mode, navigation=True)
+            nav = counts(drawn, template, results)
+            name = [drawn_name(run.config)]
+            rows += episode_rows(drawn.fields, name, results, n_episodes, mode, nav)
     columns = with_swept(RESULT_COLUMNS, run.config.sweep)
     return run, names, rundir.csv_text(columns, rows), episodes
 

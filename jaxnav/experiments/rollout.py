@@ -65,14 +65,40 @@ class Trajectory(NamedTuple):
     episode: chex.Array  # i32[..., T] test episode of this step
 
 
+class Steps(NamedTuple):
+    """What the navigation metrics need of every step (jaxnav.report.navigation):
+    the pose's position and the goal before the step, what the step did, its test
+    episode. Leading axes [..., T], as :class:`Trajectory`."""
+
+    pos: chex.Array  # f32[..., T, 2]
+    goal: chex.Array  # f32[..., T, 2]
+    reached: chex.Array  # bool[..., T]
+    collided: chex.Array  # bool[..., T]
+    episode: chex.Array  # i32[..., T]
+
+
+class EpisodeMazes(NamedTuple):
+    """The maze each test episode was played in, [..., E] (the state's maze at the
+    episode's first step, scaled as the episode scaled it): recorded where it can
+    differ from the test maze, with drawn mazes or ``maze_scale``."""
+
+    segments: chex.Array  # f32[..., E, S, 4]
+    segment_mask: chex.Array  # bool[..., E, S]
+    circles: chex.Array  # f32[..., E, C, 3]
+    circle_mask: chex.Array  # bool[..., E, C]
+
+
 class Rollout(NamedTuple):
-    """Per-episode test results [..., n_episodes] and, optionally, the trajectory."""
+    """Per-episode test results [..., n_episodes] and, optionally, the trajectory,
+    the steps the navigation metrics need and each episode's maze."""
 
     ret: chex.Array  # f32[..., E]
     goals: chex.Array  # i32[..., E]
     collided: chex.Array  # bool[..., E]
     length: chex.Array  # i32[..., E]
     trajectory: Trajectory | None
+    steps: Steps | None = None
+    mazes: EpisodeMazes | None = None
 
 
 def make_rollout(
@@ -82,10 +108,15 @@ def make_rollout(
     max_steps: int,
     record: bool = False,
     exploring: int | None = None,
+    navigation: bool = False,
 ):
     """A pure ``rollout(params, key, strategy, hyper, env_params) -> Rollout`` of one
     policy; ``hyper`` is its settings in training (its swept environment settings
     apply to the test too).
+
+    ``record`` keeps the whole :class:`Trajectory`; ``navigation`` the light
+    :class:`Steps` and, where an episode's maze can differ from ``env_params``'s
+    (drawn mazes, ``maze_scale``), each episode's maze (:class:`EpisodeMazes`).
 
     Plays ``n_episodes`` consecutive episodes in one environment with auto-reset.
     Each episode lasts at most ``max_steps`` steps, so a scan of
@@ -100,6 +131,7 @@ def make_rollout(
     """
     n_steps = n_episodes * max_steps
     E = n_episodes
+    own_mazes = navigation and (env.generates or env.scales_maze)
 
     # One scan body over one explicit carry, read top to bottom: ACT, STEP ENV, RECORD.
 
@@ -116,10 +148,14 @@ def make_rollout(
         k_reset, key = jax.random.split(key)
         obs, state = env.reset(k_reset, env_params)
         # the episode being played, and the test's episodes (jaxnav.agent.episodes)
-        carry0 = (obs, state, key, jnp.zeros((), jnp.int32), Episodes.zeros(E))
+        mazes0 = _episode_mazes(env, env_params, state, E) if own_mazes else None
+        carry0 = (obs, state, key, jnp.zeros((), jnp.int32), Episodes.zeros(E), mazes0)
 
         def body(carry, _):
-            obs, state, key, ep, episodes = carry
+            obs, state, key, ep, episodes, mazes = carry
+            if own_mazes:  # the maze of an episode, at its first step (slot E: dropped)
+                first = jnp.where((state.t == 0) & (ep < E), ep, E)
+                mazes = _record_maze(mazes, first, _geometry(env, env_params, state))
             key, k_step = jax.random.split(key)
             # ACT: greedy, or the strategy's own exploration.
             action = act(params, obs, k_step, strategy, hyper)
@@ -131,9 +167,11 @@ def make_rollout(
             # RECORD the step and the finished episode (slot E: dropped, the test is over).
             slot = jnp.where(done & (ep < E), ep, E)
             episodes = episodes.record(slot, reward, info["goal_reached"], terminated, done)
-            out = None
+            steps = traj = None
+            if navigation:
+                steps = Steps(state.pos, state.goal, info["goal_reached"], terminated, ep)
             if record:
-                out = Trajectory(
+                traj = Trajectory(
                     pos=state.pos,
                     yaw=state.yaw,
                     goal=state.goal,
@@ -144,14 +182,30 @@ def make_rollout(
                     collided=terminated,
                     episode=ep,
                 )
-            carry = (obs2, state2, key, ep + done.astype(jnp.int32), episodes)
-            return carry, out
+            carry = (obs2, state2, key, ep + done.astype(jnp.int32), episodes, mazes)
+            return carry, (steps, traj)
 
-        carry, traj = jax.lax.scan(body, carry0, None, length=n_steps)
-        e = carry[-1]
-        return Rollout(e.ep_return, e.ep_goals, e.ep_collided, e.ep_length, traj)
+        carry, (steps, traj) = jax.lax.scan(body, carry0, None, length=n_steps)
+        e, mazes = carry[-2], carry[-1]
+        return Rollout(e.ep_return, e.ep_goals, e.ep_collided, e.ep_length, traj, steps, mazes)
 
     return rollout
+
+
+def _geometry(env: NavEnv, env_params: EnvParams, state) -> EpisodeMazes:
+    """The walls and circles of the state's episode (its maze, scaled as it is)."""
+    maze = env.maze_at(env.in_maze(env_params, state), state.scale)
+    return EpisodeMazes(maze.segments, maze.segment_mask, maze.circles, maze.circle_mask)
+
+
+def _episode_mazes(env: NavEnv, env_params: EnvParams, state, n: int) -> EpisodeMazes:
+    """Room for ``n`` episodes' mazes, shaped as the state's."""
+    one = _geometry(env, env_params, state)
+    return EpisodeMazes(*(jnp.zeros((n,) + a.shape, a.dtype) for a in one))
+
+
+def _record_maze(mazes: EpisodeMazes, slot: chex.Array, one: EpisodeMazes) -> EpisodeMazes:
+    return EpisodeMazes(*(a.at[slot].set(b, mode="drop") for a, b in zip(mazes, one)))
 
 
 def padded_mazes(names: Sequence[str]) -> list[Maze]:
@@ -177,10 +231,16 @@ def eval_keys(labels: Sequence[tuple[str, int]]) -> chex.Array:
 
 @functools.lru_cache(maxsize=16)
 def _compiled_rollout(
-    env: NavEnv, network: QNetwork, n_episodes: int, max_steps: int, record: bool, exploring
+    env: NavEnv,
+    network: QNetwork,
+    n_episodes: int,
+    max_steps: int,
+    record: bool,
+    exploring,
+    navigation: bool = False,
 ):
     """jit(vmap(rollout)) over runs, one per setting: equal shapes never recompile."""
-    rollout = make_rollout(env, network, n_episodes, max_steps, record, exploring)
+    rollout = make_rollout(env, network, n_episodes, max_steps, record, exploring, navigation)
     return jax.jit(jax.vmap(rollout, in_axes=(0, 0, 0, 0, None)))
 
 
@@ -190,8 +250,11 @@ def run_tests(
     n_episodes: int,
     record: bool = False,
     mode: str = "greedy",
+    navigation: bool = False,
 ) -> list[Rollout]:
-    """One vmapped rollout of every policy per maze in a test ``mode``; NumPy results."""
+    """One vmapped rollout of every policy per maze in a test ``mode``; NumPy results
+    (``record``: with the trajectory; ``navigation``: with what the navigation
+    metrics need, :func:`make_rollout`)."""
     if mode not in MODES:
         raise ValueError(f"unknown test mode {mode!r}")
     exploring = policies.episodes_trained if mode == "exploring" else None
@@ -202,7 +265,9 @@ def run_tests(
     strategy = shard.put(np.asarray(policies.strategy, np.int32))
     hyper = shard.put(jax.tree.map(np.asarray, policies.hyper))
     max_steps = int(policies.env_params.max_steps)
-    fn = _compiled_rollout(policies.env, policies.network, n_episodes, max_steps, record, exploring)
+    fn = _compiled_rollout(
+        policies.env, policies.network, n_episodes, max_steps, record, exploring, navigation
+    )
     out = []
     for maze in mazes:
         res = fn(params, keys, strategy, hyper, policies.env_params.replace(maze=maze))

@@ -39,7 +39,7 @@ from jaxnav.core.errors import JaxnavError
 from jaxnav.env import from_config
 from jaxnav.experiments.evaluation import diverged_runs, load_run
 from jaxnav.experiments.rollout import padded_mazes, run_tests
-from jaxnav.report.results import RESULT_COLUMNS, episode_rows, ordered_unique, read_results
+from jaxnav.report.results import EPISODE_COLUMNS, episode_rows, ordered_unique, read_results
 from jaxnav.report.sim2sim_tables import SUMMARY_COLUMNS, gap_markdown
 from jaxnav.robot.deploy import Policy
 from jaxnav.robot.export import export_policy
@@ -158,7 +158,7 @@ def jaxnav_results(
         n = run.config.run.test_episodes
         tests = run_tests(run.policies, padded_mazes(names), n, mode="greedy")
         rows = episode_rows(run.policies.labels, names, tests, n, "greedy")
-        res = read_results(rundir.csv_text(RESULT_COLUMNS, rows), "greedy")
+        res = read_results(rundir.csv_text(EPISODE_COLUMNS, rows), "greedy")
         source = f"jaxnav.experiments.rollout greedy test, {n} episodes"
     out = {
         k: Episodes(res[k]["return"], res[k]["goals"], res[k]["collided"] > 0, res[k]["length"])

@@ -21,6 +21,7 @@ ROBOT_COLOR = "#1f77b4"
 GOAL_COLOR = "#2ca02c"
 BEAM_COLOR = "#d62728"
 HEADING_COLOR = "#0b2f4f"
+PATH_COLOR = "#ff7f0e"
 
 
 def draw_maze(
@@ -158,6 +159,15 @@ def draw_goal(ax, goal: Sequence[float], goal_radius: float) -> None:
         Circle((gx, gy), goal_radius, fill=False, ec=GOAL_COLOR, ls="--", lw=1.2, zorder=4)
     )
     ax.plot([gx], [gy], "*", ms=14, color=GOAL_COLOR, mec="white", zorder=6)
+
+
+def draw_path(ax, points: np.ndarray, label: str | None = None) -> None:
+    """A path (f[n, 2] points, start to goal) as a dashed line; a path with NaN
+    points (none found) is not drawn."""
+    pts = np.asarray(points, np.float64)
+    if len(pts) < 2 or np.isnan(pts).any():
+        return
+    ax.plot(pts[:, 0], pts[:, 1], "--", color=PATH_COLOR, lw=1.6, zorder=4, label=label)
 
 
 def _closed_loops(walls: np.ndarray) -> list[np.ndarray]:

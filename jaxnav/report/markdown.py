@@ -1,5 +1,6 @@
-"""The two pieces every report table is made of: an estimate with its interval, and
-a markdown table. One writer each, so every table in the reports reads alike."""
+"""The pieces every report table is made of: an estimate with its interval, a
+markdown table, and the aligned plain-text table the commands print. One writer
+each, so every table in the reports reads alike."""
 
 from __future__ import annotations
 
@@ -24,3 +25,16 @@ def markdown_table(header: Sequence[str], rows: Sequence[Sequence[Any]]) -> list
     """A markdown table's lines: the header, the rule, one line per row."""
     lines = ["| " + " | ".join(header) + " |", "|" + "|".join("---" for _ in header) + "|"]
     return lines + ["| " + " | ".join(str(c) for c in r) + " |" for r in rows]
+
+
+def aligned_table(table: Sequence[Sequence[str]]) -> str:
+    """A plain-text table for a terminal: the first column left-aligned, the others
+    right-aligned, each line indented by two spaces."""
+    widths = [max(len(row[i]) for row in table) for i in range(len(table[0]))]
+    return "\n".join(
+        "  "
+        + "  ".join(
+            c.ljust(w) if i == 0 else c.rjust(w) for i, (c, w) in enumerate(zip(row, widths))
+        )
+        for row in table
+    )

@@ -19,8 +19,9 @@ from jaxnav.core import strategies as registry
 from jaxnav.core.errors import RunError
 from jaxnav.core.sweep import row_arm
 from jaxnav.report import stats
+from jaxnav.report.navigation import COUNT_COLUMNS
 
-RESULT_COLUMNS = (
+EPISODE_COLUMNS = (
     "strategy",
     "seed",
     "mode",
@@ -31,6 +32,8 @@ RESULT_COLUMNS = (
     "collided",
     "length",
 )
+# results.csv: each episode, then its sums over its goal attempts (jaxnav.report.navigation).
+RESULT_COLUMNS = EPISODE_COLUMNS + COUNT_COLUMNS
 # Test modes: "greedy" (argmax Q) or "exploring" (each strategy's own exploration at
 # the end of its training); see jaxnav.experiments.rollout.
 MODE_NAMES = {
@@ -58,20 +61,22 @@ def display_name(arm: str) -> str:
     return " ".join(x for x in (registry.label(strategy), point) if x)
 
 
-# robustness.csv: the same columns, the perturbation in place of the test mode.
-ROBUSTNESS_COLUMNS = tuple("perturbation" if c == "mode" else c for c in RESULT_COLUMNS)
+# robustness.csv: an episode's columns, the perturbation in place of the test mode.
+ROBUSTNESS_COLUMNS = tuple("perturbation" if c == "mode" else c for c in EPISODE_COLUMNS)
 UNPERTURBED = "none"
 
 
-def episode_rows(fields, names, results, n_episodes, tag: str):
+def episode_rows(fields, names, results, n_episodes, tag: str, counts=None):
     """CSV rows (strategy, [swept values,] seed, tag, maze, episode, return, goals,
-    collided, length) of run_tests() results; ``fields`` holds each policy's leading
-    fields, (strategy, seed) or jaxnav.core.config.Config.run_fields()'s; the tag is the
-    test mode or the perturbation."""
-    for name, res in zip(names, results):
+    collided, length[, attempt counts]) of run_tests() results; ``fields`` holds each
+    policy's leading fields, (strategy, seed) or jaxnav.core.config.Config.run_fields()'s;
+    the tag is the test mode or the perturbation. ``counts``: per maze, per policy,
+    each episode's sums over its attempts
+    (:func:`jaxnav.experiments.navigation.navigation_counts`), for results.csv."""
+    for i, (name, res) in enumerate(zip(names, results)):
         for r, lead in enumerate(fields):
             for e in range(n_episodes):
-                yield (
+                row = (
                     *lead,
                     tag,
                     name,
@@ -81,6 +86,22 @@ def episode_rows(fields, names, results, n_episodes, tag: str):
                     int(res.collided[r, e]),
                     int(res.length[r, e]),
                 )
+                if counts is not None:
+                    row += _count_cells(counts[i][r], e)
+                yield row
+
+
+def _count_cells(counts: dict[str, np.ndarray], e: int) -> tuple:
+    """Episode e's attempt counts as results.csv writes them (COUNT_COLUMNS)."""
+    c = {k: float(v[e]) for k, v in counts.items()}
+    return (
+        int(c["attempts"]),
+        int(c["successes"]),
+        int(c["timeouts"]),
+        f"{c['path_m']:.4f}",
+        f"{c['spl_sum']:.6f}",
+        f"{c['time_s']:.4f}",
+    )
 
 
 def read_results(
@@ -107,9 +128,10 @@ def _read_episodes(
             continue
         row["strategy"] = row_arm(row)
         key = tuple(int(row[c]) if c == "seed" else row[c] for c in key_columns)
-        d = out.setdefault(
-            key, {"episode": [], "return": [], "goals": [], "collided": [], "length": []}
-        )
+        columns = ("episode", "return", "goals", "collided", "length")
+        if all(row.get(c) not in (None, "") for c in COUNT_COLUMNS):
+            columns += COUNT_COLUMNS
+        d = out.setdefault(key, {c: [] for c in columns})
         for c in d:
             d[c].append(float(row[c]))
     res = {}

@@ -10,7 +10,8 @@ from jaxnav.core.config import PAPER_STRATEGIES
 from jaxnav.core.errors import RunError
 from jaxnav.core.sweep import row_arm
 from jaxnav.report import stats
-from jaxnav.report.markdown import interval, markdown_table
+from jaxnav.report.markdown import aligned_table, interval, markdown_table
+from jaxnav.report.nav_tables import navigation_section
 from jaxnav.report.paper import PAPER_TABLES
 from jaxnav.report.results import (
     MODE_NAMES,
@@ -76,7 +77,9 @@ def tables_markdown(
             "in the training environment's settings (dropout off).",
             "",
         ]
-        sections = _paper_form_section(t) + _across_seeds_section(t) + _sweep_section(t)
+        sections = _paper_form_section(t) + _across_seeds_section(t)
+        sections += navigation_section(t.results, t.mazes, t.strategies, t.seeds)
+        sections += _sweep_section(t)
         if set(PAPER_STRATEGIES) <= set(t.strategies):
             sections += _improvement_section(t)
         sections += _beside_paper_section(t, train_maze)
@@ -423,14 +426,7 @@ def outcome_text(rows: list[dict[str, str]], last: int | None = None) -> str:
     in aligned columns. ``rows``: metrics.csv or results.csv rows."""
     table = [["strategy", *OUTCOME_HEADER]]
     table += [[s, *_outcome_cells(eps, last)] for s, eps in _seeds_by_arm(rows).items()]
-    widths = [max(len(row[i]) for row in table) for i in range(len(table[0]))]
-    return "\n".join(
-        "  "
-        + "  ".join(
-            c.ljust(w) if i == 0 else c.rjust(w) for i, (c, w) in enumerate(zip(row, widths))
-        )
-        for row in table
-    )
+    return aligned_table(table)
 
 
 def training_markdown(metrics_rows: list[dict[str, str]], last: int = 50) -> str:

@@ -40,12 +40,20 @@ A user's own maze comes from a YAML file::
       - circle: [0.5, 0.0, 0.2]
       - polygon: [[-1, -0.3], [-0.6, -0.3], [-0.6, 0.3], [-1, 0.3], [-1, -0.3]]
     start: [0.0, 0.5, 0.0]      # optional x, y, yaw; default the outline centroid, yaw 0
+    walls: [[0.0, -1.0, 0.0, 0.2]]   # optional free wall segments x1, y1, x2, y2, inside
+    goal: [1.5, 0.0]            # optional: the first goal of every reset (else drawn)
+    shortest_path_m: 3.1        # optional, informational: start to goal, m
+
+``walls`` are segments that bound no area, as a grid maze's walls (``jaxnav mazes``
+writes drawn mazes in this format, the outline as the boundary's own segments, so
+loading one gives back its walls, obstacles, start and goal exactly).
 
 Loading validates it and rejects a bad file with a one-line :class:`MazeError`.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import os
 from collections.abc import Sequence
@@ -130,6 +138,8 @@ class Maze:
       robotis_scale: f32[] the maze's size over ROBOTIS' 3.7 m arena (1 for square4).
       motion: the moving cylinders (:class:`jaxnav.world.motion.Motion`), or None (no
         leaves) for a maze that stands still; ``circles`` holds the static ones only.
+      goal: f32[2] the first goal of every reset, from a maze file's ``goal``; None
+        (no leaf) for the mazes whose goals are drawn, as every built-in's.
     """
 
     segments: chex.Array
@@ -145,6 +155,7 @@ class Maze:
     n_robotis_goals: chex.Array
     robotis_scale: chex.Array
     motion: Motion | Any = None
+    goal: chex.Array | None = None
 
     # Host-side accessors (not for use under jit).
     def walls(self) -> np.ndarray:
@@ -287,9 +298,10 @@ def _build(
     start: np.ndarray,
     where: str,
     motion: Motion | None = None,
+    walls: np.ndarray | None = None,
+    goal: np.ndarray | None = None,
 ) -> Maze:
-    segs = [polygon_segments(outline)] + [polygon_segments(p) for p in polygons]
-    segments = np.concatenate(segs, axis=0)
+    segments = _segments(outline, polygons, walls)
     goals = _goal_grid(outline, segments, circles, polygons, start)
     if len(goals) < MIN_GOAL_POINTS:
         raise MazeError(
@@ -318,8 +330,17 @@ def _build(
         n_robotis_goals=jnp.asarray(n_robotis, jnp.int32),
         robotis_scale=jnp.asarray(robotis_scale, jnp.float32),
         motion=motion,
+        goal=None if goal is None else jnp.asarray(goal, jnp.float32),
     )
     return maze
+
+
+def _segments(outline, polygons, walls=None) -> np.ndarray:
+    """The wall segments: the outline's, the polygons', then the free walls."""
+    segs = [polygon_segments(outline)] + [polygon_segments(p) for p in polygons]
+    if walls is not None and len(walls):
+        segs.append(np.asarray(walls, np.float64).reshape(-1, 4))
+    return np.concatenate(segs, axis=0)
 
 
 def _as_points(value, what: str, where: str) -> np.ndarray:
@@ -361,9 +382,63 @@ def load_maze_file(path: str) -> Maze:
     outline = _closed_polygon(doc["outline"], "outline", where)
     circles, polygons = _obstacles(doc.get("obstacles") or [], outline, where)
     circles_arr = np.asarray(circles).reshape(-1, 3)
-    segments = np.concatenate([polygon_segments(outline)] + [polygon_segments(p) for p in polygons])
+    walls = _free_walls(doc.get("walls"), outline, where)
+    segments = _segments(outline, polygons, walls)
     start = _start_pose(doc, outline, polygons, segments, circles_arr, where)
-    return _build(outline, circles_arr, polygons, start, where)
+    goal = _goal(doc, outline, polygons, segments, circles_arr, where)
+    if doc.get("shortest_path_m") is not None:
+        length = doc["shortest_path_m"]
+        if isinstance(length, bool) or not isinstance(length, (int, float)) or not length >= 0:
+            raise MazeError(f"{where}: shortest_path_m must be a number of metres, 0 or more")
+    return _build(outline, circles_arr, polygons, start, where, walls=walls, goal=goal)
+
+
+def _free_walls(value, outline: np.ndarray, where: str) -> np.ndarray:
+    """The file's free walls f64[W, 4], each of some length and inside the outline
+    (its ends inside or on it)."""
+    if value is None:
+        return np.zeros((0, 4))
+    try:
+        walls = (
+            np.asarray(value, np.float64).reshape(-1, 4)
+            if value == []
+            else np.asarray(value, np.float64)
+        )
+    except (TypeError, ValueError):
+        walls = np.zeros((0, 3))
+    if walls.ndim != 2 or walls.shape[1] != 4 or not np.isfinite(walls).all():
+        raise MazeError(f"{where}: walls must be a list of [x1, y1, x2, y2] segments")
+    if np.abs(walls).max(initial=0.0) > MAX_COORDINATE:
+        raise MazeError(f"{where}: walls reach beyond 1 km; maze coordinates are metres")
+    if np.any(np.hypot(walls[:, 2] - walls[:, 0], walls[:, 3] - walls[:, 1]) < 1e-9):
+        raise MazeError(f"{where}: a wall has no length (its two ends are the same point)")
+    ends = walls.reshape(-1, 2)
+    on = clearance(ends, polygon_segments(outline), np.zeros((0, 3))) <= 1e-9
+    inside = points_in_polygon(ends, outline) | on
+    if not inside.all():
+        raise MazeError(f"{where}: wall {int(np.argmin(inside)) // 2} is not inside the outline")
+    return walls
+
+
+def _goal(doc, outline, polygons, segments, circles, where: str) -> np.ndarray | None:
+    """The file's goal (x, y), in the free space clear of the robot radius, or None."""
+    if doc.get("goal") is None:
+        return None
+    try:
+        goal = np.asarray(doc["goal"], np.float64)
+    except (TypeError, ValueError):
+        goal = np.zeros(0)
+    if goal.shape != (2,) or not np.isfinite(goal).all():
+        raise MazeError(f"{where}: goal must be [x, y]")
+    inside = points_in_polygon(goal[None], outline)[0] and not any(
+        points_in_polygon(goal[None], p)[0] for p in polygons
+    )
+    if not inside or clearance(goal[None], segments, circles)[0] <= ROBOT_RADIUS:
+        raise MazeError(
+            f"{where}: goal is not in the free space (inside, and more than the robot "
+            f"radius {ROBOT_RADIUS} m from every wall and obstacle)"
+        )
+    return goal
 
 
 def _read_maze_yaml(path: str, where: str) -> dict:
@@ -385,7 +460,15 @@ def _read_maze_yaml(path: str, where: str) -> dict:
         raise MazeError(f"{where}: not a text file (not UTF-8)") from None
     if not isinstance(doc, dict):
         raise MazeError(f"{where}: expected a mapping with an 'outline' key")
-    unknown = set(doc) - {"name", "outline", "obstacles", "start"}
+    unknown = set(doc) - {
+        "name",
+        "outline",
+        "obstacles",
+        "start",
+        "walls",
+        "goal",
+        "shortest_path_m",
+    }
     if unknown:
         raise MazeError(f"{where}: unknown key {sorted(map(str, unknown))[0]!r}")
     if "outline" not in doc:
@@ -506,6 +589,7 @@ def pad_maze(maze: Maze, n_segments: int, n_circles: int, n_goal_points: int) ->
         n_robotis_goals=maze.n_robotis_goals,
         robotis_scale=maze.robotis_scale,
         motion=maze.motion,
+        goal=maze.goal,
     )
 
 
@@ -522,22 +606,16 @@ def stack_mazes(mazes: Sequence[Maze]) -> Maze:
         k = max(x.times.shape[-1] for x in motions)
         motions = [pad_motion(x, n, k) for x in motions]
         motion = jax.tree.map(lambda *a: jnp.stack(a), *motions)
-    stacked = (jnp.stack(leaves) for leaves in zip(*(_fields(m) for m in padded)))
-    return Maze(*stacked, motion=motion)
+    stacked = Maze(*(jnp.stack(leaves) for leaves in zip(*(_fields(m) for m in padded))))
+    stacked = stacked.replace(motion=motion)
+    goals = [m.goal for m in padded]
+    if all(x is not None for x in goals):
+        return stacked.replace(goal=jnp.stack(goals))
+    if any(x is not None for x in goals):
+        raise ValueError("stack_mazes: either every maze has a goal of its own or none has")
+    return stacked
 
 
-def _fields(m: Maze):
-    return (
-        m.segments,
-        m.segment_mask,
-        m.circles,
-        m.circle_mask,
-        m.start,
-        m.goal_points,
-        m.n_goal_points,
-        m.bounds,
-        m.n_obstacles,
-        m.robotis_goals,
-        m.n_robotis_goals,
-        m.robotis_scale,
-    )
+def _fields(m: Maze) -> list:
+    """The maze's arrays in field order, without its optional goal."""
+    return [getattr(m, f.name) for f in dataclasses.fields(m) if f.name != "goal"]

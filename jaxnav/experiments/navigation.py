@@ -1,0 +1,79 @@
+"""The navigation metrics of test rollouts: each run's goal attempts, the shortest
+path of each (in the maze its episode was played in) and each episode's sums, the
+columns :data:`jaxnav.report.navigation.COUNT_COLUMNS` of results.csv.
+
+The attempts come from the rollout's :class:`~jaxnav.experiments.rollout.Steps`;
+an episode's maze is the test maze, or, with drawn mazes or ``maze_scale``, the one
+the rollout recorded at the episode's first step. Shortest paths are
+:class:`jaxnav.world.paths.PathFinder`'s, one per distinct maze (shared by every
+run, mode and episode that met it).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from jaxnav.experiments.rollout import Rollout
+from jaxnav.report.navigation import episode_counts, split_attempts
+from jaxnav.world.maps import Maze
+from jaxnav.world.paths import PathFinder
+
+
+class ShortestPaths:
+    """Path finders by maze geometry: every maze met once gets one raster."""
+
+    def __init__(self, radius: float):
+        self.radius = radius
+        self._finders: dict[bytes, PathFinder] = {}
+
+    def finder(self, walls: np.ndarray, circles: np.ndarray) -> PathFinder:
+        key = walls.tobytes() + b"|" + circles.tobytes()
+        if key not in self._finders:
+            self._finders[key] = PathFinder(walls, circles, self.radius)
+        return self._finders[key]
+
+
+def _real(segments, segment_mask, circles, circle_mask) -> tuple[np.ndarray, np.ndarray]:
+    seg, circ = np.asarray(segments), np.asarray(circles)
+    return (
+        seg[np.asarray(segment_mask)].astype(np.float64),
+        circ[np.asarray(circle_mask)].astype(np.float64),
+    )
+
+
+def navigation_counts(
+    res: Rollout,
+    maze: Maze,
+    n_episodes: int,
+    step_m: float,
+    dt: float,
+    paths: ShortestPaths,
+) -> list[dict[str, np.ndarray]]:
+    """Per run of a navigation rollout (``run_tests(..., navigation=True)``) in the
+    test maze ``maze``: each episode's sums over its attempts ({column: f[E]})."""
+    steps = res.steps
+    out = []
+    for r in range(len(steps.episode)):
+        att = split_attempts(
+            steps.pos[r],
+            steps.goal[r],
+            steps.reached[r],
+            steps.collided[r],
+            steps.episode[r],
+            n_episodes,
+        )
+        shortest = np.zeros(len(att.episode))
+        for e in np.unique(att.episode):
+            if res.mazes is None:
+                walls, circles = _real(
+                    maze.segments, maze.segment_mask, maze.circles, maze.circle_mask
+                )
+            else:
+                m = res.mazes
+                walls, circles = _real(
+                    m.segments[r, e], m.segment_mask[r, e], m.circles[r, e], m.circle_mask[r, e]
+                )
+            mine = att.episode == e
+            shortest[mine] = paths.finder(walls, circles).lengths(att.start[mine], att.goal[mine])
+        out.append(episode_counts(att, shortest, step_m, dt, n_episodes))
+    return out

@@ -1,0 +1,91 @@
+"""The navigation metrics' tables (:mod:`jaxnav.report.navigation`): in tables.md, per
+maze and arm; in ``jaxnav evaluate``'s output, per arm over every test maze. Each
+cell is the mean over seeds of the seed's metric with a 95% bootstrap CI, as the
+other tables' cells are. Pure functions of results.csv's rows."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from jaxnav.core.sweep import row_arm
+from jaxnav.report import stats
+from jaxnav.report.markdown import aligned_table, interval, markdown_table
+from jaxnav.report.navigation import COUNT_COLUMNS, METRICS, seed_metrics
+from jaxnav.report.results import arms_in, display_name
+
+# Decimals each metric is shown with.
+DIGITS = {
+    "success": 2,
+    "collision": 2,
+    "timeout": 2,
+    "path_length_m": 2,
+    "spl": 2,
+    "time_to_goal_s": 1,
+}
+
+
+def metric_cells(per_seed: Sequence[dict[str, float]]) -> list[str]:
+    """One arm's cells, metric by metric: the mean over its seeds [95% CI]. A seed
+    without a successful attempt has no time to the goal: that column averages the
+    seeds that have one and says how many when some have not."""
+    cells = []
+    for m in METRICS:
+        x = np.asarray([s[m] for s in per_seed], np.float64)
+        have = x[np.isfinite(x)]
+        if not len(have):
+            cells.append("n/a")
+            continue
+        text = interval(stats.mean_ci(have), DIGITS[m])
+        if len(have) < len(x):
+            text += f" ({len(have)} of {len(x)} seeds)"
+        cells.append(text)
+    return cells
+
+
+def navigation_section(results: dict, mazes, strategies, seeds) -> list[str]:
+    """The tables.md section of one test mode: per maze and arm, each metric's mean
+    over seeds [95% CI]. ``results``: read_results()'s (maze, arm, seed) -> episode
+    columns; empty if results.csv has no attempt counts (written before them)."""
+    if not all(set(COUNT_COLUMNS) <= set(v) for v in results.values()):
+        return []
+    L = [
+        "",
+        "## Navigation: per goal attempt",
+        "",
+        "An attempt starts when a goal is set (an episode's start, which keeps the goal "
+        "after a collision or the step limit, or the next goal after one is reached) and "
+        "ends at the goal (success), in a collision, or at the step limit (timeout). Per "
+        "seed, over all its attempts: the shares of the three ends (they sum to 1), the "
+        "mean path travelled (`path_length_m`), SPL (the mean of S l / max(p, l), l the "
+        "shortest path of the robot's disc from the attempt's start to its goal, p the "
+        "path travelled, S the success) and the mean time of the successful attempts "
+        "(`time_to_goal_s`). Then the mean over seeds "
+        f"[{int(stats.CONFIDENCE * 100)}% bootstrap CI].",
+        "",
+    ]
+    rows = [
+        [m, display_name(s), *metric_cells([seed_metrics(results[(m, s, k)]) for k in seeds])]
+        for m in mazes
+        for s in strategies
+    ]
+    return L + markdown_table(["maze", "strategy", *METRICS], rows)
+
+
+def navigation_text(rows: list[dict[str, str]]) -> str:
+    """The table ``jaxnav evaluate`` prints (empty without attempt counts): per arm,
+    each metric over every attempt of a seed on every test maze, the mean over seeds
+    [95% CI]."""
+    if not rows or any(r.get(c) in (None, "") for r in rows for c in COUNT_COLUMNS):
+        return ""
+    by: dict[str, dict[int, dict[str, float]]] = {}
+    for r in rows:
+        sums = by.setdefault(row_arm(r), {}).setdefault(int(r["seed"]), {})
+        for c in (*COUNT_COLUMNS, "collided"):
+            sums[c] = sums.get(c, 0.0) + float(r[c])
+    table = [["strategy", "seeds", *METRICS]]
+    for arm in arms_in(by):
+        per_seed = [seed_metrics(s) for s in by[arm].values()]
+        table.append([arm, str(len(per_seed)), *metric_cells(per_seed)])
+    return aligned_table(table)
