@@ -617,5 +617,6 @@ def stack_mazes(mazes: Sequence[Maze]) -> Maze:
 
 
 def _fields(m: Maze) -> list:
-    """The maze's arrays in field order, without its optional goal."""
-    return [getattr(m, f.name) for f in dataclasses.fields(m) if f.name != "goal"]
+    """The maze's arrays in field order, without its optional goal and motion."""
+    optional = ("goal", "motion")
+    return [getattr(m, f.name) for f in dataclasses.fields(m) if f.name not in optional]
