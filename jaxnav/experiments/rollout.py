@@ -63,6 +63,9 @@ class Trajectory(NamedTuple):
     reached: chex.Array  # bool[..., T] the goal was reached in this step
     collided: chex.Array  # bool[..., T] the robot collided in this step
     episode: chex.Array  # i32[..., T] test episode of this step
+    # f32[..., T, k, 3] every cylinder where it was at the step's start, for mazes whose
+    # cylinders move; None otherwise.
+    circles: chex.Array | None = None
 
 
 class Steps(NamedTuple):
@@ -145,6 +148,7 @@ def make_rollout(
 
     def rollout(params, key: chex.PRNGKey, strategy, hyper: Hyper, env_params: EnvParams):
         env_params = hyper.env_params(env_params)
+        moves = env_params.maze.motion is not None  # record where the cylinders were
         k_reset, key = jax.random.split(key)
         obs, state = env.reset(k_reset, env_params)
         # the episode being played, and the test's episodes (jaxnav.agent.episodes)
@@ -181,6 +185,7 @@ def make_rollout(
                     reached=info["goal_reached"],
                     collided=terminated,
                     episode=ep,
+                    circles=state.circles if moves else None,
                 )
             carry = (obs2, state2, key, ep + done.astype(jnp.int32), episodes, mazes)
             return carry, (steps, traj)
@@ -286,6 +291,7 @@ def first_episode(res: Rollout, r: int) -> dict[str, Any]:
         "ranges": tr.ranges[r, :n],
         "reward": tr.reward[r, :n],
         "reached": tr.reached[r, :n],
+        **({} if tr.circles is None else {"circles": tr.circles[r, :n]}),
         "collided": bool(res.collided[r, 0]),
         "return": float(res.ret[r, 0]),
         "goals": int(res.goals[r, 0]),

@@ -114,6 +114,25 @@ def draw_walls(ax, maze: Maze) -> None:
     )
 
 
+def draw_moving(ax, circles: np.ndarray, every: int = 25) -> None:
+    """Moving cylinders over an episode, ``circles`` [T, k, 3] (each step's cylinders):
+    every ``every``-th step faded, darker as time goes on, the last one solid."""
+    from matplotlib.patches import Circle
+
+    circles = np.asarray(circles, np.float64)
+    steps = list(range(0, len(circles), every))
+    for i, t in enumerate(steps):
+        alpha = 0.15 + 0.35 * i / max(len(steps) - 1, 1)
+        for cx, cy, r in circles[t]:
+            if r > 0:
+                ax.add_patch(
+                    Circle((cx, cy), r, fc=OBSTACLE_COLOR, ec="none", alpha=alpha, zorder=2)
+                )
+    for cx, cy, r in circles[-1]:
+        if r > 0:
+            ax.add_patch(Circle((cx, cy), r, fc=OBSTACLE_COLOR, ec=WALL_COLOR, lw=1.2, zorder=3))
+
+
 def draw_robot(ax, x: float, y: float, yaw: float, robot_radius: float = ROBOT_RADIUS) -> None:
     """The robot's disc with an arrow for its heading."""
     from matplotlib.patches import Circle, FancyArrow

@@ -100,6 +100,12 @@ def episode_figure(
         (0, 0), goal_radius, facecolor="limegreen", edgecolor="darkgreen", alpha=0.6, zorder=5
     )
     ax.add_patch(goal)
+    moving = []  # the cylinders where they are at each frame's step (moving mazes)
+    if "circles" in ep:
+        moving = [
+            ax.add_patch(Circle((cx, cy), r, fc="dimgray", ec="black", lw=0.8, zorder=3))
+            for cx, cy, r in np.asarray(ep["circles"][0])
+        ]
     title = ax.set_title("two\nlines", fontsize=8)  # room for the real title
     fig.tight_layout()
     mode_line = f"test mode: {mode}"
@@ -114,6 +120,8 @@ def episode_figure(
             [p[0], p[0] + FOOTPRINT * np.cos(yaw)], [p[1], p[1] + FOOTPRINT * np.sin(yaw)]
         )
         goal.center = tuple(ep["goal"][t])
+        for patch, (cx, cy, _) in zip(moving, np.asarray(ep["circles"][t]) if moving else ()):
+            patch.center = (cx, cy)
         crash = " - collision" if ep["collided"] and t == n - 1 else ""
         title.set_text(
             f"{name}, {display_name(strategy)} seed {seed}\n"

@@ -24,6 +24,9 @@ def trajectory_figure(
     styles = arm_styles(list(episodes))
     for arm, ep in episodes.items():
         _draw_path(ax, arm, ep, goal_radius, styles[arm])
+    first = next(iter(episodes.values()), {})
+    if "circles" in first:  # moving cylinders: where they were along the first arm's path
+        drawing.draw_moving(ax, first["circles"])
     _marker_legend(ax)
     ax.set_title(f"{name}: first test episode, seed {seed}\n{mode_title(mode)}", fontsize=10)
     ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.12), fontsize=8, ncol=1, frameon=False)
