@@ -8,6 +8,8 @@ Dynamixel units of 0.033 / 41.69988758 m/s, i.e. +-0.2097128 m/s.
 
 from __future__ import annotations
 
+import math
+
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -133,3 +135,29 @@ def test_off_by_default_and_off_changes_nothing():
 def test_a_bad_value_names_the_setting():
     with pytest.raises(ConfigError, match="env.wheel_limit"):
         load_config("smoke", ["env.wheel_limit=3"])
+
+
+def test_the_mujoco_burger_drives_the_clipped_command():
+    """The MuJoCo burger with the limit sets its servos for the driven (v, omega) and
+    turns at about its rate (1.123 rad/s, not 1.5) through wheel physics."""
+    pytest.importorskip("mujoco", reason="MuJoCo is not installed (pip install mujoco)")
+    from jaxnav.robot.mujoco_model import wheel_speeds
+    from jaxnav.robot.mujoco_rollout import Burger
+    from jaxnav.world.maps import make_maze
+
+    robot = Burger(make_maze("square8"), wheel_limit=True)
+    robot.place(0.0, 0.0, 0.0)
+    v, w = PAPER_ACTIONS[1.5]
+    assert robot.command(0.15, 1.5) == pytest.approx((v, w), abs=1e-9)
+    np.testing.assert_allclose(robot.data.ctrl, wheel_speeds(v, w), atol=1e-9)
+    assert max(abs(c) for c in robot.data.ctrl) * 0.033 == pytest.approx(WHEEL_MAX, abs=1e-9)
+    yaws = []
+    for _ in range(8):
+        assert not robot.drive(0.15, 1.5, 0.2)
+        yaws.append(robot.pose()[2])
+    rate = np.diff(np.unwrap(yaws)) / 0.2
+    assert rate[2:].mean() == pytest.approx(w, rel=0.05)
+    assert abs(rate[2:].mean() - 1.5) > 0.3
+    free = Burger(make_maze("square8"))
+    assert free.command(0.15, 1.5) == (0.15, 1.5)
+    assert math.isclose(free.data.ctrl[1] * 0.033, 0.27)
