@@ -106,25 +106,10 @@ deploy = _load_deploy()
 # What the node decides without ROS (tests/test_ros2.py calls these directly)
 # ----------------------------------------------------------------------------
 
-# Distributions before Jazzy take a plain Twist on /cmd_vel: turtlebot3_bringup loads
-# enable_stamped_cmd_vel: false for humble, its one target before Jazzy, and true for
-# the rest; foxy, galactic and iron are taken to be like humble.
-TWIST_DISTROS = ("foxy", "galactic", "humble", "iron")
-STAMPED_RCLPY = 7  # Jazzy's rclpy is 7.x; Humble's 3.x, Iron's 4.x
+# Twist on Humble and older, TwistStamped after (deploy.py says why).
+default_stamped = deploy.default_stamped
 RANGE_MIN_SLACK = 0.05  # m: a LiDAR blind this much nearer than training is a mismatch
 MAX_NAN_FRACTION = 0.5  # of the policy's beams: more NaN than this and the scan is unusable
-
-
-def default_stamped(distro: str | None, rclpy_version: str | None) -> tuple[bool, str]:
-    """(TwistStamped?, why) for /cmd_vel: Twist on Humble and older, stamped after."""
-    if distro:
-        stamped = distro.strip().lower() not in TWIST_DISTROS
-        return stamped, f"ROS_DISTRO={distro}"
-    try:
-        major = int(str(rclpy_version).split(".")[0])
-    except ValueError:
-        return True, "ROS_DISTRO unset and rclpy's version unknown"
-    return major >= STAMPED_RCLPY, f"ROS_DISTRO unset, rclpy {rclpy_version}"
 
 
 def scan_problem(
@@ -185,17 +170,6 @@ def odom_jump(previous, pose) -> float:
     return d if math.isfinite(d) else math.inf
 
 
-def _rclpy_version() -> str | None:
-    from importlib import metadata
-
-    for name in ("rclpy", "ros-rclpy"):
-        try:
-            return metadata.version(name)
-        except metadata.PackageNotFoundError:
-            pass
-    return None
-
-
 # ----------------------------------------------------------------------------
 # The ROS 2 node
 # ----------------------------------------------------------------------------
@@ -225,7 +199,7 @@ class PolicyNode:
             invalid=None if invalid < 0 else invalid,
         )
         self.jump_limit = float(node.declare_parameter("odom_jump", 0.5).value)
-        stamped, why = default_stamped(os.environ.get("ROS_DISTRO"), _rclpy_version())
+        stamped, why = default_stamped(os.environ.get("ROS_DISTRO"), deploy.rclpy_version())
         self.stamped = bool(node.declare_parameter("enable_stamped_cmd_vel", stamped).value)
         self.twist_type = TwistStamped if self.stamped else Twist
         self.last_pose = None  # the previous odometry pose, for the jump check
