@@ -3,13 +3,22 @@
 
 Not yet run on a robot. tests/test_ros2.py runs it closed-loop, as its own process
 through real DDS messages (rclpy 9.1.2 from PyPI's ros-rclpy wheels, i.e. ROS 2
-Kilted; RMW rmw_fastrtps_cpp, Fast DDS 3.2.3; loopback only), against a simulated
-TurtleBot3 (jaxnav's own LiDAR and motion behind /scan, /odom and /cmd_vel, at 5 Hz):
-to goals in the square4 maze with both Twist and TwistStamped on /cmd_vel, and its
-stops on stale odometry, NaN scans, a scan the policy does not match, a goal in
-another frame, an odometry jump and SIGINT. A real robot's dynamics, latency and
-drift, turtlebot3_node itself and Humble's or Jazzy's own rclpy are not tested.
-Keep a hand on the stop button. To run that test:
+Kilted; RMW rmw_fastrtps_cpp 9.3.3, Fast DDS 3.2.3; Python 3.11.7 on Debian 12 x86_64;
+loopback only), against two simulated TurtleBot3s:
+
+  * jaxnav's own LiDAR and exact motion behind /scan, /odom and /cmd_vel, at 5 Hz
+    (tests/_ros2_sim.py): to goals in the square4 maze with both Twist and
+    TwistStamped on /cmd_vel, and its stops on stale odometry, NaN scans, a scan the
+    policy does not match, a goal in another frame, an odometry jump and SIGINT;
+  * the MuJoCo burger in real time as its own ROS 2 node (jaxnav/robot/mujoco_ros2.py,
+    MuJoCo 4.0.0: wheel servos, tyre contacts, a ray-cast LiDAR 3.2 cm behind the
+    axle, odometry from the wheels; TwistStamped): to two goals in square4 without a
+    contact, each stop within the goal radius by odometry and within 0.3 m by the
+    true pose, and the stop on SIGINT.
+
+A real robot's latency, sensor and drift, turtlebot3_node itself, Humble's or
+Jazzy's own rclpy and another RMW are not tested. Keep a hand on the stop button. To
+run that test:
 
     scripts/ros2_env.sh --install-only      # the ROS 2 venv .venv-ros2 (PyPI wheels)
     python -m pytest tests/test_ros2.py     # from jaxnav's own environment
