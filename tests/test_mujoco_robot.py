@@ -5,6 +5,7 @@ tests/test_ros2.py runs it as a ROS 2 node, closed-loop with the policy node."""
 
 from __future__ import annotations
 
+import json
 import math
 import random
 import subprocess
@@ -193,3 +194,52 @@ def test_the_mujoco_robot_refuses_a_bad_maze_or_parameter_with_one_line(tmp_path
     out = r.stdout + r.stderr
     assert r.returncode == 2, out
     assert out.count(words) == 1 and "Traceback" not in out, out
+
+
+IN_PROCESS = """
+import json, math, sys
+import numpy as np
+import rclpy
+from geometry_msgs.msg import TwistStamped
+from rclpy.parameter import Parameter
+from jaxnav.robot.mujoco_ros2 import BurgerNode
+
+rclpy.init()
+params = [Parameter("maze", value=sys.argv[1]), Parameter("enable_stamped_cmd_vel", value=True),
+          Parameter("wheel_limit", value=True)]
+burger = BurgerNode(rclpy.create_node("burger", parameter_overrides=params))
+out = {}
+
+
+def cmd(v, w):
+    m = TwistStamped()
+    m.twist.linear.x, m.twist.angular.z = v, w
+    burger.on_cmd(m)
+    return list(burger.robot.driving)
+
+
+out["drive"] = cmd(0.15, 1.5)
+out["nan"] = [cmd(math.nan, 0.5) for _ in range(3)] + [cmd(0.1, math.inf)]
+out["again"] = cmd(0.15, 0.0)
+out["nan_again"] = cmd(math.nan, 0.0)
+print(json.dumps(out))
+"""
+
+
+def test_the_node_stops_the_wheels_on_a_command_that_is_not_finite(square4_file, tmp_path):
+    """BurgerNode's /cmd_vel callback called directly under rclpy: the firmware's
+    clipping, and a stop with one log line per run of non-finite commands."""
+    ros2 = r2.probe_ros2()
+    if r2._mujoco_missing(ros2):
+        pytest.skip(r2._mujoco_missing(ros2))
+    env = r2._dds_env(ros2, tmp_path, random.Random().randrange(1, 101))
+    env = dict(r2._robot_env(env), PYTHONPATH=str(r2.ROOT))
+    argv = [str(r2._ros2_python()), "-c", IN_PROCESS, str(square4_file)]
+    r = subprocess.run(argv, env=env, cwd=tmp_path, capture_output=True, text=True, timeout=60)
+    assert r.returncode == 0, r.stdout + r.stderr
+    out, log = json.loads(r.stdout.strip().splitlines()[-1]), r.stderr
+    assert out["drive"] == pytest.approx([0.1198564, 1.1232050], abs=1e-6)
+    assert out["nan"] == [[0.0, 0.0]] * 4 and out["nan_again"] == [0.0, 0.0]
+    assert out["again"] == pytest.approx([0.15, 0.0])
+    assert log.count("is not finite: wheels stopped") == 2, log  # one per run of them
+    assert "Traceback" not in log
