@@ -3,13 +3,22 @@
 
 Not yet run on a robot. tests/test_ros2.py runs it closed-loop, as its own process
 through real DDS messages (rclpy 9.1.2 from PyPI's ros-rclpy wheels, i.e. ROS 2
-Kilted; RMW rmw_fastrtps_cpp, Fast DDS 3.2.3; loopback only), against a simulated
-TurtleBot3 (jaxnav's own LiDAR and motion behind /scan, /odom and /cmd_vel, at 5 Hz):
-to goals in the square4 maze with both Twist and TwistStamped on /cmd_vel, and its
-stops on stale odometry, NaN scans, a scan the policy does not match, a goal in
-another frame, an odometry jump and SIGINT. A real robot's dynamics, latency and
-drift, turtlebot3_node itself and Humble's or Jazzy's own rclpy are not tested.
-Keep a hand on the stop button. To run that test:
+Kilted; RMW rmw_fastrtps_cpp 9.3.3, Fast DDS 3.2.3; Python 3.11.7 on Debian 12 x86_64;
+loopback only), against two simulated TurtleBot3s:
+
+  * jaxnav's own LiDAR and exact motion behind /scan, /odom and /cmd_vel, at 5 Hz
+    (tests/_ros2_sim.py): to goals in the square4 maze with both Twist and
+    TwistStamped on /cmd_vel, and its stops on stale odometry, NaN scans, a scan the
+    policy does not match, a goal in another frame, an odometry jump and SIGINT;
+  * the MuJoCo burger in real time as its own ROS 2 node (jaxnav/robot/mujoco_ros2.py,
+    MuJoCo 4.0.0: wheel servos, tyre contacts, a ray-cast LiDAR 3.2 cm behind the
+    axle, odometry from the wheels; TwistStamped): to two goals in square4 without a
+    contact, each stop within the goal radius by odometry and within 0.3 m by the
+    true pose, and the stop on SIGINT.
+
+A real robot's latency, sensor and drift, turtlebot3_node itself, Humble's or
+Jazzy's own rclpy and another RMW are not tested. Keep a hand on the stop button. To
+run that test:
 
     scripts/ros2_env.sh --install-only      # the ROS 2 venv .venv-ros2 (PyPI wheels)
     python -m pytest tests/test_ros2.py     # from jaxnav's own environment
@@ -106,25 +115,10 @@ deploy = _load_deploy()
 # What the node decides without ROS (tests/test_ros2.py calls these directly)
 # ----------------------------------------------------------------------------
 
-# Distributions before Jazzy take a plain Twist on /cmd_vel: turtlebot3_bringup loads
-# enable_stamped_cmd_vel: false for humble, its one target before Jazzy, and true for
-# the rest; foxy, galactic and iron are taken to be like humble.
-TWIST_DISTROS = ("foxy", "galactic", "humble", "iron")
-STAMPED_RCLPY = 7  # Jazzy's rclpy is 7.x; Humble's 3.x, Iron's 4.x
+# Twist on Humble and older, TwistStamped after (deploy.py says why).
+default_stamped = deploy.default_stamped
 RANGE_MIN_SLACK = 0.05  # m: a LiDAR blind this much nearer than training is a mismatch
 MAX_NAN_FRACTION = 0.5  # of the policy's beams: more NaN than this and the scan is unusable
-
-
-def default_stamped(distro: str | None, rclpy_version: str | None) -> tuple[bool, str]:
-    """(TwistStamped?, why) for /cmd_vel: Twist on Humble and older, stamped after."""
-    if distro:
-        stamped = distro.strip().lower() not in TWIST_DISTROS
-        return stamped, f"ROS_DISTRO={distro}"
-    try:
-        major = int(str(rclpy_version).split(".")[0])
-    except ValueError:
-        return True, "ROS_DISTRO unset and rclpy's version unknown"
-    return major >= STAMPED_RCLPY, f"ROS_DISTRO unset, rclpy {rclpy_version}"
 
 
 def scan_problem(
@@ -185,17 +179,6 @@ def odom_jump(previous, pose) -> float:
     return d if math.isfinite(d) else math.inf
 
 
-def _rclpy_version() -> str | None:
-    from importlib import metadata
-
-    for name in ("rclpy", "ros-rclpy"):
-        try:
-            return metadata.version(name)
-        except metadata.PackageNotFoundError:
-            pass
-    return None
-
-
 # ----------------------------------------------------------------------------
 # The ROS 2 node
 # ----------------------------------------------------------------------------
@@ -225,7 +208,7 @@ class PolicyNode:
             invalid=None if invalid < 0 else invalid,
         )
         self.jump_limit = float(node.declare_parameter("odom_jump", 0.5).value)
-        stamped, why = default_stamped(os.environ.get("ROS_DISTRO"), _rclpy_version())
+        stamped, why = default_stamped(os.environ.get("ROS_DISTRO"), deploy.rclpy_version())
         self.stamped = bool(node.declare_parameter("enable_stamped_cmd_vel", stamped).value)
         self.twist_type = TwistStamped if self.stamped else Twist
         self.last_pose = None  # the previous odometry pose, for the jump check

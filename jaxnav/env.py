@@ -52,6 +52,7 @@ from jaxnav.world.geometry import (
     path_clearance,
     wrap_angle,
 )
+from jaxnav.world.kinematics import firmware_limit
 from jaxnav.world.maps import (
     BURGER_RADIUS,
     ROBOT_RADIUS,
@@ -143,6 +144,8 @@ class NavEnv:
       maze_scale: (low, high): each episode scales the maze (walls, obstacle
         positions, goals, start) by a factor drawn uniformly from this range;
         obstacle radii keep their size. (1, 1) is off.
+      wheel_limit: drive each action's (v, omega) as the burger's firmware does
+        (:func:`jaxnav.world.kinematics.firmware_limit`: a wheel at most 0.21 m/s).
     Range noise is ``EnvParams.lidar_noise_std``.
 
     ROBOTIS-faithful switches (docs/paper.md; all off by default and in both presets):
@@ -192,6 +195,7 @@ class NavEnv:
     odom_noise: tuple[float, float] = (0.0, 0.0)
     random_start: bool = False
     maze_scale: tuple[float, float] = (1.0, 1.0)
+    wheel_limit: bool = False
     collision: str = "disc"
     goal_sampler: str = "free"
     beam_layout: str = "even"
@@ -416,16 +420,18 @@ class NavEnv:
         params = self.in_maze(params, state)
         k_goal, k_obs = _step_keys(key)
         applied = state.pending_action if self.action_delay else action
-        omega = jnp.asarray(params.omegas)[applied]
+        omega, v = jnp.asarray(params.omegas)[applied], params.v
+        if self.wheel_limit:  # the arc the robot drives, not the one commanded
+            v, omega = firmware_limit(jnp.asarray(v, jnp.float32), omega)
         maze = self.maze_at(params, state.scale)
-        clearance = path_clearance(maze, state.pos, state.yaw, omega, params.v, params.dt)
+        clearance = path_clearance(maze, state.pos, state.yaw, omega, v, params.dt)
         if maze.motion is not None:  # the moving cylinders, over the step's time
             time0 = state.t * params.dt
             moving = motion.moving_clearance(
-                maze.motion, state.pos, state.yaw, omega, params.v, params.dt, time0
+                maze.motion, state.pos, state.yaw, omega, v, params.dt, time0
             )
             clearance = jnp.minimum(clearance, moving)
-        pos = state.pos + displacement(state.yaw, omega, params.v, params.dt)
+        pos = state.pos + displacement(state.yaw, omega, v, params.dt)
         yaw = wrap_angle(state.yaw + omega * params.dt)
         t = state.t + 1
         time = t * params.dt  # the scan after the step sees the cylinders at this time

@@ -55,6 +55,12 @@ def main(argv: list[str] | None = None) -> int:
         metavar="SIGMA",
         help=f"Gaussian range noise of the MuJoCo LiDAR in m (default {LIDAR_NOISE_STD})",
     )
+    p.add_argument(
+        "--wheel-limit",
+        action="store_true",
+        help="clip the MuJoCo burger's commands as its firmware does (each wheel at most "
+        "0.21 m/s); jaxnav's test keeps the run's own settings",
+    )
     cli.add_overwrite(p, "the --out FILE and its table")
     args = p.parse_args(argv)
 
@@ -69,6 +75,7 @@ def main(argv: list[str] | None = None) -> int:
             args.lidar_noise,
             say,
             overwrite=args.overwrite,
+            wheel_limit=args.wheel_limit,
         )
         print(f"wrote {csv_path} and {md}")
 

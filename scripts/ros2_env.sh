@@ -6,7 +6,9 @@
 #   scripts/ros2_env.sh --install-only  make it if needed; exit 1 if it cannot
 #
 # ROS 2's Python client from PyPI's wheels (rclpy 9.1.2, ROS 2 Kilted; Fast DDS), in a
-# virtual environment of its own: no apt, no root, no sourcing of /opt/ros. It is made
+# virtual environment of its own: no apt, no root, no sourcing of /opt/ros. MuJoCo too,
+# pinned to the version jaxnav's .venv gets from the 'sim' extra (pyproject.toml), for
+# the MuJoCo TurtleBot3 behind the same topics (jaxnav/robot/mujoco_ros2.py). It is made
 # with the same Python as jaxnav's .venv where there is one, because the test's
 # simulated robot loads JAX from .venv and rclpy from .venv-ros2 in one interpreter.
 set -euo pipefail
@@ -14,8 +16,9 @@ cd "$(dirname "$0")/.."
 
 VENV=.venv-ros2
 PACKAGES=(ros-rclpy==9.1.2 ros-sensor-msgs==5.5.1 ros-geometry-msgs==5.5.1
-          ros-nav-msgs==5.5.1 ros-rmw-fastrtps-cpp==9.3.3 numpy pyyaml)
+          ros-nav-msgs==5.5.1 ros-rmw-fastrtps-cpp==9.3.3 mujoco==4.0.0 numpy pyyaml)
 CHECK="import numpy, rclpy, sensor_msgs.msg, nav_msgs.msg, geometry_msgs.msg, rmw_fastrtps_cpp"
+CHECK="$CHECK, mujoco"
 
 ready() {
     [ -x "$VENV/bin/python" ] && env -u PYTHONPATH "$VENV/bin/python" -c "$CHECK" 2>/dev/null

@@ -20,6 +20,12 @@ last goal again in the shifted frame. Finally, once the robot drives, create
 ``<result>.driving`` and go on until interrupted (SIGINT), so the caller can check
 that the node stops the robot when it is shut down.
 
+With ``--robot mujoco`` the robot is another process, the MuJoCo burger of
+jaxnav/robot/mujoco_ros2.py, which publishes /scan and /odom and takes /cmd_vel
+itself: this process only sends the goals, listens to /cmd_vel, /odom (whether a
+stop is at the goal) and /ground_truth (where the robot really is), and writes the
+result; collisions are the robot node's contacts (its log and report).
+
 It needs JAX and rclpy in one interpreter: jaxnav's environment runs it, with the ROS 2
 environment's package paths appended to sys.path (``JAXNAV_ROS2_SITE``) and its
 libraries on LD_LIBRARY_PATH (tests/test_ros2.py sets both).
@@ -39,6 +45,7 @@ from pathlib import Path
 import numpy as np
 from _ros_sim import (
     DT,
+    GOAL_RADIUS,
     N_RAYS,
     RANGE_MAX,
     RANGE_MIN,
@@ -206,6 +213,69 @@ class Sim(Mission):
             self.tick()
 
 
+class Watched:
+    """The MuJoCo robot as the mission sees it, from its topics: it moves by itself."""
+
+    def __init__(self):
+        self.pose = (math.nan, math.nan, math.nan)  # odometry
+        self.true = (math.nan, math.nan, math.nan)  # /ground_truth
+
+    def move(self, v: float, w: float) -> bool:
+        return False  # the robot node drives; its contacts are in its own log
+
+    def distance(self, goal) -> float:
+        return math.hypot(goal[0] - self.pose[0], goal[1] - self.pose[1])
+
+
+class WatchedSim(Sim):
+    """The mission around a robot that is its own node (``--robot mujoco``)."""
+
+    # The node stops on the scan it saw within 0.2 m by odometry; the robot rolls on
+    # for the command's way back (a few mm) before this process compares odometry.
+    goal_radius = GOAL_RADIUS + 0.03
+
+    def __init__(self, args, world: Watched):
+        import rclpy
+        from geometry_msgs.msg import PoseStamped, Twist, TwistStamped
+        from nav_msgs.msg import Odometry
+        from rclpy.qos import QoSProfile
+
+        Mission.__init__(self, args, world, cmd_type=args.cmd_type, robot="mujoco")
+        self.rclpy, self.msgs = rclpy, (None, Odometry, PoseStamped)
+        self.node = rclpy.create_node("jaxnav_mission")
+        self.unstamped, self.shift = 0, (0.0, 0.0)
+        self.goal_pub = self.node.create_publisher(PoseStamped, "/goal_pose", QoSProfile(depth=10))
+        cmd_type = TwistStamped if args.cmd_type == "stamped" else Twist
+        self.node.create_subscription(cmd_type, "/cmd_vel", self.on_cmd, QoSProfile(depth=10))
+        self.node.create_subscription(Odometry, "/odom", self.on_odom, QoSProfile(depth=10))
+        self.node.create_subscription(
+            Odometry, "/ground_truth", self.on_truth, QoSProfile(depth=10)
+        )
+
+    @staticmethod
+    def _pose(msg) -> tuple[float, float, float]:
+        p, q = msg.pose.pose.position, msg.pose.pose.orientation
+        return p.x, p.y, math.atan2(2 * (q.w * q.z + q.x * q.y), 1 - 2 * (q.y * q.y + q.z * q.z))
+
+    def on_odom(self, msg):
+        with self.lock:
+            self.world.pose = self._pose(msg)
+
+    def on_truth(self, msg):
+        with self.lock:
+            self.world.true = self._pose(msg)
+
+    def tick(self, **publish) -> None:
+        """One control period; the robot node publishes its own topics."""
+        self.next_tick += DT
+        time.sleep(max(0.0, self.next_tick - time.monotonic()))
+
+    def drive_to(self, i: int, goal) -> None:
+        super().drive_to(i, goal)
+        with self.lock:
+            self.result["goals"][-1]["true_pose"] = self.world.true
+
+
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--goals", type=points, required=True, help='"x,y;x,y;..." in odom frame')
@@ -216,9 +286,13 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--full", action="store_true", help="the bad-input part of the mission")
     p.add_argument("--goal-timeout", type=float, default=40.0)
     p.add_argument("--start-timeout", type=float, default=30.0)
+    p.add_argument("--robot", choices=["kinematic", "mujoco"], default="kinematic")
     args = p.parse_args(argv)
-    world = World(args.maze, 0.0)
-    world.scan(), world.move(0.0, 0.0)  # compile before the clock starts
+    if args.robot == "mujoco":
+        world = Watched()
+    else:
+        world = World(args.maze, 0.0)
+        world.scan(), world.move(0.0, 0.0)  # compile before the clock starts
 
     for site in os.environ.get("JAXNAV_ROS2_SITE", "").split(os.pathsep):
         if site and site not in sys.path:
@@ -228,7 +302,7 @@ def main(argv: list[str] | None = None) -> int:
     from rclpy.signals import SignalHandlerOptions
 
     rclpy.init(signal_handler_options=SignalHandlerOptions.NO)  # SIGINT: KeyboardInterrupt
-    sim = Sim(args, world)
+    sim = (WatchedSim if args.robot == "mujoco" else Sim)(args, world)
     executor = SingleThreadedExecutor()
     executor.add_node(sim.node)
     done = threading.Event()
@@ -256,6 +330,7 @@ def main(argv: list[str] | None = None) -> int:
                 outcome=outcome,
                 collided=sim.collided,
                 pose=world.pose,
+                true_pose=getattr(world, "true", None),
                 n_commands=len(sim.cmds),
                 unstamped=sim.unstamped,
                 last_command=list(sim.cmds[-1][1:]) if sim.cmds else None,

@@ -128,6 +128,37 @@ def offline_mission(
     return steps, "ok"
 
 
+def offline_mujoco_mission(path, goals, max_steps: int = 200) -> tuple[list[int], str]:
+    """The mission without ROS in the MuJoCo robot node's own burger (its default noise
+    and seed), stepped period by period: the Controller on each scan and the odometry,
+    its command for the next period. Returns the steps to each goal and how it ended:
+    "ok", "collision" (a contact) or "timeout"."""
+    from jaxnav.robot.deploy import Controller, Policy
+    from jaxnav.robot.mujoco_ros2 import RealTimeBurger, load_maze_file
+
+    control = Controller(Policy.load(path))
+    robot = RealTimeBurger(load_maze_file(str(path)))
+    steps: list[int] = []
+    t = 0.0
+    for goal in goals:
+        control.on_goal(goal, "odom")
+        for k in range(max_steps):
+            t += DT
+            robot.advance(t)
+            if robot.contacts:
+                return steps, "collision"
+            control.on_odom((robot.odom.x, robot.odom.y, robot.odom.yaw), "odom", t)
+            control.on_scan(robot.scan(), 0.0, 2 * math.pi / N_RAYS, t)
+            cmd = control.decide(t)
+            if cmd.reason == "reached":
+                steps.append(k)
+                break
+            robot.command(cmd.linear, cmd.angular)
+        else:
+            return steps, "timeout"
+    return steps, "ok"
+
+
 class Interrupted(Exception):
     pass
 
@@ -144,6 +175,8 @@ class Mission:
     """What the ROS 1 and ROS 2 simulators share, whatever the middleware: the clock,
     the events, the commands received and what they do to the World, and driving to a
     goal. A subclass publishes the robot's topics (``tick``) and sends goals."""
+
+    goal_radius = GOAL_RADIUS  # a stop this near the goal counts as arriving
 
     def __init__(self, args, world: World, **result):
         self.args, self.world = args, world
@@ -171,7 +204,7 @@ class Mission:
                 self.collided = True
                 self.event("collision", pose=self.world.pose, v=v, w=w)
             elif v == 0.0 and w == 0.0 and self.goal is not None:
-                self.reached = self.world.distance(self.goal) < GOAL_RADIUS
+                self.reached = self.world.distance(self.goal) < self.goal_radius
 
     def zeros_since(self, t: float) -> int:
         with self.lock:

@@ -12,18 +12,25 @@ by side, each on a DDS domain of its own, on loopback only:
   scans, scans from a shorter-range LiDAR, a goal in frame "map", an odometry jump;
 * "twist": ROS_DISTRO=humble, so the node publishes Twist; one goal.
 
-Both end with SIGINT while the robot drives: the last command must be a stop and the
+A third loop, "mujoco", runs the same node against the MuJoCo burger of
+jaxnav/robot/mujoco_ros2.py, its own process under the ROS 2 environment's python (no
+JAX), in real time (wheel physics, contacts, a ray-cast LiDAR, odometry from the
+wheels and the IMU; TwistStamped): two goals in square4, no contact, each stop near
+the goal by the true pose too.
+
+All end with SIGINT while the robot drives: the last command must be a stop and the
 node must exit with status 0. The policy is the first of a few trained seeds that
 reaches the goals when the adapter is called directly in the same simulated maze, as
-in tests/test_ros1.py.
+in tests/test_ros1.py (for the MuJoCo loop: in the MuJoCo burger, stepped offline).
 
 The ROS 2 environment is ``.venv-ros2/bin/python`` (scripts/ros2_env.sh --install-only
 makes it: PyPI's ros-rclpy wheels) or ``JAXNAV_ROS2_PYTHON``, e.g. a system python3
 with a ROS 2 distribution sourced; the closed loop also needs it to be this Python's
-version, since the simulated robot loads JAX and rclpy together. Where it is missing
-the ROS 2 tests skip and say so. The node's checks also run here without ROS,
-and its callbacks are called directly under rclpy (message types, one log line per bad
-scan or error, never an exception out of a callback).
+version, since the simulated robot loads JAX and rclpy together; the MuJoCo loop
+needs MuJoCo there too. Where they are missing the ROS 2 tests skip and say so. The
+node's checks also run here without ROS, and its callbacks are called directly under
+rclpy (message types, one log line per bad scan or error, never an exception out of a
+callback).
 """
 
 from __future__ import annotations
@@ -39,7 +46,13 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from _ros_sim import NOISE_STD, offline_mission, run_side_by_side
+from _ros_sim import (
+    GOAL_RADIUS,
+    NOISE_STD,
+    offline_mission,
+    offline_mujoco_mission,
+    run_side_by_side,
+)
 from test_ros1 import ClosedLoop as Ros1ClosedLoop
 
 from jaxnav.robot import deploy
@@ -56,10 +69,12 @@ ROUTE = [(1.2, 0.0), (0.0, 1.2), (-1.2, 0.0)]
 LOOPS = {
     "stamped": (ROUTE[:2], ROUTE[2], ["--cmd-type", "stamped", "--full"], {}),
     "twist": (ROUTE[:1], ROUTE[1], ["--cmd-type", "twist"], {"ROS_DISTRO": "humble"}),
+    "mujoco": (ROUTE[:2], ROUTE[2], ["--cmd-type", "stamped", "--robot", "mujoco"], {}),
 }
+TRUE_GOAL_SLACK = 0.1  # m: a stop within the goal radius by odometry, by the true pose
 TRAIN_SEEDS = 3
 TRAIN = [f"seeds={TRAIN_SEEDS}", "strategies=[ebe]", "episodes=40"]
-DEADLINE_S = 120.0  # the loops together; they take about 30 s
+DEADLINE_S = 150.0  # the loops together; they take about 40 s
 
 
 def _load_node():
@@ -183,8 +198,10 @@ import json, sys
 import numpy, rclpy, sensor_msgs.msg, nav_msgs.msg, geometry_msgs.msg
 from importlib import metadata
 paths = [p for p in sys.path if "site-packages" in p or "dist-packages" in p]
+from importlib.util import find_spec
+mj = find_spec("mujoco") and __import__("mujoco").__version__
 print(json.dumps({"paths": paths, "version": list(sys.version_info[:2]),
-                  "rclpy": metadata.version("rclpy"), "prefix": sys.prefix}))
+                  "rclpy": metadata.version("rclpy"), "prefix": sys.prefix, "mujoco": mj}))
 """
 
 
@@ -200,8 +217,12 @@ def _robot_env(env: dict) -> dict:
 
 @pytest.fixture(scope="module")
 def ros2() -> dict:
-    """What the ROS 2 environment is (its package paths, Python and rclpy versions);
-    skip if there is none."""
+    return probe_ros2()
+
+
+def probe_ros2() -> dict:
+    """What the ROS 2 environment is (its package paths, Python, rclpy and MuJoCo
+    versions); skip if there is none."""
     py = _ros2_python()
     if not py.exists():
         pytest.skip(f"no ROS 2 environment at {py} (JAXNAV_ROS2_PYTHON): {INSTALL_HINT}")
@@ -231,8 +252,8 @@ def ros2_sim(ros2) -> dict:
 
 
 @pytest.fixture(scope="module")
-def policy_file(ros2_sim, tmp_path_factory) -> Path:
-    """A trained policy that reaches ROUTE without ROS, exactly and with noise."""
+def trained(ros2_sim, tmp_path_factory) -> Path:
+    """A few trained policies, each exported to DIR/policy<seed>.npz."""
     from jaxnav.core.config import load_config
     from jaxnav.robot.export import export_policy, save_policy
     from jaxnav.run.training import train_new
@@ -240,15 +261,44 @@ def policy_file(ros2_sim, tmp_path_factory) -> Path:
     root = tmp_path_factory.mktemp("ros2")
     cfg = load_config(str(ROOT / "configs" / "paper_no_obstacles.yaml"), TRAIN)
     train_new(cfg, root / "run", quiet=True)
+    for seed in range(TRAIN_SEEDS):
+        save_policy(export_policy(root / "run", "ebe", seed), root / f"policy{seed}.npz")
+    return root
+
+
+@pytest.fixture(scope="module")
+def policy_file(trained) -> Path:
+    """A trained policy that reaches ROUTE without ROS, exactly and with noise."""
     tried = {}
     for seed in range(TRAIN_SEEDS):
-        arrays = export_policy(root / "run", "ebe", seed)
-        policy = deploy.Policy.from_arrays(arrays)
+        policy = deploy.Policy.load(trained / f"policy{seed}.npz")
         tried[seed] = [offline_mission(policy, ROUTE, noise=n, seed=1) for n in (0.0, NOISE_STD)]
         if all(outcome == "ok" for _, outcome in tried[seed]):
-            save_policy(arrays, root / "policy.npz")
-            return root / "policy.npz"
+            return trained / f"policy{seed}.npz"
     pytest.fail(f"no trained seed reaches {ROUTE} even without ROS: {tried}")
+
+
+def _mujoco_missing(ros2: dict) -> str | None:
+    """Why the MuJoCo loop cannot run here, or None."""
+    if importlib.util.find_spec("mujoco") is None:
+        return "MuJoCo is not installed here (pip install mujoco)"
+    if not ros2.get("mujoco"):
+        return f"no MuJoCo in {_ros2_python()}: {INSTALL_HINT}"
+    return None
+
+
+@pytest.fixture(scope="module")
+def mujoco_policy_file(ros2_sim, trained) -> Path | None:
+    """A trained policy that reaches ROUTE in the MuJoCo burger without ROS; None where
+    the MuJoCo loop cannot run."""
+    if _mujoco_missing(ros2_sim):
+        return None
+    tried = {}
+    for seed in range(TRAIN_SEEDS):
+        tried[seed] = offline_mujoco_mission(trained / f"policy{seed}.npz", ROUTE)
+        if tried[seed][1] == "ok":
+            return trained / f"policy{seed}.npz"
+    pytest.fail(f"no trained seed reaches {ROUTE} in MuJoCo even without ROS: {tried}")
 
 
 def _dds_env(ros2: dict, work: Path, domain: int) -> dict:
@@ -284,6 +334,11 @@ class ClosedLoop(Ros1ClosedLoop):
     def start(self, ros2: dict, policy: Path, domain: int) -> None:
         goals, last, sim_args, node_env = LOOPS[self.name]
         env = _dds_env(ros2, self.work, domain)
+        if self.name == "mujoco":  # the robot: ROS 2's python, jaxnav on the path, no JAX
+            self.robot_report = self.work / "robot.json"
+            argv = [str(_ros2_python()), "-m", "jaxnav.robot.mujoco_ros2", "--ros-args"]
+            argv += ["-p", f"maze:={policy}", "-p", f"report:={self.robot_report}"]
+            self.robot = self._start("robot", argv, dict(_robot_env(env), PYTHONPATH=str(ROOT)))
         sim_env = dict(
             env,
             JAX_PLATFORMS="cpu",
@@ -302,14 +357,18 @@ class ClosedLoop(Ros1ClosedLoop):
 
 
 @pytest.fixture(scope="module")
-def loops(ros2_sim, policy_file, tmp_path_factory):
-    """Both loops, run side by side to their end; every process is gone afterwards."""
+def loops(ros2_sim, policy_file, mujoco_policy_file, tmp_path_factory):
+    """The loops, run side by side to their end; every process is gone afterwards."""
     started: dict[str, ClosedLoop] = {}
     domains = random.Random().sample(range(1, 101), len(LOOPS))  # 0..101: Fast DDS's ports
+    policies = {name: policy_file for name in LOOPS}
+    policies["mujoco"] = mujoco_policy_file
     try:
         for name, domain in zip(LOOPS, domains):
+            if policies[name] is None:
+                continue
             started[name] = ClosedLoop(name, tmp_path_factory.mktemp(name))
-            started[name].start(ros2_sim, policy_file, domain)
+            started[name].start(ros2_sim, policies[name], domain)
         run_side_by_side(started.values(), DEADLINE_S)
         for loop in started.values():  # any still running at the deadline ends now
             loop.close()
@@ -325,10 +384,16 @@ def loops(ros2_sim, policy_file, tmp_path_factory):
 # ----------------------------------------------------------------------------
 
 
+def _loop(loops: dict, name: str, ros2: dict) -> ClosedLoop:
+    if name not in loops:
+        pytest.skip(f"the {name} loop did not run: {_mujoco_missing(ros2)}")
+    return loops[name]
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("name", list(LOOPS))
-def test_the_node_drives_the_robot_to_each_goal_without_collision(loops, name):
-    loop = loops[name]
+def test_the_node_drives_the_robot_to_each_goal_without_collision(loops, name, ros2):
+    loop = _loop(loops, name, ros2)
     r = loop.result
     assert r is not None, f"no result\n{loop.report()}"
     assert not r["collided"], loop.report()
@@ -339,15 +404,32 @@ def test_the_node_drives_the_robot_to_each_goal_without_collision(loops, name):
     assert "Traceback" not in node_log and "callback failed" not in node_log, loop.report()
     sim_log = loop.sim.log.read_text()
     assert "Traceback" not in sim_log and "terminate called" not in sim_log, loop.report()
-    want = "TwistStamped" if name == "stamped" else "Twist "
+    want = "Twist " if name == "twist" else "TwistStamped"
     assert f"/cmd_vel as {want}" in node_log, loop.report()
     assert r["unstamped"] == 0, loop.report()  # every TwistStamped carries its time
 
 
+@pytest.mark.slow  # the closed loop: a ROS graph, a trained policy and MuJoCo in real time
+def test_in_mujoco_no_contact_and_each_stop_is_at_the_goal_by_the_true_pose(loops, ros2):
+    loop = _loop(loops, "mujoco", ros2)
+    r = loop.result
+    assert r is not None and r["goals"], f"no result\n{loop.report()}"
+    robot_log = loop.robot.log.read_text()
+    assert "/cmd_vel as TwistStamped" in robot_log and "MuJoCo 4." in robot_log, loop.report()
+    assert "contact:" not in robot_log and "Traceback" not in robot_log, loop.report()
+    report = json.loads(loop.robot_report.read_text())  # written when SIGINT ended it
+    assert report["contacts"] == 0 and report["sim_time"] > 10, loop.report()
+    assert loop.robot.p.returncode == 0, loop.report()
+    for g in r["goals"]:  # odometry drifts a little: the true pose is near the goal too
+        x, y, _ = g["true_pose"]
+        off = math.hypot(x - g["goal"][0], y - g["goal"][1])
+        assert off < GOAL_RADIUS + TRUE_GOAL_SLACK, loop.report()
+
+
 @pytest.mark.slow  # the closed loop: a ROS graph and a trained policy
 @pytest.mark.parametrize("name", list(LOOPS))
-def test_the_node_stops_without_goal_and_on_sigint(loops, name):
-    loop = loops[name]
+def test_the_node_stops_without_goal_and_on_sigint(loops, name, ros2):
+    loop = _loop(loops, name, ros2)
     r = loop.result
     assert r is not None, f"no result\n{loop.report()}"
     assert r["idle_command"] == [0.0, 0.0], loop.report()  # before the first goal

@@ -115,6 +115,17 @@ def test_the_committed_realism_table_is_computed_from_its_csv():
     assert options == [o for o in OPTIONS for _ in STRATEGIES]
 
 
+@pytest.mark.slow
+def test_the_committed_wheel_limit_table_is_computed_from_its_csv():
+    md = realism_markdown((ROOT / "docs" / "sim2sim_wheel_limit.csv").read_text())
+    assert md in (ROOT / "docs" / "sim2sim_wheel_limit.md").read_text()
+    table = md[md.index("| option |") :]
+    assert table in (ROOT / "docs" / "robot.md").read_text()
+    arms = [row.split("|")[1].strip() for row in table.splitlines()[2:]]
+    assert arms == [a for a in ("plain", "wheel_limit", "plain_unlimited") for _ in STRATEGIES]
+    assert "4 seeds per strategy" in md
+
+
 OPTIONS = (
     "plain",
     "action_delay",

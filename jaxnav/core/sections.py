@@ -54,6 +54,9 @@ class EnvConfig:
     maze_scale: tuple[float, ...] = setting(
         (1.0, 1.0), "per-episode maze scale drawn from [low, high]", rule=SCALE_RANGE
     )
+    wheel_limit: bool = setting(
+        False, "drive each action as the burger's firmware clips it (wheels at most 0.21 m/s)"
+    )
     # ROBOTIS-faithful switches, all off by default (see jaxnav.env.NavEnv):
     collision: str = setting(
         "disc",

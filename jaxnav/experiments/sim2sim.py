@@ -119,14 +119,16 @@ def mujoco_results(
     noise_std: float = LIDAR_NOISE_STD,
     timestep: float = TIMESTEP,
     progress=None,
+    wheel_limit: bool = False,
 ) -> dict[tuple[str, str, int], Episodes]:
-    """{(maze, strategy, seed): Episodes} of every exported policy in MuJoCo."""
+    """{(maze, strategy, seed): Episodes} of every exported policy in MuJoCo, the burger's
+    commands clipped by its firmware's wheel limits with ``wheel_limit``."""
     task = task_of(cfg)
     policies = {label: Policy.from_arrays(export_policy(run_dir, *label)) for label in labels}
     out = {}
     for name in names:
         maze = make_maze(name)
-        robot = Burger(maze, timestep, task.min_range, task.max_range)
+        robot = Burger(maze, timestep, task.min_range, task.max_range, wheel_limit)
         goals, start = goals_of(maze, task), np.asarray(maze.start, np.float64)
         t0 = time.perf_counter()
         for strategy, seed in labels:
@@ -198,8 +200,12 @@ def sim2sim(
     noise_std: float = LIDAR_NOISE_STD,
     progress=None,
     overwrite: bool = False,
+    wheel_limit: bool = False,
 ) -> tuple[Path, Path]:
     """Test a run's policies in MuJoCo and in jaxnav; write the CSV and its table.
+    ``wheel_limit``: the MuJoCo burger's commands go through its firmware's wheel
+    limits (:func:`jaxnav.world.kinematics.firmware_limit`); jaxnav's test stays in
+    the run's own settings.
 
     An ``out`` CSV or its .md table that exists already is refused before any work
     unless ``overwrite``; the default output, in the run directory, is replaced.
@@ -228,14 +234,24 @@ def sim2sim(
         for path in (out, md):
             cli.check_output(path, overwrite)
     jx, source = jaxnav_results(run_dir, names, labels)
-    mj = mujoco_results(run_dir, cfg, names, labels, n_episodes, noise_std, progress=progress)
+    mj = mujoco_results(
+        run_dir,
+        cfg,
+        names,
+        labels,
+        n_episodes,
+        noise_std,
+        progress=progress,
+        wheel_limit=wheel_limit,
+    )
     text = rundir.csv_text(
         SUMMARY_COLUMNS, [*summary_rows("jaxnav", jx), *summary_rows("mujoco", mj)]
     )
     table = gap_markdown(text, f"Sim-to-sim gap of {run_dir.name}: jaxnav and MuJoCo")
     table += (
         f"\njaxnav: {source}. MuJoCo {mujoco.__version__}: physics step {TIMESTEP} s, "
-        f"LiDAR noise sigma {noise_std} m, {N_RAYS} rays.\n"
+        f"LiDAR noise sigma {noise_std} m, {N_RAYS} rays"
+        f"{', commands clipped by the firmware wheel limits' if wheel_limit else ''}.\n"
     )
     rundir.atomic_write_text(out, text)
     rundir.atomic_write_text(md, table)

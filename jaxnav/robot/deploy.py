@@ -157,6 +157,43 @@ def yaw_from_quaternion(x: float, y: float, z: float, w: float) -> float:
 
 
 # ----------------------------------------------------------------------------
+# ROS 2: which message /cmd_vel carries
+# ----------------------------------------------------------------------------
+
+# Distributions before Jazzy take a plain Twist on /cmd_vel: turtlebot3_bringup loads
+# enable_stamped_cmd_vel: false for humble, its one target before Jazzy, and true for
+# the rest; foxy, galactic and iron are taken to be like humble.
+TWIST_DISTROS = ("foxy", "galactic", "humble", "iron")
+STAMPED_RCLPY = 7  # Jazzy's rclpy is 7.x; Humble's 3.x, Iron's 4.x
+
+
+def default_stamped(distro: str | None, rclpy_version: str | None) -> tuple[bool, str]:
+    """(TwistStamped?, why) for /cmd_vel: Twist on Humble and older, stamped after;
+    from ROS_DISTRO, or where that is unset from rclpy's version. The ROS 2 policy node
+    publishes, and the MuJoCo robot node (jaxnav.robot.mujoco_ros2) takes, this type."""
+    if distro:
+        stamped = distro.strip().lower() not in TWIST_DISTROS
+        return stamped, f"ROS_DISTRO={distro}"
+    try:
+        major = int(str(rclpy_version).split(".")[0])
+    except ValueError:
+        return True, "ROS_DISTRO unset and rclpy's version unknown"
+    return major >= STAMPED_RCLPY, f"ROS_DISTRO unset, rclpy {rclpy_version}"
+
+
+def rclpy_version() -> str | None:
+    """The installed rclpy's version (a distribution's or PyPI's ros-rclpy), or None."""
+    from importlib import metadata
+
+    for name in ("rclpy", "ros-rclpy"):
+        try:
+            return metadata.version(name)
+        except metadata.PackageNotFoundError:
+            pass
+    return None
+
+
+# ----------------------------------------------------------------------------
 # The policy
 # ----------------------------------------------------------------------------
 

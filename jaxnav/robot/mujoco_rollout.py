@@ -10,7 +10,8 @@ jaxnav's test episodes around it, in NumPy (no JAX):
   and the policy's own adapter turns the scan into its observation.
 * Odometry: the pose of the base footprint (the middle of the wheel axle).
 * Wheels: a command (v, omega) is the two wheel servos' speed setpoints for one
-  control period of physics.
+  control period of physics; with ``wheel_limit`` first clipped as the burger's
+  firmware clips it (:func:`jaxnav.world.kinematics.firmware_limit`).
 * Collision: any MuJoCo contact between a robot geom and a wall or obstacle (checked
   every physics step) ends the episode with R-; the robot restarts at the maze's
   start pose and keeps its goal, as in jaxnav.
@@ -43,6 +44,7 @@ from jaxnav.robot.mujoco_model import (
     mujoco_module,
     wheel_speeds,
 )
+from jaxnav.world.kinematics import firmware_limit
 
 N_RAYS = 360  # rays at 2 pi / 360, counter-clockwise from straight ahead
 LIDAR_NOISE_STD = 0.01  # m, Gazebo's LDS-01 model
@@ -55,6 +57,7 @@ class Burger:
     Attributes:
       model, data: the MuJoCo model and its state.
       min_range, max_range: the LiDAR's range (m).
+      wheel_limit: commands are clipped as the burger's firmware clips them.
     """
 
     def __init__(
@@ -63,12 +66,14 @@ class Burger:
         timestep: float = TIMESTEP,
         min_range: float = 0.12,
         max_range: float = 3.5,
+        wheel_limit: bool = False,
     ):
         mj = mujoco_module()
         self._mj = mj
         self.model = load_model(maze, timestep)
         self.data = mj.MjData(self.model)
         self.min_range, self.max_range = float(min_range), float(max_range)
+        self.wheel_limit = bool(wheel_limit)
         m = self.model
         name = lambda kind, n: mj.mj_name2id(m, kind, n)
         self._site = name(mj.mjtObj.mjOBJ_SITE, "lidar")
@@ -146,14 +151,25 @@ class Burger:
         g = self.data.contact.geom[:n]
         return bool(np.any((g >= self._maze_lo) & (g <= self._maze_hi)))
 
+    def command(self, v: float, omega: float) -> tuple[float, float]:
+        """Set the wheel servos for a command (v m/s, omega rad/s), through the firmware's
+        clipping with ``wheel_limit``; returns the (v, omega) they are set to."""
+        if self.wheel_limit:
+            v, omega = (float(x) for x in firmware_limit(np.float64(v), np.float64(omega)))
+        self.data.ctrl[:] = wheel_speeds(v, omega)
+        return v, omega
+
+    def step(self) -> bool:
+        """One physics step; True when a robot geom then touches a wall or obstacle."""
+        self._mj.mj_step(self.model, self.data)
+        return self.touching()
+
     def drive(self, v: float, omega: float, duration: float) -> bool:
         """Command (v, omega) for ``duration`` seconds of physics; True (and stop at once)
         when the robot touches a wall or obstacle."""
-        mj, d = self._mj, self.data
-        d.ctrl[:] = wheel_speeds(v, omega)
+        self.command(v, omega)
         for _ in range(round(duration / self.model.opt.timestep)):
-            mj.mj_step(self.model, d)
-            if self.touching():
+            if self.step():
                 return True
         return False
 
