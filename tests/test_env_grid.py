@@ -186,10 +186,11 @@ def test_two_seeds_train_on_a_new_4x4_maze_every_episode(tmp_path):
     evaluated = evaluate_to_dir(out, ["square4"], 2)
     with open(evaluated / "results.csv") as f:
         results = list(csv.DictReader(f))
-    assert [r["maze"] for r in results if r["mode"] == "greedy"] == ["square4"] * 4 + [
-        "grid:test"
-    ] * 4
-    assert len(results) == 2 * 2 * 2 * 2  # modes x mazes x seeds x episodes
+    greedy = [r["maze"] for r in results if r["mode"] == "greedy"]
+    assert greedy == ["square4"] * 4 + ["grid:train"] * 4 + ["grid:test"] * 4
+    assert len(results) == 2 * 3 * 2 * 2  # modes x mazes x seeds x episodes
+    tables = (evaluated / "tables.md").read_text()
+    assert "## Generalisation gap" in tables and "| grid | EBE |" in tables
     drawn = drawn_policies(load_run(out))
     assert drawn.env.generates and drawn.env.split == "test"
     assert "Trained on `4 x 4 grid mazes (train split)`" in (evaluated / "tables.md").read_text()

@@ -37,6 +37,7 @@ from jaxnav.experiments.navigation import ShortestPaths, navigation_counts
 from jaxnav.experiments.rollout import MODES, Policies, first_episode, padded_mazes, run_tests
 from jaxnav.report.results import RESULT_COLUMNS, Episodes, episode_rows, episodes_npz
 from jaxnav.report.tables import tables_markdown
+from jaxnav.world.generators import SPLITS
 
 
 class LoadedRun(NamedTuple):
@@ -158,28 +159,30 @@ def evaluate(
                 name: {labels[i][0]: first_episode(res, i) for i in first}
                 for name, res in zip(names, results)
             }
-        if run.config.env.generator:  # the family's test split: mazes training never saw
-            drawn = drawn_policies(run)
+        for split in SPLITS if run.config.env.generator else ():
+            # The family's train layouts (drawn with the test's keys), then its test
+            # layouts, which training never saw: their difference is the gap.
+            drawn = drawn_policies(run, split)
             template = [drawn.env_params.maze]
             results = run_tests(drawn, template, n_episodes, mode=mode, navigation=True)
             nav = counts(drawn, template, results)
-            name = [drawn_name(run.config)]
+            name = [drawn_name(run.config, split)]
             rows += episode_rows(drawn.fields, name, results, n_episodes, mode, nav)
     columns = with_swept(RESULT_COLUMNS, run.config.sweep)
     return run, names, rundir.csv_text(columns, rows), episodes
 
 
-def drawn_name(cfg: Config) -> str:
-    """The results' maze name of a run's drawn test mazes: ``grid:test``."""
-    return f"{cfg.env.generator}:test"
+def drawn_name(cfg: Config, split: str = "test") -> str:
+    """The results' maze name of a run's drawn mazes of a split: ``grid:test``."""
+    return f"{cfg.env.generator}:{split}"
 
 
-def drawn_policies(run: LoadedRun) -> Policies:
-    """A run trained on drawn mazes, its policies in the family's test split: every
+def drawn_policies(run: LoadedRun, split: str = "test") -> Policies:
+    """A run trained on drawn mazes, its policies in the family's ``split``: every
     test episode in a maze drawn as in training (a new one every new_maze_every
-    episodes), of the layouts training never draws."""
+    episodes); the test split's layouts are those training never draws."""
     env, env_params = from_config(run.config)
-    env = dataclasses.replace(env, split="test")
+    env = dataclasses.replace(env, split=split)
     return run.policies._replace(env=env, env_params=env_params)
 
 

@@ -70,7 +70,47 @@ def navigation_section(results: dict, mazes, strategies, seeds) -> list[str]:
         for m in mazes
         for s in strategies
     ]
-    return L + markdown_table(["maze", "strategy", *METRICS], rows)
+    return (
+        L
+        + markdown_table(["maze", "strategy", *METRICS], rows)
+        + gap_section(results, mazes, strategies, seeds)
+    )
+
+
+GAP_METRICS = ("success", "spl")  # the metrics whose train - test gap is shown
+
+
+def gap_section(results: dict, mazes, strategies, seeds) -> list[str]:
+    """The generalisation gap of a maze family: per arm, each seed's metric on the
+    family's train layouts minus on its test layouts (``grid:train``, ``grid:test``),
+    the mean over seeds [95% CI]. Empty without both splits."""
+    families = [m[: -len(":train")] for m in mazes if m.endswith(":train")]
+    families = [f for f in families if f"{f}:test" in mazes]
+    if not families:
+        return []
+    L = [
+        "",
+        "## Generalisation gap: train layouts minus test layouts",
+        "",
+        "Per seed, the metric over its attempts in the family's train layouts (drawn "
+        "with the test's keys) minus in its test layouts, which training never draws; "
+        f"then the mean over seeds [{int(stats.CONFIDENCE * 100)}% bootstrap CI]. A gap "
+        "above 0 is what the policy loses on mazes it has not seen.",
+        "",
+    ]
+    rows = []
+    for f in families:
+        for s in strategies:
+            cells = []
+            for metric in GAP_METRICS:
+                d = [
+                    seed_metrics(results[(f"{f}:train", s, k)])[metric]
+                    - seed_metrics(results[(f"{f}:test", s, k)])[metric]
+                    for k in seeds
+                ]
+                cells.append(interval(stats.mean_ci(np.asarray(d, np.float64)), 2))
+            rows.append([f, display_name(s), *cells])
+    return L + markdown_table(["family", "strategy", *(f"{m} gap" for m in GAP_METRICS)], rows)
 
 
 def navigation_text(rows: list[dict[str, str]]) -> str:
