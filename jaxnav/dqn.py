@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import functools
 from collections.abc import Callable
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import chex
 import flax.linen as nn
@@ -59,13 +59,15 @@ class QNetwork(nn.Module):
 
     ``dueling`` (Wang et al. 2016) replaces the last layer by two linear streams on
     the same hidden features, a value ``value`` (1 output) and an advantage
-    ``advantage`` (|A| outputs), joined by :func:`dueling_q`.
+    ``advantage`` (|A| outputs), joined by :func:`dueling_q`. ``layer_norm`` (PQN,
+    Gallici et al. 2024) normalises each hidden layer before its ReLU.
     """
 
     num_actions: int = 5
     hidden: tuple[int, ...] = (64, 64)
     dropout: float = 0.2
     dueling: bool = False
+    layer_norm: bool = False
 
     @nn.compact
     def __call__(self, obs: chex.Array, train: bool = False, dropout=None) -> chex.Array:
@@ -73,7 +75,10 @@ class QNetwork(nn.Module):
         x = obs
         init = nn.initializers.lecun_uniform()  # ROBOTIS' Keras initialiser
         for width in self.hidden:
-            x = nn.relu(nn.Dense(width, kernel_init=init)(x))
+            x = nn.Dense(width, kernel_init=init)(x)
+            if self.layer_norm:
+                x = nn.LayerNorm()(x)
+            x = nn.relu(x)
         if train and (dropout is not None or self.dropout > 0.0):
             rate = self.dropout if dropout is None else dropout
             x = dropout16(self.make_rng("dropout"), x, rate)
@@ -91,10 +96,11 @@ def dueling_q(value: chex.Array, advantage: chex.Array) -> chex.Array:
 
 
 def network_of(config: Config, env: NavEnv | None = None) -> QNetwork:
-    """The Q-network of a config's runs (``env``: its environment, if already made)."""
+    """The Q-network of a config's runs (``env``: its environment, if already made);
+    PQN's has LayerNorm."""
     env = from_config(config)[0] if env is None else env
     d = config.dqn
-    return QNetwork(env.num_actions, tuple(d.hidden), d.dropout, d.dueling)
+    return QNetwork(env.num_actions, tuple(d.hidden), d.dropout, d.dueling, d.agent == "pqn")
 
 
 def dropout16(key: chex.PRNGKey, x: chex.Array, rate) -> chex.Array:
@@ -203,16 +209,20 @@ class StepLog(NamedTuple):
 
 class Trainer(NamedTuple):
     """The pieces of a run. ``init`` and ``chunk`` are pure; vmap them over runs.
-    ``step`` is ``chunk``'s scan body, one environment step of one run (tests and
-    benchmarks call it alone); :func:`network_of` gives the run's Q-network."""
+    ``step`` is ``chunk``'s loop body, one environment step of one run (tests and
+    benchmarks call it alone); :func:`network_of` gives the run's Q-network.
+    ``step_size``: the env steps one ``step`` takes (PQN's update: many);
+    ``chunk_length``: the most env steps one ``chunk`` takes, the length of its logs."""
 
     env: NavEnv
     env_params: EnvParams
     metric_slots: int
-    init: Callable[[chex.PRNGKey, chex.Array, Hyper], TrainState]
-    step: Callable[[TrainState, None], tuple[TrainState, StepLog]]
-    chunk: Callable[..., tuple[TrainState, StepLog]]  # (state, n_steps=None)
-    active: Callable[[TrainState], chex.Array]
+    init: Callable[[chex.PRNGKey, chex.Array, Hyper], Any]
+    step: Callable[[Any, None], tuple[Any, StepLog]]
+    chunk: Callable[..., tuple[Any, StepLog]]  # (state, n_steps=None)
+    active: Callable[[Any], chex.Array]
+    step_size: int = 1
+    chunk_length: int = 0
 
 
 # ----------------------------------------------------------------------------
@@ -325,7 +335,7 @@ def make_trainer(config: Config) -> Trainer:
         logs = StepLog(*(jnp.full(length, jnp.nan, jnp.float32) for _ in StepLog._fields))
         return jax.lax.fori_loop(0, n, body, (ts, logs))
 
-    return Trainer(env, base_params, slots, init, step, chunk, active)
+    return Trainer(env, base_params, slots, init, step, chunk, active, 1, config.run.chunk_steps)
 
 
 def _init_state(
@@ -387,11 +397,14 @@ def _loss(
 
 
 def optimizer_of(h: Hyper | DQNConfig, kind: str = "rmsprop") -> optax.GradientTransformation:
-    """RMSprop as ROBOTIS' Keras uses it (eps outside the root), or ``adam`` (optax's
-    defaults: b1 0.9, b2 0.999, eps 1e-8), at the learning rate of a config or of a
-    run (data): optax takes traced hyperparameters as they are."""
+    """RMSprop as ROBOTIS' Keras uses it (eps outside the root), ``adam`` (optax's
+    defaults: b1 0.9, b2 0.999, eps 1e-8) or ``radam`` (Liu et al. 2020, optax's
+    defaults), at the learning rate of a config or of a run (data): optax takes
+    traced hyperparameters as they are."""
     if kind == "adam":
         return optax.adam(h.lr)
+    if kind == "radam":
+        return optax.radam(h.lr)
     return optax.rmsprop(h.lr, decay=h.rms_decay, eps=h.rms_eps, eps_in_sqrt=False)
 
 
@@ -493,14 +506,17 @@ def run_inputs(config: Config) -> RunInputs:
     return RunInputs(keys, strat, stack(hypers))
 
 
-def make_train(config: Config) -> Callable[[chex.PRNGKey, chex.Array, Hyper], TrainState]:
+def make_train(
+    config: Config, trainer: Trainer | None = None
+) -> Callable[[chex.PRNGKey, chex.Array, Hyper], TrainState]:
     """A pure ``train(key, strategy, hyper) -> TrainState`` that runs one seed to the end.
 
     Built on the same :class:`Trainer` as ``jaxnav.train``: chunks until inactive.
     ``jax.jit(jax.vmap(make_train(cfg)))(*run_inputs(cfg))`` trains every seed,
-    strategy and sweep point of the config in one compiled program.
+    strategy and sweep point of the config in one compiled program. ``trainer``: another
+    agent's (``jaxnav.pqn.make_trainer(cfg)``); default this module's DQN.
     """
-    trainer = make_trainer(config)
+    trainer = make_trainer(config) if trainer is None else trainer
 
     def train(key: chex.PRNGKey, strategy: chex.Array, hyper: Hyper) -> TrainState:
         ts = trainer.init(key, strategy, hyper)

@@ -27,7 +27,14 @@ import yaml
 from jaxnav.core import strategies as registry
 from jaxnav.core import sweep as sweeps
 from jaxnav.core.errors import ConfigError
-from jaxnav.core.sections import DQNConfig, EnvConfig, ExplorationConfig, RunConfig
+from jaxnav.core.sections import (
+    REPLAY_ONLY,
+    DQNConfig,
+    EnvConfig,
+    ExplorationConfig,
+    PQNConfig,
+    RunConfig,
+)
 from jaxnav.core.settings import (
     AT_LEAST_1,
     NON_NEGATIVE,
@@ -66,6 +73,7 @@ class Config:
     )
     env: EnvConfig = setting(factory=EnvConfig)
     dqn: DQNConfig = setting(factory=DQNConfig)
+    pqn: PQNConfig = setting(factory=PQNConfig)
     exploration: ExplorationConfig = setting(factory=ExplorationConfig)
     run: RunConfig = setting(factory=RunConfig)
     # ((dotted key, (value, ...)), ...): the settings this run varies across its runs,
@@ -143,8 +151,13 @@ class Config:
         24 beams), before anything is allocated: jaxnav.agent.replay keeps per slot
         an f32 observation of at most n_beams + 4 values and 11 bytes of action,
         reward, flags and ring index, and a ring of capacity // max_steps + 2 final
-        observations; the networks and the environment are small beside it."""
+        observations; the networks and the environment are small beside it. PQN
+        keeps no replay: its rollout of num_envs x rollout transitions (observation,
+        next observation, Q-values, a dozen scalars), the largest array it holds."""
         obs = 4 * (self.env.n_beams + 4)
+        if self.dqn.agent == "pqn":
+            rows = self.pqn.num_envs * self.pqn.rollout
+            return self.n_runs * rows * (2 * obs + 64)
         capacity = self.buffer_capacity
         ring = capacity // self.env.max_steps + 3  # the final-observation ring and tail
         return self.n_runs * (capacity * (obs + 11) + ring * obs + 12)  # + 3 i32 counters
@@ -279,6 +292,11 @@ def _check(cfg: Config) -> Config:
         fail("strategies", "lists a strategy twice")
     if cfg.episodes is None and cfg.total_steps is None:
         fail("episodes", "and total_steps cannot both be null")
+    says = agent_problem(cfg)
+    if says:
+        raise ConfigError(f"config: {says}")
+    if cfg.dqn.agent == "pqn":
+        return cfg
     capacity = cfg.buffer_capacity
     if cfg.dqn.batch_size > capacity:
         fail(
@@ -287,6 +305,33 @@ def _check(cfg: Config) -> Config:
             "transitions (the smaller of dqn.buffer_size and the most steps a run takes)",
         )
     return cfg
+
+
+def agent_problem(cfg: Config) -> str | None:
+    """What is wrong with a config's settings of the agent it does not train, one line
+    naming the setting, or None: PQN has no replay memory and no target network, so
+    their settings must keep their defaults (the preset's), and the pqn.* settings
+    must keep theirs under DQN; PQN's minibatches split its rollout evenly."""
+    if cfg.dqn.agent == "dqn":
+        for name in (f.name for f in dataclasses.fields(PQNConfig)):
+            if getattr(cfg.pqn, name) != SETTINGS[f"pqn.{name}"].default:
+                return f"pqn.{name} is a PQN setting: it needs dqn.agent pqn"
+        return None
+    defaults = PRESETS[cfg.preset].training()
+    for name in REPLAY_ONLY:
+        key = f"dqn.{name}"
+        if getattr(cfg.dqn, name) != defaults.get(key, SETTINGS[key].default):
+            return (
+                f"{key} is a replay or target-network setting, and PQN (dqn.agent pqn) has "
+                "neither: leave it at its default"
+            )
+    p = cfg.pqn
+    if (p.num_envs * p.rollout) % p.minibatches:
+        return (
+            f"pqn.minibatches ({p.minibatches}) must divide pqn.num_envs x pqn.rollout "
+            f"({p.num_envs * p.rollout} transitions per update)"
+        )
+    return None
 
 
 def _sweep(values: dict[str, Any]) -> tuple[tuple[str, tuple[Any, ...]], ...]:
