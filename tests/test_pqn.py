@@ -14,6 +14,8 @@ from jaxnav.core import rundir
 from jaxnav.core import strategies as registry
 from jaxnav.core.config import dump_config, load_config
 from jaxnav.dqn import make_train, network_of, run_inputs, td_target
+from jaxnav.robot.deploy import FORMAT_VERSION, NORMS_VERSION, Policy
+from jaxnav.robot.export import export_policy
 from jaxnav.run import training
 from jaxnav.run.training import Run, train_new
 from jaxnav.train import main
@@ -251,6 +253,17 @@ def test_a_step_budget_counts_the_steps_of_all_environments_in_whole_updates():
     cfg = load_config(None, [*TINY, "episodes=null", "total_steps=100"])
     final = jax.jit(jax.vmap(make_train(cfg, pqn.make_trainer(cfg))))(*run_inputs(cfg))
     np.testing.assert_array_equal(final.step, 128)  # 4 updates of 4 x 8 steps
+
+
+def test_a_pqn_policy_exports_with_its_layer_norms(tiny_pqn_run):
+    cfg, out = tiny_pqn_run
+    policy = Policy.from_arrays(export_policy(out, "ebe", 0))
+    assert policy.meta["version"] == NORMS_VERSION != FORMAT_VERSION  # older readers refuse it
+    assert len(policy.norms) == 2
+    x = np.random.default_rng(5).uniform(0.1, 3.5, (9, policy.obs_size)).astype(np.float32)
+    params = rundir.load_params(out / rundir.PARAMS, "ebe", 0)
+    want = network_of(cfg).apply(params, jnp.asarray(x))
+    np.testing.assert_allclose(policy.q_values(x), want, rtol=1e-4, atol=1e-4)
 
 
 # -- Bad input --------------------------------------------------------------------
