@@ -28,6 +28,7 @@ from jaxnav.core import strategies as registry
 from jaxnav.core import sweep as sweeps
 from jaxnav.core.errors import ConfigError
 from jaxnav.core.sections import (
+    PRIORITISED_ONLY,
     REPLAY_ONLY,
     DQNConfig,
     EnvConfig,
@@ -150,17 +151,20 @@ class Config:
         """Bytes the runs' replay memories will take, an upper bound within 10% (for
         24 beams), before anything is allocated: jaxnav.agent.replay keeps per slot
         an f32 observation of at most n_beams + 4 values and 11 bytes of action,
-        reward, flags and ring index, and a ring of capacity // max_steps + 2 final
-        observations; the networks and the environment are small beside it. PQN
-        keeps no replay: its rollout of num_envs x rollout transitions (observation,
-        next observation, Q-values, a dozen scalars), the largest array it holds."""
+        reward, flags and ring index, a ring of capacity // max_steps + 2 final
+        observations and, with prioritised replay, a sum tree; the networks and the
+        environment are small beside it. PQN keeps no replay: its rollout of
+        num_envs x rollout transitions (observation, next observation, Q-values, a
+        dozen scalars) is the largest array it holds."""
         obs = 4 * (self.env.n_beams + 4)
         if self.dqn.agent == "pqn":
             rows = self.pqn.num_envs * self.pqn.rollout
             return self.n_runs * rows * (2 * obs + 64)
         capacity = self.buffer_capacity
         ring = capacity // self.env.max_steps + 3  # the final-observation ring and tail
-        return self.n_runs * (capacity * (obs + 11) + ring * obs + 12)  # + 3 i32 counters
+        # prioritised replay's sum tree: f32[2P], P the power of two at or above capacity
+        tree = 8 << max(0, (capacity - 1).bit_length()) if self.dqn.prioritised else 0
+        return self.n_runs * (capacity * (obs + 11) + ring * obs + 12 + tree)  # + 3 counters
 
     def env_kwargs(self) -> dict[str, Any]:
         """The environment's settings as ``jaxnav.env.make`` keywords (besides the maze
@@ -316,6 +320,9 @@ def agent_problem(cfg: Config) -> str | None:
         for name in (f.name for f in dataclasses.fields(PQNConfig)):
             if getattr(cfg.pqn, name) != SETTINGS[f"pqn.{name}"].default:
                 return f"pqn.{name} is a PQN setting: it needs dqn.agent pqn"
+        for name in PRIORITISED_ONLY if not cfg.dqn.prioritised else ():
+            if getattr(cfg.dqn, name) != SETTINGS[f"dqn.{name}"].default:
+                return f"dqn.{name} is a prioritised replay setting: it needs dqn.prioritised true"
         return None
     defaults = PRESETS[cfg.preset].training()
     for name in REPLAY_ONLY:

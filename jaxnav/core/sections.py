@@ -164,6 +164,20 @@ class DQNConfig:
     n_step: int = setting(
         1, "n-step returns: up to n rewards, then gamma^k bootstrap (1: paper)", rule=AT_LEAST_1
     )
+    prioritised: bool = setting(
+        False, "prioritised replay (Schaul et al. 2016, proportional); off: uniform (paper)"
+    )
+    per_alpha: float = setting(
+        0.6, "prioritised replay: a slot's priority is (|TD error| + per_eps)^alpha", rule=UNIT
+    )
+    per_beta: float = setting(
+        0.4,
+        "prioritised replay: importance-weight exponent, annealed from this to 1 over the run",
+        rule=UNIT,
+    )
+    per_eps: float = setting(
+        1e-6, "prioritised replay: added to |TD error| so no slot's priority is 0", rule=POSITIVE
+    )
 
 
 # The DQN settings of the replay memory and the target network: PQN has neither, so
@@ -177,7 +191,13 @@ REPLAY_ONLY = (
     "double",
     "tau",
     "n_step",
+    "prioritised",
+    "per_alpha",
+    "per_beta",
+    "per_eps",
 )
+# The settings prioritised replay reads: they need dqn.prioritised.
+PRIORITISED_ONLY = ("per_alpha", "per_beta", "per_eps")
 
 
 @dataclass(frozen=True)

@@ -401,6 +401,7 @@ class Run:
                 self.cfg.buffer_capacity,
                 self.trainer.env.obs_size,
                 self.trainer.env_params.max_steps,
+                self.cfg.dqn.prioritised,
             )
             if has_replay(self.cfg)
             else None,
