@@ -67,8 +67,8 @@ def _remove(parts: tuple[str, ...]) -> None:
 
     if "learner" in parts:
 
-        def no_learner(network, d, ts, buffer, n_steps, run, k_sample, k_drop):
-            return ts.params, ts.opt_state, jnp.bool_(False), jnp.float32(jnp.nan)
+        def no_learner(network, d, ts, buffer, n_steps, run, keys, horizon):
+            return ts.params, ts.opt_state, jnp.bool_(False), jnp.float32(jnp.nan), buffer
 
         dqn._learn = no_learner
     if "replay sample" in parts:
@@ -104,13 +104,15 @@ def _remove(parts: tuple[str, ...]) -> None:
     if "guard" in parts and "learner" not in parts:
         sample = replay.sample
 
-        def unguarded(network, d, ts, buffer, n_steps, run, k_sample, k_drop):
+        def unguarded(network, d, ts, buffer, n_steps, run, keys, horizon):
             h = ts.hyper
+            k_sample, k_drop = keys
             batch = sample(buffer, k_sample, d.batch_size)
             loss_fn = functools.partial(dqn._loss, network, h)
             loss, grads = jax.value_and_grad(loss_fn)(ts.params, ts.target_params, batch, k_drop)
             updates, opt_state = dqn.optimizer_of(h).update(grads, ts.opt_state, ts.params)
-            return optax.apply_updates(ts.params, updates), opt_state, jnp.bool_(False), loss
+            params = optax.apply_updates(ts.params, updates)
+            return params, opt_state, jnp.bool_(False), loss, buffer
 
         dqn._learn = unguarded
     if "replay add" in parts:

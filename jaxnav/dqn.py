@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import functools
 from collections.abc import Callable
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import chex
 import flax.linen as nn
@@ -59,13 +59,15 @@ class QNetwork(nn.Module):
 
     ``dueling`` (Wang et al. 2016) replaces the last layer by two linear streams on
     the same hidden features, a value ``value`` (1 output) and an advantage
-    ``advantage`` (|A| outputs), joined by :func:`dueling_q`.
+    ``advantage`` (|A| outputs), joined by :func:`dueling_q`. ``layer_norm`` (PQN,
+    Gallici et al. 2024) normalises each hidden layer before its ReLU.
     """
 
     num_actions: int = 5
     hidden: tuple[int, ...] = (64, 64)
     dropout: float = 0.2
     dueling: bool = False
+    layer_norm: bool = False
 
     @nn.compact
     def __call__(self, obs: chex.Array, train: bool = False, dropout=None) -> chex.Array:
@@ -73,7 +75,10 @@ class QNetwork(nn.Module):
         x = obs
         init = nn.initializers.lecun_uniform()  # ROBOTIS' Keras initialiser
         for width in self.hidden:
-            x = nn.relu(nn.Dense(width, kernel_init=init)(x))
+            x = nn.Dense(width, kernel_init=init)(x)
+            if self.layer_norm:
+                x = nn.LayerNorm()(x)
+            x = nn.relu(x)
         if train and (dropout is not None or self.dropout > 0.0):
             rate = self.dropout if dropout is None else dropout
             x = dropout16(self.make_rng("dropout"), x, rate)
@@ -91,10 +96,11 @@ def dueling_q(value: chex.Array, advantage: chex.Array) -> chex.Array:
 
 
 def network_of(config: Config, env: NavEnv | None = None) -> QNetwork:
-    """The Q-network of a config's runs (``env``: its environment, if already made)."""
+    """The Q-network of a config's runs (``env``: its environment, if already made);
+    PQN's has LayerNorm."""
     env = from_config(config)[0] if env is None else env
     d = config.dqn
-    return QNetwork(env.num_actions, tuple(d.hidden), d.dropout, d.dueling)
+    return QNetwork(env.num_actions, tuple(d.hidden), d.dropout, d.dueling, d.agent == "pqn")
 
 
 def dropout16(key: chex.PRNGKey, x: chex.Array, rate) -> chex.Array:
@@ -135,11 +141,20 @@ def td_target(reward, terminated, next_q_target, gamma, next_q_online=None) -> c
     return reward + gamma * (1.0 - terminated.astype(jnp.float32)) * next_v
 
 
-def td_loss(q: chex.Array, action: chex.Array, target: chex.Array, kind="mse"):
+def td_loss(q: chex.Array, action: chex.Array, target: chex.Array, kind="mse", weights=None):
     """Mean TD loss of the taken actions: squared error (``mse``, the paper's) or
     Huber with delta 1 (``huber``: 0.5 x^2 for |x| <= 1, |x| - 0.5 beyond); ``kind``
-    may be data, bool[] true for Huber (both computed, one kept)."""
+    may be data, bool[] true for Huber (both computed, one kept). ``weights`` (f32[B],
+    prioritised replay's importance weights) weigh each transition's loss in the mean."""
     q_a = jnp.take_along_axis(q, action[:, None], axis=-1)[:, 0]
+    if weights is not None:
+        target = jax.lax.stop_gradient(target)
+        squared, huber = (q_a - target) ** 2, optax.huber_loss(q_a, target, delta=1.0)
+        if isinstance(kind, str):
+            each = squared if kind == "mse" else huber
+        else:
+            each = jnp.where(kind, huber, squared)
+        return jnp.mean(weights * each)
     if isinstance(kind, str) and kind == "mse":
         return jnp.mean((q_a - jax.lax.stop_gradient(target)) ** 2)
     huber = jnp.mean(optax.huber_loss(q_a, jax.lax.stop_gradient(target), delta=1.0))
@@ -203,16 +218,20 @@ class StepLog(NamedTuple):
 
 class Trainer(NamedTuple):
     """The pieces of a run. ``init`` and ``chunk`` are pure; vmap them over runs.
-    ``step`` is ``chunk``'s scan body, one environment step of one run (tests and
-    benchmarks call it alone); :func:`network_of` gives the run's Q-network."""
+    ``step`` is ``chunk``'s loop body, one environment step of one run (tests and
+    benchmarks call it alone); :func:`network_of` gives the run's Q-network.
+    ``step_size``: the env steps one ``step`` takes (PQN's update: many);
+    ``chunk_length``: the most env steps one ``chunk`` takes, the length of its logs."""
 
     env: NavEnv
     env_params: EnvParams
     metric_slots: int
-    init: Callable[[chex.PRNGKey, chex.Array, Hyper], TrainState]
-    step: Callable[[TrainState, None], tuple[TrainState, StepLog]]
-    chunk: Callable[..., tuple[TrainState, StepLog]]  # (state, n_steps=None)
-    active: Callable[[TrainState], chex.Array]
+    init: Callable[[chex.PRNGKey, chex.Array, Hyper], Any]
+    step: Callable[[Any, None], tuple[Any, StepLog]]
+    chunk: Callable[..., tuple[Any, StepLog]]  # (state, n_steps=None)
+    active: Callable[[Any], chex.Array]
+    step_size: int = 1
+    chunk_length: int = 0
 
 
 # ----------------------------------------------------------------------------
@@ -232,7 +251,9 @@ def make_trainer(config: Config) -> Trainer:
     limits = run_limits(config)
 
     def init(key: chex.PRNGKey, strategy: chex.Array, hyper: Hyper) -> TrainState:
-        buffer = replay.init(config.buffer_capacity, env.obs_size, base_params.max_steps)
+        buffer = replay.init(
+            config.buffer_capacity, env.obs_size, base_params.max_steps, d.prioritised
+        )
         env_params = hyper.env_params(base_params)
         return _init_state(env, env_params, network, optimizer, buffer, slots, key, strategy, hyper)
 
@@ -268,8 +289,8 @@ def make_trainer(config: Config) -> Trainer:
         # LEARN: one gradient step per environment step once learning has started.
         n_steps = ts.step + 1
         with jax.named_scope("learn"):
-            params, opt_state, broke, loss = _learn(
-                network, d, ts, buffer, n_steps, run, k_sample, k_drop
+            params, opt_state, broke, loss, buffer = _learn(
+                network, d, ts, buffer, n_steps, run, (k_sample, k_drop), config.max_total_steps
             )
         diverged = (ts.diverged_at < 0) & run & (broke | ~q_finite)
         diverged_at = jnp.where(diverged, n_steps, ts.diverged_at)
@@ -325,7 +346,7 @@ def make_trainer(config: Config) -> Trainer:
         logs = StepLog(*(jnp.full(length, jnp.nan, jnp.float32) for _ in StepLog._fields))
         return jax.lax.fori_loop(0, n, body, (ts, logs))
 
-    return Trainer(env, base_params, slots, init, step, chunk, active)
+    return Trainer(env, base_params, slots, init, step, chunk, active, 1, config.run.chunk_steps)
 
 
 def _init_state(
@@ -370,9 +391,12 @@ def _loss(
     *,
     double=False,
     kind="mse",
+    weights=None,
 ):
     """The TD loss of a batch; ``double`` (bool, or bool[] data: both targets, one
-    kept) and ``kind`` (:func:`td_loss`) are the run's dqn.double and dqn.loss."""
+    kept) and ``kind`` (:func:`td_loss`) are the run's dqn.double and dqn.loss. With
+    ``weights`` (prioritised replay's importance weights, f32[B]): (the weighted loss,
+    the TD errors f32[B] for the new priorities)."""
     q = network.apply(params, batch.obs, train=True, dropout=h.dropout, rngs={"dropout": key})
     next_q = network.apply(target_params, batch.next_obs)  # dropout off, as Keras predict
     gamma = h.gamma if batch.discount is None else batch.discount  # n-step: gamma^k
@@ -383,25 +407,42 @@ def _loss(
         online = network.apply(jax.lax.stop_gradient(params), batch.next_obs)
         y_double = td_target(batch.reward, batch.terminated, next_q, gamma, online)
         y = y_double if y is None else jnp.where(double, y_double, y)
-    return td_loss(q, batch.action, y, kind)
+    if weights is None:
+        return td_loss(q, batch.action, y, kind)
+    q_a = jnp.take_along_axis(q, batch.action[:, None], axis=-1)[:, 0]
+    return td_loss(q, batch.action, y, kind, weights), jax.lax.stop_gradient(q_a - y)
 
 
 def optimizer_of(h: Hyper | DQNConfig, kind: str = "rmsprop") -> optax.GradientTransformation:
-    """RMSprop as ROBOTIS' Keras uses it (eps outside the root), or ``adam`` (optax's
-    defaults: b1 0.9, b2 0.999, eps 1e-8), at the learning rate of a config or of a
-    run (data): optax takes traced hyperparameters as they are."""
+    """RMSprop as ROBOTIS' Keras uses it (eps outside the root), ``adam`` (optax's
+    defaults: b1 0.9, b2 0.999, eps 1e-8) or ``radam`` (Liu et al. 2020, optax's
+    defaults), at the learning rate of a config or of a run (data): optax takes
+    traced hyperparameters as they are."""
     if kind == "adam":
         return optax.adam(h.lr)
+    if kind == "radam":
+        return optax.radam(h.lr)
     return optax.rmsprop(h.lr, decay=h.rms_decay, eps=h.rms_eps, eps_in_sqrt=False)
 
 
-def _learn(network, d: DQNConfig, ts, buffer, n_steps, run, k_sample, k_drop):
-    """(params, opt_state, broke, loss) after one gradient step, unchanged before learning
-    starts and where the loss or the new parameters would not be finite (``broke``);
-    ``loss`` is NaN where no gradient step was due."""
+def _learn(network, d: DQNConfig, ts, buffer, n_steps, run, keys, horizon: int):
+    """(params, opt_state, broke, loss, buffer) after one gradient step, unchanged before
+    learning starts and where the loss or the new parameters would not be finite
+    (``broke``); ``loss`` is NaN where no gradient step was due. ``keys``: (sample,
+    dropout). With prioritised replay the batch's slots get their new priorities, and
+    beta goes from dqn.per_beta to 1 over ``horizon`` env steps (the run's most)."""
     h = ts.hyper
+    k_sample, k_drop = keys
+    idx = weights = None
     with jax.named_scope("replay_sample"):
-        if d.n_step > 1:
+        if d.prioritised:
+            beta = d.per_beta + (1.0 - d.per_beta) * jnp.minimum(n_steps / horizon, 1.0)
+            idx, weights = replay.sample_prioritised(buffer, k_sample, d.batch_size, beta)
+            if d.n_step > 1:
+                batch = replay.n_step_batch(buffer, idx, d.n_step, h.gamma)
+            else:
+                batch = replay.batch_at(buffer, idx)
+        elif d.n_step > 1:
             batch = replay.sample_n_step(buffer, k_sample, d.batch_size, d.n_step, h.gamma)
         else:
             batch = replay.sample(buffer, k_sample, d.batch_size)
@@ -414,8 +455,12 @@ def _learn(network, d: DQNConfig, ts, buffer, n_steps, run, k_sample, k_drop):
         )
     double = d.double if h.double is None else h.double  # swept: the run's, as data
     kind = d.loss if h.loss is None else h.loss
-    loss_fn = functools.partial(_loss, network, h, double=double, kind=kind)
-    loss, grads = jax.value_and_grad(loss_fn)(ts.params, bootstrap, batch, k_drop)
+    loss_fn = functools.partial(_loss, network, h, double=double, kind=kind, weights=weights)
+    if weights is None:
+        loss, grads = jax.value_and_grad(loss_fn)(ts.params, bootstrap, batch, k_drop)
+    else:
+        grad_fn = jax.value_and_grad(loss_fn, has_aux=True)
+        (loss, td_error), grads = grad_fn(ts.params, bootstrap, batch, k_drop)
     updates, opt_state = optimizer_of(h, d.optimizer).update(grads, ts.opt_state, ts.params)
     new_params = optax.apply_updates(ts.params, updates)
     finite = jnp.isfinite(loss) & all_finite(new_params)
@@ -423,7 +468,9 @@ def _learn(network, d: DQNConfig, ts, buffer, n_steps, run, k_sample, k_drop):
     learn = due & finite
     params = _select(learn, new_params, ts.params)
     opt_state = _select(learn, opt_state, ts.opt_state)
-    return params, opt_state, due & ~finite, jnp.where(due, loss, jnp.nan)
+    if d.prioritised:
+        buffer = replay.update_priorities(buffer, idx, td_error, d.per_alpha, d.per_eps, learn)
+    return params, opt_state, due & ~finite, jnp.where(due, loss, jnp.nan), buffer
 
 
 def all_finite(tree) -> chex.Array:
@@ -493,14 +540,17 @@ def run_inputs(config: Config) -> RunInputs:
     return RunInputs(keys, strat, stack(hypers))
 
 
-def make_train(config: Config) -> Callable[[chex.PRNGKey, chex.Array, Hyper], TrainState]:
+def make_train(
+    config: Config, trainer: Trainer | None = None
+) -> Callable[[chex.PRNGKey, chex.Array, Hyper], TrainState]:
     """A pure ``train(key, strategy, hyper) -> TrainState`` that runs one seed to the end.
 
     Built on the same :class:`Trainer` as ``jaxnav.train``: chunks until inactive.
     ``jax.jit(jax.vmap(make_train(cfg)))(*run_inputs(cfg))`` trains every seed,
-    strategy and sweep point of the config in one compiled program.
+    strategy and sweep point of the config in one compiled program. ``trainer``: another
+    agent's (``jaxnav.pqn.make_trainer(cfg)``); default this module's DQN.
     """
-    trainer = make_trainer(config)
+    trainer = make_trainer(config) if trainer is None else trainer
 
     def train(key: chex.PRNGKey, strategy: chex.Array, hyper: Hyper) -> TrainState:
         ts = trainer.init(key, strategy, hyper)

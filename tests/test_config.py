@@ -68,14 +68,18 @@ def test_a_batch_larger_than_the_replay_memory_is_refused():
     assert load_config("smoke", ["dqn.batch_size=8000"]).dqn.batch_size == 8000
 
 
-@pytest.mark.parametrize("overrides", [[], ["env.maze=square4_obstacles", "env.n_beams=360"]])
+@pytest.mark.parametrize(
+    "overrides",
+    [[], ["env.maze=square4_obstacles", "env.n_beams=360"], ["dqn.prioritised=true"]],
+)
 def test_memory_estimate_bounds_the_replay_buffers_within_ten_percent(overrides):
     from jaxnav.agent.replay import nbytes
     from jaxnav.env import from_config
 
     cfg = load_config("smoke", ["seeds=3", *overrides])
     env, params = from_config(cfg)
-    real = cfg.n_runs * nbytes(cfg.buffer_capacity, env.obs_size, int(params.max_steps))
+    size = (cfg.buffer_capacity, env.obs_size, int(params.max_steps), cfg.dqn.prioritised)
+    real = cfg.n_runs * nbytes(*size)
     assert real <= cfg.memory_estimate() <= 1.1 * real
 
 

@@ -446,6 +446,7 @@ def test_adam_first_update_is_optax_adam():
         "dqn.optimizer=adam",
         "dqn.tau=0.5",
         "dqn.n_step=3",
+        "dqn.prioritised=true",
     ],
 )
 @pytest.mark.slow

@@ -86,12 +86,19 @@ def test_layout_field_order_dtypes_and_bytes():
         "pos",
         "size",
         "n_final",
+        "priority",
+        "max_priority",
     ]
+    # uniform replay: no priorities, so its leaves (the checkpoint's) are the first 11
+    assert buf.priority is None and buf.max_priority is None and len(jax.tree.leaves(buf)) == 11
     assert buf.obs.shape == (10, 3) and buf.obs.dtype == jnp.float32
     assert buf.action.dtype == jnp.uint8 and buf.final_index.dtype == jnp.int32
     assert buf.final_obs.shape == (10 // 4 + 2, 3)
     # 10 slots of 3 + 1 + 1 + 1 + 1 x 4 + 4 bytes, 4 rows of 3 floats, the tail, 3 counters
-    assert replay.nbytes(10, 3, 4) == 10 * (12 + 1 + 4 + 1 + 1 + 4) + 4 * 12 + 12 + 3 * 4
+    uniform = 10 * (12 + 1 + 4 + 1 + 1 + 4) + 4 * 12 + 12 + 3 * 4
+    assert replay.nbytes(10, 3, 4) == uniform
+    # prioritised: a sum tree of 2 x 16 floats (16 leaves for 10 slots) and the largest
+    assert replay.nbytes(10, 3, 4, prioritised=True) == uniform + 2 * 16 * 4 + 4
 
 
 # -- validate ---------------------------------------------------------------------

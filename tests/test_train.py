@@ -244,9 +244,11 @@ def test_tensorboard_without_its_writer_is_one_line_before_anything_is_written(
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("buffer_size", [1_000_000, 150])  # 150: the ring wraps in a chunk
-def test_a_checkpoint_restores_the_whole_state_from_its_row_segments(tmp_path, buffer_size):
-    cfg = load_config(None, [*TINY, "episodes=3", f"dqn.buffer_size={buffer_size}"])
+@pytest.mark.parametrize(  # 150: the ring wraps in a chunk; prioritised: its sum tree too
+    "replay", ["dqn.buffer_size=1000000", "dqn.buffer_size=150", "dqn.prioritised=true"]
+)
+def test_a_checkpoint_restores_the_whole_state_from_its_row_segments(tmp_path, replay):
+    cfg = load_config(None, [*TINY, "episodes=3", replay])
     out = tmp_path / "run"
     run = Run(cfg, out, quiet=True)
     rundir.create(out)

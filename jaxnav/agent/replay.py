@@ -2,8 +2,10 @@
 
 A small bundle of pure functions over one pytree, in flashbax's shape:
 :func:`init` (checked by :func:`validate`), :func:`add`, :func:`sample`,
-:func:`can_sample` and :func:`nbytes`. Every function is traceable, so a run's buffer
-lives in the trainer's ``lax.scan`` carry and ``jax.vmap`` gives one buffer per run.
+:func:`can_sample` and :func:`nbytes`; prioritised replay adds
+:func:`sample_prioritised` and :func:`update_priorities`. Every function is
+traceable, so a run's buffer lives in the trainer's ``lax.scan`` carry and
+``jax.vmap`` gives one buffer per run.
 
 Layout. Slot i holds (obs_i, action_i, reward_i, terminated_i, truncated_i). The next
 observation of slot i is the obs of slot i + 1, except for
@@ -55,6 +57,8 @@ import jax
 import jax.numpy as jnp
 from flax import struct
 
+from jaxnav.agent import sumtree
+
 
 @struct.dataclass
 class Buffer:
@@ -71,6 +75,11 @@ class Buffer:
     pos: chex.Array  # i32[] next slot to write
     size: chex.Array  # i32[] filled slots
     n_final: chex.Array  # i32[] truncations stored so far
+    # Prioritised replay only (None, and no leaf, otherwise): each slot's priority
+    # (|TD error| + eps)^alpha in a sum tree (jaxnav.agent.sumtree), and the largest
+    # priority given so far, which a new transition gets.
+    priority: chex.Array | None = None  # f32[2P]
+    max_priority: chex.Array | None = None  # f32[]
 
 
 class Batch(NamedTuple):
@@ -104,10 +113,14 @@ def final_rows(capacity: int, max_steps: int) -> int:
     return capacity // max_steps + 2
 
 
-def init(capacity: int, obs_dim: int, max_steps: int) -> Buffer:
-    """An empty buffer of ``capacity`` slots of ``obs_dim``-float observations."""
+def init(capacity: int, obs_dim: int, max_steps: int, prioritised: bool = False) -> Buffer:
+    """An empty buffer of ``capacity`` slots of ``obs_dim``-float observations, with
+    the priorities of prioritised replay if asked."""
     validate(capacity, obs_dim, max_steps)
     k = final_rows(capacity, max_steps)
+    extra = {}
+    if prioritised:
+        extra = {"priority": sumtree.init(capacity), "max_priority": jnp.ones((), jnp.float32)}
     return Buffer(
         obs=jnp.zeros((capacity, obs_dim), jnp.float32),
         action=jnp.zeros((capacity,), jnp.uint8),
@@ -120,12 +133,13 @@ def init(capacity: int, obs_dim: int, max_steps: int) -> Buffer:
         pos=jnp.zeros((), jnp.int32),
         size=jnp.zeros((), jnp.int32),
         n_final=jnp.zeros((), jnp.int32),
+        **extra,
     )
 
 
-def nbytes(capacity: int, obs_dim: int, max_steps: int) -> int:
+def nbytes(capacity: int, obs_dim: int, max_steps: int, prioritised: bool = False) -> int:
     """Bytes of one buffer, without allocating it."""
-    b = jax.eval_shape(lambda: init(capacity, obs_dim, max_steps))
+    b = jax.eval_shape(lambda: init(capacity, obs_dim, max_steps, prioritised))
     return sum(x.size * x.dtype.itemsize for x in jax.tree.leaves(b))
 
 
@@ -153,7 +167,11 @@ def add(
 
     active = jnp.asarray(active, bool)
     store_final = active & jnp.asarray(truncated, bool)
-    return Buffer(
+    extra = {}
+    if buf.priority is not None:  # a new transition: the largest priority so far
+        new = jnp.where(active, buf.max_priority, sumtree.get(buf.priority, p))
+        extra = {"priority": sumtree.set_priorities(buf.priority, p[None], new[None])}
+    return buf.replace(
         obs=put(buf.obs, p, obs),
         action=put(buf.action, p, action.astype(jnp.uint8)),
         reward=put(buf.reward, p, reward),
@@ -165,6 +183,7 @@ def add(
         pos=jnp.where(active, (p + 1) % n, p),
         size=jnp.where(active, jnp.minimum(buf.size + 1, n), buf.size),
         n_final=buf.n_final + store_final.astype(jnp.int32),
+        **extra,
     )
 
 
@@ -175,8 +194,13 @@ def can_sample(buf: Buffer, min_size: int) -> chex.Array:
 
 def sample(buf: Buffer, key: chex.PRNGKey, batch_size: int) -> Batch:
     """Uniform sample (with replacement) of filled slots only."""
-    n = buf.obs.shape[0]
     idx = jax.random.randint(key, (batch_size,), 0, jnp.maximum(buf.size, 1))
+    return batch_at(buf, idx)
+
+
+def batch_at(buf: Buffer, idx: chex.Array) -> Batch:
+    """The one-step :class:`Batch` of slots ``idx`` (i32[B])."""
+    n = buf.obs.shape[0]
     newest = (buf.pos - 1) % n
     following = buf.obs[(idx + 1) % n]
     final = buf.final_obs[buf.final_index[idx]]
@@ -232,3 +256,31 @@ def n_step_batch(buf: Buffer, idx: chex.Array, n: int, gamma) -> Batch:
         terminated=buf.terminated[end],
         discount=discount,
     )
+
+
+# ----------------------------------------------------------------------------
+# Prioritised replay (Schaul et al. 2016, proportional)
+# ----------------------------------------------------------------------------
+
+
+def sample_prioritised(
+    buf: Buffer, key: chex.PRNGKey, batch_size: int, beta
+) -> tuple[chex.Array, chex.Array]:
+    """(slots i32[B], importance weights f32[B]) of a prioritised buffer: slot i drawn
+    with probability P(i) = p_i / sum_k p_k (stratified, :func:`sumtree.sample`), its
+    weight w_i = (N P(i))^-beta over N filled slots, divided by the batch's largest
+    weight so that weights only scale updates down (Schaul et al., Sec. 3.4)."""
+    idx = sumtree.sample(buf.priority, key, batch_size, buf.size)
+    prob = sumtree.get(buf.priority, idx) / sumtree.total(buf.priority)
+    n = jnp.maximum(buf.size, 1).astype(jnp.float32)
+    w = (n * jnp.maximum(prob, jnp.finfo(jnp.float32).tiny)) ** (-jnp.asarray(beta))
+    return idx, w / jnp.max(w)
+
+
+def update_priorities(buf: Buffer, idx: chex.Array, td_error: chex.Array, alpha, eps, apply):
+    """The buffer with the priorities of slots ``idx`` set to (|td_error| + eps)^alpha,
+    where ``apply`` (bool[]) holds; unchanged otherwise."""
+    new = (jnp.abs(td_error) + eps) ** alpha
+    new = jnp.where(apply, new, sumtree.get(buf.priority, idx))
+    top = jnp.where(apply, jnp.maximum(buf.max_priority, jnp.max(new)), buf.max_priority)
+    return buf.replace(priority=sumtree.set_priorities(buf.priority, idx, new), max_priority=top)

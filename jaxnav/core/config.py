@@ -27,7 +27,15 @@ import yaml
 from jaxnav.core import strategies as registry
 from jaxnav.core import sweep as sweeps
 from jaxnav.core.errors import ConfigError
-from jaxnav.core.sections import DQNConfig, EnvConfig, ExplorationConfig, RunConfig
+from jaxnav.core.sections import (
+    PRIORITISED_ONLY,
+    REPLAY_ONLY,
+    DQNConfig,
+    EnvConfig,
+    ExplorationConfig,
+    PQNConfig,
+    RunConfig,
+)
 from jaxnav.core.settings import (
     AT_LEAST_1,
     NON_NEGATIVE,
@@ -66,6 +74,7 @@ class Config:
     )
     env: EnvConfig = setting(factory=EnvConfig)
     dqn: DQNConfig = setting(factory=DQNConfig)
+    pqn: PQNConfig = setting(factory=PQNConfig)
     exploration: ExplorationConfig = setting(factory=ExplorationConfig)
     run: RunConfig = setting(factory=RunConfig)
     # ((dotted key, (value, ...)), ...): the settings this run varies across its runs,
@@ -142,12 +151,20 @@ class Config:
         """Bytes the runs' replay memories will take, an upper bound within 10% (for
         24 beams), before anything is allocated: jaxnav.agent.replay keeps per slot
         an f32 observation of at most n_beams + 4 values and 11 bytes of action,
-        reward, flags and ring index, and a ring of capacity // max_steps + 2 final
-        observations; the networks and the environment are small beside it."""
+        reward, flags and ring index, a ring of capacity // max_steps + 2 final
+        observations and, with prioritised replay, a sum tree; the networks and the
+        environment are small beside it. PQN keeps no replay: its rollout of
+        num_envs x rollout transitions (observation, next observation, Q-values, a
+        dozen scalars) is the largest array it holds."""
         obs = 4 * (self.env.n_beams + 4)
+        if self.dqn.agent == "pqn":
+            rows = self.pqn.num_envs * self.pqn.rollout
+            return self.n_runs * rows * (2 * obs + 64)
         capacity = self.buffer_capacity
         ring = capacity // self.env.max_steps + 3  # the final-observation ring and tail
-        return self.n_runs * (capacity * (obs + 11) + ring * obs + 12)  # + 3 i32 counters
+        # prioritised replay's sum tree: f32[2P], P the power of two at or above capacity
+        tree = 8 << max(0, (capacity - 1).bit_length()) if self.dqn.prioritised else 0
+        return self.n_runs * (capacity * (obs + 11) + ring * obs + 12 + tree)  # + 3 counters
 
     def env_kwargs(self) -> dict[str, Any]:
         """The environment's settings as ``jaxnav.env.make`` keywords (besides the maze
@@ -289,6 +306,11 @@ def _check(cfg: Config) -> Config:
         fail("strategies", "lists a strategy twice")
     if cfg.episodes is None and cfg.total_steps is None:
         fail("episodes", "and total_steps cannot both be null")
+    says = agent_problem(cfg)
+    if says:
+        raise ConfigError(f"config: {says}")
+    if cfg.dqn.agent == "pqn":
+        return cfg
     capacity = cfg.buffer_capacity
     if cfg.dqn.batch_size > capacity:
         fail(
@@ -297,6 +319,36 @@ def _check(cfg: Config) -> Config:
             "transitions (the smaller of dqn.buffer_size and the most steps a run takes)",
         )
     return cfg
+
+
+def agent_problem(cfg: Config) -> str | None:
+    """What is wrong with a config's settings of the agent it does not train, one line
+    naming the setting, or None: PQN has no replay memory and no target network, so
+    their settings must keep their defaults (the preset's), and the pqn.* settings
+    must keep theirs under DQN; PQN's minibatches split its rollout evenly."""
+    if cfg.dqn.agent == "dqn":
+        for name in (f.name for f in dataclasses.fields(PQNConfig)):
+            if getattr(cfg.pqn, name) != SETTINGS[f"pqn.{name}"].default:
+                return f"pqn.{name} is a PQN setting: it needs dqn.agent pqn"
+        for name in PRIORITISED_ONLY if not cfg.dqn.prioritised else ():
+            if getattr(cfg.dqn, name) != SETTINGS[f"dqn.{name}"].default:
+                return f"dqn.{name} is a prioritised replay setting: it needs dqn.prioritised true"
+        return None
+    defaults = PRESETS[cfg.preset].training()
+    for name in REPLAY_ONLY:
+        key = f"dqn.{name}"
+        if getattr(cfg.dqn, name) != defaults.get(key, SETTINGS[key].default):
+            return (
+                f"{key} is a replay or target-network setting, and PQN (dqn.agent pqn) has "
+                "neither: leave it at its default"
+            )
+    p = cfg.pqn
+    if (p.num_envs * p.rollout) % p.minibatches:
+        return (
+            f"pqn.minibatches ({p.minibatches}) must divide pqn.num_envs x pqn.rollout "
+            f"({p.num_envs * p.rollout} transitions per update)"
+        )
+    return None
 
 
 def _sweep(values: dict[str, Any]) -> tuple[tuple[str, tuple[Any, ...]], ...]:

@@ -1,4 +1,4 @@
-"""The config's sections: every environment, DQN, exploration and run setting,
+"""The config's sections: every environment, DQN, PQN, exploration and run setting,
 declared once each with :func:`jaxnav.core.settings.setting` (default, a line of help,
 its rule, whether a sweep may vary it). :mod:`jaxnav.core.config` assembles them into
 :class:`~jaxnav.core.config.Config` and derives validation, sweeps and listings.
@@ -112,8 +112,14 @@ class EnvConfig:
 
 @dataclass(frozen=True)
 class DQNConfig:
+    agent: str = setting(
+        "dqn",
+        "dqn (the paper's: replay and a target network) or pqn (parallel envs, "
+        "lambda-returns, LayerNorm; pqn.*)",
+        rule=one_of("dqn", "pqn"),
+    )
     gamma: float = setting(PRESETS["paper"].gamma, "discount", rule=UNIT, sweep=True)
-    lr: float = setting(0.00025, "learning rate (RMSprop or Adam)", rule=POSITIVE, sweep=True)
+    lr: float = setting(0.00025, "learning rate of dqn.optimizer", rule=POSITIVE, sweep=True)
     rms_decay: float = setting(0.9, "RMSprop rho", rule=UNIT_OPEN, sweep=True)
     rms_eps: float = setting(1e-6, "RMSprop epsilon", rule=POSITIVE, sweep=True)
     batch_size: int = setting(64, "transitions per gradient step", rule=AT_LEAST_1)
@@ -161,12 +167,61 @@ class DQNConfig:
     )
     optimizer: str = setting(
         "rmsprop",
-        "rmsprop (paper, rms_decay and rms_eps) or adam (optax defaults)",
-        rule=one_of("rmsprop", "adam"),
+        "rmsprop (paper, rms_decay and rms_eps), adam or radam (optax defaults)",
+        rule=one_of("rmsprop", "adam", "radam"),
     )
     n_step: int = setting(
         1, "n-step returns: up to n rewards, then gamma^k bootstrap (1: paper)", rule=AT_LEAST_1
     )
+    prioritised: bool = setting(
+        False, "prioritised replay (Schaul et al. 2016, proportional); off: uniform (paper)"
+    )
+    per_alpha: float = setting(
+        0.6, "prioritised replay: a slot's priority is (|TD error| + per_eps)^alpha", rule=UNIT
+    )
+    per_beta: float = setting(
+        0.4,
+        "prioritised replay: importance-weight exponent, annealed from this to 1 over the run",
+        rule=UNIT,
+    )
+    per_eps: float = setting(
+        1e-6, "prioritised replay: added to |TD error| so no slot's priority is 0", rule=POSITIVE
+    )
+
+
+# The DQN settings of the replay memory and the target network: PQN has neither, so
+# a PQN config that sets one of them away from its default is refused.
+REPLAY_ONLY = (
+    "batch_size",
+    "buffer_size",
+    "learning_starts",
+    "target_update",
+    "target_update_every",
+    "double",
+    "tau",
+    "n_step",
+    "prioritised",
+    "per_alpha",
+    "per_beta",
+    "per_eps",
+)
+# The settings prioritised replay reads: they need dqn.prioritised.
+PRIORITISED_ONLY = ("per_alpha", "per_beta", "per_eps")
+
+
+@dataclass(frozen=True)
+class PQNConfig:
+    """PQN (Gallici et al. 2024), read when dqn.agent is pqn; it shares dqn.gamma, lr,
+    hidden, dropout, dueling, loss and optimizer with DQN."""
+
+    num_envs: int = setting(16, "environments each run steps in parallel", rule=AT_LEAST_1)
+    rollout: int = setting(32, "steps of every environment between updates (T)", rule=AT_LEAST_1)
+    td_lambda: float = setting(0.65, "lambda of the lambda-returns", rule=UNIT)
+    epochs: int = setting(2, "passes over each rollout", rule=AT_LEAST_1)
+    minibatches: int = setting(
+        4, "minibatches per pass (must divide num_envs x rollout)", rule=AT_LEAST_1
+    )
+    max_grad_norm: float = setting(10.0, "gradients clipped to this global norm", rule=POSITIVE)
 
 
 @dataclass(frozen=True)

@@ -8,6 +8,8 @@ pickle), together with everything needed to feed it:
                     max_range), preset, action angular velocities, linear velocity,
                     dt, goal radius, training maze, strategy, seed, the run's config
     Dense_<i>/kernel, Dense_<i>/bias   the network's layers (f32), in order
+    LayerNorm_<i>/scale, LayerNorm_<i>/bias   PQN's LayerNorm after hidden layer i,
+                    when meta lists them in "norms" (format version 2)
     maze/walls, maze/obstacles, maze/start   the training maze's geometry
 
 ``python -m jaxnav.export --info POLICY.npz`` prints the metadata.
@@ -44,7 +46,8 @@ How a raw LaserScan becomes the trained observation (:meth:`Policy.observe`):
   |goal - position|, from the odometry pose (x, y, yaw) and the goal (x, y) in the
   same frame. With ``obstacle_obs`` the smallest range and its beam index follow.
 
-The network runs in float64 (exact ReLU MLP; dropout is off at inference).
+The network runs in float64 (exact ReLU MLP; dropout is off at inference; a PQN
+network normalises each hidden layer before its ReLU, as flax's LayerNorm).
 
 :class:`Controller` is what a ROS node does with the latest scan, odometry and goal
 (when to drive, when to stop, when a goal is reached), kept here so the ROS 1 and
@@ -71,6 +74,9 @@ except ImportError:  # deploy.py copied alone next to a robot's node
 
 FORMAT = "jaxnav-policy"
 FORMAT_VERSION = 1
+# A network with LayerNorm (PQN) is written as version 2, which a reader that does not
+# know the norms refuses instead of running the network without them.
+NORMS_VERSION = 2
 # Value given to invalid readings (0, nan, negative): the sensor's "no return".
 INVALID_READING = "max_range"
 
@@ -209,7 +215,13 @@ class Policy:
       dt: control period (s); goal_radius: the goal counts as reached within it (m).
     """
 
-    def __init__(self, layers: Sequence[tuple[np.ndarray, np.ndarray]], meta: dict[str, Any]):
+    def __init__(
+        self,
+        layers: Sequence[tuple[np.ndarray, np.ndarray]],
+        meta: dict[str, Any],
+        norms: Sequence[tuple[np.ndarray, np.ndarray]] = (),
+    ):
+        """``norms``: (scale, bias) of the LayerNorm after each hidden layer, or none."""
         try:
             self.n_beams = int(meta["n_beams"])
             self.obstacle_obs = bool(meta["obstacle_obs"])
@@ -237,6 +249,17 @@ class Policy:
             width = k.shape[1]
         if not self.layers or width != len(self.omegas):
             raise PolicyError(f"policy network has {width} outputs for {len(self.omegas)} actions")
+        self.norms = [(np.asarray(g, np.float64), np.asarray(b, np.float64)) for g, b in norms]
+        self.norm_epsilon = float(meta.get("norm_epsilon", 1e-6))
+        if self.norms and len(self.norms) != len(self.layers) - 1:
+            raise PolicyError(
+                f"policy has {len(self.norms)} LayerNorms for {len(self.layers) - 1} hidden layers"
+            )
+        for i, ((g, b), (k, _)) in enumerate(zip(self.norms, self.layers)):
+            if g.shape != (k.shape[1],) or b.shape != (k.shape[1],):
+                raise PolicyError(f"policy LayerNorm {i} does not fit hidden layer {i}")
+            if not (np.isfinite(g).all() and np.isfinite(b).all()):
+                raise PolicyError(f"policy LayerNorm {i} has non-finite weights")
 
     @property
     def obs_size(self) -> int:
@@ -255,15 +278,17 @@ class Policy:
             raise PolicyError("policy metadata is not valid JSON") from None
         if meta.get("format") != FORMAT:
             raise PolicyError("not a jaxnav policy (wrong 'format' in its metadata)")
-        if meta.get("version") != FORMAT_VERSION:
+        if meta.get("version") not in (FORMAT_VERSION, NORMS_VERSION):
             raise PolicyError(
-                f"policy format version {meta.get('version')} is not {FORMAT_VERSION}"
+                f"policy format version {meta.get('version')} is not "
+                f"{FORMAT_VERSION} or {NORMS_VERSION}"
             )
         try:
             layers = [(arrays[f"{n}/kernel"], arrays[f"{n}/bias"]) for n in meta["layers"]]
+            norms = [(arrays[f"{n}/scale"], arrays[f"{n}/bias"]) for n in meta.get("norms", [])]
         except KeyError as e:
             raise PolicyError(f"policy file lacks array {e}") from None
-        return cls(layers, meta)
+        return cls(layers, meta, norms)
 
     @classmethod
     def load(cls, path: str | os.PathLike) -> Policy:
@@ -287,6 +312,11 @@ class Policy:
         for i, (k, b) in enumerate(self.layers):
             x = x @ k + b
             if i < len(self.layers) - 1:
+                if self.norms:
+                    scale, shift = self.norms[i]
+                    mean = x.mean(axis=-1, keepdims=True)
+                    var = x.var(axis=-1, keepdims=True)
+                    x = (x - mean) / np.sqrt(var + self.norm_epsilon) * scale + shift
                 x = np.maximum(x, 0.0)
         return x
 

@@ -20,7 +20,9 @@ from jaxnav.core import strategies as registry
 from jaxnav.core.config import dump_config, load_config
 from jaxnav.core.errors import PolicyError
 from jaxnav.env import from_config
-from jaxnav.robot.deploy import FORMAT, FORMAT_VERSION, INVALID_READING
+from jaxnav.robot.deploy import FORMAT, FORMAT_VERSION, INVALID_READING, NORMS_VERSION
+
+NORM_EPSILON = 1e-6  # flax.linen.LayerNorm's default, as jaxnav.dqn.QNetwork uses it
 
 
 def export_policy(
@@ -50,10 +52,16 @@ def export_policy(
     env, params = from_config(cfg)
     net = fold_dueling(rundir.load_params(params_path, strategy, seed).get("params", {}))
     names = _dense_layers(net, env.obs_size, len(np.asarray(params.omegas)), params_path)
+    norms = _norms(net, len(names) - 1, params_path)
     meta = _meta(cfg, env, params, strategy, seed, names, run_dir)
+    if norms:  # PQN: read only by a reader that applies them
+        meta.update(version=NORMS_VERSION, norms=norms, norm_epsilon=NORM_EPSILON)
     arrays: dict[str, np.ndarray] = {"meta": np.asarray(json.dumps(meta, indent=1))}
     for n in names:
         arrays[f"{n}/kernel"] = np.asarray(net[n]["kernel"], np.float32)
+        arrays[f"{n}/bias"] = np.asarray(net[n]["bias"], np.float32)
+    for n in norms:
+        arrays[f"{n}/scale"] = np.asarray(net[n]["scale"], np.float32)
         arrays[f"{n}/bias"] = np.asarray(net[n]["bias"], np.float32)
     arrays["maze/walls"] = np.asarray(params.maze.walls(), np.float32)
     arrays["maze/obstacles"] = np.asarray(params.maze.obstacles(), np.float32)
@@ -88,6 +96,14 @@ def _dense_layers(net: dict, obs_size: int, num_actions: int, params_path: Path)
         width = k.shape[1]
     if not names or width != num_actions:
         raise PolicyError(f"{params_path}: the network does not end in {num_actions} action values")
+    return names
+
+
+def _norms(net: dict, hidden: int, params_path: Path) -> list[str]:
+    """The LayerNorm after each hidden layer (PQN's network), in order, or none."""
+    names = sorted((n for n in net if n.startswith("LayerNorm_")), key=lambda n: int(n[10:]))
+    if names and names != [f"LayerNorm_{i}" for i in range(hidden)]:
+        raise PolicyError(f"{params_path}: the LayerNorms do not match the hidden layers")
     return names
 
 

@@ -41,12 +41,18 @@ def _is_buffer_rows(name: str) -> bool:
 
 
 def without_rows(ts: TrainState) -> TrainState:
-    """The training state without the replay buffer's per-slot arrays."""
+    """The training state without the replay buffer's per-slot arrays (a state without
+    a replay buffer, PQN's, as it is)."""
+    if getattr(ts, "buffer", None) is None:
+        return ts
     return ts.replace(buffer=ts.buffer.replace(**{r: None for r in _BUFFER_ROWS}))
 
 
 def rows_at(ts: TrainState, slots: jax.Array) -> dict[str, jax.Array]:
-    """The replay buffer's per-slot arrays at ``slots`` (i32[n]) of every run."""
+    """The replay buffer's per-slot arrays at ``slots`` (i32[n]) of every run (none
+    without a replay buffer)."""
+    if getattr(ts, "buffer", None) is None:
+        return {}
     return {r: getattr(ts.buffer, r)[:, slots] for r in _BUFFER_ROWS}
 
 

@@ -1,7 +1,8 @@
 """The host loop around the compiled trainer: chunks, progress, logs, checkpoints.
 
-All seeds of all strategies run as one vmapped program (:func:`jaxnav.dqn.make_trainer`),
-``run.chunk_steps`` environment steps per call. After each chunk the host appends
+All seeds of all strategies run as one vmapped program (:func:`jaxnav.dqn.make_trainer`,
+or :func:`jaxnav.pqn.make_trainer` for ``dqn.agent: pqn``), ``run.chunk_steps``
+environment steps per call. After each chunk the host appends
 the new episodes to ``metrics.csv`` and ``explore.csv`` and writes a checkpoint
 that records the training state and how long the logs were, so a run killed at any
 moment (even by SIGKILL) resumes from its last chunk (:func:`resume`) and ends with
@@ -30,13 +31,14 @@ from typing import Any
 import jax
 import numpy as np
 
+from jaxnav import pqn
 from jaxnav.agent import replay
 from jaxnav.agent.sharding import RunSharding, is_writer
 from jaxnav.core import rundir, startup, sweep
 from jaxnav.core.config import Config, dump_config, load_config
 from jaxnav.core.errors import RunError
 from jaxnav.core.startup import process_age
-from jaxnav.dqn import TrainState, make_trainer, run_inputs, run_limits, still_training
+from jaxnav.dqn import Trainer, TrainState, make_trainer, run_inputs, run_limits, still_training
 from jaxnav.run import tblog
 from jaxnav.run.checkpoint import (
     ROW_SEGMENT,
@@ -73,7 +75,7 @@ class Run:
         self.keep_checkpoints = keep_checkpoints
         if cfg.run.tensorboard:
             tblog.check_available()
-        self.trainer = make_trainer(cfg)
+        self.trainer = trainer_of(cfg)
         self.labels = cfg.run_labels()  # (arm name, seed)
         self.fields = cfg.run_fields()  # the logs' leading fields of each run
         # The run axis of every array is laid over all devices.
@@ -145,13 +147,17 @@ class Run:
 
     def steps_needed(self, ts: TrainState) -> int:
         """The most env steps any active run can still take, at most a chunk: a run
-        stops within its step limit and within max_steps per episode left."""
-        cfg = self.cfg
+        stops within its step limit and within max_steps per episode left; whole
+        steps of the trainer (PQN: whole updates)."""
+        cfg, trainer = self.cfg, self.trainer
         episode, step = (np.asarray(a, np.int64) for a in self.shard.get((ts.episode, ts.step)))
         episodes, steps = run_limits(cfg)
         left = np.minimum(steps - step, (episodes - episode) * cfg.env.max_steps)
         active = self.active(ts)
-        return int(min(cfg.run.chunk_steps, left[active].max())) if active.any() else 0
+        if not active.any():
+            return 0
+        size = trainer.step_size
+        return int(min(trainer.chunk_length, -(-left[active].max() // size) * size))
 
     def check_divergence(self, ts: TrainState) -> list[str]:
         """Runs that diverged in the last chunk, each described in words."""
@@ -243,17 +249,20 @@ class Run:
             )
             if not checkpoint:
                 return
-            segment = {"slots": slots, **{f"rows.buffer.{r}": a for r, a in rows.items()}}
-            rundir.atomic_write_npz(self.out / ROW_SEGMENT.format(self.segments), segment)
+            segments = self.segments
+            if len(slots):  # a trainer without replay (PQN) writes no row segments
+                segment = {"slots": slots, **{f"rows.buffer.{r}": a for r, a in rows.items()}}
+                rundir.atomic_write_npz(self.out / ROW_SEGMENT.format(segments), segment)
+                segments += 1
             host = {
                 "logged": self.logged,
                 "wall": np.float64(self.wall),
                 "csv_sizes": sizes,
-                "segments": np.int64(self.segments + 1),
+                "segments": np.int64(segments),
                 "computed": np.int64(self.computed),
             }
             rundir.atomic_write_npz(self.checkpoint, checkpoint_arrays(state, host))
-            self.segments += 1
+            self.segments = segments
         except OSError:
             for log, size in zip(logs, before):
                 log.restore(size)
@@ -355,6 +364,8 @@ class Run:
                     tb.add_steps(log.loss, log.max_q, int(step_before.max()))
                     tb.flush()
                 slots = chunk_slots(step_before, self.shard.get(ts.step), self.cfg.buffer_capacity)
+                if not has_replay(self.cfg):
+                    slots = slots[:0]
                 self.save(ts, *rows, slots, checkpoint=not stop)
                 if stop:
                     raise RunError(
@@ -385,12 +396,15 @@ class Run:
             "lockstep_useful": round(steps / self.computed, 4) if self.computed > 0 else None,
             "compile_s": None if self.compile_s is None else round(self.compile_s, 2),
             "startup_s": None if self.startup_s is None else round(self.startup_s, 2),
-            "buffer_capacity": self.cfg.buffer_capacity,
+            "buffer_capacity": self.cfg.buffer_capacity if has_replay(self.cfg) else None,
             "buffer_bytes_per_seed": replay.nbytes(
                 self.cfg.buffer_capacity,
                 self.trainer.env.obs_size,
                 self.trainer.env_params.max_steps,
-            ),
+                self.cfg.dqn.prioritised,
+            )
+            if has_replay(self.cfg)
+            else None,
             "machine": f"{platform.machine()} {os.cpu_count()} cores, jax {jax.__version__} "
             f"on {jax.default_backend()}",
             "devices": self.shard.n_devices,
@@ -411,6 +425,16 @@ class Run:
         if len(self.diverged) == self.cfg.n_runs:
             raise RunError("training diverged: every run (summary.json lists them; lower dqn.lr)")
         return summary
+
+
+def trainer_of(cfg: Config) -> Trainer:
+    """The trainer of a config's agent (``dqn.agent``): DQN's or PQN's."""
+    return pqn.make_trainer(cfg) if cfg.dqn.agent == "pqn" else make_trainer(cfg)
+
+
+def has_replay(cfg: Config) -> bool:
+    """Whether a config's agent keeps a replay memory (DQN does, PQN does not)."""
+    return cfg.dqn.agent != "pqn"
 
 
 def last50(rows: list[dict[str, str]], arms) -> dict[str, dict[str, float]]:

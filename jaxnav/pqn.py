@@ -1,0 +1,347 @@
+"""PQN, a second agent beside DQN in the same trainer shape.
+
+PQN (Gallici et al. 2024, "Simplifying Deep Temporal Difference Learning") has no
+replay memory and no target network: each run steps ``pqn.num_envs`` environments in
+parallel for ``pqn.rollout`` steps (T), computes lambda-returns backwards over the
+rollout from its own network's max-Q (:func:`lambda_returns`), and fits them in
+``pqn.epochs`` passes of ``pqn.minibatches`` shuffled minibatches, its gradients
+clipped to ``pqn.max_grad_norm``. The Q-network is the paper's with LayerNorm before
+each hidden ReLU (:func:`jaxnav.dqn.network_of`). The run's registered strategy acts
+on the Q-values of every environment, so EBE, epsilon-greedy and Boltzmann work as
+with DQN.
+
+One update (rollout, returns, learning) is the trainer's ``step``; a chunk is a loop
+of updates; ``vmap`` runs seeds, strategies and sweep points, and the host loop
+(:mod:`jaxnav.run.training`) drives both agents alike.
+
+Counting (docs/training.md): ``step`` is the env steps of all of a run's
+environments and ``episode`` the episodes finished by any of them, numbered in the
+order they finish (environments in index order within a step); ``episodes`` and
+``total_steps`` bound these totals and are checked between updates, so the last update
+plays its rollout to the end (its episodes beyond the budget train the network but
+are not logged). Epsilon's schedule advances with ``episode``: once per episode any
+environment finishes.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import NamedTuple
+
+import chex
+import jax
+import jax.numpy as jnp
+import optax
+from flax import struct
+
+from jaxnav.agent.episodes import Episodes
+from jaxnav.agent.exploration import explore_action
+from jaxnav.agent.hyper import Hyper
+from jaxnav.core.config import Config
+from jaxnav.dqn import (
+    QNetwork,
+    StepLog,
+    Trainer,
+    all_finite,
+    network_of,
+    optimizer_of,
+    run_limits,
+    still_training,
+    td_loss,
+)
+from jaxnav.env import EnvParams, EnvState, NavEnv, from_config
+
+# ----------------------------------------------------------------------------
+# Lambda-returns
+# ----------------------------------------------------------------------------
+
+
+def lambda_returns(reward, terminated, truncated, next_value, gamma, lam) -> chex.Array:
+    """PQN's targets: lambda-returns computed backwards over a rollout (Peng's Q(lambda)
+    with the max-Q bootstrap),
+
+        G_t = r_t + gamma (1 - term_t) ((1 - lam) v_t + lam G_{t+1}),
+
+    where ``v_t = max_a Q(s'_t, a)`` of the observation after step t (before an
+    auto-reset) and G_{t+1} is replaced by v_t where the episode or the rollout ends at
+    t: a truncation bootstraps from its final observation, a collision (terminated)
+    does not bootstrap. Each argument is [T, ...] (time first); returns f32[T, ...].
+    """
+
+    def back(g_next, x):
+        r, term, trunc, v = x
+        boot = jnp.where(term | trunc, v, (1.0 - lam) * v + lam * g_next)
+        g = r + gamma * jnp.where(term, 0.0, boot)
+        return g, g
+
+    xs = (reward, terminated, truncated, next_value)
+    _, g = jax.lax.scan(back, next_value[-1], xs, reverse=True)
+    return g
+
+
+# ----------------------------------------------------------------------------
+# Training state
+# ----------------------------------------------------------------------------
+
+
+@struct.dataclass
+class PQNState:
+    """One PQN run. The fields the host loop reads (``params``, ``step``, ``episode``,
+    ``metrics``, ``diverged_at``) mean what they mean in :class:`jaxnav.dqn.TrainState`,
+    over all the run's environments."""
+
+    params: chex.ArrayTree
+    opt_state: chex.ArrayTree
+    env_state: EnvState  # each leaf [num_envs, ...]
+    obs: chex.Array  # f32[num_envs, D]
+    key: chex.PRNGKey
+    strategy: chex.Array  # i32[] registered strategy number (jaxnav.core.strategies.index)
+    hyper: Hyper
+    step: chex.Array  # i32[] env steps taken, all environments together
+    episode: chex.Array  # i32[] episodes finished, all environments together
+    metrics: Episodes  # finished episodes; the running sums one per environment
+    diverged_at: chex.Array  # i32[] env step of the update that first broke; -1 while none
+
+
+class Rollout(NamedTuple):
+    """T steps of every environment, each field [T, num_envs, ...]."""
+
+    obs: chex.Array  # f32 the observation acted on
+    action: chex.Array  # i32
+    reward: chex.Array  # f32
+    terminated: chex.Array  # bool: a collision
+    truncated: chex.Array  # bool: the step limit
+    next_obs: chex.Array  # f32 the observation after the step, before an auto-reset
+    explore: chex.Array  # f32 the strategy's exploration
+    max_q: chex.Array  # f32 max_a Q(s, a) at the acting state
+    q_finite: chex.Array  # bool every Q-value at the acting state finite
+
+
+# ----------------------------------------------------------------------------
+# The trainer
+# ----------------------------------------------------------------------------
+
+
+class Rollouts(NamedTuple):
+    """A config's rollout and its targets, as :func:`make_trainer` uses them (tests
+    call them alone). ``play(ts, run, key)``: ``pqn.rollout`` steps of every
+    environment with ``ts.params``, episodes filed where ``run`` (bool[]); returns
+    ((obs, env_state, metrics, episode) after it, :class:`Rollout`). ``targets(params,
+    rollout, gamma)``: its lambda-returns f32[T, num_envs]."""
+
+    env: NavEnv
+    env_params: EnvParams
+    network: QNetwork
+    slots: int
+    play: Callable[..., tuple[tuple, Rollout]]
+    targets: Callable[..., chex.Array]
+
+
+def make_rollouts(config: Config) -> Rollouts:
+    """The rollout and targets of a config's PQN runs (:class:`Rollouts`)."""
+    env, base_params = from_config(config)
+    p = config.pqn
+    network = network_of(config, env)
+    envs = p.num_envs
+    length = _updates(config) * envs * p.rollout
+    slots = config.episodes if config.episodes is not None else length
+    limit = run_limits(config)[0]
+
+    def env_step(ts: PQNState, run: chex.Array, carry, key: chex.PRNGKey):
+        """One step of every environment: act, step, file the finished episodes."""
+        obs, env_state, metrics, episode = carry
+        h = ts.hyper
+        k_act, k_env = jax.random.split(key)
+        q = network.apply(ts.params, obs)  # f32[E, A]
+
+        def act(k, q_env):
+            return explore_action(ts.strategy, k, q_env, episode, h, config.strategies)
+
+        action, explore = jax.vmap(act)(jax.random.split(k_act, envs), q)
+        step = jax.vmap(env.step, in_axes=(0, 0, 0, None))
+        new_obs, env_state, reward, terminated, truncated, info = step(
+            jax.random.split(k_env, envs), env_state, action, h.env_params(base_params)
+        )
+        done = terminated | truncated
+        number = episode + jnp.cumsum(done.astype(jnp.int32)) - 1  # in environment order
+        filed = run & done & (number < limit)
+        slot = jnp.where(filed, number % slots, slots)  # out of range: not filed
+        metrics = metrics.record(slot, reward, info["goal_reached"], terminated, done, explore)
+        episode = jnp.minimum(episode + jnp.sum(done, dtype=jnp.int32), limit)
+        row = Rollout(
+            obs,
+            action,
+            reward,
+            terminated,
+            truncated,
+            info["final_obs"],
+            explore,
+            jnp.max(q, -1),
+            jnp.all(jnp.isfinite(q), -1),
+        )
+        return (new_obs, env_state, metrics, episode), row
+
+    def play(ts: PQNState, run: chex.Array, key: chex.PRNGKey):
+        carry = (ts.obs, ts.env_state, ts.metrics, ts.episode)
+        keys = jax.random.split(key, p.rollout)
+        return jax.lax.scan(lambda c, k: env_step(ts, run, c, k), carry, keys)
+
+    def targets(params, ro: Rollout, gamma) -> chex.Array:
+        next_v = jnp.max(network.apply(params, ro.next_obs), -1)  # before any auto-reset
+        return lambda_returns(ro.reward, ro.terminated, ro.truncated, next_v, gamma, p.td_lambda)
+
+    return Rollouts(env, base_params, network, slots, play, targets)
+
+
+def _updates(config: Config) -> int:
+    """Updates per chunk: as many as fit in ``run.chunk_steps`` env steps, at least one."""
+    return max(1, config.run.chunk_steps // (config.pqn.num_envs * config.pqn.rollout))
+
+
+def make_trainer(config: Config) -> Trainer:
+    """The PQN run of a config as pure ``init(key, strategy, hyper)``, ``step`` (one
+    update), ``chunk`` and ``active``, the :class:`jaxnav.dqn.Trainer` DQN's host loop
+    drives."""
+    parts = make_rollouts(config)
+    env, base_params, network, slots = parts.env, parts.env_params, parts.network, parts.slots
+    d, p = config.dqn, config.pqn
+    envs = p.num_envs
+    per_update = envs * p.rollout
+    updates = _updates(config)
+    length = updates * per_update
+    limits = run_limits(config)
+    optimizer = _optimizer(d, d.optimizer, p.max_grad_norm)  # the state's layout
+    dropout = d.dropout > 0.0 or any(k == "dqn.dropout" for k, _ in config.sweep)
+
+    def init(key: chex.PRNGKey, strategy: chex.Array, hyper: Hyper) -> PQNState:
+        env_params = hyper.env_params(base_params)
+        k_net, k_env, k_run = jax.random.split(key, 3)
+        reset = jax.vmap(env.reset, in_axes=(0, None))
+        obs, env_state = reset(jax.random.split(k_env, envs), env_params)
+        params = network.init(k_net, obs[0])
+        return PQNState(
+            params=params,
+            opt_state=optimizer.init(params),
+            env_state=env_state,
+            obs=obs,
+            key=k_run,
+            strategy=jnp.asarray(strategy, jnp.int32),
+            hyper=hyper,
+            step=jnp.zeros((), jnp.int32),
+            episode=jnp.zeros((), jnp.int32),
+            metrics=Episodes.zeros(slots, envs),
+            diverged_at=jnp.asarray(-1, jnp.int32),
+        )
+
+    def active(ts: PQNState) -> chex.Array:
+        return still_training(ts.episode, ts.step, *limits) & (ts.diverged_at < 0)
+
+    def update(ts: PQNState, _):
+        run = active(ts)
+        h = ts.hyper
+        key, k_roll, k_learn = jax.random.split(ts.key, 3)
+
+        # ROLLOUT: T steps of every environment with the current network.
+        with jax.named_scope("rollout"):
+            (obs, env_state, metrics, episode), ro = parts.play(ts, run, k_roll)
+
+        # TARGETS: lambda-returns from the same network's max-Q, fixed for the update.
+        with jax.named_scope("targets"):
+            targets = parts.targets(ts.params, ro, h.gamma)
+
+        # LEARN: epochs x minibatches over the rollout.
+        with jax.named_scope("learn"):
+            data = (ro.obs.reshape(per_update, -1), ro.action.reshape(-1), targets.reshape(-1))
+            params, opt_state, broke, loss = _learn(
+                network, config, h, ts.params, ts.opt_state, data, k_learn, dropout
+            )
+        n_steps = ts.step + per_update
+        diverged = (ts.diverged_at < 0) & run & (broke | ~jnp.all(ro.q_finite))
+        held = ts.replace(
+            params=_select(run, params, ts.params),
+            opt_state=_select(run, opt_state, ts.opt_state),
+            env_state=_select(run, env_state, ts.env_state),
+            obs=_select(run, obs, ts.obs),
+            key=_select(run, key, ts.key),
+            step=jnp.where(run, n_steps, ts.step),
+            episode=jnp.where(run, episode, ts.episode),
+            metrics=_select(run, metrics, ts.metrics),
+            diverged_at=jnp.where(diverged, n_steps, ts.diverged_at),
+        )
+        nan = jnp.float32(jnp.nan)
+        log = StepLog(
+            explore=jnp.where(run, ro.explore.reshape(-1), nan),
+            loss=jnp.full(per_update, nan).at[-1].set(jnp.where(run, loss, nan)),
+            max_q=jnp.where(run, ro.max_q.reshape(-1), nan),
+        )
+        return held, log
+
+    def chunk(ts: PQNState, n_steps: chex.Array | None = None):
+        """Up to ``chunk_length`` env steps (whole updates) of one run in one compiled
+        loop; ``n_steps`` (i32[], the same for every run) ends it after the updates that
+        cover that many env steps. Returns (state, :class:`StepLog` of f32[chunk_length],
+        per env step, steps of all environments at each rollout step together, NaN where
+        no step was taken; an update's loss sits at its last env step)."""
+        n = updates if n_steps is None else jnp.minimum(-(-n_steps // per_update), updates)
+
+        def body(i, carry):
+            ts, logs = carry
+            ts, log = update(ts, None)
+            at = (i * per_update,)
+            return ts, jax.tree.map(lambda a, x: jax.lax.dynamic_update_slice(a, x, at), logs, log)
+
+        logs = StepLog(*(jnp.full(length, jnp.nan, jnp.float32) for _ in StepLog._fields))
+        return jax.lax.fori_loop(0, n, body, (ts, logs))
+
+    return Trainer(env, base_params, slots, init, update, chunk, active, per_update, length)
+
+
+def _optimizer(h, kind: str, max_grad_norm: float) -> optax.GradientTransformation:
+    """dqn.optimizer at ``h.lr`` (a config's, or a run's as data), the gradients first
+    clipped to their global norm (``pqn.max_grad_norm``)."""
+    return optax.chain(optax.clip_by_global_norm(max_grad_norm), optimizer_of(h, kind))
+
+
+def _learn(network: QNetwork, config: Config, h: Hyper, params, opt_state, data, key, dropout):
+    """(params, opt_state, broke, mean loss) after ``pqn.epochs`` passes of
+    ``pqn.minibatches`` shuffled minibatches over the rollout's ``data`` (observations
+    f32[n, D], actions i32[n], targets f32[n]). A minibatch whose loss or new parameters
+    are not finite is not applied, nor is any after it (``broke``)."""
+    d, p = config.dqn, config.pqn
+    n = p.num_envs * p.rollout
+    size = n // p.minibatches
+    optimizer = _optimizer(h, d.optimizer, p.max_grad_norm)  # the run's lr
+    kind = d.loss if h.loss is None else h.loss
+
+    def loss_fn(params, batch, k):
+        obs, action, target = batch
+        if dropout:
+            q = network.apply(params, obs, train=True, dropout=h.dropout, rngs={"dropout": k})
+        else:
+            q = network.apply(params, obs)
+        return td_loss(q, action, target, kind)
+
+    def minibatch(carry, x):
+        params, opt_state, broke = carry
+        batch, k = x
+        loss, grads = jax.value_and_grad(loss_fn)(params, batch, k)
+        updates, new_state = optimizer.update(grads, opt_state, params)
+        new_params = optax.apply_updates(params, updates)
+        ok = ~broke & jnp.isfinite(loss) & all_finite(new_params)
+        params = _select(ok, new_params, params)
+        opt_state = _select(ok, new_state, opt_state)
+        return (params, opt_state, broke | ~ok), loss
+
+    def epoch(carry, k):
+        k_perm, k_drop = jax.random.split(k)
+        order = jax.random.permutation(k_perm, n)
+        batches = jax.tree.map(lambda x: x[order].reshape(p.minibatches, size, *x.shape[1:]), data)
+        return jax.lax.scan(minibatch, carry, (batches, jax.random.split(k_drop, p.minibatches)))
+
+    carry = (params, opt_state, jnp.asarray(False))
+    (params, opt_state, broke), losses = jax.lax.scan(epoch, carry, jax.random.split(key, p.epochs))
+    return params, opt_state, broke, jnp.mean(losses)
+
+
+def _select(pred, a, b):
+    return jax.tree.map(lambda x, y: jnp.where(pred, x, y), a, b)
