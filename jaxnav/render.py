@@ -2,9 +2,9 @@
 
 A picture of a maze (built-in name or YAML file): walls, obstacles, the robot at
 its start pose, a goal drawn by ``reset``, and what its LiDAR beams see (cast by
-the environment's own sensor). MAZE may also be a maze generator (``grid``) or a
-config (``grid4``, a YAML file): then one maze of its family, drawn by ``reset`` from
-``--seed``. The drawing itself is :mod:`jaxnav.report.drawing`.
+the environment's own sensor). MAZE may also be a maze generator (``grid``,
+``cylinders``, ``rooms``) or a config (``grid4``, a YAML file): then one maze of its
+family, drawn by ``reset`` from ``--seed``. The drawing itself is :mod:`jaxnav.report.drawing`.
 """
 
 from __future__ import annotations
@@ -59,7 +59,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument(
         "maze",
         help="built-in maze name (e.g. square4_obstacles), a maze .yaml file, a maze "
-        "generator (grid) or a config (e.g. grid4): a maze it draws",
+        "generator (grid, cylinders, rooms) or a config (e.g. grid4): a maze it draws",
     )
     parser.add_argument(
         "--out",
