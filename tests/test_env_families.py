@@ -124,7 +124,7 @@ def test_a_bad_setting_on_the_command_line_is_one_line_and_a_failure(tmp_path, c
 
     code = main(["cylinders", "--out", str(tmp_path / "run"), "env.cyl_room=0.5"])
     err = capsys.readouterr().err.strip()
-    assert code != 0 and "env.cyl_room must be in [1, 16] m" in err and "\n" not in err
+    assert code != 0 and "env.cyl_room must be in [1.5, 16] m" in err and "\n" not in err
     assert not (tmp_path / "run").exists()
 
 

@@ -14,6 +14,7 @@ from jaxnav.core.settings import (
     GOAL_CLEARANCE,
     MAX_CYLINDER_ROOM,
     MAX_CYLINDERS,
+    MIN_CYLINDER_ROOM,
     NON_NEGATIVE,
     PAIR_NON_NEGATIVE,
     POSITIVE,
@@ -117,8 +118,8 @@ class EnvConfig:
         4.0,
         "cylinders: the square room's side, m",
         rule=(
-            lambda v: 1.0 <= v <= MAX_CYLINDER_ROOM,
-            f"must be in [1, {MAX_CYLINDER_ROOM:g}] m",
+            lambda v: MIN_CYLINDER_ROOM <= v <= MAX_CYLINDER_ROOM,
+            f"must be in [{MIN_CYLINDER_ROOM:g}, {MAX_CYLINDER_ROOM:g}] m",
         ),
     )
     cyl_min_path: float = setting(

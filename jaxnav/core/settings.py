@@ -116,6 +116,7 @@ ROBOT_DIAMETER = 0.26
 # jaxnav.world.maps.GOAL_CLEARANCE: a drawn start or goal is this far from every surface.
 GOAL_CLEARANCE = 0.35
 MAX_CYLINDERS = 64
+MIN_CYLINDER_ROOM = 1.5  # m: every start has a goal 0.4 m away (GOAL_START_CLEARANCE)
 MAX_CYLINDER_ROOM = 16.0  # m: the occupancy raster of a cylinder room is 0.1 m cells
 # A cylinder field is refused when its cylinders, each grown by CYLINDER_GROWTH (about
 # jaxnav.world.families.PASS_CLEARANCE: the robot's radius and half a raster cell's
@@ -154,8 +155,8 @@ def cylinders_problem(count: int, radius, room: float, min_path: float) -> str |
         return f"env.cyl_count must be in [1, {MAX_CYLINDERS}]"
     if not (_pair(radius) and 0 < radius[0] <= radius[1]):
         return "env.cyl_radius must be [low, high] with 0 < low <= high, m"
-    if not 1.0 <= room <= MAX_CYLINDER_ROOM:
-        return f"env.cyl_room must be in [1, {MAX_CYLINDER_ROOM:g}] m"
+    if not MIN_CYLINDER_ROOM <= room <= MAX_CYLINDER_ROOM:
+        return f"env.cyl_room must be in [{MIN_CYLINDER_ROOM:g}, {MAX_CYLINDER_ROOM:g}] m"
     free = room - 2 * GOAL_CLEARANCE
     if 2 * radius[1] >= free:
         return f"env.cyl_radius high must be less than (env.cyl_room - 0.7) / 2 = {free / 2:.3g} m"
@@ -164,7 +165,7 @@ def cylinders_problem(count: int, radius, room: float, min_path: float) -> str |
         return (
             f"env.cyl_count: {count} cylinders of radius up to {radius[1]:g} m crowd a "
             f"{room:g} m room too much for a free path (grown by {CYLINDER_GROWTH} m for the "
-            f"robot they could cover {cover:.0%} of it, at most {MAX_CYLINDER_COVER:.0%}): "
+            f"robot they could cover {cover:.1%} of it, at most {MAX_CYLINDER_COVER:.0%}): "
             "fewer or smaller cylinders, or a larger env.cyl_room"
         )
     if min_path < 0 or min_path > free / 2:
