@@ -111,6 +111,8 @@ def test_a_new_cylinder_field_every_new_maze_every_episodes(every):
         ("rooms", ["env.rooms_rows=1", "env.rooms_cols=1"], "env.rooms_rows x env.rooms_cols"),
         ("rooms", ["env.min_path_cells=3"], "env.min_path_cells"),
         ("rooms", ["env.goal_sampler=robotis"], "env.goal_sampler"),
+        ("rooms", ["env.rooms_door=0.4", "env.maze_scale=[0.6, 1]"], "env.maze_scale"),
+        ("cylinders", ["env.maze_scale=[0.9, 1.2]"], "env.maze_scale"),
     ],
 )
 def test_bad_family_settings_are_one_line_naming_the_setting(generator, override, names):
@@ -126,6 +128,11 @@ def test_a_bad_setting_on_the_command_line_is_one_line_and_a_failure(tmp_path, c
     err = capsys.readouterr().err.strip()
     assert code != 0 and "env.cyl_room must be in [1.5, 16] m" in err and "\n" not in err
     assert not (tmp_path / "run").exists()
+
+
+def test_a_drawn_family_may_grow_with_maze_scale():
+    load_config("cylinders", ["env.maze_scale=[1, 1.5]"])
+    load_config("rooms", ["env.maze_scale=[0.5, 1.5]"])  # 0.6 m doors stay 0.3 m wide
 
 
 def test_the_shipped_configs_load_and_are_listed():

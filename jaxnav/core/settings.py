@@ -148,9 +148,12 @@ def grid_problem(rows: int, cols: int, cell: float, loops: float, min_path: int)
     return None
 
 
-def cylinders_problem(count: int, radius, room: float, min_path: float) -> str | None:
+def cylinders_problem(
+    count: int, radius, room: float, min_path: float, scale_low: float = 1.0
+) -> str | None:
     """What is wrong with a cylinders family's settings together, one line naming the
-    setting, or None (each setting's own rule is checked before)."""
+    setting, or None (each setting's own rule is checked before). ``scale_low`` is
+    env.maze_scale's low end."""
     if not 1 <= count <= MAX_CYLINDERS:
         return f"env.cyl_count must be in [1, {MAX_CYLINDERS}]"
     if not (_pair(radius) and 0 < radius[0] <= radius[1]):
@@ -173,14 +176,26 @@ def cylinders_problem(count: int, radius, room: float, min_path: float) -> str |
             f"env.cyl_min_path must be in [0, {free / 2:.3g}] m (half the side of the room's "
             "free part, so that every start has a goal that far)"
         )
+    if scale_low < 1.0:
+        return (
+            "env.maze_scale must not shrink a cylinder field (low at least 1): the "
+            "cylinders would move closer and keep their radii, closing the free path"
+        )
     return None
 
 
 def rooms_problem(
-    rows: int, cols: int, size: float, door: float, loops: float, min_path: int
+    rows: int,
+    cols: int,
+    size: float,
+    door: float,
+    loops: float,
+    min_path: int,
+    scale_low: float = 1.0,
 ) -> str | None:
     """What is wrong with a rooms family's settings together, one line naming the
-    setting, or None (each setting's own rule is checked before)."""
+    setting, or None (each setting's own rule is checked before). ``scale_low`` is
+    env.maze_scale's low end."""
     if rows < 1:
         return "env.rooms_rows must be at least 1"
     if cols < 1:
@@ -202,6 +217,11 @@ def rooms_problem(
         return (
             f"env.min_path_cells must be at most rooms_rows + rooms_cols - 2 = "
             f"{rows + cols - 2} (corner room to corner room)"
+        )
+    if not door * scale_low > ROBOT_DIAMETER:
+        return (
+            f"env.maze_scale low ({scale_low:g}) shrinks env.rooms_door ({door:g} m) to the "
+            f"robot's diameter ({ROBOT_DIAMETER} m) or less"
         )
     return None
 
