@@ -17,9 +17,11 @@ start and the goals are cell centres ``GOAL_CLEARANCE`` (0.35 m) clear, as a fix
 maze's goals. Shortest paths are a breadth-first relaxation over the free cells
 (steps of 1 and sqrt 2 cells) from the start, repeated until nothing changes; the
 first goal is drawn among the cells reachable at least ``min_path`` m away along the
-raster (never less than the true shortest path), later goals among all reachable
-cells. A candidate layout with no such goal is rejected; a draw tries
-``MAX_TRIES`` candidates inside jit (``lax.while_loop`` with that cap).
+raster, later goals among all reachable cells. A raster path is one the robot can
+drive, so it is never shorter than the robot's true shortest path; that can be
+shorter still through gaps the raster counts as closed (under about 0.4 m). A
+candidate layout with no such goal is rejected; a draw tries ``MAX_TRIES``
+candidates inside jit (``lax.while_loop`` with that cap).
 
 ``rooms``: ``rows`` x ``cols`` square rooms of side ``size`` m, centred at the origin.
 The walls between rooms that get a door are a random spanning tree of the rooms
