@@ -186,6 +186,7 @@ def test_the_maze_of_a_draw_has_the_draws_cylinders_start_and_goal_points(cylind
     d = one(cylinder_draws, 0)
     maze = jax.tree.map(np.asarray, fam.cylinders_maze(d, CYL, np.float32(0.5)))
     assert maze.segments.shape == (4, 4) and maze.circles.shape == (CYL.count, 3)
+    assert maze.robotis_goals.shape == (256, 2)  # as every Maze
     np.testing.assert_allclose(maze.obstacles(), CYL.circles(d.codes))
     np.testing.assert_allclose(maze.start, [*CYL.cell_centres()[d.start], 0.5])
     n = int(maze.n_goal_points)

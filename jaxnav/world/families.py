@@ -370,7 +370,7 @@ def cylinders_maze(d: CylinderDraw, family: Cylinders, yaw: chex.Array) -> Maze:
         n_goal_points=n_goals,
         bounds=jnp.asarray([-h, -h, h, h], jnp.float32),
         n_obstacles=jnp.asarray(family.count, jnp.int32),
-        robotis_goals=goal_points[:_ROBOTIS_ROWS],
+        robotis_goals=jnp.resize(goal_points, (_ROBOTIS_ROWS, 2)),
         n_robotis_goals=jnp.minimum(n_goals, _ROBOTIS_ROWS),
         robotis_scale=jnp.asarray(family.room / ROBOTIS_ARENA, jnp.float32),
     )
