@@ -44,7 +44,7 @@ from flax import struct
 
 from jaxnav.core.config import env_family_problem, env_reward_problem, env_setting_problem
 from jaxnav.core.settings import PRESETS
-from jaxnav.world import generators, motion, sensor
+from jaxnav.world import families, generators, motion, sensor
 from jaxnav.world.geometry import (
     displacement,
     hypot,
@@ -174,6 +174,8 @@ class NavEnv:
         away along the maze; every ``new_maze_every`` episodes the restart draws the
         next (otherwise it keeps the maze, its start and the goal, as with a fixed
         maze). ``split`` picks the train or the test layouts, never the same.
+        "cylinders" (``cyl_*``) and "rooms" (``rooms_*``) are the families of
+        :mod:`jaxnav.world.families`, drawn the same way.
 
     Reward (:mod:`jaxnav.world.reward`):
       reward: "dense" (the paper's: R+, R-, else the heading shaping towards the goal),
@@ -208,6 +210,15 @@ class NavEnv:
     min_path_cells: int = 1
     new_maze_every: int = 1
     split: str = "train"
+    cyl_count: int = 8
+    cyl_radius: tuple[float, float] = (0.1, 0.25)
+    cyl_room: float = 4.0
+    cyl_min_path: float = 1.0
+    rooms_rows: int = 2
+    rooms_cols: int = 2
+    rooms_size: float = 2.0
+    rooms_door: float = 0.6
+    rooms_loops: float = 0.0
     reward: str = "dense"
 
     def __post_init__(self):
@@ -222,6 +233,7 @@ class NavEnv:
         lo, hi = self.maze_scale
         object.__setattr__(self, "odom_noise", tuple(float(x) for x in self.odom_noise))
         object.__setattr__(self, "maze_scale", (float(lo), float(hi)))
+        object.__setattr__(self, "cyl_radius", tuple(float(x) for x in self.cyl_radius))
 
     @property
     def generates(self) -> bool:
@@ -233,8 +245,15 @@ class NavEnv:
         """The grid family's static shape."""
         return generators.Grid(self.grid_rows, self.grid_cols, self.grid_cell, self.grid_loops)
 
+    @property
+    def family(self) -> families.Cylinders | families.Rooms:
+        """The cylinders or rooms family's static shape."""
+        return families.family_of(self)
+
     def draw_maze(self, key: chex.PRNGKey) -> tuple[Maze, chex.Array]:
         """(maze, goal f32[2]): a maze of the family and split, start and goal in it."""
+        if self.generator in families.FAMILIES:
+            return families.draw_maze(key, self.family, self.split)
         return generators.draw_maze(key, self.grid, self.split, self.min_path_cells)
 
     def in_maze(self, params: EnvParams, state: EnvState) -> EnvParams:

@@ -2,11 +2,11 @@
 
 A picture of a maze (built-in name or YAML file): walls, obstacles, the robot at
 its start pose, a goal drawn by ``reset``, and what its LiDAR beams see (cast by
-the environment's own sensor). MAZE may also be a maze generator (``grid``) or a
-config (``grid4``, a YAML file): then one maze of its family, drawn by ``reset`` from
-``--seed``. ``--samples N`` draws a sheet of N panels instead: mazes of the family
-(or goals in a fixed maze), each with its start, goal and shortest path
-(:func:`jaxnav.experiments.mazes.render_sheet`). The drawing itself is
+the environment's own sensor). MAZE may also be a maze generator (``grid``,
+``cylinders``, ``rooms``) or a config (``grid4``, a YAML file): then one maze of its
+family, drawn by ``reset`` from ``--seed``. ``--samples N`` draws a sheet of N panels
+instead: mazes of the family (or goals in a fixed maze), each with its start, goal and
+shortest path (:func:`jaxnav.experiments.mazes.render_sheet`). The drawing itself is
 :mod:`jaxnav.report.drawing`.
 """
 
@@ -59,7 +59,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument(
         "maze",
         help="built-in maze name (e.g. square4_obstacles), a maze .yaml file, a maze "
-        "generator (grid) or a config (e.g. grid4): a maze it draws",
+        "generator (grid, cylinders, rooms) or a config (e.g. grid4): a maze it draws",
     )
     parser.add_argument(
         "--out",

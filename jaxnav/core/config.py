@@ -40,8 +40,10 @@ from jaxnav.core.settings import (
     AT_LEAST_1,
     NON_NEGATIVE,
     PRESETS,
+    cylinders_problem,
     grid_problem,
     problem,
+    rooms_problem,
     setting,
 )
 from jaxnav.core.values import coerce, flatten, parse_override
@@ -248,6 +250,19 @@ def env_family_problem(env: Any) -> str | None:
     setting), or None; ``env`` is an EnvConfig or a ``jaxnav.env.NavEnv``."""
     if env.goal_sampler == "robotis":
         return "env.goal_sampler robotis needs a fixed maze (env.generator empty)"
+    low = min(env.maze_scale)
+    if env.generator == "cylinders":
+        return cylinders_problem(env.cyl_count, env.cyl_radius, env.cyl_room, env.cyl_min_path, low)
+    if env.generator == "rooms":
+        return rooms_problem(
+            env.rooms_rows,
+            env.rooms_cols,
+            env.rooms_size,
+            env.rooms_door,
+            env.rooms_loops,
+            env.min_path_cells,
+            low,
+        )
     return grid_problem(
         env.grid_rows, env.grid_cols, env.grid_cell, env.grid_loops, env.min_path_cells
     )

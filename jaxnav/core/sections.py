@@ -11,6 +11,10 @@ from dataclasses import dataclass
 from jaxnav.core.settings import (
     AT_LEAST_1,
     GENERATORS,
+    GOAL_CLEARANCE,
+    MAX_CYLINDER_ROOM,
+    MAX_CYLINDERS,
+    MIN_CYLINDER_ROOM,
     NON_NEGATIVE,
     PAIR_NON_NEGATIVE,
     POSITIVE,
@@ -74,12 +78,16 @@ class EnvConfig:
         rule=one_of("even", "gazebo"),
     )
     action_delay: bool = setting(False, "each action applied one step late (ROBOTIS' loop)")
-    # Procedural mazes (jaxnav.world.generators), off by default: env.maze is the maze.
+    # Procedural mazes (jaxnav.world.generators and .families), off by default: env.maze
+    # is the maze.
     generator: str = setting(
         "",
-        "empty: the fixed maze env.maze; grid: a random grid maze, new every new_maze_every "
-        "episodes",
-        rule=(lambda v: v in GENERATORS, 'must be "" (the fixed env.maze) or grid'),
+        "empty: the fixed maze env.maze; grid, cylinders or rooms: a random maze of that "
+        "family, new every new_maze_every episodes",
+        rule=(
+            lambda v: v in GENERATORS,
+            'must be "" (the fixed env.maze), grid, cylinders or rooms',
+        ),
     )
     grid_rows: int = setting(4, "grid: rows of cells", rule=AT_LEAST_1)
     grid_cols: int = setting(4, "grid: columns of cells", rule=AT_LEAST_1)
@@ -93,13 +101,57 @@ class EnvConfig:
     )
     min_path_cells: int = setting(
         1,
-        "grid: cells between the start and the first goal along the maze, at least",
+        "grid, rooms: cells (rooms) between the start and the first goal along the maze, at least",
         rule=AT_LEAST_1,
     )
-    new_maze_every: int = setting(1, "grid: episodes in each maze", rule=AT_LEAST_1)
+    cyl_count: int = setting(
+        8,
+        "cylinders: cylinders in the room",
+        rule=(lambda v: 1 <= v <= MAX_CYLINDERS, f"must be in [1, {MAX_CYLINDERS}]"),
+    )
+    cyl_radius: tuple[float, ...] = setting(
+        (0.1, 0.25),
+        "cylinders: radii drawn from [low, high], m",
+        rule=(
+            lambda x: len(x) == 2 and 0 < x[0] <= x[1],
+            "must be [low, high] with 0 < low <= high, m",
+        ),
+    )
+    cyl_room: float = setting(
+        4.0,
+        "cylinders: the square room's side, m",
+        rule=(
+            lambda v: MIN_CYLINDER_ROOM <= v <= MAX_CYLINDER_ROOM,
+            f"must be in [{MIN_CYLINDER_ROOM:g}, {MAX_CYLINDER_ROOM:g}] m",
+        ),
+    )
+    cyl_min_path: float = setting(
+        1.0,
+        "cylinders: start to first goal along the free space, m, at least",
+        rule=NON_NEGATIVE,
+    )
+    rooms_rows: int = setting(2, "rooms: rows of rooms", rule=AT_LEAST_1)
+    rooms_cols: int = setting(2, "rooms: columns of rooms", rule=AT_LEAST_1)
+    rooms_size: float = setting(
+        2.0,
+        "rooms: a room's side, m",
+        rule=(lambda v: v > 2 * GOAL_CLEARANCE, f"must be more than {2 * GOAL_CLEARANCE:g} m"),
+    )
+    rooms_door: float = setting(
+        0.6,
+        "rooms: a door's width, m",
+        rule=(
+            lambda v: v > ROBOT_DIAMETER,
+            f"must be wider than the robot's diameter ({ROBOT_DIAMETER} m)",
+        ),
+    )
+    rooms_loops: float = setting(
+        0.0, "rooms: fraction of the walls left without a door that get one (loops)", rule=UNIT
+    )
+    new_maze_every: int = setting(1, "drawn mazes: episodes in each maze", rule=AT_LEAST_1)
     split: str = setting(
         "train",
-        "grid: train or test mazes (a layout is in one split only)",
+        "drawn mazes: train or test mazes (a layout is in one split only)",
         rule=one_of("train", "test"),
     )
     reward: str = setting(

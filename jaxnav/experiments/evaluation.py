@@ -30,6 +30,7 @@ import numpy as np
 from jaxnav.core import rundir
 from jaxnav.core.config import Config, load_config
 from jaxnav.core.errors import JaxnavError, RunError
+from jaxnav.core.settings import family_text
 from jaxnav.core.sweep import with_swept
 from jaxnav.dqn import network_of, run_inputs
 from jaxnav.env import from_config
@@ -97,7 +98,7 @@ def trained_on(cfg: Config) -> str:
     """What a run trained on: its maze, or its drawn mazes' family."""
     e = cfg.env
     if e.generator:
-        return f"{e.grid_rows} x {e.grid_cols} {e.generator} mazes ({e.split} split)"
+        return f"{family_text(e)} ({e.split} split)"
     return e.maze
 
 
