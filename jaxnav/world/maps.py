@@ -66,7 +66,7 @@ from flax import struct
 
 from jaxnav.core.config import shipped_path
 from jaxnav.core.errors import MazeError
-from jaxnav.world.builtins import BUILTIN_MAZES, STAGES, builtin, square, stage
+from jaxnav.world.builtins import BUILTIN_MAZES, builtin, square
 from jaxnav.world.motion import Motion, pad_motion, parked
 from jaxnav.world.polygons import (
     centroid,
@@ -77,6 +77,7 @@ from jaxnav.world.polygons import (
     self_intersecting,
     signed_area,
 )
+from jaxnav.world.stages import STAGES, stage
 
 # Geometry constants shared with the environment (robot and goal sampler).
 ROBOT_RADIUS = 0.13  # m, ROBOTIS collision threshold
