@@ -53,6 +53,7 @@ from jaxnav.world.geometry import (
 )
 from jaxnav.world.goals import GoalSampler
 from jaxnav.world.kinematics import firmware_limit
+from jaxnav.world.lazy import draw_where
 from jaxnav.world.maps import (
     BURGER_RADIUS,
     ROBOT_RADIUS,
@@ -420,7 +421,7 @@ class NavEnv(GoalSampler):
         return obs, new_state, reward.astype(jnp.float32), terminated, truncated, info
 
     def restart(
-        self, key: chex.PRNGKey, state: EnvState, params: EnvParams
+        self, key: chex.PRNGKey, state: EnvState, params: EnvParams, done=None
     ) -> tuple[chex.Array, EnvState]:
         """TurtleBot3's restart after a collision or the step limit: the start pose
         (random if ``random_start``), the same goal, step count 0, the moving cylinders
@@ -429,7 +430,7 @@ class NavEnv(GoalSampler):
         # Without randomised starts the start-pose scan does not depend on the state:
         # under vmap with shared params it is computed once, not per environment.
         if self.generates:
-            return self._restart_drawn(key, state, params)
+            return self._restart_drawn(key, state, params, done)
         goal = state.goal
         scale = self._episode_scale(key)
         pos, yaw = self._start_pose(key, params, goal, scale)
@@ -440,13 +441,17 @@ class NavEnv(GoalSampler):
         state = _new_episode(pos, yaw, goal, scale, self.action_delay)
         return obs, self._with_world(state, params)
 
-    def _restart_drawn(self, key, state: EnvState, params: EnvParams):
+    def _restart_drawn(self, key, state: EnvState, params: EnvParams, done=None):
         """:meth:`restart` with drawn mazes: the next maze from ``fold_in(key, 5)`` once
-        the current one has had ``new_maze_every`` episodes."""
+        the current one has had ``new_maze_every`` episodes. ``done`` (bool[], from
+        :meth:`step`): whether this restart is used; where it is not, no maze is drawn
+        (:func:`jaxnav.world.lazy.draw_where`), which changes no number."""
         episodes = state.maze_episodes + 1
         fresh = episodes >= self.new_maze_every
-        new_maze, new_goal = self.draw_maze(jax.random.fold_in(key, 5))
-        maze = jax.tree.map(lambda a, b: jnp.where(fresh, a, b), new_maze, state.maze)
+        needed = fresh if done is None else fresh & done
+        maze, new_goal = draw_where(
+            self.draw_maze, needed, jax.random.fold_in(key, 5), (state.maze, state.goal)
+        )
         episodes = jnp.where(fresh, 0, episodes)
         params = params.replace(maze=maze)
         scale = self._episode_scale(key)
@@ -469,7 +474,7 @@ class NavEnv(GoalSampler):
         # The restart observes with the step's own observation key: its range noise
         # (and dropout) is the same draw as the step's, so it costs nothing extra; the
         # two observations are of different poses and never feed one transition.
-        obs_re, st_re = self.restart(_step_keys(key)[1], st, params)
+        obs_re, st_re = self.restart(_step_keys(key)[1], st, params, done)
         state = jax.tree.map(lambda a, b: jnp.where(done, a, b), st_re, st)
         obs = jnp.where(done, obs_re, obs_st)
         info = dict(info, final_obs=obs_st)
