@@ -351,11 +351,10 @@ class NavEnv(GoalSampler):
         state = self._with_world(state, params)
         return self.observe(k_obs, pos, yaw, goal, params, scale), state
 
-    def _with_world(self, state: EnvState, params: EnvParams) -> EnvState:
+    def _with_world(self, state: EnvState, params: EnvParams, cell_dist=None) -> EnvState:
         """A new episode's state with its cylinders at time 0 and, for the geodesic
-        reward, its maze's cell distances."""
-        cell_dist = None
-        if self.reward == "geodesic":
+        reward, its maze's cell distances (``cell_dist`` if known)."""
+        if self.reward == "geodesic" and cell_dist is None:
             cell_dist = generators.maze_cell_distances(params.maze, self.grid)
         return state.replace(circles=self.circles_at(params, state.scale, 0), cell_dist=cell_dist)
 
@@ -449,9 +448,8 @@ class NavEnv(GoalSampler):
         episodes = state.maze_episodes + 1
         fresh = episodes >= self.new_maze_every
         needed = fresh if done is None else fresh & done
-        maze, new_goal = draw_where(
-            self.draw_maze, needed, jax.random.fold_in(key, 5), (state.maze, state.goal)
-        )
+        old = (state.maze, state.goal, state.cell_dist)
+        maze, new_goal, cell_dist = draw_where(self._draw, needed, jax.random.fold_in(key, 5), old)
         episodes = jnp.where(fresh, 0, episodes)
         params = params.replace(maze=maze)
         scale = self._episode_scale(key)
@@ -463,7 +461,15 @@ class NavEnv(GoalSampler):
         scale = jnp.asarray(scale, jnp.float32)
         obs = self.observe(key, pos, yaw, goal, params, scale)
         state = _new_episode(pos, yaw, goal, scale, self.action_delay, maze, episodes)
-        return obs, self._with_world(state, params)
+        return obs, self._with_world(state, params, cell_dist)
+
+    def _draw(self, key: chex.PRNGKey):
+        """(maze, goal, its cell distances for the geodesic reward or None)."""
+        maze, goal = self.draw_maze(key)
+        dist = None
+        if self.reward == "geodesic":
+            dist = generators.maze_cell_distances(maze, self.grid)
+        return maze, goal, dist
 
     def step(self, key: chex.PRNGKey, state: EnvState, action: chex.Array, params: EnvParams):
         """Step with auto-reset: after a collision or truncation the robot restarts at the
