@@ -363,3 +363,20 @@ def test_results_count_every_goal_attempt_of_every_episode(evaluated):
         assert 0 <= float(r["time_s"]) <= int(r["length"]) * dt + 1e-4
     tables = (out / "eval" / "tables.md").read_text()
     assert "| maze | strategy | success | collision | timeout | path_length_m | spl |" in tables
+
+
+def test_a_run_with_no_test_mazes_is_refused_unless_its_mazes_are_drawn():
+    from types import SimpleNamespace
+
+    from jaxnav.core.errors import JaxnavError
+    from jaxnav.experiments.evaluation import test_setup
+
+    def run(generator):
+        env = SimpleNamespace(generator=generator)
+        return SimpleNamespace(
+            config=SimpleNamespace(env=env, run=SimpleNamespace(test_episodes=3))
+        )
+
+    with pytest.raises(JaxnavError, match="no test mazes"):
+        test_setup(run(""), None, None, [])
+    assert test_setup(run("grid"), None, None, []) == ([], 3)  # its train and test splits

@@ -116,6 +116,8 @@ def test_setup(
 ) -> tuple[list[str], int]:
     """The test mazes (default ``default``) and episode count (default the config's)."""
     names = list(maze_names) if maze_names else list(default)
+    if not names and not run.config.env.generator:
+        raise JaxnavError("no test mazes: name some, or set run.test_mazes in the config")
     if len(set(names)) != len(names):
         raise JaxnavError("a maze is listed twice")
     n_episodes = run.config.run.test_episodes if n_episodes is None else n_episodes
@@ -135,7 +137,7 @@ def evaluate(
     run = load_run(run_dir)
     names, n_episodes = test_setup(run, maze_names, n_episodes, run.config.run.test_mazes)
     labels = run.policies.labels
-    mazes = padded_mazes(names)
+    mazes = padded_mazes(names) if names else []  # a drawn run may test on its splits only
     paths = ShortestPaths(float(run.policies.env_params.robot_radius))
 
     def counts(policies: Policies, mazes, results):
@@ -147,11 +149,13 @@ def evaluate(
             for maze, res in zip(mazes, results)
         ]
 
-    rows = []
+    rows, episodes = [], {}
     for mode in MODES:
-        results = run_tests(
-            run.policies, mazes, n_episodes, record=mode == "greedy", mode=mode, navigation=True
-        )
+        results = []
+        if mazes:
+            results = run_tests(
+                run.policies, mazes, n_episodes, record=mode == "greedy", mode=mode, navigation=True
+            )
         nav = counts(run.policies, mazes, results)
         rows += episode_rows(run.policies.fields, names, results, n_episodes, mode, nav)
         if mode == "greedy":
