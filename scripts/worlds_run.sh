@@ -13,3 +13,4 @@ python -m jaxnav evaluate "$run"
 mkdir -p docs/worlds/grid4
 cp "$run/eval/results.csv" "$run/eval/tables.md" docs/worlds/grid4/
 echo "wrote docs/worlds/grid4/results.csv and tables.md"
+python scripts/publish_worlds_run.py
