@@ -118,3 +118,35 @@ def test_a_swept_run_has_one_curve_per_arm_averaged_over_its_seeds(tmp_path):
         mine = [r for r in rows if r["exploration.ebe_temperature"] == temperature]
         want = np.mean([float(r["return"]) for r in mine if r["episode"] == "3"])
         assert got[3] == pytest.approx(want, rel=1e-5)
+
+
+def test_evaluation_curves_are_the_means_of_eval_csv_over_seeds(tmp_path):
+    from jaxnav.run.greedy import EVAL_COLUMNS
+    from jaxnav.run.tblog import TensorBoardLog
+    from jaxnav.run.training import METRIC_COLUMNS
+
+    labels = [("ebe", 0), ("ebe", 1), ("epsilon_greedy", 0), ("epsilon_greedy", 1)]
+    rows = [  # strategy, seed, env_step, wall_s, return, goals, collided, attempts, ...
+        ("ebe", 0, 300, "1.5", "10", "1", "0", 5, 2, "0.4"),
+        ("ebe", 1, 300, "1.5", "20", "3", "0", 5, 4, "0.8"),
+        ("epsilon_greedy", 0, 280, "1.5", "-5", "0", "1", 3, 0, "0"),
+        ("epsilon_greedy", 1, 300, "1.5", "5", "2", "0", 4, 2, "0.5"),
+    ]
+    tb = TensorBoardLog(tmp_path, labels, METRIC_COLUMNS, eval_columns=EVAL_COLUMNS)
+    tb.add_evals(rows)
+    tb.close()
+    got = read_scalars(tmp_path / "tensorboard" / "eval")
+    assert got["ebe/return"] == {300: 15.0} and got["ebe/goals"] == {300: 2.0}
+    assert got["ebe/success"][300] == pytest.approx(0.6)
+    assert got["epsilon_greedy/success"][300] == pytest.approx(0.25)  # the lockstep step
+    # resumed from a checkpoint at step 300: its evaluation stays, later ones go
+    TensorBoardLog(tmp_path, labels, METRIC_COLUMNS, True, 300, EVAL_COLUMNS).close()
+    assert purge_steps(tmp_path / "tensorboard" / "eval") == [301]
+
+
+def test_a_run_without_evaluation_writes_no_evaluation_curves(tmp_path):
+    from jaxnav.run.tblog import TensorBoardLog
+    from jaxnav.run.training import METRIC_COLUMNS
+
+    TensorBoardLog(tmp_path, [("ebe", 0)], METRIC_COLUMNS).close()
+    assert not (tmp_path / "tensorboard" / "eval").exists()

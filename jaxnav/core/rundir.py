@@ -56,6 +56,7 @@ from jaxnav.core.errors import RunError
 CONFIG = "config.yaml"
 METRICS = "metrics.csv"
 EXPLORE = "explore.csv"
+EVAL = "eval.csv"  # the greedy evaluations while the run trains (run.eval_every)
 CHECKPOINT = "checkpoints/last.npz"
 PARAMS = "params.npz"
 SUMMARY = "summary.json"
@@ -66,6 +67,7 @@ RUN_ENTRIES = (
     CONFIG,
     METRICS,
     EXPLORE,
+    EVAL,
     PARAMS,
     SUMMARY,
     "checkpoints",

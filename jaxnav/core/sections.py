@@ -312,3 +312,11 @@ class RunConfig:
     tensorboard: bool = setting(
         False, "training curves for TensorBoard in RUN_DIR/tensorboard (extra 'tensorboard')"
     )
+    eval_every: int = setting(
+        0,
+        "env steps per run between greedy evaluations of every run, to eval.csv (0: none)",
+        rule=NON_NEGATIVE,
+    )
+    eval_episodes: int = setting(
+        5, "consecutive episodes of each greedy evaluation (run.eval_every)", rule=AT_LEAST_1
+    )

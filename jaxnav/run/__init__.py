@@ -1,2 +1,3 @@
 """The host side of a training run: the loop around the compiled trainer (chunks,
-progress, checkpoints, resume) and TensorBoard curves. Imports the agent and below."""
+progress, checkpoints, resume), the greedy evaluation while it trains and
+TensorBoard curves. Imports the agent and below."""

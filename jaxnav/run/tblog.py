@@ -7,7 +7,10 @@ Two TensorBoard runs in ``RUN_DIR/tensorboard/``:
   exploration, at step = episode index, written once every seed has finished that
   episode (from the same rows as metrics.csv);
 * ``steps``: per strategy, the mean over seeds and 100 env steps of the TD loss and
-  of max_a Q(s, a) at the acting state, at step = env step (runs step in lockstep).
+  of max_a Q(s, a) at the acting state, at step = env step (runs step in lockstep);
+* ``eval``, with ``run.eval_every``: per strategy, the mean over seeds of each greedy
+  evaluation's return, goals and success rate per goal attempt (the rows of
+  eval.csv), at step = env step.
 
 Written by tensorboardX (a small writer without TensorFlow; optional extra
 ``tensorboard``). A resumed run purges what was written after its checkpoint, so
@@ -28,6 +31,7 @@ from jaxnav.core.sweep import row_arm
 DIR = "tensorboard"
 BLOCK = 100  # env steps per point of the step curves
 EPISODE_CURVES = ("return", "length", "goals", "collided", "explore")  # metrics.csv columns
+EVAL_CURVES = ("return", "goals", "success")  # eval.csv columns
 
 
 def check_available() -> None:
@@ -59,7 +63,9 @@ class TensorBoardLog:
       columns: the names of a metrics row's fields (metrics.csv's header).
       resumed: training goes on from a checkpoint at env step ``first_step``: what was
         written before is purged, the episode curves from episode 0 (the caller adds
-        metrics.csv's rows again), the step curves from ``first_step``.
+        metrics.csv's rows again), the step curves from ``first_step``, the evaluations
+        after it (the checkpoint's chunk wrote the one at ``first_step``).
+      eval_columns: eval.csv's header, when the run evaluates its policies (None: not).
     """
 
     def __init__(
@@ -69,6 +75,7 @@ class TensorBoardLog:
         columns: Sequence[str],
         resumed: bool = False,
         first_step: int = 0,
+        eval_columns: Sequence[str] | None = None,
     ):
         self.labels = list(labels)
         self.columns = list(columns)
@@ -80,6 +87,10 @@ class TensorBoardLog:
         self.pending: dict[tuple[str, int], list[tuple]] = {}
         self.episodes = _writer(run_dir / DIR / "episodes", 0 if resumed else None)
         self.steps = _writer(run_dir / DIR / "steps", first_step if resumed else None)
+        self.eval_columns = None if eval_columns is None else list(eval_columns)
+        self.evals = None
+        if eval_columns is not None:
+            self.evals = _writer(run_dir / DIR / "eval", first_step + 1 if resumed else None)
 
     def add_episodes(self, rows: Sequence[tuple]) -> None:
         """metrics.csv rows of a chunk (fields in ``columns`` order); an episode's means
@@ -107,10 +118,26 @@ class TensorBoardLog:
                         mean = float(np.nanmean(block))
                         self.steps.add_scalar(f"{tag(strategy)}/{name}", mean, first_step + b)
 
+    def add_evals(self, rows: Sequence[tuple]) -> None:
+        """One evaluation's eval.csv rows (fields in ``eval_columns`` order): per arm, the
+        means over seeds at the env step of its runs still training (the largest)."""
+        by_arm: dict[str, list[dict]] = {}
+        for row in rows:
+            named = dict(zip(self.eval_columns, row))
+            by_arm.setdefault(row_arm(named), []).append(named)
+        for arm, got in by_arm.items():
+            step = max(int(r["env_step"]) for r in got)
+            for name in EVAL_CURVES:
+                mean = float(np.mean([float(r[name]) for r in got]))
+                self.evals.add_scalar(f"{tag(arm)}/{name}", mean, step)
+
+    def _writers(self) -> list:
+        return [w for w in (self.episodes, self.steps, self.evals) if w is not None]
+
     def flush(self) -> None:
-        self.episodes.flush()
-        self.steps.flush()
+        for w in self._writers():
+            w.flush()
 
     def close(self) -> None:
-        self.episodes.close()
-        self.steps.close()
+        for w in self._writers():
+            w.close()

@@ -3,7 +3,8 @@
 All seeds of all strategies run as one vmapped program (:func:`jaxnav.dqn.make_trainer`,
 or :func:`jaxnav.pqn.make_trainer` for ``dqn.agent: pqn``), ``run.chunk_steps``
 environment steps per call. After each chunk the host appends
-the new episodes to ``metrics.csv`` and ``explore.csv`` and writes a checkpoint
+the new episodes to ``metrics.csv`` and ``explore.csv`` (and ``run.eval_every``'s
+evaluations to ``eval.csv``, :mod:`jaxnav.run.greedy`) and writes a checkpoint
 that records the training state and how long the logs were, so a run killed at any
 moment (even by SIGKILL) resumes from its last chunk (:func:`resume`) and ends with
 exactly the metrics and parameters of an uninterrupted run. The files and their
@@ -49,6 +50,7 @@ from jaxnav.run.checkpoint import (
     state_from_checkpoint,
     without_rows,
 )
+from jaxnav.run.greedy import GreedyEval
 
 # A swept run's logs have one more column per swept key, named by it, after "strategy"
 # (jaxnav.core.sweep.with_swept).
@@ -96,6 +98,8 @@ class Run:
             out / rundir.EXPLORE, sweep.with_swept(EXPLORE_COLUMNS, cfg.sweep)
         )
         self.checkpoint = out / rundir.CHECKPOINT
+        on = cfg.run.eval_every > 0  # the greedy evaluations while training (eval.csv)
+        self.greedy = GreedyEval(cfg, self.trainer, self.shard, out, EXPLORE_BLOCK) if on else None
         self.logged = np.zeros(cfg.n_runs, np.int64)  # episodes written per run
         self.recent: dict[tuple[str, int], list[float]] = {label: [] for label in self.labels}
         self.wall = 0.0  # training seconds over all sessions of this run
@@ -135,6 +139,9 @@ class Run:
         if is_writer():
             self.metrics.truncate(metrics_size)
             self.explore.truncate(explore_size)
+        if self.greedy is not None:
+            eval_size = int(host.get("eval_size", 0)) if is_writer() else None
+            self.greedy.restore(int(np.asarray(ts.step).max()), eval_size)
         for row in self.metrics.read():
             self.recent[(sweep.row_arm(row), int(row["seed"]))].append(float(row["return"]))
         return self.shard.put(ts)
@@ -157,7 +164,8 @@ class Run:
         if not active.any():
             return 0
         size = trainer.step_size
-        return int(min(trainer.chunk_length, -(-left[active].max() // size) * size))
+        n = int(min(trainer.chunk_length, -(-left[active].max() // size) * size))
+        return n if self.greedy is None else self.greedy.chunk_end(int(step.max()), n)
 
     def check_divergence(self, ts: TrainState) -> list[str]:
         """Runs that diverged in the last chunk, each described in words."""
@@ -223,6 +231,7 @@ class Run:
         explore_rows: list,
         slots: np.ndarray,
         checkpoint: bool = True,
+        eval_rows: list = (),
     ) -> None:
         """Append the chunk's rows, then checkpoint (with the logs' new lengths): the
         replay slots the chunk wrote (``slots``) to a new segment, then the rest.
@@ -237,16 +246,18 @@ class Run:
         if not is_writer():
             return
         with startup.no_interrupt():  # Ctrl-C: after the checkpoint, never between
-            self._write(metric_rows, explore_rows, slots, rows, state, checkpoint)
+            self._write(metric_rows, explore_rows, eval_rows, slots, rows, state, checkpoint)
 
-    def _write(self, metric_rows, explore_rows, slots, rows, state, checkpoint: bool) -> None:
+    def _write(self, metric_rows, explore_rows, eval_rows, slots, rows, state, checkpoint) -> None:
         """:meth:`save`'s writes, on the host copies it gathered."""
-        logs = (self.metrics, self.explore)
+        evals = () if self.greedy is None else (self.greedy.log,)
+        logs = (self.metrics, self.explore, *evals)
         before = [log.size() for log in logs]
         try:
             sizes = np.asarray(
                 [self.metrics.append(metric_rows), self.explore.append(explore_rows)], np.int64
             )
+            host = {"eval_size": np.int64(evals[0].append(eval_rows))} if evals else {}
             if not checkpoint:
                 return
             segments = self.segments
@@ -254,7 +265,7 @@ class Run:
                 segment = {"slots": slots, **{f"rows.buffer.{r}": a for r, a in rows.items()}}
                 rundir.atomic_write_npz(self.out / ROW_SEGMENT.format(segments), segment)
                 segments += 1
-            host = {
+            host |= {
                 "logged": self.logged,
                 "wall": np.float64(self.wall),
                 "csv_sizes": sizes,
@@ -322,7 +333,8 @@ class Run:
         step = int(self.shard.get(ts.step).max())
         resumed = step > 0
         columns = self.metric_columns
-        tb = tblog.TensorBoardLog(self.out, self.labels, columns, resumed, step)
+        evals = None if self.greedy is None else self.greedy.log.header
+        tb = tblog.TensorBoardLog(self.out, self.labels, columns, resumed, step, evals)
         if resumed and self.metrics.size():
             tb.add_episodes([tuple(r[c] for c in columns) for r in self.metrics.read()])
         return tb
@@ -359,14 +371,17 @@ class Run:
                 # On a stop the finished episodes are kept and the last checkpoint
                 # (before the divergence) stays: a resume replays this chunk.
                 rows = self.new_episodes(ts), self.explore_blocks(log.explore, step_before)
+                done = not self.active(ts).any()
+                evals = [] if self.greedy is None else self.greedy.evaluate(ts, done)
                 if tb is not None:  # before the checkpoint: a resume purges it, never misses it
                     tb.add_episodes(rows[0])
                     tb.add_steps(log.loss, log.max_q, int(step_before.max()))
+                    tb.add_evals(evals)
                     tb.flush()
                 slots = chunk_slots(step_before, self.shard.get(ts.step), self.cfg.buffer_capacity)
                 if not has_replay(self.cfg):
                     slots = slots[:0]
-                self.save(ts, *rows, slots, checkpoint=not stop)
+                self.save(ts, *rows, slots, checkpoint=not stop, eval_rows=evals)
                 if stop:
                     raise RunError(
                         f"training diverged: {diverged[0]}"
@@ -568,5 +583,6 @@ def resume(out: Path, quiet: bool = False, keep_checkpoints: bool = False) -> di
             if is_writer():
                 run.metrics.path.unlink(missing_ok=True)
                 run.explore.path.unlink(missing_ok=True)
+                (out / rundir.EVAL).unlink(missing_ok=True)
             ts = run.fresh_state()
         return run.finish(run.train(ts))

@@ -1,0 +1,198 @@
+"""Time to solve: how long after a training command starts its greedy policy succeeds.
+
+For each maze (square4, and square4_obstacles, the stage-2 maze with four cylinders)
+and each agent, one ``python -m jaxnav.train`` command trains every seed of EBE and
+epsilon-greedy at once with ``run.eval_every`` (``jaxnav/run/greedy.py``); this
+script starts it in a subprocess with an empty compilation cache, so compilation is
+part of the time, and reads its ``eval.csv``. A run is solved at its first
+evaluation whose greedy policy reaches its goal in at least 95% of its goal
+attempts (``success``, over ``run.eval_episodes`` episodes); its time is that
+row's ``wall_s``, seconds since the command started (the evaluations before it
+included). All runs of a command train side by side in one compiled program, so a
+run's time is the command's wall clock, shared with the other runs.
+
+The agents, each its own shipped config with only the maze, the step budget and
+the evaluation changed (a budget of env steps per run, ``episodes=null``):
+
+* DQN: the paper's (``configs/paper_no_obstacles.yaml``, ``paper_obstacles.yaml``);
+* double + dueling DQN: the same with ``dqn.double=true dqn.dueling=true``;
+* PQN: ``configs/pqn.yaml`` (its own ``env.max_steps`` of 200 and no range noise).
+
+Per maze, agent and strategy: the seeds solved within the budget, and the median
+over all seeds of the time (and env steps) to solve, a seed never solved counting
+as never (so the median is "not solved" when half or more are not).
+
+    python bench/time_to_solve.py --quick    # 2 seeds, tiny budgets: checks it runs
+    python bench/time_to_solve.py            # 8 seeds, 200,000 env steps per run
+
+Commands run one after another, never two at once; use a quiet machine.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+from common import ROOT, child_env, machine
+
+THRESHOLD = 0.95  # success per goal attempt that counts as solved
+MAZES = {  # maze -> the paper's config for it
+    "square4": "configs/paper_no_obstacles.yaml",
+    "square4_obstacles": "configs/paper_obstacles.yaml",
+}
+STRATEGIES = ("ebe", "epsilon_greedy")
+
+
+def agents(maze: str) -> dict[str, list[str]]:
+    """Each agent's config and overrides on ``maze``."""
+    paper = MAZES[maze]
+    return {
+        "DQN": [paper],
+        "double + dueling DQN": [paper, "dqn.double=true", "dqn.dueling=true"],
+        "PQN": ["configs/pqn.yaml", f"env.maze={maze}"],
+    }
+
+
+def command(items: list[str], args, out: Path) -> list[str]:
+    """The training command of one agent on one maze."""
+    return [
+        sys.executable,
+        "-m",
+        "jaxnav.train",
+        *items,
+        f"seeds={args.seeds}",
+        "episodes=null",
+        f"total_steps={args.steps}",
+        f"run.eval_every={args.eval_every}",
+        f"run.eval_episodes={args.eval_episodes}",
+        # chunks of one evaluation period (PQN: its whole updates in it), so every
+        # chunk end is an evaluation and none is cut
+        f"run.chunk_steps={args.eval_every}",
+        "--out",
+        str(out),
+        "--quiet",
+    ]
+
+
+def solved_at(rows: list[dict[str, str]]) -> dict[tuple[str, int], tuple[float, int] | None]:
+    """Each run's first (wall_s, env_step) with success >= THRESHOLD; None if never."""
+    runs: dict[tuple[str, int], tuple[float, int] | None] = {}
+    for r in sorted(rows, key=lambda r: int(r["env_step"])):
+        key = (r["strategy"], int(r["seed"]))
+        runs.setdefault(key, None)
+        if runs[key] is None and float(r["success"]) >= THRESHOLD:
+            runs[key] = (float(r["wall_s"]), int(r["env_step"]))
+    return runs
+
+
+def median_or_never(values: list[float | None]) -> float | None:
+    """The median with None as never (larger than everything); None if it is never."""
+    ordered = sorted(values, key=lambda v: (v is None, v or 0.0))
+    n = len(ordered)
+    mid = ordered[(n - 1) // 2], ordered[n // 2]
+    if None in mid:
+        return None
+    return statistics.mean(mid)
+
+
+def measure(maze: str, agent: str, items: list[str], args, log) -> list[dict]:
+    """Run one command; one result per strategy."""
+    with tempfile.TemporaryDirectory() as tmp:
+        out, cache = Path(tmp) / "run", Path(tmp) / "cache"
+        cmd = command(items, args, out)
+        log("$ " + " ".join(["python", *cmd[1:]]))
+        t0 = time.perf_counter()
+        p = subprocess.run(
+            cmd, cwd=ROOT, env=child_env({"JAXNAV_CACHE": str(cache)}), capture_output=True
+        )
+        wall = time.perf_counter() - t0
+        if p.returncode != 0:
+            err = p.stderr.decode(errors="replace").strip().splitlines() or ["?"]
+            raise RuntimeError(f"jaxnav.train failed: {err[-1]}")
+        with open(out / "eval.csv") as f:
+            runs = solved_at(list(csv.DictReader(f)))
+    log(f"    {wall:.1f} s whole")
+    results = []
+    for strategy in STRATEGIES:
+        mine = [v for (s, _), v in sorted(runs.items()) if s == strategy]
+        results.append(
+            {
+                "maze": maze,
+                "agent": agent,
+                "strategy": strategy,
+                "seeds": len(mine),
+                "solved": sum(v is not None for v in mine),
+                "median_s": median_or_never([None if v is None else v[0] for v in mine]),
+                "median_steps": median_or_never([None if v is None else v[1] for v in mine]),
+                "per_seed_s": [None if v is None else v[0] for v in mine],
+                "command_s": wall,
+            }
+        )
+    return results
+
+
+def table(results: list[dict], args) -> str:
+    lines = [
+        f"| maze | agent | strategy | solved | median time to {THRESHOLD:.0%} (s) "
+        "| median env steps | whole command (s) |",
+        "|---|---|---|--:|--:|--:|--:|",
+    ]
+    for r in results:
+        never = f"not solved in {args.steps:,}"
+        s = never if r["median_s"] is None else f"{r['median_s']:.1f}"
+        steps = never if r["median_steps"] is None else f"{r['median_steps']:,.0f}"
+        lines.append(
+            f"| {r['maze']} | {r['agent']} | {r['strategy']} | {r['solved']}/{r['seeds']} "
+            f"| {s} | {steps} | {r['command_s']:.1f} |"
+        )
+    return "\n".join(lines)
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--quick", action="store_true", help="2 seeds, tiny budgets: checks it runs")
+    ap.add_argument("--seeds", type=int, help="seeds per strategy (8; --quick 2)")
+    ap.add_argument("--steps", type=int, help="env steps per run (200,000; --quick 2,048)")
+    ap.add_argument(
+        "--eval-every", type=int, help="env steps between evaluations (5,120; --quick 1,024)"
+    )
+    ap.add_argument("--eval-episodes", type=int, default=5, help="episodes per evaluation")
+    ap.add_argument("--mazes", nargs="+", choices=list(MAZES), default=list(MAZES))
+    ap.add_argument("--json", help="also write the results here")
+    args = ap.parse_args(argv)
+    quick = args.quick
+    args.seeds = args.seeds or (2 if quick else 8)
+    args.steps = args.steps or (2048 if quick else 200_000)
+    # a multiple of PQN's 512 env steps per update in configs/pqn.yaml
+    args.eval_every = args.eval_every or (1024 if quick else 5120)
+
+    def log(text: str) -> None:
+        print(text, file=sys.stderr, flush=True)
+
+    log(f"machine: {machine()}")
+    results = []
+    for maze in args.mazes:
+        for agent, items in agents(maze).items():
+            results += measure(maze, agent, items, args, log)
+    flags = " --quick" if quick else ""
+    print(
+        f"`python bench/time_to_solve.py{flags}`: {args.seeds} seeds per strategy, "
+        f"{args.steps:,} env steps per run, a greedy evaluation of {args.eval_episodes} "
+        f"episodes every {args.eval_every:,}; whole commands, empty compilation cache."
+    )
+    print()
+    print(table(results, args))
+    if args.json:
+        Path(args.json).write_text(json.dumps(results, indent=2) + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

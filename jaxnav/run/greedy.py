@@ -1,0 +1,141 @@
+"""The greedy evaluation of every run while it trains (``run.eval_every``).
+
+At the first chunk end at or past every multiple of ``run.eval_every`` env steps
+(and once when training ends), each run's current policy plays
+``run.eval_episodes`` consecutive episodes greedily (argmax Q, dropout off, no
+exploration) in the training environment: the test rollout of finished runs,
+:func:`jaxnav.agent.rollout.make_rollout`, with the same key as ``jaxnav evaluate``
+(:func:`jaxnav.agent.rollout.eval_keys`) at every evaluation. The evaluation only
+reads the training state, so training's numbers are those of a run without it.
+
+One row per run and evaluation goes to ``eval.csv`` (:data:`EVAL_COLUMNS`), appended
+with the chunk's logs before its checkpoint, so a resumed run cuts it back as it
+does metrics.csv. Chunks are cut at the evaluations (:meth:`GreedyEval.chunk_end`)
+only where the logs' blocks of env steps stay as they are without evaluation.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import jax
+import numpy as np
+
+from jaxnav.agent.rollout import eval_keys, make_rollout
+from jaxnav.agent.sharding import RunSharding
+from jaxnav.core import rundir, sweep
+from jaxnav.core.config import Config
+from jaxnav.core.startup import process_age
+from jaxnav.dqn import Trainer, network_of
+from jaxnav.report.navigation import SUCCESS, split_attempts
+
+# A swept run's eval.csv has one more column per swept key after "strategy", as
+# metrics.csv. return, goals and collided are means over the evaluation's episodes;
+# attempts and successes count its goal attempts (jaxnav.report.navigation), success
+# is their ratio.
+EVAL_COLUMNS = (
+    "strategy",
+    "seed",
+    "env_step",
+    "wall_s",
+    "return",
+    "goals",
+    "collided",
+    "attempts",
+    "successes",
+    "success",
+)
+
+
+class GreedyEval:
+    """The evaluations of a run's policies while it trains, and their log.
+
+    ``block``: the env steps the host loop averages per row of its step logs
+    (explore.csv, TensorBoard); a chunk is cut only a whole number of blocks (and of
+    the trainer's steps) after where it would start without evaluation."""
+
+    def __init__(
+        self, cfg: Config, trainer: Trainer, shard: RunSharding, out: Path, block: int
+    ) -> None:
+        self.every = cfg.run.eval_every
+        self.n_episodes = cfg.run.eval_episodes
+        self.fields = cfg.run_fields()
+        self.chunk_length = trainer.chunk_length
+        self.grain = math.lcm(trainer.step_size, block)
+        self.log = rundir.CsvLog(out / rundir.EVAL, sweep.with_swept(EVAL_COLUMNS, cfg.sweep))
+        self.shard = shard
+        rollout = make_rollout(
+            trainer.env,
+            network_of(cfg, trainer.env),
+            self.n_episodes,
+            int(trainer.env_params.max_steps),
+            navigation=True,
+        )
+        self.rollout = jax.jit(
+            jax.vmap(rollout, in_axes=(0, 0, 0, 0, None)), out_shardings=shard.sharding
+        )
+        self.keys = shard.put(np.asarray(eval_keys(cfg.run_labels())))
+        self.env_params = trainer.env_params
+        self.done = 0  # multiples of ``every`` evaluated so far
+
+    def restore(self, step: int, log_size: int | None) -> None:
+        """Training goes on from env step ``step`` (0, or a checkpoint's): the
+        multiples up to it were evaluated (a chunk end at or past each one did).
+        ``log_size``: eval.csv's length at the checkpoint (None: leave it), the rows
+        after it cut off."""
+        self.done = step // self.every
+        if log_size is None:
+            return
+        if log_size:
+            self.log.truncate(log_size)
+        else:
+            self.log.path.unlink(missing_ok=True)
+
+    def chunk_end(self, step: int, n: int) -> int:
+        """The env steps of the next chunk from ``step`` (the runs' lockstep count):
+        at most ``n``, the chunk without evaluation, and ending at the first point at or
+        past the next multiple where the chunk can be cut without changing the logs:
+        a whole number of ``grain`` steps after the chunk's start without evaluation
+        (a multiple of the chunk length), and never past that chunk's end."""
+        base = step // self.chunk_length * self.chunk_length
+        due = (self.done + 1) * self.every
+        cut = base + -(-(due - base) // self.grain) * self.grain
+        return min(n, base + self.chunk_length - step, cut - step)
+
+    def evaluate(self, ts, finished: bool) -> list[tuple]:
+        """eval.csv rows of every run's policy in ``ts`` when the chunk that led to it
+        is evaluated (it reached the next multiple, or training has ``finished`` and
+        its final policies were not evaluated yet); none otherwise. A row's env step
+        is its run's ``ts.step``, its ``wall_s`` the seconds since the command started
+        when the chunk ended."""
+        wall_s = process_age()
+        steps = self.shard.get(ts.step)
+        step = int(steps.max())  # the lockstep count: every run still training has it
+        if not (step // self.every > self.done or (finished and step % self.every)):
+            return []
+        self.done = step // self.every
+        res = self.rollout(ts.params, self.keys, ts.strategy, ts.hyper, self.env_params)
+        res = self.shard.get(res)
+        out = []
+        for r, fields in enumerate(self.fields):
+            s = res.steps
+            att = split_attempts(
+                s.pos[r], s.goal[r], s.reached[r], s.collided[r], s.episode[r], self.n_episodes
+            )
+            successes = int(np.sum(att.outcome == SUCCESS))
+            attempts = len(att.outcome)
+            out.append(
+                (
+                    *fields,
+                    int(steps[r]),
+                    f"{wall_s:.2f}",
+                    f"{float(np.mean(res.ret[r])):.6g}",
+                    f"{float(np.mean(res.goals[r])):.6g}",
+                    f"{float(np.mean(res.collided[r])):.6g}",
+                    attempts,
+                    successes,
+                    f"{successes / attempts:.6g}" if attempts else "nan",
+                )
+            )
+        return out
