@@ -45,6 +45,7 @@ from jaxnav.agent.hyper import (
     stack,
 )
 from jaxnav.agent.replay import Buffer
+from jaxnav.agent.sharding import any_run
 from jaxnav.core import strategies as registry
 from jaxnav.core.config import Config, DQNConfig
 from jaxnav.env import EnvParams, EnvState, NavEnv, from_config
@@ -491,7 +492,14 @@ def _target(d: DQNConfig, h: Hyper, target_params, params, run, n_steps, done):
     static = isinstance(tau, (int, float))
 
     def copied():
-        return _select(run & _target_sync_due(d, h, n_steps, done), params, target_params)
+        due = run & _target_sync_due(d, h, n_steps, done)
+        if d.target_update != "periodic":
+            return _select(due, params, target_params)
+        # Due once in target_update_every steps: the copy is skipped, not selected away,
+        # on the steps where no run of the batch is due.
+        return jax.lax.cond(
+            any_run(due), lambda: _select(due, params, target_params), lambda: target_params
+        )
 
     if static and tau >= 1.0:
         return copied()

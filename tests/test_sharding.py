@@ -6,8 +6,12 @@ import subprocess
 import sys
 from pathlib import Path
 
+import jax
+import jax.numpy as jnp
 import numpy as np
 import pytest
+
+from jaxnav.agent.sharding import any_run
 
 ROOT = Path(__file__).resolve().parent.parent
 TINY = ["episodes=6", "env.max_steps=80", "run.chunk_steps=100", "dqn.batch_size=16"]
@@ -53,6 +57,22 @@ def _close(a_dir, b_dir):
     ra = np.genfromtxt(a_dir / "metrics.csv", delimiter=",", skip_header=1, usecols=range(1, 8))
     rb = np.genfromtxt(b_dir / "metrics.csv", delimiter=",", skip_header=1, usecols=range(1, 8))
     np.testing.assert_allclose(ra, rb, rtol=1e-4, atol=1e-3)
+
+
+def test_any_run_is_one_value_for_the_batch_so_a_cond_on_it_stays_a_branch():
+    assert bool(any_run(jnp.bool_(True))) and not bool(any_run(jnp.bool_(False)))
+    due = jnp.array([False, True, False])
+    np.testing.assert_array_equal(jax.vmap(any_run)(due), [True, True, True])
+    assert not np.asarray(jax.vmap(any_run)(jnp.zeros(3, bool))).any()
+
+    def sync(due, params, target):
+        copy = lambda: jnp.where(due, params, target)  # noqa: E731
+        return jax.lax.cond(any_run(due), copy, lambda: target)
+
+    params, target = jnp.arange(3.0), -jnp.arange(3.0)
+    np.testing.assert_array_equal(jax.vmap(sync)(due, params, target), [0.0, 1.0, -2.0])
+    jaxpr = str(jax.make_jaxpr(jax.vmap(sync))(due, params, target))
+    assert "cond[" in jaxpr and "select_n" not in jaxpr.split("cond[")[0]
 
 
 @pytest.mark.slow
