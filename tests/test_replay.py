@@ -60,6 +60,18 @@ def test_buffer_inactive_add_changes_nothing():
     )
     for a, b in zip(jax.tree.leaves(buf), jax.tree.leaves(same), strict=True):
         np.testing.assert_array_equal(a, b)
+    # vmapped over runs, as the trainer stores: the finished run's buffer (its ring
+    # full, the next slot the last) stays, the other stores its truncated transition
+    bufs = jax.tree.map(lambda *x: jnp.stack(x), buf, _fill(replay.init(4, 2, max_steps=2), 7))
+    args = (jnp.ones((2, 2)), jnp.int32([1, 1]), jnp.float32([9, 9]), jnp.bool_([0, 0]))
+    new = jax.vmap(replay.add)(
+        bufs, *args, jnp.bool_([1, 1]), 2 * jnp.ones((2, 2)), jnp.bool_([1, 0])
+    )
+    stored = replay.add(buf, *(a[0] for a in args), True, 2 * jnp.ones(2), True)
+    for a, b, c in zip(*map(jax.tree.leaves, (bufs, new, stored)), strict=True):
+        np.testing.assert_array_equal(b[1], a[1])
+        np.testing.assert_array_equal(b[0], c)
+    assert float(stored.reward[2]) == 9.0 and float(stored.final_obs[int(buf.n_final)][0]) == 2.0
 
 
 def test_can_sample_once_enough_transitions_are_stored():

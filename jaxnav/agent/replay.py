@@ -162,23 +162,27 @@ def add(
     p = buf.pos
     fi = buf.n_final % k
 
-    def put(arr, i, value):
-        return arr.at[i].set(jnp.where(active, value, arr[i]))
-
     active = jnp.asarray(active, bool)
     store_final = active & jnp.asarray(truncated, bool)
+    # A finished run writes nothing: its slot is out of range and the write dropped
+    # (rather than the slot read back and written again), so the store stays in place.
+    slot = jnp.where(active, p, n)
+
+    def put(arr, value):
+        return arr.at[slot].set(value, mode="drop")
+
     extra = {}
     if buf.priority is not None:  # a new transition: the largest priority so far
         new = jnp.where(active, buf.max_priority, sumtree.get(buf.priority, p))
         extra = {"priority": sumtree.set_priorities(buf.priority, p[None], new[None])}
     return buf.replace(
-        obs=put(buf.obs, p, obs),
-        action=put(buf.action, p, action.astype(jnp.uint8)),
-        reward=put(buf.reward, p, reward),
-        terminated=put(buf.terminated, p, terminated),
-        truncated=put(buf.truncated, p, truncated),
-        final_index=put(buf.final_index, p, fi),
-        final_obs=buf.final_obs.at[fi].set(jnp.where(store_final, next_obs, buf.final_obs[fi])),
+        obs=put(buf.obs, obs),
+        action=put(buf.action, action.astype(jnp.uint8)),
+        reward=put(buf.reward, reward),
+        terminated=put(buf.terminated, terminated),
+        truncated=put(buf.truncated, truncated),
+        final_index=put(buf.final_index, fi),
+        final_obs=buf.final_obs.at[jnp.where(store_final, fi, k)].set(next_obs, mode="drop"),
         tail=jnp.where(active, next_obs, buf.tail),
         pos=jnp.where(active, (p + 1) % n, p),
         size=jnp.where(active, jnp.minimum(buf.size + 1, n), buf.size),
