@@ -5,6 +5,11 @@ is split over a one-dimensional ``Mesh`` of all ``jax.devices()`` (on every host
 everything else (mazes, config) is a constant of the compiled program and so is
 replicated. One device behaves exactly as an unsharded program.
 
+The training chunk runs each device's runs as one vmapped batch
+(:meth:`RunSharding.per_device`, ``shard_map``): what the step decides for the whole
+batch (:func:`any_run`, whether some run is due a target copy) is decided per device,
+with no collective between devices.
+
 A run count that does not divide the device count is padded with copies of the
 last run; the padding is computed, never written (host reads slice it off).
 
