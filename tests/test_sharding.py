@@ -75,6 +75,30 @@ def test_any_run_is_one_value_for_the_batch_so_a_cond_on_it_stays_a_branch():
     assert "cond[" in jaxpr and "select_n" not in jaxpr.split("cond[")[0]
 
 
+_COMPILED = """
+import sys, jax, numpy as np
+from jaxnav.core.config import load_config
+from jaxnav.run.training import Run
+run = Run(load_config(None, sys.argv[1:]), None, quiet=True)
+print(run.chunk.lower(run.fresh_state(), np.int32(0)).compile().as_text())
+"""
+
+
+def test_each_device_decides_the_target_copy_of_its_own_runs_without_a_collective():
+    """jaxnav.train's chunk on 2 devices: the periodic target copy is a conditional,
+    and deciding it needs no communication between the devices."""
+    text = subprocess.run(
+        [sys.executable, "-c", _COMPILED, "seeds=2", *TINY],
+        check=True,
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        env=dict(os.environ, XLA_FLAGS="--xla_force_host_platform_device_count=2"),
+    ).stdout
+    assert "num_partitions=2" in text and " conditional(" in text
+    assert not any(op in text for op in ("all-reduce(", "all-gather(", "collective-permute("))
+
+
 @pytest.mark.slow
 def test_sharded_run_matches_single_device_and_pads_odd_seed_counts(tmp_path):
     one = _run(tmp_path, "one", 1, seeds=3)
