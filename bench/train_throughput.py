@@ -59,7 +59,10 @@ def run_case(seeds: int, beams: int, steps: int, reps: int, capacity: int) -> di
     tr = make_trainer(cfg)
     shard = RunSharding(cfg.n_runs)
     init = jax.jit(jax.vmap(tr.init), out_shardings=shard.sharding)
-    chunk = jax.jit(jax.vmap(tr.chunk), donate_argnums=0, out_shardings=shard.sharding)
+    # as jaxnav.train compiles it: each device's runs as one batch
+    chunk = jax.jit(
+        shard.per_device(jax.vmap(tr.chunk), 1), donate_argnums=0, out_shardings=shard.sharding
+    )
     ts = init(*shard.put(jax.tree.map(np.asarray, run_inputs(cfg))))
     t0 = time.perf_counter()
     ts, _ = chunk(ts)

@@ -45,6 +45,7 @@ from jaxnav.agent.hyper import (
     stack,
 )
 from jaxnav.agent.replay import Buffer
+from jaxnav.agent.sharding import any_run
 from jaxnav.core import strategies as registry
 from jaxnav.core.config import Config, DQNConfig
 from jaxnav.env import EnvParams, EnvState, NavEnv, from_config
@@ -298,12 +299,15 @@ def make_trainer(config: Config) -> Trainer:
         # TARGET SYNC (or, with dqn.tau < 1, a Polyak step every env step)
         target_params = _target(d, h, ts.target_params, params, run, n_steps, done)
 
-        # EPISODE METRICS
+        # EPISODE METRICS: a finished run files nothing (its slot is out of range), so
+        # only the running sums are held; a select over the rings would copy them.
         slot = jnp.where(run & done, ts.episode % slots, slots)  # out of range: not filed
         metrics = ts.metrics.record(slot, reward, info["goal_reached"], terminated, done, explore)
+        held_sums = {k: _select(run, getattr(metrics, k), getattr(ts.metrics, k)) for k in _RUNNING}
+        metrics = metrics.replace(**held_sums)
 
-        # A finished run is held still: params, optimiser, target and buffer were
-        # masked above; the rest is small.
+        # A finished run is held still: params, optimiser, target, buffer and episode
+        # rings were masked above; the rest is small.
         held = _where_running(
             run,
             ts,
@@ -312,12 +316,12 @@ def make_trainer(config: Config) -> Trainer:
             key=key,
             step=n_steps,
             episode=ts.episode + done.astype(jnp.int32),
-            metrics=metrics,
         ).replace(
             params=params,
             target_params=target_params,
             opt_state=opt_state,
             buffer=buffer,
+            metrics=metrics,
             diverged_at=diverged_at,
         )
         log = StepLog(
@@ -488,7 +492,14 @@ def _target(d: DQNConfig, h: Hyper, target_params, params, run, n_steps, done):
     static = isinstance(tau, (int, float))
 
     def copied():
-        return _select(run & _target_sync_due(d, h, n_steps, done), params, target_params)
+        due = run & _target_sync_due(d, h, n_steps, done)
+        if d.target_update != "periodic":
+            return _select(due, params, target_params)
+        # Due once in target_update_every steps: the copy is skipped, not selected away,
+        # on the steps where no run of the batch is due.
+        return jax.lax.cond(
+            any_run(due), lambda: _select(due, params, target_params), lambda: target_params
+        )
 
     if static and tau >= 1.0:
         return copied()
@@ -514,6 +525,10 @@ def _select(pred, a, b):
 def _where_running(run: chex.Array, ts: TrainState, **new) -> TrainState:
     """``ts`` with the fields ``new`` where the run is active, unchanged where finished."""
     return ts.replace(**{k: _select(run, v, getattr(ts, k)) for k, v in new.items()})
+
+
+# The running sums of Episodes, the fields a finished run's step would still change.
+_RUNNING = ("cur_return", "cur_length", "cur_goals", "cur_explore")
 
 
 class RunInputs(NamedTuple):

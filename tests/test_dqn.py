@@ -255,6 +255,36 @@ def test_robotis_target_is_the_online_net_in_warm_up_then_last_episode_ends_copy
     )
 
 
+def test_a_finished_run_is_held_still_while_the_others_train_and_sync():
+    """Vmapped as jaxnav.train runs them: a finished run's whole state stays as it was
+    (rings, running sums, buffer, target), and the run beside it steps, files episodes
+    and syncs its target exactly as it does beside a run that still trains."""
+    cfg = _tiny(
+        "dqn.target_update_every=3",
+        "dqn.learning_starts=1",
+        "env.max_steps=4",
+        "episodes=100",
+        "run.chunk_steps=10",
+    )
+    tr = make_trainer(cfg)
+    both = jax.jit(jax.vmap(tr.chunk))(jax.vmap(tr.init)(*run_inputs(cfg)))[0]
+    ts = both.replace(episode=both.episode.at[0].set(cfg.episodes))  # run 0 has finished
+    finished = jax.tree.map(lambda a: a[0], ts)
+    step = jax.jit(jax.vmap(tr.step))
+    episodes = int(ts.episode[1])
+    for _ in range(7):
+        ts, _ = step(ts, None)
+        both, _ = step(both, None)
+        for a, b, c in zip(*map(jax.tree.leaves, (finished, ts, both)), strict=True):
+            np.testing.assert_array_equal(b[0], a)
+            np.testing.assert_array_equal(b[1], c[1])
+        params, target = (jax.tree.leaves(t) for t in (ts.params, ts.target_params))
+        synced = all(np.array_equal(a[1], b[1]) for a, b in zip(params, target))
+        assert synced == (int(ts.step[1]) % 3 == 0), int(ts.step[1])
+    filed = np.asarray(ts.metrics.ep_length[1, episodes : int(ts.episode[1])])
+    assert len(filed) and np.all((filed > 0) & (filed <= 4))  # the new episodes are filed
+
+
 def test_learning_starts_after_enough_transitions():
     cfg = _tiny("dqn.learning_starts=4")
     tr = make_trainer(cfg)

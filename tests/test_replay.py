@@ -60,6 +60,18 @@ def test_buffer_inactive_add_changes_nothing():
     )
     for a, b in zip(jax.tree.leaves(buf), jax.tree.leaves(same), strict=True):
         np.testing.assert_array_equal(a, b)
+    # vmapped over runs, as the trainer stores: the finished run's buffer (its ring
+    # full, the next slot the last) stays, the other stores its truncated transition
+    bufs = jax.tree.map(lambda *x: jnp.stack(x), buf, _fill(replay.init(4, 2, max_steps=2), 7))
+    args = (jnp.ones((2, 2)), jnp.int32([1, 1]), jnp.float32([9, 9]), jnp.bool_([0, 0]))
+    new = jax.vmap(replay.add)(
+        bufs, *args, jnp.bool_([1, 1]), 2 * jnp.ones((2, 2)), jnp.bool_([1, 0])
+    )
+    stored = replay.add(buf, *(a[0] for a in args), True, 2 * jnp.ones(2), True)
+    for a, b, c in zip(*map(jax.tree.leaves, (bufs, new, stored)), strict=True):
+        np.testing.assert_array_equal(b[1], a[1])
+        np.testing.assert_array_equal(b[0], c)
+    assert float(stored.reward[2]) == 9.0 and float(stored.final_obs[int(buf.n_final)][0]) == 2.0
 
 
 def test_can_sample_once_enough_transitions_are_stored():
@@ -75,12 +87,7 @@ def test_can_sample_once_enough_transitions_are_stored():
 def test_layout_field_order_dtypes_and_bytes():
     buf = replay.init(10, 3, max_steps=4)
     assert [f for f in buf.__dataclass_fields__] == [
-        "obs",
-        "action",
-        "reward",
-        "terminated",
-        "truncated",
-        "final_index",
+        "records",
         "final_obs",
         "tail",
         "pos",
@@ -89,16 +96,39 @@ def test_layout_field_order_dtypes_and_bytes():
         "priority",
         "max_priority",
     ]
-    # uniform replay: no priorities, so its leaves (the checkpoint's) are the first 11
-    assert buf.priority is None and buf.max_priority is None and len(jax.tree.leaves(buf)) == 11
+    # uniform replay: no priorities, so its leaves (the checkpoint's) are the first 6
+    assert buf.priority is None and buf.max_priority is None and len(jax.tree.leaves(buf)) == 6
+    assert buf.records.shape == (10, 3 + 3) and buf.records.dtype == jnp.uint32
     assert buf.obs.shape == (10, 3) and buf.obs.dtype == jnp.float32
     assert buf.action.dtype == jnp.uint8 and buf.final_index.dtype == jnp.int32
+    assert [(name, getattr(buf, name).dtype) for name, _ in replay.SLOT_FIELDS] == [
+        (name, jnp.dtype(dtype)) for name, dtype in replay.SLOT_FIELDS
+    ]
     assert buf.final_obs.shape == (10 // 4 + 2, 3)
-    # 10 slots of 3 + 1 + 1 + 1 + 1 x 4 + 4 bytes, 4 rows of 3 floats, the tail, 3 counters
-    uniform = 10 * (12 + 1 + 4 + 1 + 1 + 4) + 4 * 12 + 12 + 3 * 4
+    # 10 records of 3 + 3 words, 4 rows of 3 floats, the tail, 3 counters
+    uniform = 10 * (12 + 12) + 4 * 12 + 12 + 3 * 4
     assert replay.nbytes(10, 3, 4) == uniform
     # prioritised: a sum tree of 2 x 16 floats (16 leaves for 10 slots) and the largest
     assert replay.nbytes(10, 3, 4, prioritised=True) == uniform + 2 * 16 * 4 + 4
+
+
+def test_a_record_keeps_every_field_bit_for_bit():
+    obs = jnp.array([[-0.0, jnp.nan, jnp.inf, 1e-40], [3.5, -jnp.inf, 0.0, -1e-45]])
+    fields = {
+        "obs": obs,
+        "action": jnp.array([4, 255], jnp.uint8),
+        "reward": jnp.array([-0.0, -150.0]),
+        "terminated": jnp.array([True, False]),
+        "truncated": jnp.array([False, True]),
+        "final_index": jnp.array([0, 2**31 - 1], jnp.int32),
+    }
+    buf = replay.init(2, 4, max_steps=1).replace(records=replay.pack(**fields))
+    for name, value in fields.items():
+        got = getattr(buf, name)
+        assert got.dtype == value.dtype, name
+        np.testing.assert_array_equal(
+            np.asarray(got).view(np.uint8), np.asarray(value).view(np.uint8)
+        )
 
 
 # -- validate ---------------------------------------------------------------------

@@ -6,8 +6,12 @@ import subprocess
 import sys
 from pathlib import Path
 
+import jax
+import jax.numpy as jnp
 import numpy as np
 import pytest
+
+from jaxnav.agent.sharding import any_run
 
 ROOT = Path(__file__).resolve().parent.parent
 TINY = ["episodes=6", "env.max_steps=80", "run.chunk_steps=100", "dqn.batch_size=16"]
@@ -53,6 +57,46 @@ def _close(a_dir, b_dir):
     ra = np.genfromtxt(a_dir / "metrics.csv", delimiter=",", skip_header=1, usecols=range(1, 8))
     rb = np.genfromtxt(b_dir / "metrics.csv", delimiter=",", skip_header=1, usecols=range(1, 8))
     np.testing.assert_allclose(ra, rb, rtol=1e-4, atol=1e-3)
+
+
+def test_any_run_is_one_value_for_the_batch_so_a_cond_on_it_stays_a_branch():
+    assert bool(any_run(jnp.bool_(True))) and not bool(any_run(jnp.bool_(False)))
+    due = jnp.array([False, True, False])
+    np.testing.assert_array_equal(jax.vmap(any_run)(due), [True, True, True])
+    assert not np.asarray(jax.vmap(any_run)(jnp.zeros(3, bool))).any()
+
+    def sync(due, params, target):
+        copy = lambda: jnp.where(due, params, target)  # noqa: E731
+        return jax.lax.cond(any_run(due), copy, lambda: target)
+
+    params, target = jnp.arange(3.0), -jnp.arange(3.0)
+    np.testing.assert_array_equal(jax.vmap(sync)(due, params, target), [0.0, 1.0, -2.0])
+    jaxpr = str(jax.make_jaxpr(jax.vmap(sync))(due, params, target))
+    assert "cond[" in jaxpr and "select_n" not in jaxpr.split("cond[")[0]
+
+
+_COMPILED = """
+import sys, jax, numpy as np
+from jaxnav.core.config import load_config
+from jaxnav.run.training import Run
+run = Run(load_config(None, sys.argv[1:]), None, quiet=True)
+print(run.chunk.lower(run.fresh_state(), np.int32(0)).compile().as_text())
+"""
+
+
+def test_each_device_decides_the_target_copy_of_its_own_runs_without_a_collective():
+    """jaxnav.train's chunk on 2 devices: the periodic target copy is a conditional,
+    and deciding it needs no communication between the devices."""
+    text = subprocess.run(
+        [sys.executable, "-c", _COMPILED, "seeds=2", *TINY],
+        check=True,
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        env=dict(os.environ, XLA_FLAGS="--xla_force_host_platform_device_count=2"),
+    ).stdout
+    assert "num_partitions=2" in text and " conditional(" in text
+    assert not any(op in text for op in ("all-reduce(", "all-gather(", "collective-permute("))
 
 
 @pytest.mark.slow

@@ -7,7 +7,11 @@ A small bundle of pure functions over one pytree, in flashbax's shape:
 traceable, so a run's buffer lives in the trainer's ``lax.scan`` carry and
 ``jax.vmap`` gives one buffer per run.
 
-Layout. Slot i holds (obs_i, action_i, reward_i, terminated_i, truncated_i). The next
+Layout. Slot i holds (obs_i, action_i, reward_i, terminated_i, truncated_i) and the
+row of its truncation's observation, in one record of 32-bit words (row i of
+``records``: the obs, the reward, action and flags in one word, the ring row): a
+sample reads two adjacent records, not one element of six arrays spread over memory.
+``Buffer.obs``, ``Buffer.reward``, ... read the fields out of the records. The next
 observation of slot i is the obs of slot i + 1, except for
 
 * the newest slot, whose next observation is ``tail`` (slot i + 1 is not written yet);
@@ -59,17 +63,25 @@ from flax import struct
 
 from jaxnav.agent import sumtree
 
+# The per-slot fields as a checkpoint stores them (jaxnav.run.checkpoint), each
+# (name, dtype); in memory they are the words of a slot's record.
+SLOT_FIELDS = (
+    ("obs", jnp.float32),  # f32[N, D]
+    ("action", jnp.uint8),  # u8[N]
+    ("reward", jnp.float32),  # f32[N]
+    ("terminated", jnp.bool_),  # bool[N]
+    ("truncated", jnp.bool_),  # bool[N]
+    ("final_index", jnp.int32),  # i32[N] row of final_obs for truncated slots
+)
+_EXTRA = 3  # words of a record after the obs: reward, action and flags, ring row
+
 
 @struct.dataclass
 class Buffer:
-    """One run's replay memory. Field names and order are the checkpoint layout."""
+    """One run's replay memory. Field names and order are the checkpoint layout; the
+    records are stored as the fields of :data:`SLOT_FIELDS` (the properties below)."""
 
-    obs: chex.Array  # f32[N, D]
-    action: chex.Array  # u8[N]
-    reward: chex.Array  # f32[N]
-    terminated: chex.Array  # bool[N]
-    truncated: chex.Array  # bool[N]
-    final_index: chex.Array  # i32[N] row of final_obs for truncated slots
+    records: chex.Array  # u32[N, D + 3]: obs bits, reward bits, action | flags, ring row
     final_obs: chex.Array  # f32[K, D], K = capacity // max_steps + 2
     tail: chex.Array  # f32[D] next observation of the newest slot
     pos: chex.Array  # i32[] next slot to write
@@ -80,6 +92,56 @@ class Buffer:
     # priority given so far, which a new transition gets.
     priority: chex.Array | None = None  # f32[2P]
     max_priority: chex.Array | None = None  # f32[]
+
+    # The fields of the records (any leading axes, e.g. runs, kept).
+    @property
+    def obs(self) -> chex.Array:
+        return _as_f32(self.records[..., :-_EXTRA])
+
+    @property
+    def reward(self) -> chex.Array:
+        return _as_f32(self.records[..., -3])
+
+    @property
+    def action(self) -> chex.Array:
+        return (self.records[..., -2] & 0xFF).astype(jnp.uint8)
+
+    @property
+    def terminated(self) -> chex.Array:
+        return (self.records[..., -2] & 0x100) != 0
+
+    @property
+    def truncated(self) -> chex.Array:
+        return (self.records[..., -2] & 0x200) != 0
+
+    @property
+    def final_index(self) -> chex.Array:
+        return jax.lax.bitcast_convert_type(self.records[..., -1], jnp.int32)
+
+
+def _as_f32(words: chex.Array) -> chex.Array:
+    return jax.lax.bitcast_convert_type(words, jnp.float32)
+
+
+def _as_u32(x: chex.Array) -> chex.Array:
+    return jax.lax.bitcast_convert_type(x, jnp.uint32)
+
+
+def pack(obs, action, reward, terminated, truncated, final_index) -> chex.Array:
+    """Records u32[..., D + 3] of the slot fields (leading axes alike), bit for bit."""
+    flags = (
+        jnp.asarray(action).astype(jnp.uint32)
+        | (jnp.asarray(terminated).astype(jnp.uint32) << 8)
+        | (jnp.asarray(truncated).astype(jnp.uint32) << 9)
+    )
+    words = (
+        _as_u32(jnp.asarray(reward, jnp.float32)),
+        flags,
+        _as_u32(jnp.asarray(final_index, jnp.int32)),
+    )
+    return jnp.concatenate(
+        [_as_u32(jnp.asarray(obs, jnp.float32)), jnp.stack(words, axis=-1)], axis=-1
+    )
 
 
 class Batch(NamedTuple):
@@ -122,12 +184,7 @@ def init(capacity: int, obs_dim: int, max_steps: int, prioritised: bool = False)
     if prioritised:
         extra = {"priority": sumtree.init(capacity), "max_priority": jnp.ones((), jnp.float32)}
     return Buffer(
-        obs=jnp.zeros((capacity, obs_dim), jnp.float32),
-        action=jnp.zeros((capacity,), jnp.uint8),
-        reward=jnp.zeros((capacity,), jnp.float32),
-        terminated=jnp.zeros((capacity,), bool),
-        truncated=jnp.zeros((capacity,), bool),
-        final_index=jnp.zeros((capacity,), jnp.int32),
+        records=jnp.zeros((capacity, obs_dim + _EXTRA), jnp.uint32),
         final_obs=jnp.zeros((k, obs_dim), jnp.float32),
         tail=jnp.zeros((obs_dim,), jnp.float32),
         pos=jnp.zeros((), jnp.int32),
@@ -157,28 +214,25 @@ def add(
 
     With ``active`` false the buffer is returned unchanged (a finished run).
     """
-    n = buf.obs.shape[0]
+    n = buf.records.shape[0]
     k = buf.final_obs.shape[0]
     p = buf.pos
     fi = buf.n_final % k
 
-    def put(arr, i, value):
-        return arr.at[i].set(jnp.where(active, value, arr[i]))
-
     active = jnp.asarray(active, bool)
     store_final = active & jnp.asarray(truncated, bool)
+    # A finished run writes nothing: its slot is out of range and the write dropped
+    # (rather than the slot read back and written again), so the store stays in place.
+    slot = jnp.where(active, p, n)
+    record = pack(obs, action.astype(jnp.uint8), reward, terminated, truncated, fi)
+
     extra = {}
     if buf.priority is not None:  # a new transition: the largest priority so far
         new = jnp.where(active, buf.max_priority, sumtree.get(buf.priority, p))
         extra = {"priority": sumtree.set_priorities(buf.priority, p[None], new[None])}
     return buf.replace(
-        obs=put(buf.obs, p, obs),
-        action=put(buf.action, p, action.astype(jnp.uint8)),
-        reward=put(buf.reward, p, reward),
-        terminated=put(buf.terminated, p, terminated),
-        truncated=put(buf.truncated, p, truncated),
-        final_index=put(buf.final_index, p, fi),
-        final_obs=buf.final_obs.at[fi].set(jnp.where(store_final, next_obs, buf.final_obs[fi])),
+        records=buf.records.at[slot].set(record, mode="drop"),
+        final_obs=buf.final_obs.at[jnp.where(store_final, fi, k)].set(next_obs, mode="drop"),
         tail=jnp.where(active, next_obs, buf.tail),
         pos=jnp.where(active, (p + 1) % n, p),
         size=jnp.where(active, jnp.minimum(buf.size + 1, n), buf.size),
@@ -200,22 +254,22 @@ def sample(buf: Buffer, key: chex.PRNGKey, batch_size: int) -> Batch:
 
 def batch_at(buf: Buffer, idx: chex.Array) -> Batch:
     """The one-step :class:`Batch` of slots ``idx`` (i32[B])."""
-    n = buf.obs.shape[0]
+    n = buf.records.shape[0]
     newest = (buf.pos - 1) % n
-    following = buf.obs[(idx + 1) % n]
-    final = buf.final_obs[buf.final_index[idx]]
-    trunc = buf.truncated[idx]
+    slots = buf.replace(records=buf.records[idx])  # the B records, one gather
+    following = buf.replace(records=buf.records[(idx + 1) % n]).obs  # the adjacent ones
+    final = buf.final_obs[slots.final_index]
     next_obs = jnp.where(
         (idx == newest)[:, None],
         buf.tail[None, :],
-        jnp.where(trunc[:, None], final, following),
+        jnp.where(slots.truncated[:, None], final, following),
     )
     return Batch(
-        obs=buf.obs[idx],
-        action=buf.action[idx].astype(jnp.int32),
-        reward=buf.reward[idx],
+        obs=slots.obs,
+        action=slots.action.astype(jnp.int32),
+        reward=slots.reward,
         next_obs=next_obs,
-        terminated=buf.terminated[idx],
+        terminated=slots.terminated,
     )
 
 
@@ -228,32 +282,38 @@ def sample_n_step(buf: Buffer, key: chex.PRNGKey, batch_size: int, n: int, gamma
 
 def n_step_batch(buf: Buffer, idx: chex.Array, n: int, gamma) -> Batch:
     """The n-step :class:`Batch` starting at slots ``idx`` (i32[B])."""
-    size = buf.obs.shape[0]
+    size = buf.records.shape[0]
     newest = (buf.pos - 1) % size
     gamma = jnp.asarray(gamma, jnp.float32)
     ret = jnp.zeros(idx.shape, jnp.float32)
     discount = jnp.ones(idx.shape, jnp.float32)
     alive = jnp.ones(idx.shape, bool)
     end = idx
+
+    def at(i):  # the records of slots i
+        return buf.replace(records=buf.records[i])
+
     for k in range(n):
         j = (idx + k) % size
-        ret = ret + jnp.where(alive, discount * buf.reward[j], 0.0)
+        slot_j = at(j)
+        ret = ret + jnp.where(alive, discount * slot_j.reward, 0.0)
         discount = jnp.where(alive, discount * gamma, discount)
         end = jnp.where(alive, j, end)
-        alive = alive & ~(buf.terminated[j] | buf.truncated[j] | (j == newest))
-    following = buf.obs[(end + 1) % size]
-    final = buf.final_obs[buf.final_index[end]]
+        alive = alive & ~(slot_j.terminated | slot_j.truncated | (j == newest))
+    last, first = at(end), at(idx)
+    following = at((end + 1) % size).obs
+    final = buf.final_obs[last.final_index]
     next_obs = jnp.where(
         (end == newest)[:, None],
         buf.tail[None, :],
-        jnp.where(buf.truncated[end][:, None], final, following),
+        jnp.where(last.truncated[:, None], final, following),
     )
     return Batch(
-        obs=buf.obs[idx],
-        action=buf.action[idx].astype(jnp.int32),
+        obs=first.obs,
+        action=first.action.astype(jnp.int32),
         reward=ret,
         next_obs=next_obs,
-        terminated=buf.terminated[end],
+        terminated=last.terminated,
         discount=discount,
     )
 

@@ -5,6 +5,11 @@ is split over a one-dimensional ``Mesh`` of all ``jax.devices()`` (on every host
 everything else (mazes, config) is a constant of the compiled program and so is
 replicated. One device behaves exactly as an unsharded program.
 
+The training chunk runs each device's runs as one vmapped batch
+(:meth:`RunSharding.per_device`, ``shard_map``): what the step decides for the whole
+batch (:func:`any_run`, whether some run is due a target copy) is decided per device,
+with no collective between devices.
+
 A run count that does not divide the device count is padded with copies of the
 last run; the padding is computed, never written (host reads slice it off).
 
@@ -20,11 +25,26 @@ import os
 from typing import Any
 
 import jax
+import jax.numpy as jnp
 import numpy as np
 from jax.sharding import Mesh, NamedSharding, PartitionSpec
 
 _ENV_VARS = ("JAX_COORDINATOR_ADDRESS", "JAX_NUM_PROCESSES", "JAX_PROCESS_ID")
 _initialized = False
+
+
+@jax.custom_batching.custom_vmap
+def any_run(x: jax.Array) -> jax.Array:
+    """bool[]: ``x`` for one run; vmapped over runs, whether any run's ``x`` holds, one
+    value for the whole batch (not batched), so that a ``lax.cond`` on it stays a
+    branch instead of becoming a select that computes both sides for every run."""
+    return x
+
+
+@any_run.def_vmap
+def _any_run_vmap(axis_size: int, in_batched: list[bool], x: jax.Array):
+    del axis_size
+    return (jnp.any(x, axis=0) if in_batched[0] else x), False
 
 
 def initialize() -> None:
@@ -83,6 +103,17 @@ class RunSharding:
             return np.asarray(x)[: self.n_runs]
 
         return jax.tree.map(one, tree)
+
+    def per_device(self, fn, n_args: int):
+        """``fn`` (vmapped over runs; its first argument and every output carry the run
+        axis, the other ``n_args - 1`` arguments are the same for every run) run on each
+        device's own runs: what ``fn`` reduces over the run axis (:func:`any_run`) is
+        reduced over that device's runs, with no collective between devices."""
+        runs, same = PartitionSpec("runs"), PartitionSpec()
+        specs = (runs,) + (same,) * (n_args - 1)
+        # check_vma off: the trainer's loops start their logs from constants that the
+        # runs then fill, which the check would ask to be marked as varying by hand
+        return jax.shard_map(fn, mesh=self.mesh, in_specs=specs, out_specs=runs, check_vma=False)
 
     def device_count_of(self, x: jax.Array) -> int:
         """How many devices hold parts of ``x``."""

@@ -152,8 +152,8 @@ class Config:
     def memory_estimate(self) -> int:
         """Bytes the runs' replay memories will take, an upper bound within 10% (for
         24 beams), before anything is allocated: jaxnav.agent.replay keeps per slot
-        an f32 observation of at most n_beams + 4 values and 11 bytes of action,
-        reward, flags and ring index, a ring of capacity // max_steps + 2 final
+        a record of an f32 observation of at most n_beams + 4 values and 12 bytes of
+        reward, action and flags, and ring index, a ring of capacity // max_steps + 2 final
         observations and, with prioritised replay, a sum tree; the networks and the
         environment are small beside it. PQN keeps no replay: its rollout of
         num_envs x rollout transitions (observation, next observation, Q-values, a
@@ -166,7 +166,7 @@ class Config:
         ring = capacity // self.env.max_steps + 3  # the final-observation ring and tail
         # prioritised replay's sum tree: f32[2P], P the power of two at or above capacity
         tree = 8 << max(0, (capacity - 1).bit_length()) if self.dqn.prioritised else 0
-        return self.n_runs * (capacity * (obs + 11) + ring * obs + 12 + tree)  # + 3 counters
+        return self.n_runs * (capacity * (obs + 12) + ring * obs + 12 + tree)  # + 3 counters
 
     def env_kwargs(self) -> dict[str, Any]:
         """The environment's settings as ``jaxnav.env.make`` keywords (besides the maze

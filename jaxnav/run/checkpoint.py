@@ -12,6 +12,7 @@ from pathlib import Path
 import jax
 import numpy as np
 
+from jaxnav.agent import replay
 from jaxnav.core import rundir
 from jaxnav.core.config import Config
 from jaxnav.core.errors import RunError
@@ -22,7 +23,10 @@ from jaxnav.dqn import TrainState
 # own (ROW_SEGMENT), and checkpoints/last.npz, the rest of the state, says how many
 # segments it covers; restoring applies them in order. So a checkpoint costs what its
 # chunk added, not the whole buffer, which grows to 28 MB per run in a paper run.
-_BUFFER_ROWS = ("obs", "action", "reward", "terminated", "truncated", "final_index")
+# In memory they are the words of each slot's record (replay.Buffer.records); a
+# checkpoint names them one by one, as they were before the records.
+_BUFFER_ROWS = tuple(name for name, _ in replay.SLOT_FIELDS)
+_RECORDS = ".buffer.records"
 ROW_SEGMENT = "checkpoints/rows-{:05d}.npz"
 
 
@@ -37,7 +41,7 @@ def _leaf_names(tree) -> list[str]:
 
 
 def _is_buffer_rows(name: str) -> bool:
-    return any(name == f".buffer.{r}" for r in _BUFFER_ROWS)
+    return name == _RECORDS
 
 
 def without_rows(ts: TrainState) -> TrainState:
@@ -45,7 +49,7 @@ def without_rows(ts: TrainState) -> TrainState:
     a replay buffer, PQN's, as it is)."""
     if getattr(ts, "buffer", None) is None:
         return ts
-    return ts.replace(buffer=ts.buffer.replace(**{r: None for r in _BUFFER_ROWS}))
+    return ts.replace(buffer=ts.buffer.replace(records=None))
 
 
 def rows_at(ts: TrainState, slots: jax.Array) -> dict[str, jax.Array]:
@@ -53,7 +57,8 @@ def rows_at(ts: TrainState, slots: jax.Array) -> dict[str, jax.Array]:
     without a replay buffer)."""
     if getattr(ts, "buffer", None) is None:
         return {}
-    return {r: getattr(ts.buffer, r)[:, slots] for r in _BUFFER_ROWS}
+    slotted = ts.buffer.replace(records=ts.buffer.records[:, slots])
+    return {r: getattr(slotted, r) for r in _BUFFER_ROWS}
 
 
 def chunk_slots(step_before: np.ndarray, step_after: np.ndarray, capacity: int) -> np.ndarray:
@@ -87,13 +92,7 @@ def state_from_checkpoint(
     leaves = []
     for name, leaf in zip(_leaf_names(template), jax.tree.leaves(template)):
         if _is_buffer_rows(name):
-            a = np.zeros(leaf.shape, leaf.dtype)
-            for seg in segments:
-                rows = seg.get("rows" + name)
-                if rows is None or rows.shape[0] != a.shape[0] or seg["slots"].max() >= a.shape[1]:
-                    raise RunError(f"checkpoint {path} does not match the run's config ({name})")
-                a[:, seg["slots"]] = rows
-            leaves.append(a)
+            leaves.append(_records(leaf, segments, path))
             continue
         a = arrays.get("state" + name)
         if a is None:
@@ -107,6 +106,20 @@ def state_from_checkpoint(
     ts = jax.tree.unflatten(jax.tree.structure(template), leaves)
     host = {k[5:]: v for k, v in arrays.items() if k.startswith("host.")}
     return ts, host
+
+
+def _records(leaf, segments: list[dict[str, np.ndarray]], path: Path) -> np.ndarray:
+    """The replay records u32[runs, N, D + 3], from the row segments in order (each
+    ``slots`` and the named fields of those slots)."""
+    records = np.zeros(leaf.shape, leaf.dtype)
+    runs, capacity, _ = records.shape
+    for seg in segments:
+        fields = {r: seg.get(f"rows.buffer.{r}") for r in _BUFFER_ROWS}
+        missing = [r for r, a in fields.items() if a is None or a.shape[0] != runs]
+        if missing or seg["slots"].max() >= capacity:
+            raise RunError(f"checkpoint {path} does not match the run's config (buffer rows)")
+        records[:, seg["slots"]] = np.asarray(replay.pack(**fields))
+    return records
 
 
 def params_arrays(cfg: Config, params) -> dict[str, np.ndarray]:

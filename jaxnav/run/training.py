@@ -86,7 +86,7 @@ class Run:
         self.init = jax.jit(jax.vmap(self.trainer.init), out_shardings=sharding)
         self.metric_columns = sweep.with_swept(METRIC_COLUMNS, cfg.sweep)
         self.chunk = jax.jit(
-            jax.vmap(self.trainer.chunk, in_axes=(0, None)),
+            self.shard.per_device(jax.vmap(self.trainer.chunk, in_axes=(0, None)), 2),
             donate_argnums=0,
             out_shardings=sharding,
         )
