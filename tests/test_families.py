@@ -149,6 +149,7 @@ def test_the_free_raster_agrees_with_brute_force_clearance():
         np.testing.assert_allclose(on, np.round(on), atol=1e-3)
 
 
+@pytest.mark.slow
 def test_drawn_starts_and_goals_are_clear_and_joined_by_a_free_path(cylinder_draws):
     draws = cylinder_draws
     assert draws.ok.all()
@@ -197,6 +198,7 @@ def test_the_maze_of_a_draw_has_the_draws_cylinders_start_and_goal_points(cylind
     np.testing.assert_allclose(maze.bounds, [-2, -2, 2, 2])
 
 
+@pytest.mark.slow
 def test_no_train_cylinder_field_equals_a_test_one():
     small = fam.Cylinders(1, 0.1, 0.12, 1.6, 0.3)  # 28^2 sites x 3 radii: draws repeat
     keys = jax.random.split(jax.random.PRNGKey(3), 3000)
@@ -241,6 +243,7 @@ def room_graph_bfs(rooms: fam.Rooms, open_: np.ndarray, src: int) -> np.ndarray:
     return dist
 
 
+@pytest.mark.slow
 def test_rooms_doors_are_gaps_of_the_door_width_in_the_walls_with_a_door(rooms_draws):
     d = one(rooms_draws, 0)
     maze = jax.tree.map(np.asarray, fam.rooms_maze(d, ROOMS, np.float32(0.0)))
@@ -277,6 +280,7 @@ def test_rooms_starts_and_goals_are_clear_in_rooms_apart_and_joined_by_a_free_pa
         assert raster_reachable(walls, circles, -half, half, d.start, d.goal)
 
 
+@pytest.mark.slow
 def test_no_train_rooms_maze_equals_a_test_one():
     small = fam.Rooms(2, 2, 1.0, 0.8)  # 4 spanning trees x 3^3 door positions: draws repeat
     keys = jax.random.split(jax.random.PRNGKey(4), 3000)
@@ -295,6 +299,7 @@ def test_no_train_rooms_maze_equals_a_test_one():
 # ----------------------------------------------------------------------------
 
 
+@pytest.mark.slow
 def test_an_exhausted_draw_returns_the_valid_fallback_of_its_split(monkeypatch):
     monkeypatch.setattr(fam, "MAX_TRIES", 1)  # one candidate: half of them miss the split
     small = fam.Cylinders(2, 0.1, 0.15, 2.0, 0.5)

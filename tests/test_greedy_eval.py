@@ -76,6 +76,7 @@ def _same_training(on, off):
     assert not (off / rundir.EVAL).exists()
 
 
+@pytest.mark.slow
 def test_training_is_the_same_with_and_without_evaluation(runs):
     _same_training(*runs)
 
@@ -94,6 +95,7 @@ def test_eval_rows_come_at_the_first_chunk_end_past_each_multiple_and_at_the_end
         assert float(r["wall_s"]) > 0
 
 
+@pytest.mark.slow
 def test_the_last_evaluation_is_the_greedy_test_of_the_saved_policies(runs):
     """An independent rollout of params.npz with ``jaxnav evaluate``'s key on the
     training maze gives the last evaluation's numbers."""
@@ -117,6 +119,7 @@ class Killed(BaseException):
     """A kill between a chunk's log appends and its checkpoint."""
 
 
+@pytest.mark.slow
 def test_a_run_killed_before_a_checkpoint_resumes_with_the_same_eval_rows(
     runs, tmp_path, monkeypatch
 ):

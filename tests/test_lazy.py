@@ -20,6 +20,7 @@ def _setup(n):
     return env, (st.maze, st.goal), jax.random.split(jax.random.PRNGKey(5), n)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("mask", ["none", "some", "all"])
 def test_vmapped_draw_where_equals_where_over_every_draw(mask, monkeypatch):
     n = 70  # more than one chunk of lazy.CHUNK when all are fresh
@@ -36,6 +37,7 @@ def test_vmapped_draw_where_equals_where_over_every_draw(mask, monkeypatch):
         np.testing.assert_array_equal(np.asarray(a), np.asarray(b))
 
 
+@pytest.mark.slow
 def test_unbatched_and_nested_batches_draw_the_same():
     env, old, keys = _setup(6)
     fresh = jnp.asarray([True, False, True, False, False, True])
@@ -47,3 +49,16 @@ def test_unbatched_and_nested_batches_draw_the_same():
     want = jax.vmap(lambda f, k, o: lazy._where(f, env.draw_maze(k), o))(fresh, keys, old)
     for a, b in zip(jax.tree.leaves(got), jax.tree.leaves(want)):
         np.testing.assert_array_equal(np.asarray(a).reshape(np.shape(b)), np.asarray(b))
+
+
+@pytest.mark.slow
+def test_a_few_fresh_environments_in_a_small_batch_draw_as_where_does(monkeypatch):
+    monkeypatch.setattr(lazy, "CHUNK", 2)  # three rounds for the five fresh ones
+    env, old, keys = _setup(8)
+    fresh = jnp.asarray([True, False, True, True, False, True, False, True])
+    got = jax.jit(jax.vmap(lambda f, k, o: lazy.draw_where(env.draw_maze, f, k, o)))(
+        fresh, keys, old
+    )
+    want = jax.vmap(lambda f, k, o: lazy._where(f, env.draw_maze(k), o))(fresh, keys, old)
+    for a, b in zip(jax.tree.leaves(got), jax.tree.leaves(want)):
+        np.testing.assert_array_equal(np.asarray(a), np.asarray(b))

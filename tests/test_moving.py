@@ -195,6 +195,7 @@ def test_a_cylinder_that_grazes_a_still_robot_mid_step_collides():
     assert float(clear) < ref.ROBOT_R
 
 
+@pytest.mark.slow
 def test_mazes_that_move_and_mazes_that_stand_still_stack_and_vmap():
     """A still maze stacked beside stages carries parked cylinders that nothing sees."""
     names = ["square4", "stage3", "stage4"]

@@ -100,6 +100,7 @@ def test_lambda_return_is_the_lambda_weighted_mix_of_n_step_returns():
         assert got[t, 0] == pytest.approx(want, rel=1e-4)
 
 
+@pytest.mark.slow
 def test_rollout_targets_bootstrap_a_truncation_from_its_final_observation():
     # a 3-step limit: every environment truncates twice inside an 8-step rollout
     cfg = load_config(None, [*TINY, "env.max_steps=3", "seeds=1", "strategies=[ebe]"])
@@ -187,6 +188,7 @@ def tiny_pqn_run(tmp_path_factory):
     return cfg, out
 
 
+@pytest.mark.slow
 def test_a_tiny_pqn_run_is_deterministic_and_every_strategy_learns(tiny_pqn_run, tmp_path):
     cfg, out = tiny_pqn_run
     train_new(cfg, tmp_path / "again", quiet=True)

@@ -62,6 +62,7 @@ def test_the_geodesic_target_and_distance_by_hand(pos, target, along):
     assert float(d) == pytest.approx(along, abs=1e-5)
 
 
+@pytest.mark.slow
 def test_the_geodesic_distance_between_cell_centres_is_the_bfs_path():
     grid = gen.Grid(5, 4, 0.8, 0.2)
     a, b = gen.wall_cells(grid)

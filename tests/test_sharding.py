@@ -84,6 +84,7 @@ print(run.chunk.lower(run.fresh_state(), np.int32(0)).compile().as_text())
 """
 
 
+@pytest.mark.slow
 def test_each_device_decides_the_target_copy_of_its_own_runs_without_a_collective():
     """jaxnav.train's chunk on 2 devices: the periodic target copy is a conditional,
     and deciding it needs no communication between the devices."""
