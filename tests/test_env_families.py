@@ -169,7 +169,7 @@ def test_a_short_run_trains_and_tests_on_its_drawn_family(name, tmp_path):
     evaluated = evaluate_to_dir(out, ["square4"], 2)
     with open(evaluated / "results.csv") as f:
         mazes = {r["maze"] for r in csv.DictReader(f)}
-    assert mazes == {"square4", f"{name}:test"}
+    assert mazes == {"square4", f"{name}:train", f"{name}:test"}
     assert "(train split)" in (evaluated / "tables.md").read_text()
 
 

@@ -310,6 +310,7 @@ def test_outputs_are_checked_before_the_test_starts(run, tmp_path, capsys, monke
 def test_evaluate_ends_with_trains_table_per_test_mode(run, tmp_path, capsys):
     """Per test mode and strategy: seeds, return, goals, collisions, each a mean over
     seeds with its interval, in the table train prints (report.tables.outcome_text)."""
+    from jaxnav.report.nav_tables import navigation_text
     from jaxnav.report.tables import outcome_text
 
     cfg, out = run
@@ -323,6 +324,8 @@ def test_evaluate_ends_with_trains_table_per_test_mode(run, tmp_path, capsys):
         mine = [r for r in rows if r["mode"] == mode]
         expected += f"{mode} test on {mazes}, every test episode of each seed, mean over seeds"
         expected += f" [95% CI]:\n{outcome_text(mine)}\n"
+        expected += "per goal attempt, every attempt of each seed, mean over seeds [95% CI]:\n"
+        expected += f"{navigation_text(mine)}\n"
     assert tail == expected
     header, ebe, eps = outcome_text([r for r in rows if r["mode"] == "greedy"]).splitlines()
     assert (
