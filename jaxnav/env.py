@@ -286,14 +286,7 @@ class NavEnv(GoalSampler):
         """The maze of an episode: ``params.maze``, scaled if ``maze_scale`` is on; at
         ``time`` (s) its moving cylinders join the static ones where they are then."""
         maze = scale_maze(params.maze, scale) if self.scales_maze else params.maze
-        if time is not None and maze.motion is not None:
-            moving = motion.circles_at(maze.motion, time)
-            maze = maze.replace(
-                circles=jnp.concatenate([maze.circles, moving]),
-                circle_mask=jnp.concatenate([maze.circle_mask, jnp.ones(len(moving), bool)]),
-                motion=None,
-            )
-        return maze
+        return maze if time is None else motion.frozen_at(maze, time)
 
     def circles_at(self, params: EnvParams, scale: chex.Array, t: chex.Array) -> chex.Array:
         """f32[k, 3]: every cylinder (static, then moving) after ``t`` steps."""
@@ -386,7 +379,9 @@ class NavEnv(GoalSampler):
             collided = clearance < params.robot_radius
         distance = norm2(state.goal - pos)
         reached = (distance < params.goal_radius) & ~collided
-        if self.reward == "geodesic":  # head for the next opening on the shortest path
+        if self.reward == "sparse":
+            reward = sparse_reward(params, reached, collided)
+        elif self.reward == "geodesic":  # head for the next opening on the shortest path
             target, distance_along = generators.geodesic_target(
                 params.maze, state.cell_dist, self.grid, pos, state.goal
             )
@@ -399,8 +394,6 @@ class NavEnv(GoalSampler):
             reward = reward_fn(
                 params, action, heading, distance, state.goal_distance0, reached, collided
             )
-        if self.reward == "sparse":
-            reward = sparse_reward(params, reached, collided)
         new_goal = self.draw_goal(k_goal, state.goal, params, state.scale)
         goal = jnp.where(reached, new_goal, state.goal)
         d0 = jnp.where(reached, norm2(new_goal - pos), state.goal_distance0)

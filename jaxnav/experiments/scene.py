@@ -29,14 +29,7 @@ def draw_maze(ax, maze: Maze, *, n_beams: int = 0, min_range: float = 0.12, **kw
         scan = jax.jit(lidar_scan, static_argnums=3)  # one compile beats op-by-op dispatch
         max_range = kw.get("max_range", 3.5)
         pos, yaw32 = np.array([x, y], np.float32), np.float32(yaw)
-        seen = maze
-        if maze.motion is not None:  # the moving cylinders at their first pose
-            moving = np.asarray(motion.circles_at(maze.motion, 0.0))
-            seen = maze.replace(
-                circles=np.concatenate([maze.circles, moving]),
-                circle_mask=np.concatenate([maze.circle_mask, np.ones(len(moving), bool)]),
-                motion=None,
-            )
+        seen = motion.frozen_at(maze, 0.0)  # the moving cylinders at their first pose
         kw["ranges"] = np.asarray(scan(seen, pos, yaw32, n_beams, min_range, max_range))
     return drawing.draw_maze(ax, maze, **kw)
 

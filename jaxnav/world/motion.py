@@ -165,6 +165,20 @@ def loop_paths(motion: Motion, n: int = 400) -> np.ndarray:
     )
 
 
+def frozen_at(maze, time):
+    """``maze`` (a :class:`jaxnav.world.maps.Maze` with a motion) with its moving
+    cylinders joined to the static ones where they are at ``time`` (s), and no motion:
+    what the LiDAR sees at that time. A maze without a motion is returned as it is."""
+    if maze.motion is None:
+        return maze
+    moving = circles_at(maze.motion, time)
+    return maze.replace(
+        circles=jnp.concatenate([maze.circles, moving]),
+        circle_mask=jnp.concatenate([maze.circle_mask, jnp.ones(len(moving), bool)]),
+        motion=None,
+    )
+
+
 def moving_clearance(
     motion: Motion, pos: chex.Array, yaw: chex.Array, omega, v, dt, time0: chex.Array
 ) -> chex.Array:
@@ -184,6 +198,7 @@ __all__ = [
     "SUBSTEPS",
     "Motion",
     "circles_at",
+    "frozen_at",
     "loop_paths",
     "make_motion",
     "moving_clearance",
