@@ -2,7 +2,10 @@
 
 A config's sweep trained, tested in both modes and written up in ``DIR/study.md``:
 the work is :func:`jaxnav.experiments.study.study` (its module describes the
-layout); ``--help`` lists the options.
+layout). A ladder study file (one with ``rungs:``, as
+``configs/studies/when_ebe_helps.yaml``) trains every world and agent it names
+and writes its page from its data: :mod:`jaxnav.experiments.ladder`. ``--help``
+lists the options.
 """
 
 from __future__ import annotations
@@ -18,6 +21,8 @@ from pathlib import Path
 
 from jaxnav.core import cli
 from jaxnav.core.config import load_config, resolve_config_path
+from jaxnav.core.errors import JaxnavError
+from jaxnav.experiments import ladder
 from jaxnav.experiments.study import doc_files, study
 from jaxnav.report import stats
 
@@ -46,6 +51,8 @@ def main(argv: list[str] | None = None) -> int:
     def work() -> None:
         items = list(args.items)
         config_path = None if "=" in items[0] else resolve_config_path(items.pop(0))
+        if config_path is not None and ladder.is_ladder(config_path):
+            return ladder_study(config_path, items)
         cfg = load_config(config_path, items)
         cli.confirm_memory(cfg.memory_estimate(), args.yes)  # before anything is allocated
         title = args.title or f"Sweep study: {Path(config_path or 'defaults').stem}"
@@ -59,6 +66,18 @@ def main(argv: list[str] | None = None) -> int:
                 f"{cfg.seeds} seeds per arm, fewer than the {stats.MIN_SEEDS} a verdict needs: "
                 f"its verdicts say {stats.TOO_FEW_SEEDS}"
             )
+
+    def ladder_study(path: str, items: list[str]) -> None:
+        if items:
+            raise JaxnavError("a ladder study takes no key=value overrides: edit its file")
+        spec = ladder.load_study(path)
+        page = Path(args.doc) if args.doc else Path(args.out) / "study.md"
+        if args.doc:
+            cli.check_output(page, args.overwrite)
+        out = Path(args.out)
+        ladder.run_study(spec, out, args.resume, args.quiet, command.strip())
+        written = ladder.publish(spec, out, page)
+        print(f"study: {written[0]} (data in {written[-1]})")
 
     again = f"interrupted; continue with --resume --out {args.out}"
     return cli.run(p.prog, work, interrupted=again)

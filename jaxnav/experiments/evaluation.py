@@ -127,10 +127,16 @@ def test_setup(
 
 
 def evaluate(
-    run_dir: str | Path, maze_names: Sequence[str] | None = None, n_episodes: int | None = None
+    run_dir: str | Path,
+    maze_names: Sequence[str] | None = None,
+    n_episodes: int | None = None,
+    modes: Sequence[str] = MODES,
+    more_drawn: dict[str, Config] | None = None,
 ) -> tuple[LoadedRun, list[str], str, Episodes]:
-    """Test every run of ``run_dir`` in both test modes (greedy, then exploring).
+    """Test every run of ``run_dir`` in ``modes`` (both: greedy, then exploring).
 
+    ``more_drawn``: results name -> a config whose drawn mazes (its ``env.split``)
+    the policies are tested in too, for example a larger size of the run's family.
     Returns (run, maze names, results.csv text, the first greedy test episode of
     the config's seed per maze and strategy).
     """
@@ -150,7 +156,7 @@ def evaluate(
         ]
 
     rows, episodes = [], {}
-    for mode in MODES:
+    for mode in modes:
         results = []
         if mazes:
             results = run_tests(
@@ -164,15 +170,21 @@ def evaluate(
                 name: {labels[i][0]: first_episode(res, i) for i in first}
                 for name, res in zip(names, results)
             }
-        for split in SPLITS if run.config.env.generator else ():
-            # The family's train layouts (drawn with the test's keys), then its test
-            # layouts, which training never saw: their difference is the gap.
-            drawn = drawn_policies(run, split)
+        # The family's train layouts (drawn with the test's keys), then its test
+        # layouts, which training never saw: their difference is the gap.
+        drawn_tests = [
+            (drawn_name(run.config, split), drawn_policies(run, split))
+            for split in (SPLITS if run.config.env.generator else ())
+        ]
+        drawn_tests += [
+            (name, drawn_policies(run, cfg.env.split, cfg))
+            for name, cfg in (more_drawn or {}).items()
+        ]
+        for name, drawn in drawn_tests:
             template = [drawn.env_params.maze]
             results = run_tests(drawn, template, n_episodes, mode=mode, navigation=True)
             nav = counts(drawn, template, results)
-            name = [drawn_name(run.config, split)]
-            rows += episode_rows(drawn.fields, name, results, n_episodes, mode, nav)
+            rows += episode_rows(drawn.fields, [name], results, n_episodes, mode, nav)
     columns = with_swept(RESULT_COLUMNS, run.config.sweep)
     return run, names, rundir.csv_text(columns, rows), episodes
 
@@ -182,11 +194,12 @@ def drawn_name(cfg: Config, split: str = "test") -> str:
     return f"{cfg.env.generator}:{split}"
 
 
-def drawn_policies(run: LoadedRun, split: str = "test") -> Policies:
+def drawn_policies(run: LoadedRun, split: str = "test", cfg: Config | None = None) -> Policies:
     """A run trained on drawn mazes, its policies in the family's ``split``: every
     test episode in a maze drawn as in training (a new one every new_maze_every
-    episodes); the test split's layouts are those training never draws."""
-    env, env_params = from_config(run.config)
+    episodes); the test split's layouts are those training never draws. ``cfg``:
+    draw from this config's family instead (the same sensor and observation)."""
+    env, env_params = from_config(cfg if cfg is not None else run.config)
     env = dataclasses.replace(env, split=split)
     return run.policies._replace(env=env, env_params=env_params)
 
@@ -196,9 +209,11 @@ def evaluate_to_dir(
     maze_names: Sequence[str] | None = None,
     n_episodes: int | None = None,
     out: str | Path | None = None,
+    modes: Sequence[str] = MODES,
+    more_drawn: dict[str, Config] | None = None,
 ) -> Path:
     """Evaluate; write results.csv, tables.md, trajectories.npz (each atomically) into ``out``."""
-    run, names, text, episodes = evaluate(run_dir, maze_names, n_episodes)
+    run, names, text, episodes = evaluate(run_dir, maze_names, n_episodes, modes, more_drawn)
     tables = tables_markdown(
         text, trained_on(run.config), run.config.seed, title=f"Test results of {Path(run_dir).name}"
     )

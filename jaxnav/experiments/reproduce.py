@@ -190,7 +190,8 @@ def train_stage(name: str, cfg: Config, run_dir: Path, quiet: bool, say) -> tupl
     t0 = time.perf_counter()
     arms = len(cfg.arms())
     what = f"{arms} arms" if cfg.sweep else f"{arms} strategies"
-    note = f"{cfg.seeds} seeds x {what} on {cfg.env.maze}"
+    where = f"{cfg.env.generator} mazes" if cfg.env.generator else cfg.env.maze
+    note = f"{cfg.seeds} seeds x {what} on {where}"
     started = (run_dir / "config.yaml").is_file()
     if started and load_config(str(run_dir / "config.yaml")) != cfg:
         what = "trained" if (run_dir / "params.npz").is_file() else "started"
@@ -209,7 +210,10 @@ def train_stage(name: str, cfg: Config, run_dir: Path, quiet: bool, say) -> tupl
         resume(run_dir, quiet=quiet)
         note += ", resumed"
     else:
-        say(f"{name}: training {cfg.n_runs} runs ({note}), {cfg.episodes} episodes each")
+        budget = f"{cfg.episodes} episodes" if cfg.episodes is not None else ""
+        if cfg.total_steps is not None:
+            budget += (" or " if budget else "") + f"{cfg.total_steps:,} env steps"
+        say(f"{name}: training {cfg.n_runs} runs ({note}), {budget} each")
         train_new(cfg, run_dir, quiet=quiet)
     return time.perf_counter() - t0, note
 

@@ -1,0 +1,485 @@
+"""A ladder study: the same arms trained on worlds of growing difficulty, tested on the
+world they trained on and on worlds they never saw.
+
+A study file (``configs/studies/when_ebe_helps.yaml``) names its rungs (a shipped config
+and settings over it), its agents (settings), its strategies and its budget. Every
+(rung, agent) pair is one cell: one training run with every strategy x seed in one
+compiled program (``DIR/cells/RUNG.AGENT/``, a run directory like ``jaxnav train``'s),
+then a greedy test of every policy on
+
+* the rung's own world: its maze, or for a drawn family its train layouts (``FAMILY:train``);
+* a drawn family's test layouts (``FAMILY:test``), which training never drew;
+* a larger size of the family (``larger``), drawn from its test split;
+* the study's fixed generalisation mazes (``generalise_to``, e.g. ROBOTIS stage 4).
+
+A cell is done when its ``seeds.csv`` (per-seed scores of every test) is written, so an
+interrupted study resumes where it stopped: finished cells are reused, an unfinished
+training resumes from its last checkpoint. The study then writes its data
+(:data:`DATA_FILES`) into ``DIR/data/``; :mod:`jaxnav.report.ladder` turns the data
+into the page and its figures.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import shutil
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+
+from jaxnav.core.config import CONFIG_DIR, Config, build_config
+from jaxnav.core.errors import ConfigError, JaxnavError
+from jaxnav.core.rundir import METRICS, CsvLog, atomic_write_text, csv_text
+from jaxnav.core.values import flatten
+from jaxnav.experiments.evaluation import evaluate_to_dir
+from jaxnav.experiments.reproduce import train_stage
+from jaxnav.report.ladder import (
+    DATA_FILES,
+    FIGURES,
+    Data,
+    ladder_figures,
+    ladder_markdown,
+    trajectory_cell,
+)
+from jaxnav.report.navigation import seed_metrics
+from jaxnav.report.results import read_results
+
+STUDY_KEYS = {
+    "title": str,
+    "seed": int,
+    "seeds": int,
+    "total_steps": int,
+    "test_episodes": int,
+    "strategies": list,
+    "settings": dict,
+    "agents": dict,
+    "rungs": dict,
+    "generalise_to": list,
+}
+REQUIRED = ("title", "seeds", "total_steps", "strategies", "agents", "rungs")
+AGENT_KEYS = {"label": str, "settings": dict}
+RUNG_KEYS = {"label": str, "config": str, "settings": dict, "larger": dict}
+CURVE_POINTS = 41  # learning-curve points per cell, over the share of the step budget
+CURVE_WINDOW = 20  # episodes in a curve's moving mean
+SCORE_COLUMNS = (
+    "rung",
+    "agent",
+    "strategy",
+    "seed",
+    "test",
+    "episodes",
+    "attempts",
+    "return",
+    "success",
+    "spl",
+    "collision",
+)
+
+
+@dataclass(frozen=True)
+class Rung:
+    name: str
+    label: str
+    config: str  # a shipped config's name
+    settings: dict[str, Any]
+    larger: dict[str, Any]  # settings over the cell's config for the larger size ({} none)
+
+
+@dataclass(frozen=True)
+class Agent:
+    name: str
+    label: str
+    settings: dict[str, Any]
+
+
+@dataclass(frozen=True)
+class Study:
+    title: str
+    seed: int
+    seeds: int
+    total_steps: int
+    test_episodes: int
+    strategies: tuple[str, ...]
+    settings: dict[str, Any]
+    agents: tuple[Agent, ...]
+    rungs: tuple[Rung, ...]
+    generalise_to: tuple[str, ...]
+    text: str  # the study file, as read
+
+    def cells(self) -> list[tuple[Rung, Agent]]:
+        return [(r, a) for r in self.rungs for a in self.agents]
+
+
+def is_ladder(path: str) -> bool:
+    """Whether a YAML file is a ladder study (it has ``rungs:``) rather than a config."""
+    try:
+        with open(path) as f:
+            doc = yaml.safe_load(f)
+    except (OSError, yaml.YAMLError, UnicodeDecodeError):
+        return False
+    return isinstance(doc, dict) and "rungs" in doc
+
+
+def _typed(doc: dict, keys: dict[str, type], where: str) -> None:
+    for k, v in doc.items():
+        if k not in keys:
+            raise ConfigError(f"{where}: unknown key {k!r} (known: {', '.join(keys)})")
+        want = keys[k]
+        if want is int and (isinstance(v, bool) or not isinstance(v, int)):
+            raise ConfigError(f"{where}: {k} must be an integer, not {v!r}")
+        if want is not int and not isinstance(v, want):
+            raise ConfigError(f"{where}: {k} must be a {want.__name__}, not {v!r}")
+
+
+def _name(name: Any, where: str) -> str:
+    if not isinstance(name, str) or not name.replace("_", "").isalnum():
+        raise ConfigError(f"{where}: name {name!r} must be letters, digits and underscores")
+    return name
+
+
+def parse_study(text: str, where: str) -> Study:
+    """A study from its YAML text; every cell's config is built, so a wrong setting
+    anywhere is one line here, before any training."""
+    try:
+        doc = yaml.safe_load(text)
+    except yaml.YAMLError as e:
+        mark = getattr(e, "problem_mark", None)
+        raise ConfigError(
+            f"{where} is not valid YAML" + (f" at line {mark.line + 1}" if mark else "")
+        ) from None
+    if not isinstance(doc, dict):
+        raise ConfigError(f"{where} must hold a mapping of keys")
+    _typed(doc, STUDY_KEYS, where)
+    for k in REQUIRED:
+        if k not in doc:
+            raise ConfigError(f"{where}: {k} is required")
+    for k in ("seeds", "total_steps", "test_episodes"):
+        if k in doc and doc[k] < 1:
+            raise ConfigError(f"{where}: {k} must be at least 1")
+    if doc.get("seed", 0) < 0:
+        raise ConfigError(f"{where}: seed must not be negative")
+    agents, rungs = [], []
+    for name, a in doc["agents"].items():
+        at = f"{where}: agents.{_name(name, where)}"
+        if not isinstance(a, dict):
+            raise ConfigError(f"{at} must be a mapping (label, settings)")
+        _typed(a, AGENT_KEYS, at)
+        agents.append(Agent(name, a.get("label", name), flatten(a.get("settings", {}))))
+    for name, r in doc["rungs"].items():
+        at = f"{where}: rungs.{_name(name, where)}"
+        if not isinstance(r, dict) or "config" not in r:
+            raise ConfigError(f"{at} must be a mapping with a config")
+        _typed(r, RUNG_KEYS, at)
+        if not (CONFIG_DIR / f"{r['config']}.yaml").is_file():
+            raise ConfigError(f"{at}: no shipped config {r['config']!r} (jaxnav list configs)")
+        rung = Rung(
+            name,
+            r.get("label", name),
+            r["config"],
+            flatten(r.get("settings", {})),
+            flatten(r.get("larger", {})),
+        )
+        rungs.append(rung)
+    if not agents or not rungs:
+        raise ConfigError(f"{where}: a study needs at least one agent and one rung")
+    study = Study(
+        title=doc["title"],
+        seed=doc.get("seed", 0),
+        seeds=doc["seeds"],
+        total_steps=doc["total_steps"],
+        test_episodes=doc.get("test_episodes", 10),
+        strategies=tuple(doc["strategies"]),
+        settings=flatten(doc.get("settings", {})),
+        agents=tuple(agents),
+        rungs=tuple(rungs),
+        generalise_to=tuple(doc.get("generalise_to", [])),
+        text=text,
+    )
+    for rung, agent in study.cells():
+        cfg = cell_config(study, rung, agent)
+        if rung.larger:
+            if not cfg.env.generator:
+                raise ConfigError(f"{where}: rungs.{rung.name}.larger needs a drawn family")
+            larger_config(cfg, rung)
+    return study
+
+
+def load_study(path: str) -> Study:
+    try:
+        text = Path(path).read_text()
+    except FileNotFoundError:
+        raise ConfigError(f"study: no such file {path}") from None
+    except (IsADirectoryError, UnicodeDecodeError):
+        raise ConfigError(f"study: {path} is not a YAML text file") from None
+    return parse_study(text, f"study {path}")
+
+
+def _base_values(config: str) -> dict[str, Any]:
+    with open(CONFIG_DIR / f"{config}.yaml") as f:
+        return flatten(yaml.safe_load(f) or {})
+
+
+def cell_config(study: Study, rung: Rung, agent: Agent) -> Config:
+    """A cell's config: the rung's shipped config, the study's settings, the agent's,
+    the rung's, then the study's size (seeds, budget in env steps, tests)."""
+    values = _base_values(rung.config)
+    values.update(study.settings)
+    values.update(agent.settings)
+    values.update(rung.settings)
+    values.pop("run.test_mazes", None)
+    values.update(
+        {
+            "seed": study.seed,
+            "seeds": study.seeds,
+            "strategies": list(study.strategies),
+            "episodes": None,
+            "total_steps": study.total_steps,
+            "run.test_episodes": study.test_episodes,
+        }
+    )
+    cfg = _build(values, f"rungs.{rung.name} with agents.{agent.name}")
+    mazes = [] if cfg.env.generator else [cfg.env.maze]
+    mazes += [m for m in study.generalise_to if m not in mazes]
+    values["run.test_mazes"] = mazes
+    return _build(values, f"rungs.{rung.name} with agents.{agent.name}")
+
+
+def larger_config(cfg: Config, rung: Rung) -> Config:
+    """The cell's config at the rung's larger size, drawing from the test split."""
+    from jaxnav.core.config import config_to_dict
+
+    values = flatten(config_to_dict(cfg))
+    values.pop("sweep", None)
+    values.update(rung.larger)
+    values["env.split"] = "test"
+    return _build(values, f"rungs.{rung.name}.larger")
+
+
+def _build(values: dict[str, Any], where: str) -> Config:
+    try:
+        return build_config(values)
+    except ConfigError as e:
+        raise ConfigError(f"study: {where}: {str(e).removeprefix('config: ')}") from None
+
+
+def tests_of(cfg: Config, rung: Rung) -> list[tuple[str, str]]:
+    """(results maze name, test) of a cell: ``own`` (the world it trained on), ``test``
+    (a family's unseen layouts), ``larger``, and each fixed generalisation maze."""
+    out = []
+    if cfg.env.generator:
+        out += [(f"{cfg.env.generator}:train", "own"), (f"{cfg.env.generator}:test", "test")]
+        if rung.larger:
+            out.append((larger_name(cfg, rung), "larger"))
+    for m in cfg.run.test_mazes:
+        out.append((m, "own" if m == cfg.env.maze and not cfg.env.generator else m))
+    return out
+
+
+def larger_name(cfg: Config, rung: Rung) -> str:
+    return f"{cfg.env.generator}:larger"
+
+
+def cell_dir(out: Path, rung: Rung, agent: Agent) -> Path:
+    return out / "cells" / f"{rung.name}.{agent.name}"
+
+
+def seed_scores(results_text: str, cfg: Config, rung: Rung, agent: Agent) -> list[dict]:
+    """Per-seed greedy scores of every test of a cell (rows of :data:`SCORE_COLUMNS`)."""
+    res = read_results(results_text, "greedy")
+    rows = []
+    for maze, test in tests_of(cfg, rung):
+        for strategy, seed in cfg.run_labels():
+            ep = res.get((maze, strategy, seed))
+            if ep is None:  # diverged in training: not tested
+                continue
+            m = seed_metrics(ep)
+            rows.append(
+                {
+                    "rung": rung.name,
+                    "agent": agent.name,
+                    "strategy": strategy,
+                    "seed": seed,
+                    "test": test,
+                    "episodes": len(ep["return"]),
+                    "attempts": int(np.sum(ep["attempts"])),
+                    "return": f"{float(np.mean(ep['return'])):.6g}",
+                    "success": f"{m['success']:.6g}",
+                    "spl": f"{m['spl']:.6g}",
+                    "collision": f"{m['collision']:.6g}",
+                }
+            )
+    return rows
+
+
+def curve_rows(metrics: list[dict[str, str]], rung: Rung, agent: Agent) -> list[dict]:
+    """Training goals per episode (a moving mean over :data:`CURVE_WINDOW` episodes)
+    against the share of the step budget: mean over seeds and a normal 95% band."""
+    grid = np.linspace(0.0, 1.0, CURVE_POINTS)
+    by: dict[tuple[str, int], list[tuple[int, float, float]]] = {}
+    for r in metrics:
+        key = (r["strategy"], int(r["seed"]))
+        by.setdefault(key, []).append((int(r["episode"]), float(r["length"]), float(r["goals"])))
+    rows = []
+    for strategy in dict.fromkeys(k[0] for k in by):
+        per_seed = []
+        for (s, _), eps in sorted(by.items()):
+            if s != strategy:
+                continue
+            eps.sort()
+            steps = np.cumsum([e[1] for e in eps])
+            goals = np.asarray([e[2] for e in eps])
+            w = min(CURVE_WINDOW, len(goals))
+            smooth = np.convolve(goals, np.ones(w) / w, mode="full")[: len(goals)]
+            smooth[: w - 1] /= np.arange(1, w) / w  # the first episodes: mean of those so far
+            per_seed.append(np.interp(grid * steps[-1], steps, smooth))
+        y = np.asarray(per_seed)
+        mean = y.mean(0)
+        half = 1.96 * y.std(0, ddof=1) / np.sqrt(len(y)) if len(y) > 1 else np.zeros_like(mean)
+        for i, x in enumerate(grid):
+            rows.append(
+                {
+                    "rung": rung.name,
+                    "agent": agent.name,
+                    "strategy": strategy,
+                    "share": f"{x:.3f}",
+                    "goals": f"{mean[i]:.5g}",
+                    "low": f"{mean[i] - half[i]:.5g}",
+                    "high": f"{mean[i] + half[i]:.5g}",
+                }
+            )
+    return rows
+
+
+def run_cell(study: Study, out: Path, rung: Rung, agent: Agent, quiet: bool, say) -> dict:
+    """Train and test one cell (reusing what is done); its row of cells.csv."""
+    cfg = cell_config(study, rung, agent)
+    run = cell_dir(out, rung, agent)
+    done = run / "seeds.csv"
+    if done.is_file():
+        return json.loads((run / "cell.json").read_text())
+    run.parent.mkdir(parents=True, exist_ok=True)
+    name = f"{rung.name} / {agent.name}"
+    train_s, _ = train_stage(name, cfg, run, quiet, say)
+    say(f"{name}: testing {cfg.n_runs} policies, {study.test_episodes} episodes per test")
+    t0 = time.perf_counter()
+    more = {larger_name(cfg, rung): larger_config(cfg, rung)} if rung.larger else None
+    evaluate_to_dir(run, modes=("greedy",), more_drawn=more)
+    test_s = time.perf_counter() - t0
+    summary = json.loads((run / "summary.json").read_text())
+    cell = {
+        "rung": rung.name,
+        "agent": agent.name,
+        "runs": cfg.n_runs,
+        "env_steps": int(summary["env_steps"]),
+        "train_s": round(train_s, 1),
+        "test_s": round(test_s, 1),
+        "transitions_per_s": round(float(summary["steps_per_s"])),
+        "compile_s": round(float(summary["compile_s"]), 1),
+    }
+    rows = seed_scores((run / "eval" / "results.csv").read_text(), cfg, rung, agent)
+    curves = curve_rows(CsvLog(run / METRICS, ()).read(), rung, agent)
+    atomic_write_text(
+        run / "curves.csv", csv_text(list(curves[0]), [list(r.values()) for r in curves])
+    )
+    atomic_write_text(run / "cell.json", json.dumps(cell))
+    atomic_write_text(done, csv_text(SCORE_COLUMNS, [[r[c] for c in SCORE_COLUMNS] for r in rows]))
+    return cell
+
+
+def check_out(out: Path, study: Study, resume_ok: bool) -> None:
+    if out.exists() and not out.is_dir():
+        raise JaxnavError(f"{out} exists and is not a directory")
+    saved = out / "study.yaml"
+    if out.is_dir() and any(out.iterdir()):
+        if not resume_ok:
+            raise JaxnavError(
+                f"output directory {out} already exists and is not empty "
+                "(use --resume to continue it)"
+            )
+        if not saved.is_file() or saved.read_text() != study.text:
+            raise JaxnavError(f"{out} holds another study; use another --out")
+
+
+def run_study(study: Study, out: Path, resume_ok: bool, quiet: bool, command: str) -> Path:
+    """Every cell, then ``DIR/data/``; returns the data folder."""
+    check_out(out, study, resume_ok)
+    out.mkdir(parents=True, exist_ok=True)
+    atomic_write_text(out / "study.yaml", study.text)
+
+    def say(msg: str) -> None:
+        if not quiet:
+            print(f"[study] {msg}", file=sys.stderr, flush=True)
+
+    cells = []
+    for k, (rung, agent) in enumerate(study.cells()):
+        say(f"cell {k + 1} of {len(study.cells())}: {rung.name} with {agent.name}")
+        cells.append(run_cell(study, out, rung, agent, quiet, say))
+    return write_data(study, out, command)
+
+
+def _concat(paths: list[Path]) -> str:
+    """CSV files with one header: the first's."""
+    parts = [p.read_text() for p in paths]
+    head = parts[0].splitlines(keepends=True)[0]
+    return head + "".join("".join(t.splitlines(keepends=True)[1:]) for t in parts)
+
+
+def write_data(study: Study, out: Path, command: str) -> Path:
+    """The study's data files from its finished cells, into ``DIR/data/``."""
+    from jaxnav.experiments.reproduce import machine_info
+
+    data = out / "data"
+    data.mkdir(exist_ok=True)
+    dirs = [cell_dir(out, r, a) for r, a in study.cells()]
+    atomic_write_text(data / "study.yaml", study.text)
+    atomic_write_text(data / "scores.csv", _concat([d / "seeds.csv" for d in dirs]))
+    atomic_write_text(data / "curves.csv", _concat([d / "curves.csv" for d in dirs]))
+    cells = [json.loads((d / "cell.json").read_text()) for d in dirs]
+    atomic_write_text(
+        data / "cells.csv", csv_text(list(cells[0]), [list(c.values()) for c in cells])
+    )
+    info = machine_info()
+    machine = f"{info['CPU']}, {info['cores']}, {info['memory']}, JAX {info['JAX']}"
+    run = {"command": command, "machine": machine}
+    atomic_write_text(data / "run.json", json.dumps(run, indent=1) + "\n")
+    return data
+
+
+def publish(study: Study, out: Path, page: Path) -> list[Path]:
+    """The page, its figures and its data: ``page``, and beside it ``STEM-*.png`` and
+    the folder ``STEM/`` with the data files."""
+    data = out / "data"
+    prefix = page.stem
+    folder = page.parent / prefix
+    folder.mkdir(parents=True, exist_ok=True)
+    for name in DATA_FILES:
+        shutil.copyfile(data / name, folder / name)
+    written = ladder_figures(folder, page.parent, prefix)
+    traj = trajectory_cell(Data(folder))
+    if traj is not None:
+        written.append(_trajectories(study, out, *traj, page.parent / f"{prefix}-{FIGURES[2]}"))
+    atomic_write_text(page, ladder_markdown(folder, prefix))
+    return [page, *written, folder]
+
+
+def _trajectories(study: Study, out: Path, rung_name: str, agent_name: str, path: Path) -> Path:
+    from jaxnav.report import plots
+
+    rung = next(r for r in study.rungs if r.name == rung_name)
+    agent = next(a for a in study.agents if a.name == agent_name)
+    run = cell_dir(out, rung, agent)
+    cfg, names, mazes, goal_radius, episodes, mode = plots.first_episodes(run)
+    return plots.plot_trajectory(
+        mazes[0], names[0], episodes[names[0]], cfg.seed, goal_radius, path, mode
+    )
+
+
+def read_csv(path: Path) -> list[dict[str, str]]:
+    return list(csv.DictReader(io.StringIO(path.read_text())))

@@ -1,0 +1,188 @@
+"""The ladder study: its file is checked whole before any training, its verdicts are
+the claims table's rule on rliable's own statistic, its page comes from its data alone,
+and an interrupted study resumes without training a finished cell again."""
+
+from __future__ import annotations
+
+import csv
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from rliable import metrics
+
+from jaxnav.core.errors import ConfigError
+from jaxnav.experiments import ladder
+from jaxnav.report import ladder as page
+from jaxnav.report import stats
+
+STUDY = """\
+title: Tiny
+seeds: 2
+total_steps: 512
+test_episodes: 2
+strategies: [ebe, epsilon_greedy, boltzmann]
+settings: {run: {chunk_steps: 256}, env: {max_steps: 60}}
+generalise_to: [square2]
+agents:
+  dqn: {label: DQN}
+rungs:
+  square4_dense: {config: paper_no_obstacles}
+  grid4_dense:
+    config: grid4
+    larger: {env: {grid_rows: 5, grid_cols: 5}}
+"""
+
+
+def _parse(text: str):
+    return ladder.parse_study(text, "study x.yaml")
+
+
+def test_the_shipped_study_parses_and_every_cell_builds():
+    study = ladder.load_study(str(ladder.CONFIG_DIR / "studies" / "when_ebe_helps.yaml"))
+    assert len(study.cells()) == len(study.rungs) * len(study.agents)
+    for rung, agent in study.cells():
+        cfg = ladder.cell_config(study, rung, agent)
+        assert cfg.total_steps == study.total_steps and cfg.episodes is None
+        assert cfg.strategies == study.strategies and cfg.seeds == study.seeds
+        assert cfg.exploration.ebe_temperature == 3.0
+        if rung.larger:
+            big = ladder.larger_config(cfg, rung)
+            assert big.env.split == "test" and big.env.grid_rows > cfg.env.grid_rows
+
+
+@pytest.mark.parametrize(
+    "change, message",
+    [
+        (("seeds: 2", "seeds: 0"), "seeds must be at least 1"),
+        (("seeds: 2", "seedz: 2"), "unknown key 'seedz'"),
+        (("title: Tiny\n", ""), "title is required"),
+        (("config: paper_no_obstacles", "config: nope"), "no shipped config 'nope'"),
+        (("max_steps: 60", "max_stepz: 60"), "unknown key 'env.max_stepz'"),
+        (("grid_rows: 5", "grid_rows: -5"), "grid4_dense.larger"),
+        (("total_steps: 512", "total_steps: many"), "total_steps must be an integer"),
+        (("  dqn: {label: DQN}", "  dqn: {label: DQN, settings: {dqn: {double: 3}}}"), "double"),
+    ],
+)
+def test_a_wrong_study_file_is_one_line_naming_the_problem(change, message):
+    with pytest.raises(ConfigError) as e:
+        _parse(STUDY.replace(*change))
+    assert message in str(e.value) and "\n" not in str(e.value)
+
+
+def test_larger_needs_a_drawn_family():
+    bad = STUDY.replace(
+        "square4_dense: {config: paper_no_obstacles}",
+        "square4_dense: {config: paper_no_obstacles, larger: {env: {grid_rows: 5}}}",
+    )
+    with pytest.raises(ConfigError, match="larger needs a drawn family"):
+        _parse(bad)
+
+
+def test_the_cli_refuses_a_broken_study_with_exit_2(tmp_path):
+    path = tmp_path / "s.yaml"
+    path.write_text(STUDY.replace("seeds: 2", "seeds: -1"))
+    done = subprocess.run(
+        [sys.executable, "-m", "jaxnav", "study", str(path), "--out", str(tmp_path / "o")],
+        capture_output=True,
+        text=True,
+    )
+    assert done.returncode == 2
+    assert done.stderr.strip().count("\n") == 0 and "seeds must be at least 1" in done.stderr
+    assert not (tmp_path / "o").exists()
+
+
+def _synthetic(folder: Path, n: int = 16) -> None:
+    """A data folder: on rung a, EBE reaches every goal and the others half; on rung b
+    all three draw from the same distribution."""
+    rng = np.random.default_rng(0)
+    doc = _parse(STUDY).text.replace("square4_dense", "a").replace("grid4_dense", "b")
+    folder.mkdir()
+    (folder / "study.yaml").write_text(doc)
+    rows = []
+    for rung in ("a", "b"):
+        for strategy in ("ebe", "epsilon_greedy", "boltzmann"):
+            for seed in range(n):
+                for test in ("own",) if rung == "a" else ("own", "test"):
+                    good = rung == "a" and strategy == "ebe"
+                    s = 1.0 if good else float(rng.uniform(0.3, 0.7))
+                    rows.append([rung, "dqn", strategy, seed, test, 2, 4, s * 100, s, s, 0])
+    with open(folder / "scores.csv", "w", newline="") as f:
+        w = csv.writer(f, lineterminator="\n")
+        w.writerow(ladder.SCORE_COLUMNS)
+        w.writerows(rows)
+    (folder / "curves.csv").write_text("rung,agent,strategy,share,goals,low,high\n")
+    (folder / "cells.csv").write_text(
+        "rung,agent,runs,env_steps,train_s,test_s,transitions_per_s,compile_s\n"
+        "a,dqn,48,1,60,6,1000,1\nb,dqn,48,1,54,0,1000,1\n"
+    )
+    (folder / "run.json").write_text(json.dumps({"command": "c", "machine": "m"}))
+
+
+def test_verdicts_are_rliables_probability_of_improvement_with_the_claims_rule(tmp_path):
+    _synthetic(tmp_path / "d")
+    data = page.Data(tmp_path / "d")
+    for rung in ("a", "b"):
+        x = data.per_seed(rung, "dqn", "own", "ebe", "success")
+        y = data.per_seed(rung, "dqn", "own", "epsilon_greedy", "success")
+        p, word = page.compare(data, rung, "dqn", "own", "epsilon_greedy", "success")
+        assert p.value == pytest.approx(
+            float(metrics.probability_of_improvement(x[:, None], y[:, None]))
+        )
+        assert word == ("EBE better" if rung == "a" else "no detectable difference")
+        assert word == "EBE better" or p.low < 0.5 < p.high
+    assert page.summary_sentence(data) == (
+        "Across 2 worlds of growing difficulty and 1 agents (2 cells, 16 seeds per arm), "
+        "entropy-based exploration reaches more goals than epsilon-greedy in 1, fewer in 0, "
+        "and shows no detectable difference in 1."
+    )
+    assert page.solved_by(data, "a") == [("dqn", "ebe")] and page.solved_by(data, "b") == []
+    assert page.trajectory_cell(data) == ("a", "dqn")  # b draws its mazes: no fixed maze
+
+
+def test_the_page_says_too_few_seeds_below_the_minimum(tmp_path):
+    _synthetic(tmp_path / "d", n=stats.MIN_SEEDS - 1)
+    text = page.ladder_markdown(tmp_path / "d", "x")
+    assert stats.TOO_FEW_SEEDS in text and "] EBE better" not in text
+    assert "Total: 2 minutes" in text
+
+
+@pytest.mark.slow
+def test_a_tiny_study_end_to_end_and_its_resume(tmp_path):
+    path = tmp_path / "s.yaml"
+    path.write_text(STUDY)
+    out = tmp_path / "o"
+    cmd = [sys.executable, "-m", "jaxnav", "study", str(path), "--out", str(out), "--quiet"]
+    done = subprocess.run(cmd, capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    data = out / "study"
+    text = (out / "study.md").read_text()
+    assert text == page.ladder_markdown(data, "study")
+    with open(data / "scores.csv") as f:
+        rows = list(csv.DictReader(f))
+    tests = {(r["rung"], r["test"]) for r in rows}
+    assert tests == {
+        ("square4_dense", "own"),
+        ("square4_dense", "square2"),
+        ("grid4_dense", "own"),
+        ("grid4_dense", "test"),
+        ("grid4_dense", "larger"),
+        ("grid4_dense", "square2"),
+    }
+    assert len(rows) == 6 * 3 * 2  # tests x strategies x seeds
+    again = subprocess.run(cmd, capture_output=True, text=True)
+    assert again.returncode == 2 and "--resume" in again.stderr
+    params = out / "cells" / "grid4_dense.dqn" / "params.npz"
+    before, scores = params.stat().st_mtime_ns, (data / "scores.csv").read_text()
+    resumed = subprocess.run(cmd + ["--resume"], capture_output=True, text=True)
+    assert resumed.returncode == 0, resumed.stderr
+    assert params.stat().st_mtime_ns == before  # a finished cell is not trained again
+    assert (data / "scores.csv").read_text() == scores
+    other = tmp_path / "t.yaml"
+    other.write_text(STUDY.replace("Tiny", "Other"))
+    cmd[4] = str(other)
+    refused = subprocess.run(cmd + ["--resume"], capture_output=True, text=True)
+    assert refused.returncode == 2 and "holds another study" in refused.stderr
