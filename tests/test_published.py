@@ -33,3 +33,22 @@ def test_the_agents_page_holds_the_tables_of_its_committed_results():
     mod = _script("agents_study")
     page = mod.PAGE.read_text()
     assert _between(page, mod.BEGIN, mod.END).strip() == mod.tables().strip()
+
+
+def test_the_ladder_study_page_is_its_data_byte_for_byte():
+    from jaxnav.report import ladder
+
+    page = ROOT / "docs" / "studies" / "when-ebe-helps.md"
+    data = page.parent / page.stem
+    assert page.read_text() == ladder.ladder_markdown(data, page.stem)
+    for name in ladder.FIGURES[:2]:
+        assert (page.parent / f"{page.stem}-{name}").is_file()
+
+
+def test_the_readme_sums_up_the_ladder_study_in_its_generated_sentence():
+    from jaxnav.report import ladder
+
+    mod = _script("publish_ladder")
+    sentence = ladder.summary_sentence(ladder.Data(mod.DATA))
+    for page in mod.PAGES:
+        assert _between(page.read_text(), mod.BEGIN, mod.END).strip() == sentence

@@ -52,6 +52,7 @@ from jaxnav.core.values import coerce, flatten, parse_override
 PAPER_STRATEGIES = ("ebe", "epsilon_greedy")
 # The shipped configs and maze files: package data, so they work from an installed wheel.
 CONFIG_DIR = Path(__file__).resolve().parent.parent / "configs"
+STUDY_DIR = CONFIG_DIR / "studies"  # ladder studies: jaxnav study when_ebe_helps
 
 
 @dataclass(frozen=True)
@@ -441,11 +442,12 @@ def shipped_path(path: str) -> str:
 
 
 def resolve_config_path(name: str) -> str:
-    """A config path, a built-in config's name (``smoke``: ``configs/smoke.yaml``), or
-    a path under ``configs/`` from any folder; a missing one is returned unchanged."""
+    """A config path, a built-in config's name (``smoke``: ``configs/smoke.yaml``), a
+    shipped study's (``when_ebe_helps``: ``configs/studies/when_ebe_helps.yaml``), or a
+    path under ``configs/`` from any folder; a missing one is returned unchanged."""
     if os.path.exists(name):
         return name
-    for cand in (CONFIG_DIR / name, CONFIG_DIR / f"{name}.yaml"):
+    for cand in (CONFIG_DIR / name, CONFIG_DIR / f"{name}.yaml", STUDY_DIR / f"{name}.yaml"):
         if cand.is_file() and "/" not in name:
             return str(cand)
     return shipped_path(name)

@@ -412,6 +412,8 @@ def run_study(study: Study, out: Path, resume_ok: bool, quiet: bool, command: st
     check_out(out, study, resume_ok)
     out.mkdir(parents=True, exist_ok=True)
     atomic_write_text(out / "study.yaml", study.text)
+    if not (out / "command.txt").is_file():  # the command that started it, for the page
+        atomic_write_text(out / "command.txt", command + "\n")
 
     def say(msg: str) -> None:
         if not quiet:
@@ -447,7 +449,9 @@ def write_data(study: Study, out: Path, command: str) -> Path:
     )
     info = machine_info()
     machine = f"{info['CPU']}, {info['cores']}, {info['memory']}, JAX {info['JAX']}"
-    run = {"command": command, "machine": machine}
+    started = out / "command.txt"
+    run = {"command": started.read_text().strip() if started.is_file() else command}
+    run["machine"] = machine
     atomic_write_text(data / "run.json", json.dumps(run, indent=1) + "\n")
     return data
 
