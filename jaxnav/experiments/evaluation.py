@@ -53,7 +53,10 @@ def load_run(run_dir: str | Path) -> LoadedRun:
     cfg = load_config(str(cfg_path))
     env, env_params = from_config(cfg)
     if env.generates:  # trained on drawn mazes: tested on the fixed test mazes by name
-        env = dataclasses.replace(env, generator="")  # (and on drawn ones: drawn_policies)
+        # (and on drawn ones: drawn_policies). A fixed maze has no grid of shortest
+        # paths, so a geodesic run's test there scores the dense reward.
+        reward = "dense" if env.reward == "geodesic" else env.reward
+        env = dataclasses.replace(env, generator="", reward=reward)
     network = network_of(cfg, env)
     template = network.init(jax.random.PRNGKey(0), jnp.zeros(env.obs_size))
     dropped = diverged_runs(run_dir)
