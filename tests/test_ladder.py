@@ -138,7 +138,7 @@ def test_verdicts_are_rliables_probability_of_improvement_with_the_claims_rule(t
     assert page.summary_sentence(data) == (
         "Across 2 worlds of growing difficulty and 1 agents (2 cells, 16 seeds per arm), "
         "entropy-based exploration reaches more goals than epsilon-greedy in 1, fewer in 0, "
-        "and shows no detectable difference in 1."
+        "shows no detectable difference in 1."
     )
     assert page.solved_by(data, "a") == [("dqn", "ebe")] and page.solved_by(data, "b") == []
     assert page.trajectory_cell(data) == ("a", "dqn")  # b draws its mazes: no fixed maze

@@ -26,6 +26,7 @@ TRAJECTORY_SUCCESS = 0.5  # the trajectory figure's world: an arm reaches this s
 EBE, EPS, BOLTZMANN = "ebe", "epsilon_greedy", "boltzmann"
 NAMES = {EBE: "EBE", EPS: "epsilon-greedy", BOLTZMANN: "Boltzmann"}
 MEASURES = ("success", "return")
+NO_GOALS = "neither reaches a goal"  # a success verdict where every seed of both scores 0
 FIGURES = ("ladder.png", "curves.png", "trajectories.png")
 DATA_FILES = ("study.yaml", "scores.csv", "curves.csv", "cells.csv", "run.json")
 TEST_NAMES = {"own": "own world", "test": "unseen layouts", "larger": "larger size"}
@@ -72,6 +73,8 @@ def compare(data: Data, rung, agent, test, other, measure) -> tuple[stats.Interv
     p = stats.probability_of_improvement_ci(x, y)
     if not stats.enough_seeds(min(len(x), len(y))):
         return p, stats.TOO_FEW_SEEDS
+    if measure == "success" and not (x.any() or y.any()):
+        return p, NO_GOALS
     word = {"supported": "EBE better", "contradicted": "EBE worse"}.get(verdict(p))
     return p, word or "no detectable difference"
 
@@ -127,11 +130,12 @@ def summary_sentence(data: Data) -> str:
     """The study in one sentence, from its verdict table (success on each rung's own world)."""
     c = _count(verdicts(data), EPS, "success")
     n = sum(c.values())
+    tail = f", and neither reaches a goal in {c[NO_GOALS]}" if c[NO_GOALS] else ""
     return (
         f"Across {len(data.rungs)} worlds of growing difficulty and {len(data.agents)} agents "
         f"({n} cells, {data.n_seeds()} seeds per arm), entropy-based exploration reaches more "
-        f"goals than epsilon-greedy in {c['EBE better']}, fewer in {c['EBE worse']}, and shows "
-        f"no detectable difference in {c['no detectable difference']}."
+        f"goals than epsilon-greedy in {c['EBE better']}, fewer in {c['EBE worse']}, shows "
+        f"no detectable difference in {c['no detectable difference']}{tail}."
     )
 
 
@@ -168,10 +172,10 @@ def _success_table(data: Data) -> list[str]:
 
 def _gap_table(data: Data) -> list[str]:
     rows = []
-    for rung in data.rungs:
+    family = [r for r in data.rungs if "test" in data.tests(r)]
+    more = list(dict.fromkeys(t for r in family for t in data.tests(r) if t not in ("own", "test")))
+    for rung in family:
         tests = data.tests(rung)
-        if "test" not in tests:
-            continue
         for agent in data.agents:
             for s in data.strategies:
                 own = data.per_seed(rung, agent, "own", s, "success")
@@ -179,16 +183,14 @@ def _gap_table(data: Data) -> list[str]:
                 cells = [data.rung_label[rung], data.agent_label[agent], NAMES[s]]
                 cells += [interval(stats.mean_ci(own), 2), interval(stats.mean_ci(unseen), 2)]
                 cells.append(interval(stats.mean_ci(own - unseen), 2, sign="+"))
-                for t in tests:
-                    if t not in ("own", "test"):
-                        x = data.per_seed(rung, agent, t, s, "success")
-                        cells.append(interval(stats.mean_ci(x), 2))
+                for t in more:
+                    x = data.per_seed(rung, agent, t, s, "success")
+                    cells.append(interval(stats.mean_ci(x), 2) if t in tests else "")
                 rows.append(cells)
-            more = [TEST_NAMES.get(t, t) for t in tests if t not in ("own", "test")]
     if not rows:
         return ["No rung of this study draws its mazes: there is no unseen split to test."]
     head = ["world", "agent", "strategy", "train layouts", "unseen layouts", "gap (train - unseen)"]
-    return markdown_table(head + [f"success, {m}" for m in more], rows)
+    return markdown_table(head + [f"success, {TEST_NAMES.get(m, m)}" for m in more], rows)
 
 
 def _generalisation_verdicts(data: Data) -> list[str]:
@@ -228,8 +230,9 @@ def _in_words(data: Data) -> list[str]:
                 f"cells, worse in {c['EBE worse']}, no detectable difference in "
                 f"{c['no detectable difference']}"
             )
-            if c[stats.TOO_FEW_SEEDS]:
-                line += f", {stats.TOO_FEW_SEEDS} in {c[stats.TOO_FEW_SEEDS]}"
+            for other_word in (NO_GOALS, stats.TOO_FEW_SEEDS):
+                if c[other_word]:
+                    line += f", {other_word} in {c[other_word]}"
             line += "."
             if better:
                 line += f" Better: {'; '.join(better)}."
