@@ -21,8 +21,6 @@ into the page and its figures.
 
 from __future__ import annotations
 
-import csv
-import io
 import json
 import shutil
 import sys
@@ -34,12 +32,13 @@ from typing import Any
 import numpy as np
 import yaml
 
-from jaxnav.core.config import CONFIG_DIR, Config, build_config
+from jaxnav.core.config import CONFIG_DIR, Config, build_config, config_to_dict
 from jaxnav.core.errors import ConfigError, JaxnavError
 from jaxnav.core.rundir import METRICS, CsvLog, atomic_write_text, csv_text
 from jaxnav.core.values import flatten
-from jaxnav.experiments.evaluation import evaluate_to_dir
-from jaxnav.experiments.reproduce import train_stage
+from jaxnav.experiments.evaluation import drawn_name, evaluate_to_dir
+from jaxnav.experiments.reproduce import machine_info, train_stage
+from jaxnav.report import stats
 from jaxnav.report.ladder import (
     DATA_FILES,
     FIGURES,
@@ -253,8 +252,6 @@ def cell_config(study: Study, rung: Rung, agent: Agent) -> Config:
 
 def larger_config(cfg: Config, rung: Rung) -> Config:
     """The cell's config at the rung's larger size, drawing from the test split."""
-    from jaxnav.core.config import config_to_dict
-
     values = flatten(config_to_dict(cfg))
     values.pop("sweep", None)
     values.update(rung.larger)
@@ -274,16 +271,12 @@ def tests_of(cfg: Config, rung: Rung) -> list[tuple[str, str]]:
     (a family's unseen layouts), ``larger``, and each fixed generalisation maze."""
     out = []
     if cfg.env.generator:
-        out += [(f"{cfg.env.generator}:train", "own"), (f"{cfg.env.generator}:test", "test")]
+        out += [(drawn_name(cfg, "train"), "own"), (drawn_name(cfg, "test"), "test")]
         if rung.larger:
-            out.append((larger_name(cfg, rung), "larger"))
+            out.append((drawn_name(cfg, "larger"), "larger"))
     for m in cfg.run.test_mazes:
         out.append((m, "own" if m == cfg.env.maze and not cfg.env.generator else m))
     return out
-
-
-def larger_name(cfg: Config, rung: Rung) -> str:
-    return f"{cfg.env.generator}:larger"
 
 
 def cell_dir(out: Path, rung: Rung, agent: Agent) -> Path:
@@ -335,9 +328,7 @@ def curve_rows(metrics: list[dict[str, str]], rung: Rung, agent: Agent) -> list[
             eps.sort()
             steps = np.cumsum([e[1] for e in eps])
             goals = np.asarray([e[2] for e in eps])
-            w = min(CURVE_WINDOW, len(goals))
-            smooth = np.convolve(goals, np.ones(w) / w, mode="full")[: len(goals)]
-            smooth[: w - 1] /= np.arange(1, w) / w  # the first episodes: mean of those so far
+            smooth = stats.moving_average(goals, CURVE_WINDOW)
             per_seed.append(np.interp(grid * steps[-1], steps, smooth))
         y = np.asarray(per_seed)
         mean = y.mean(0)
@@ -357,19 +348,20 @@ def curve_rows(metrics: list[dict[str, str]], rung: Rung, agent: Agent) -> list[
     return rows
 
 
-def run_cell(study: Study, out: Path, rung: Rung, agent: Agent, quiet: bool, say) -> dict:
-    """Train and test one cell (reusing what is done); its row of cells.csv."""
+def run_cell(study: Study, out: Path, rung: Rung, agent: Agent, quiet: bool, say) -> None:
+    """Train and test one cell unless it is done: its seeds.csv, curves.csv and
+    cell.json (its row of cells.csv)."""
     cfg = cell_config(study, rung, agent)
     run = cell_dir(out, rung, agent)
     done = run / "seeds.csv"
     if done.is_file():
-        return json.loads((run / "cell.json").read_text())
+        return
     run.parent.mkdir(parents=True, exist_ok=True)
     name = f"{rung.name} / {agent.name}"
     train_s, _ = train_stage(name, cfg, run, quiet, say)
     say(f"{name}: testing {cfg.n_runs} policies, {study.test_episodes} episodes per test")
     t0 = time.perf_counter()
-    more = {larger_name(cfg, rung): larger_config(cfg, rung)} if rung.larger else None
+    more = {drawn_name(cfg, "larger"): larger_config(cfg, rung)} if rung.larger else None
     evaluate_to_dir(run, modes=("greedy",), more_drawn=more)
     test_s = time.perf_counter() - t0
     summary = json.loads((run / "summary.json").read_text())
@@ -390,7 +382,6 @@ def run_cell(study: Study, out: Path, rung: Rung, agent: Agent, quiet: bool, say
     )
     atomic_write_text(run / "cell.json", json.dumps(cell))
     atomic_write_text(done, csv_text(SCORE_COLUMNS, [[r[c] for c in SCORE_COLUMNS] for r in rows]))
-    return cell
 
 
 def check_out(out: Path, study: Study, resume_ok: bool) -> None:
@@ -419,10 +410,9 @@ def run_study(study: Study, out: Path, resume_ok: bool, quiet: bool, command: st
         if not quiet:
             print(f"[study] {msg}", file=sys.stderr, flush=True)
 
-    cells = []
     for k, (rung, agent) in enumerate(study.cells()):
         say(f"cell {k + 1} of {len(study.cells())}: {rung.name} with {agent.name}")
-        cells.append(run_cell(study, out, rung, agent, quiet, say))
+        run_cell(study, out, rung, agent, quiet, say)
     return write_data(study, out, command)
 
 
@@ -435,8 +425,6 @@ def _concat(paths: list[Path]) -> str:
 
 def write_data(study: Study, out: Path, command: str) -> Path:
     """The study's data files from its finished cells, into ``DIR/data/``."""
-    from jaxnav.experiments.reproduce import machine_info
-
     data = out / "data"
     data.mkdir(exist_ok=True)
     dirs = [cell_dir(out, r, a) for r, a in study.cells()]
@@ -483,7 +471,3 @@ def _trajectories(study: Study, out: Path, rung_name: str, agent_name: str, path
     return plots.plot_trajectory(
         mazes[0], names[0], episodes[names[0]], cfg.seed, goal_radius, path, mode
     )
-
-
-def read_csv(path: Path) -> list[dict[str, str]]:
-    return list(csv.DictReader(io.StringIO(path.read_text())))

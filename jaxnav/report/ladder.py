@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
+from jaxnav.core.values import flatten
 from jaxnav.report import stats
 from jaxnav.report.claims import verdict
 from jaxnav.report.markdown import interval, markdown_table
@@ -398,18 +399,8 @@ def ladder_markdown(folder: Path, prefix: str) -> str:
 
 def _settings_text(doc: dict) -> str:
     s = doc.get("settings") or {}
-    flat = _flat(s)
+    flat = flatten(s)
     return ", ".join(f"`{k}={_value(v)}`" for k, v in flat.items()) or "none"
-
-
-def _flat(d: dict, prefix: str = "") -> dict:
-    out = {}
-    for k, v in d.items():
-        if isinstance(v, dict):
-            out.update(_flat(v, f"{prefix}{k}."))
-        else:
-            out[f"{prefix}{k}"] = v
-    return out
 
 
 def _value(v) -> str:
