@@ -65,6 +65,7 @@ def test_the_shipped_study_parses_and_every_cell_builds():
         (("max_steps: 60", "max_stepz: 60"), "unknown key 'env.max_stepz'"),
         (("grid_rows: 5", "grid_rows: -5"), "grid4_dense.larger"),
         (("total_steps: 512", "total_steps: many"), "total_steps must be an integer"),
+        (("generalise_to: [square2]", "generalise_to: [nomaze]"), "unknown maze 'nomaze'"),
         (("  dqn: {label: DQN}", "  dqn: {label: DQN, settings: {dqn: {double: 3}}}"), "double"),
     ],
 )

@@ -49,6 +49,7 @@ from jaxnav.report.ladder import (
 )
 from jaxnav.report.navigation import seed_metrics
 from jaxnav.report.results import read_results
+from jaxnav.world.maps import make_maze
 
 STUDY_KEYS = {
     "title": str,
@@ -201,6 +202,11 @@ def parse_study(text: str, where: str) -> Study:
         generalise_to=tuple(doc.get("generalise_to", [])),
         text=text,
     )
+    for name in study.generalise_to:  # tested after training: known before it
+        try:
+            make_maze(name)
+        except JaxnavError as e:
+            raise ConfigError(f"{where}: generalise_to: {e}") from None
     for rung, agent in study.cells():
         cfg = cell_config(study, rung, agent)
         if rung.larger:
