@@ -26,8 +26,11 @@ In one run, one measurement after the other (never two at once):
    (bench/README.md);
 5. without ``--quick``, ``python -m jaxnav.reproduce --seeds 32`` timed whole.
 
+``--only sb3`` or ``--only reproduce`` runs step 4 (E2 = 100 by default) or step 5 alone.
+
     python bench/end_to_end.py --quick     # E = 30, E2 = 30, no reproduce: about 5 min
     python bench/end_to_end.py             # E = 500 (a full paper run), E2 = 100, reproduce
+    python bench/end_to_end.py --only sb3  # step 4 alone, E2 = 100
 
 With ``--quick`` the whole commands are short, so compilation weighs more in them
 than in a full run, and the memory target is not judged: a short run has touched
@@ -187,18 +190,37 @@ def measure(
             train_command(32, 1, d / f"start{i}", d / "cache", log)["startup_s"] for i in range(4)
         ]
         res["second_start_s"] = statistics.median(starts[1:])
-        sb3_py = find_python("stable_baselines3")
-        if sb3_py:
-            ours = train_command(16, sb3_episodes, d / "vs_sb3", d / "cache_sb3", log)
-            per_run = ours["env_steps"] // ours["runs"]
-            sb3 = sb3_whole(cores(), ours["runs"], per_run, 250_000, sb3_py, log)
-            res["sb3"] = {"ours": ours, "sb3": sb3}
-            res["sb3_ratio"] = sb3["wall_s"] / ours["wall_s"]
-        else:
-            log("SB3 skipped: stable-baselines3 is not installed (bench/README.md)")
+        res |= against_sb3(sb3_episodes, d, log)
         if not quick:
             res["reproduce"] = reproduce_whole(32, d / "reproduce", d / "cache", log)
     return res
+
+
+def against_sb3(episodes: int, d: Path, log) -> dict:
+    """Step 4: ``jaxnav.train`` with 16 seeds x 2 strategies for ``episodes`` episodes
+    (cold cache) against SB3's whole processes; {} when SB3 is not installed."""
+    sb3_py = find_python("stable_baselines3")
+    if not sb3_py:
+        log("SB3 skipped: stable-baselines3 is not installed (bench/README.md)")
+        return {}
+    ours = train_command(16, episodes, d / "vs_sb3", d / "cache_sb3", log)
+    per_run = ours["env_steps"] // ours["runs"]
+    sb3 = sb3_whole(cores(), ours["runs"], per_run, 250_000, sb3_py, log)
+    ratio = sb3["wall_s"] / ours["wall_s"]
+    log(
+        f"    ours {ours['wall_s']:.1f} s ({100 * ours['lockstep_useful']:.0f}% of lockstep "
+        f"steps real), SB3 {sb3['wall_s']:.1f} s: {ratio:.1f}x"
+    )
+    return {"sb3": {"ours": ours, "sb3": sb3}, "sb3_ratio": ratio}
+
+
+def only(part: str, sb3_episodes: int | None, log) -> dict:
+    """One step alone: ``sb3`` (step 4, E2 = 100 unless given) or ``reproduce`` (step 5)."""
+    with tempfile.TemporaryDirectory(prefix="jaxnav-e2e-") as d:
+        d = Path(d)
+        if part == "sb3":
+            return against_sb3(sb3_episodes or 100, d, log)
+        return {"reproduce": reproduce_whole(32, d / "reproduce", d / "cache", log)}
 
 
 def targets(res: dict) -> list[tuple[str, str, str, str]]:
@@ -269,8 +291,16 @@ def main(argv=None) -> int:
     ap.add_argument("--episodes", type=int, help="E: episodes of the 64-run commands")
     ap.add_argument("--sb3-episodes", type=int, help="E2: episodes of the comparison with SB3")
     ap.add_argument("--json", help="also write the figures here")
+    ap.add_argument(
+        "--only", choices=("sb3", "reproduce"), help="one step alone: 4 (SB3) or 5 (reproduce)"
+    )
     args = ap.parse_args(argv)
     print(f"# end to end; {machine()}", flush=True)
+    if args.only:
+        res = only(args.only, args.sb3_episodes, log=lambda s: print(s, flush=True))
+        if args.json:
+            Path(args.json).write_text(json.dumps(res, indent=1) + "\n")
+        return 0
     res = measure(args.quick, args.episodes, args.sb3_episodes, log=lambda s: print(s, flush=True))
     print()
     print(markdown(targets(res)))

@@ -18,6 +18,7 @@ and the run-steps compacting would save, which bounds the time it would save (a
 smaller batch costs more per run-step, and each new size compiles once).
 
     python bench/lockstep.py docs/report/paper_no_obstacles docs/report/paper_obstacles
+    python bench/lockstep.py docs/report/paper_no_obstacles --episodes 100 --seeds 16
 """
 
 from __future__ import annotations
@@ -31,11 +32,17 @@ from pathlib import Path
 import yaml
 
 
-def run_lengths(run_dir: Path) -> list[int]:
-    """Each run's total env steps, in the run axis's order of first appearance."""
+def run_lengths(run_dir: Path, episodes: int | None = None, seeds: int | None = None) -> list[int]:
+    """Each run's total env steps, in the run axis's order of first appearance; of its
+    first ``episodes`` episodes only, and of the first ``seeds`` seeds of each strategy
+    only, when given (the schedule a shorter or smaller run of the same config had had)."""
     steps: dict[tuple, int] = defaultdict(int)
     with (run_dir / "metrics.csv").open() as f:
         for row in csv.DictReader(f):
+            if episodes is not None and int(row["episode"]) >= episodes:
+                continue
+            if seeds is not None and int(row["seed"]) >= seeds:
+                continue
             steps[(row["strategy"], row["seed"])] += int(row["length"])
     return list(steps.values())
 
@@ -66,6 +73,8 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("run_dirs", nargs="+", type=Path)
     ap.add_argument("--devices", type=int, default=2, help="devices the runs are laid over")
+    ap.add_argument("--episodes", type=int, help="only each run's first EPISODES episodes")
+    ap.add_argument("--seeds", type=int, help="only seeds 0 to SEEDS-1 of each strategy")
     args = ap.parse_args(argv)
     print(
         "| run | runs | steps per run (min, median, max) | real steps, lockstep | real steps, "
@@ -73,7 +82,7 @@ def main(argv=None) -> int:
     )
     print("|---|--:|---|--:|--:|--:|")
     for d in args.run_dirs:
-        lengths = run_lengths(d)
+        lengths = run_lengths(d, args.episodes, args.seeds)
         chunk = yaml.safe_load((d / "config.yaml").read_text())["run"]["chunk_steps"]
         s = sorted(lengths)
         shares = [schedule(lengths, chunk, args.devices, c) for c in (False, True)]

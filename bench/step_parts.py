@@ -24,6 +24,7 @@ them). The numbers each variant computes are meaningless; only the time is.
 
     python bench/step_parts.py
     python bench/step_parts.py --runs 64 --steps 1000 --rounds 3
+    python bench/step_parts.py --variants "full step" "all but the learner"
 """
 
 from __future__ import annotations
@@ -155,6 +156,9 @@ def main() -> int:
     p.add_argument("--steps", type=int, default=1000, help="steps per timed chunk")
     p.add_argument("--reps", type=int, default=2, help="timed chunks per process")
     p.add_argument("--rounds", type=int, default=3)
+    p.add_argument(
+        "--variants", nargs="+", choices=list(VARIANTS), help="only these (default: all)"
+    )
     p.add_argument("--json", help="also write the results here")
     p.add_argument("--case", help=argparse.SUPPRESS)
     args = p.parse_args()
@@ -164,16 +168,17 @@ def main() -> int:
         return 0
 
     print(f"# step parts: {machine()}, {args.runs} runs, 24 beams, {cores()} devices", flush=True)
-    times: dict[str, list[float]] = {v: [] for v in VARIANTS}
+    chosen = {v: VARIANTS[v] for v in args.variants or VARIANTS}
+    times: dict[str, list[float]] = {v: [] for v in chosen}
     for _ in range(args.rounds):
-        for name, parts in VARIANTS.items():
+        for name, parts in chosen.items():
             cmd = [sys.executable, __file__, "--case", json.dumps(parts)]
             cmd += ["--runs", str(args.runs), "--steps", str(args.steps), "--reps", str(args.reps)]
             out = subprocess.run(
                 cmd, capture_output=True, text=True, env=device_env(cores()), check=True
             )
             times[name] += json.loads(out.stdout.strip().splitlines()[-1])
-    full = statistics.median(times["full step"])
+    full = statistics.median(times.get("full step") or next(iter(times.values())))
     print("| step | ms per step | transitions/s | share of the full step's time |")
     print("|---|---|---|---|")
     rows = []
