@@ -7,11 +7,15 @@ and each measurement has a process to itself.
 
 from __future__ import annotations
 
+import argparse
+import csv
 import json
 import os
 import platform
 import subprocess
 import sys
+import tempfile
+import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -109,6 +113,71 @@ def find_python(module: str, prefer: str | None = None) -> str | None:
         if ok.returncode == 0:
             return py
     return None
+
+
+def budget_arguments(ap: argparse.ArgumentParser, unit: str, seeds: int, steps: int) -> None:
+    """The options of a script that trains with greedy evaluations (``run.eval_every``):
+    ``--quick``, ``--seeds`` (per ``unit``), ``--steps`` and ``--eval-every``;
+    :func:`budget` fills in their defaults."""
+    ap.add_argument("--quick", action="store_true", help="2 seeds, tiny budgets: checks it runs")
+    ap.add_argument("--seeds", type=int, help=f"seeds per {unit} ({seeds}; --quick 2)")
+    ap.add_argument("--steps", type=int, help=f"env steps per run ({steps:,}; --quick 2,048)")
+    ap.add_argument(
+        "--eval-every", type=int, help="env steps between evaluations (5,120; --quick 1,024)"
+    )
+    ap.set_defaults(full_budget=(seeds, steps))
+
+
+def budget(args: argparse.Namespace) -> None:
+    """:func:`budget_arguments`' defaults, for ``--quick`` or not, into ``args``."""
+    quick = args.quick
+    seeds, steps = args.full_budget
+    args.seeds = args.seeds or (2 if quick else seeds)
+    args.steps = args.steps or (2048 if quick else steps)
+    # a multiple of PQN's 512 env steps per update in configs/pqn.yaml
+    args.eval_every = args.eval_every or (1024 if quick else 5120)
+
+
+def train_evaluating(items: list[str], args: argparse.Namespace, log) -> dict:
+    """One whole ``python -m jaxnav.train ITEMS`` command of ``args.seeds`` seeds and
+    ``args.steps`` env steps per run, with a greedy evaluation of ``args.eval_episodes``
+    episodes every ``args.eval_every`` steps, timed from launch to exit with an empty
+    compilation cache. Chunks are one evaluation period long (PQN: whole updates), so
+    every chunk end is an evaluation and none is cut. Returns its eval.csv ``rows``,
+    ``summary`` (summary.json) and ``wall_s``."""
+    with tempfile.TemporaryDirectory() as tmp:
+        out = Path(tmp) / "run"
+        cmd = [
+            sys.executable,
+            "-m",
+            "jaxnav.train",
+            *items,
+            f"seeds={args.seeds}",
+            "episodes=null",
+            f"total_steps={args.steps}",
+            f"run.eval_every={args.eval_every}",
+            f"run.eval_episodes={args.eval_episodes}",
+            f"run.chunk_steps={args.eval_every}",
+            "--out",
+            str(out),
+            "--quiet",
+        ]
+        log("$ " + " ".join(["python", *cmd[1:]]))
+        t0 = time.perf_counter()
+        p = subprocess.run(
+            cmd,
+            cwd=ROOT,
+            env=child_env({"JAXNAV_CACHE": str(Path(tmp) / "cache")}),
+            capture_output=True,
+        )
+        wall = time.perf_counter() - t0
+        if p.returncode != 0:
+            err = p.stderr.decode(errors="replace").strip().splitlines() or ["?"]
+            raise RuntimeError(f"jaxnav.train failed: {err[-1]}")
+        with open(out / "eval.csv") as f:
+            rows = list(csv.DictReader(f))
+        summary = json.loads((out / "summary.json").read_text())
+    return {"rows": rows, "summary": summary, "wall_s": wall}
 
 
 def machine() -> str:

@@ -45,7 +45,6 @@ Commands run one after another, never two at once; use a quiet machine.
 from __future__ import annotations
 
 import argparse
-import csv
 import json
 import subprocess
 import sys
@@ -53,7 +52,17 @@ import tempfile
 import time
 from pathlib import Path
 
-from common import MARK, ROOT, child_env, cores, device_env, find_python, machine
+from common import (
+    MARK,
+    budget,
+    budget_arguments,
+    cores,
+    device_env,
+    find_python,
+    machine,
+    train_evaluating,
+)
+from peers_rejax import dqn_rmsprop, gymnax_env
 
 WORLDS = {"square4": "paper_no_obstacles", "grid4": "grid4"}
 PQN = [  # the ladder study's PQN (configs/studies/when_ebe_helps.yaml)
@@ -79,13 +88,8 @@ def rejax_curves(world: str, agent: str, seeds: int, steps: int, every: int, epi
     """Train rejax's ``agent`` on ``world`` for ``seeds`` seeds, evaluating greedily every
     ``every`` env steps; per seed and evaluation the goal attempts and successes."""
     import jax
-    import jax.numpy as jnp
     import numpy as np
-    import optax
-    from flax.training.train_state import TrainState
-    from gymnax.environments import spaces
-    from rejax import DQN, PQN
-    from rejax.algos.algorithm import register_init
+    from rejax import PQN
 
     from jaxnav.agent.rollout import eval_keys, make_rollout
     from jaxnav.core.config import load_config
@@ -96,28 +100,8 @@ def rejax_curves(world: str, agent: str, seeds: int, steps: int, every: int, epi
     env, env_params = from_config(cfg)
     max_steps = int(env_params.max_steps)
 
-    class GymnaxNav:  # as peers_rejax.py: the pre-1.0 gymnax API rejax 0.1.3 unpacks
-        def __init__(self):
-            box = env.observation_space(env_params)
-            self._obs = spaces.Box(np.asarray(box.low), np.asarray(box.high), box.shape)
-
-        default_params = env_params
-
-        def reset(self, key, params):
-            return env.reset(key, params)
-
-        def step(self, key, state, action, params):
-            obs, state, reward, terminated, truncated, info = env.step(key, state, action, params)
-            return obs, state, reward, terminated | truncated, info
-
-        def action_space(self, params=None):
-            return spaces.Discrete(env.num_actions)
-
-        def observation_space(self, params=None):
-            return self._obs
-
     common = dict(
-        env=GymnaxNav(),
+        env=gymnax_env(env, env_params),
         env_params=env_params,
         total_timesteps=steps,
         eval_freq=every,
@@ -139,17 +123,7 @@ def rejax_curves(world: str, agent: str, seeds: int, steps: int, every: int, epi
             max_grad_norm=cfg.pqn.max_grad_norm,
         )
     else:
-
-        class DQNRMSprop(DQN):  # the paper's RMSprop in place of rejax's Adam
-            @register_init
-            def initialize_network_params(self, rng):
-                obs_ph = jnp.empty([1, *self.env.observation_space(self.env_params).shape])
-                q_params = self.agent.init(rng, obs_ph)
-                tx = optax.rmsprop(self.learning_rate, decay=0.9, eps=1e-6, eps_in_sqrt=False)
-                q_ts = TrainState.create(apply_fn=(), params=q_params, tx=tx)
-                return {"q_ts": q_ts, "q_target_params": q_params}
-
-        algo = DQNRMSprop.create(
+        algo = dqn_rmsprop().create(
             **common,
             agent_kwargs={"activation": "relu"},
             num_envs=1,
@@ -225,40 +199,9 @@ def success(r: dict) -> float:
 
 def run_ours(world: str, agent: str, args, log) -> dict:
     """One ``jaxnav.train`` command: both strategies, every seed; curves per strategy."""
-    with tempfile.TemporaryDirectory() as tmp:
-        out = Path(tmp) / "run"
-        cmd = [
-            sys.executable,
-            "-m",
-            "jaxnav.train",
-            WORLDS[world],
-            *AGENTS[agent],
-            f"seeds={args.seeds}",
-            "strategies=[ebe,epsilon_greedy]",
-            "episodes=null",
-            f"total_steps={args.steps}",
-            f"run.eval_every={args.eval_every}",
-            f"run.eval_episodes={args.eval_episodes}",
-            f"run.chunk_steps={args.eval_every}",
-            "--out",
-            str(out),
-            "--quiet",
-        ]
-        log("$ " + " ".join(["python", *cmd[1:]]))
-        t0 = time.perf_counter()
-        p = subprocess.run(
-            cmd,
-            cwd=ROOT,
-            env=child_env({"JAXNAV_CACHE": str(Path(tmp) / "cache")}),
-            capture_output=True,
-        )
-        wall = time.perf_counter() - t0
-        if p.returncode != 0:
-            err = p.stderr.decode(errors="replace").strip().splitlines() or ["?"]
-            raise RuntimeError(f"jaxnav.train failed: {err[-1]}")
-        with open(out / "eval.csv") as f:
-            rows = list(csv.DictReader(f))
-        summary = json.loads((out / "summary.json").read_text())
+    items = [WORLDS[world], *AGENTS[agent], "strategies=[ebe,epsilon_greedy]"]
+    res = train_evaluating(items, args, log)
+    rows, wall = res["rows"], res["wall_s"]
     arms = {}
     for strategy in ("ebe", "epsilon_greedy"):
         arms[f"ours, {strategy}"] = [
@@ -278,7 +221,7 @@ def run_ours(world: str, agent: str, args, log) -> dict:
         "command_s": wall,
         "runs": runs,
         "transitions_per_s": runs * args.steps / wall,
-        "steady_transitions_per_s": summary["steps_per_s"],
+        "steady_transitions_per_s": res["summary"]["steps_per_s"],
     }
 
 
@@ -387,12 +330,7 @@ def figure(results: list[dict], path: str) -> None:
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--quick", action="store_true", help="2 seeds, tiny budget: checks it runs")
-    ap.add_argument("--seeds", type=int, help="seeds per arm (16; --quick 2)")
-    ap.add_argument("--steps", type=int, help="env steps per run (40,960; --quick 2,048)")
-    ap.add_argument(
-        "--eval-every", type=int, help="steps between evaluations (5,120; --quick 1,024)"
-    )
+    budget_arguments(ap, "arm", seeds=16, steps=40_960)
     ap.add_argument("--eval-episodes", type=int, default=10, help="episodes per evaluation")
     ap.add_argument("--worlds", nargs="+", choices=list(WORLDS), default=list(WORLDS))
     ap.add_argument("--agents", nargs="+", choices=list(AGENTS), default=list(AGENTS))
@@ -409,10 +347,8 @@ def main(argv=None) -> int:
         if args.figure:
             figure(saved["results"], args.figure)
         return 0
+    budget(args)
     quick = args.quick
-    args.seeds = args.seeds or (2 if quick else 16)
-    args.steps = args.steps or (2048 if quick else 40_960)
-    args.eval_every = args.eval_every or (1024 if quick else 5120)  # a multiple of PQN's 512
     if args.one:
         world, agent = args.one.split(",", 1)
         res = rejax_curves(

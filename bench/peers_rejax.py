@@ -53,23 +53,13 @@ from common import MARK, cores, device_env, find_python, machine, ours_train, ru
 PEER = "rejax DQN 0.1.3"
 
 
-def make_rejax(beams: int, steps: int, capacity: int, maze: str = "square4"):
-    """The rejax DQN algorithm on jaxnav with our hyperparameters."""
+def gymnax_env(env, params):
+    """jaxnav's ``env`` through the pre-1.0 gymnax API that rejax 0.1.3 unpacks."""
     import jax.numpy as jnp
     import numpy as np
-    import optax
-    from flax.training.train_state import TrainState
     from gymnax.environments import spaces
-    from rejax import DQN
-    from rejax.algos.algorithm import register_init
-
-    import jaxnav
-
-    env, params = jaxnav.make(maze, n_beams=beams)
 
     class GymnaxNav:
-        """jaxnav through the pre-1.0 gymnax API that rejax 0.1.3 unpacks."""
-
         def __init__(self, env, params):
             self.env, self.params = env, params
             # Built eagerly: NavEnv.observation_space does jnp arithmetic on the maze
@@ -98,9 +88,18 @@ def make_rejax(beams: int, steps: int, capacity: int, maze: str = "square4"):
         def observation_space(self, params=None):
             return self._obs_space
 
-    class DQNRMSprop(DQN):
-        """rejax's DQN with the paper's RMSprop in place of its hard-coded Adam."""
+    return GymnaxNav(env, params)
 
+
+def dqn_rmsprop():
+    """rejax's DQN class with the paper's RMSprop in place of its hard-coded Adam."""
+    import jax.numpy as jnp
+    import optax
+    from flax.training.train_state import TrainState
+    from rejax import DQN
+    from rejax.algos.algorithm import register_init
+
+    class DQNRMSprop(DQN):
         @register_init
         def initialize_network_params(self, rng):
             obs_ph = jnp.empty([1, *self.env.observation_space(self.env_params).shape])
@@ -109,8 +108,18 @@ def make_rejax(beams: int, steps: int, capacity: int, maze: str = "square4"):
             q_ts = TrainState.create(apply_fn=(), params=q_params, tx=tx)
             return {"q_ts": q_ts, "q_target_params": q_params}
 
-    algo = DQNRMSprop.create(
-        env=GymnaxNav(env, params),
+    return DQNRMSprop
+
+
+def make_rejax(beams: int, steps: int, capacity: int, maze: str = "square4"):
+    """The rejax DQN algorithm on jaxnav with our hyperparameters."""
+    import jax.numpy as jnp
+
+    import jaxnav
+
+    env, params = jaxnav.make(maze, n_beams=beams)
+    algo = dqn_rmsprop().create(
+        env=gymnax_env(env, params),
         env_params=params,
         agent_kwargs={"activation": "relu"},
         total_timesteps=steps,

@@ -32,16 +32,12 @@ Commands run one after another, never two at once; use a quiet machine.
 from __future__ import annotations
 
 import argparse
-import csv
 import json
 import statistics
-import subprocess
 import sys
-import tempfile
-import time
 from pathlib import Path
 
-from common import ROOT, child_env, machine
+from common import budget, budget_arguments, machine, train_evaluating
 
 THRESHOLD = 0.95  # success per goal attempt that counts as solved
 MAZES = {  # maze -> the paper's config for it
@@ -59,27 +55,6 @@ def agents(maze: str) -> dict[str, list[str]]:
         "double + dueling DQN": [paper, "dqn.double=true", "dqn.dueling=true"],
         "PQN": ["configs/pqn.yaml", f"env.maze={maze}"],
     }
-
-
-def command(items: list[str], args, out: Path) -> list[str]:
-    """The training command of one agent on one maze."""
-    return [
-        sys.executable,
-        "-m",
-        "jaxnav.train",
-        *items,
-        f"seeds={args.seeds}",
-        "episodes=null",
-        f"total_steps={args.steps}",
-        f"run.eval_every={args.eval_every}",
-        f"run.eval_episodes={args.eval_episodes}",
-        # chunks of one evaluation period (PQN: its whole updates in it), so every
-        # chunk end is an evaluation and none is cut
-        f"run.chunk_steps={args.eval_every}",
-        "--out",
-        str(out),
-        "--quiet",
-    ]
 
 
 def solved_at(rows: list[dict[str, str]]) -> dict[tuple[str, int], tuple[float, int] | None]:
@@ -114,21 +89,9 @@ def median_or_never(values: list[float | None]) -> float | None:
 
 def measure(maze: str, agent: str, items: list[str], args, log) -> list[dict]:
     """Run one command; one result per strategy."""
-    with tempfile.TemporaryDirectory() as tmp:
-        out, cache = Path(tmp) / "run", Path(tmp) / "cache"
-        cmd = command(items, args, out)
-        log("$ " + " ".join(["python", *cmd[1:]]))
-        t0 = time.perf_counter()
-        p = subprocess.run(
-            cmd, cwd=ROOT, env=child_env({"JAXNAV_CACHE": str(cache)}), capture_output=True
-        )
-        wall = time.perf_counter() - t0
-        if p.returncode != 0:
-            err = p.stderr.decode(errors="replace").strip().splitlines() or ["?"]
-            raise RuntimeError(f"jaxnav.train failed: {err[-1]}")
-        with open(out / "eval.csv") as f:
-            rows = list(csv.DictReader(f))
-        runs = solved_at(rows)
+    res = train_evaluating(items, args, log)
+    rows, wall = res["rows"], res["wall_s"]
+    runs = solved_at(rows)
     log(f"    {wall:.1f} s whole")
     results = []
     for strategy in STRATEGIES:
@@ -169,21 +132,13 @@ def table(results: list[dict], args) -> str:
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--quick", action="store_true", help="2 seeds, tiny budgets: checks it runs")
-    ap.add_argument("--seeds", type=int, help="seeds per strategy (8; --quick 2)")
-    ap.add_argument("--steps", type=int, help="env steps per run (200,000; --quick 2,048)")
-    ap.add_argument(
-        "--eval-every", type=int, help="env steps between evaluations (5,120; --quick 1,024)"
-    )
+    budget_arguments(ap, "strategy", seeds=8, steps=200_000)
     ap.add_argument("--eval-episodes", type=int, default=5, help="episodes per evaluation")
     ap.add_argument("--mazes", nargs="+", choices=list(MAZES), default=list(MAZES))
     ap.add_argument("--json", help="also write the results here")
     args = ap.parse_args(argv)
+    budget(args)
     quick = args.quick
-    args.seeds = args.seeds or (2 if quick else 8)
-    args.steps = args.steps or (2048 if quick else 200_000)
-    # a multiple of PQN's 512 env steps per update in configs/pqn.yaml
-    args.eval_every = args.eval_every or (1024 if quick else 5120)
 
     def log(text: str) -> None:
         print(text, file=sys.stderr, flush=True)
