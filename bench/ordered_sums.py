@@ -2,9 +2,9 @@
 on how many runs share the batch, and what does that cost? (Not used by jaxnav.)
 
 A bias gradient is a sum over the sampled batch. XLA's CPU back end picks how to take
-it from the whole array's shape, runs included (YNNPACK's reduction for the paper's
-batch of 64 at 16 or more runs per device, a tree of ``reduce-window`` ops at 8 or
-fewer), so a run alone and the same run among others sum in different orders
+it from the whole array's shape, runs included (for the output layer's bias at the
+paper's batch of 64: YNNPACK's reduction at 16 or more runs per device, a tree of
+``reduce-window`` ops at 8 or fewer), so a run alone and among others sums in two orders
 (``batch_width.py``). Here ``flax.linen.Dense`` is swapped, in this process only, for
 :class:`Dense`, the same layer whose bias gradient :func:`ordered_sum` takes as
 elementwise adds in one order: rows in blocks of 16, each block four groups of four
