@@ -109,13 +109,13 @@ def ordered(on: bool = True):
         nn.Dense = saved
 
 
-def timed(seeds: int, beams: int, steps: int, reps: int, rounds: int) -> None:
-    """The learner alone (``roofline.py``'s), default and ordered taking turns, each
-    in its own process on one device per core."""
+def timed(runs: int, beams: int, steps: int, reps: int, rounds: int) -> None:
+    """The learner alone (``roofline.py``'s, ``runs`` runs of EBE), default and ordered
+    taking turns, each in its own process on one device per core."""
     rates: dict[str, list[float]] = {"default": [], "ordered": []}
     for _ in range(rounds):
         for kind in rates:
-            case = f"{seeds},{beams},{steps},{reps},{int(kind == 'ordered')}"
+            case = f"{runs},{beams},{steps},{reps},{int(kind == 'ordered')}"
             out = subprocess.run(
                 [sys.executable, __file__, "--case", case],
                 capture_output=True,
@@ -123,14 +123,16 @@ def timed(seeds: int, beams: int, steps: int, reps: int, rounds: int) -> None:
                 env=device_env(cores()),
                 check=True,
             )
-            rates[kind].append(json.loads(out.stdout.strip().splitlines()[-1])["steps_per_s"])
-    print(f"# the learner alone, {2 * seeds} runs, {beams} beams, {steps} steps, median of {reps}")
+            res = json.loads(out.stdout.strip().splitlines()[-1])
+            assert res["runs"] == runs, res
+            rates[kind].append(res["steps_per_s"])
+    print(f"# the learner alone, {runs} runs, {beams} beams, {steps} steps, median of {reps}")
     print("| bias gradients | gradient steps/s, each round | median | ms per step |")
     print("|---|---|--:|--:|")
     for kind, r in rates.items():
         med = statistics.median(r)
         each = ", ".join(f"{x:,.0f}" for x in r)
-        print(f"| {kind} | {each} | {med:,.0f} | {2 * seeds / med * 1e3:.3f} |")
+        print(f"| {kind} | {each} | {med:,.0f} | {runs / med * 1e3:.3f} |")
     ratio = statistics.median(rates["ordered"]) / statistics.median(rates["default"])
     print(f"ordered / default: {ratio:.3f}")
 
@@ -198,7 +200,7 @@ def main(argv=None) -> int:
     ap.add_argument("--widths", type=int, nargs="+", default=[1, 2, 4, 8, 16, 24])
     ap.add_argument("--set", nargs="*", default=[], help="config overrides (key=value)")
     ap.add_argument("--time", action="store_true", help="time the learner alone both ways")
-    ap.add_argument("--seeds", type=int, default=32, help="with --time")
+    ap.add_argument("--learner-runs", type=int, default=64, help="with --time")
     ap.add_argument("--steps", type=int, default=2000, help="with --time")
     ap.add_argument("--rounds", type=int, default=3, help="with --time")
     ap.add_argument("--probe", action="store_true", help="ordered_sum against XLA's sum alone")
@@ -215,9 +217,9 @@ def main(argv=None) -> int:
     if args.case:
         import roofline
 
-        seeds, beams, steps, reps, on = map(int, args.case.split(","))
-        with ordered(bool(on)):
-            print(json.dumps(roofline.learner_alone(seeds, beams, steps, reps)))
+        runs, beams, steps, reps, on = map(int, args.case.split(","))
+        with ordered(bool(on)):  # EBE only: the seeds are the runs
+            print(json.dumps(roofline.learner_alone(runs, beams, steps, reps)))
         return 0
     if args.probe:
         probe()
@@ -226,7 +228,7 @@ def main(argv=None) -> int:
         train_alone_and_among()
         return 0
     if args.time:
-        timed(args.seeds, 24, args.steps, 3, args.rounds)
+        timed(args.learner_runs, 24, args.steps, 3, args.rounds)
         return 0
     import batch_width
 
