@@ -94,7 +94,7 @@ def rejax_curves(world: str, agent: str, seeds: int, steps: int, every: int, epi
     from jaxnav.agent.rollout import eval_keys, make_rollout
     from jaxnav.core.config import load_config
     from jaxnav.env import from_config
-    from jaxnav.report.navigation import SUCCESS, split_attempts
+    from jaxnav.report.navigation import CUT, SUCCESS, split_attempts
 
     cfg = load_config(WORLDS[world], AGENTS[agent])
     env, env_params = from_config(cfg)
@@ -177,6 +177,7 @@ def rejax_curves(world: str, agent: str, seeds: int, steps: int, every: int, epi
                 s.collided[seed, e],
                 s.episode[seed, e],
                 episodes,
+                max_steps,  # the attempt limit: the episode's step limit
             )
             rows.append(
                 {
@@ -184,6 +185,7 @@ def rejax_curves(world: str, agent: str, seeds: int, steps: int, every: int, epi
                     "env_step": (e + 1) * every,
                     "attempts": len(att.outcome),
                     "successes": int(np.sum(att.outcome == SUCCESS)),
+                    "cut": int(np.sum(att.outcome == CUT)),
                     "return": float(np.mean(ret[seed, e])),
                 }
             )
@@ -194,7 +196,9 @@ def rejax_curves(world: str, agent: str, seeds: int, steps: int, every: int, epi
 
 
 def success(r: dict) -> float:
-    return r["successes"] / r["attempts"] if r["attempts"] else 0.0
+    """Successes over the decided attempts (jaxnav.report.navigation: cut ones left out)."""
+    decided = r["attempts"] - r["cut"]
+    return r["successes"] / decided if decided else 0.0
 
 
 def run_ours(world: str, agent: str, args, log) -> dict:
@@ -210,6 +214,7 @@ def run_ours(world: str, agent: str, args, log) -> dict:
                 "env_step": int(r["env_step"]),
                 "attempts": int(r["attempts"]),
                 "successes": int(r["successes"]),
+                "cut": int(r["cut"]),
                 "return": float(r["return"]),
             }
             for r in rows

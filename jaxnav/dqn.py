@@ -302,7 +302,9 @@ def make_trainer(config: Config) -> Trainer:
         # EPISODE METRICS: a finished run files nothing (its slot is out of range), so
         # only the running sums are held; a select over the rings would copy them.
         slot = jnp.where(run & done, ts.episode % slots, slots)  # out of range: not filed
-        metrics = ts.metrics.record(slot, reward, info["goal_reached"], terminated, done, explore)
+        metrics = ts.metrics.record(
+            slot, reward, info["goal_reached"], terminated, done, explore, env.attempt_limit
+        )
         held_sums = {k: _select(run, getattr(metrics, k), getattr(ts.metrics, k)) for k in _RUNNING}
         metrics = metrics.replace(**held_sums)
 
@@ -372,7 +374,7 @@ def _init_state(
         hyper=hyper,
         step=jnp.zeros((), jnp.int32),
         episode=jnp.zeros((), jnp.int32),
-        metrics=Episodes.zeros(slots),
+        metrics=Episodes.zeros(slots, attempts=bool(env.attempt_limit)),
         diverged_at=jnp.asarray(-1, jnp.int32),
     )
 
@@ -528,7 +530,15 @@ def _where_running(run: chex.Array, ts: TrainState, **new) -> TrainState:
 
 
 # The running sums of Episodes, the fields a finished run's step would still change.
-_RUNNING = ("cur_return", "cur_length", "cur_goals", "cur_explore")
+_RUNNING = (
+    "cur_return",
+    "cur_length",
+    "cur_goals",
+    "cur_explore",
+    "cur_age",  # these three are None (no leaves) without an attempt limit
+    "cur_successes",
+    "cur_timeouts",
+)
 
 
 class RunInputs(NamedTuple):

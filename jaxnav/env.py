@@ -182,6 +182,10 @@ class NavEnv(GoalSampler):
         heads for the next opening on the shortest path through the maze and D is the
         distance along it, so it never points into a dead end).
 
+    Navigation metrics (:mod:`jaxnav.report.navigation`):
+      attempt_limit: steps one goal attempt may take before it counts as a time-out;
+        0: the episode's step limit. Only the metrics read it, never the dynamics.
+
     Moving obstacles: a maze with a ``motion`` (ROBOTIS' stages 3 and 4,
     :mod:`jaxnav.world.stages`) moves its cylinders with the episode's time, t * dt;
     the scan sees them where they are at its time, and collision is tested over the
@@ -219,6 +223,7 @@ class NavEnv(GoalSampler):
     rooms_door: float = 0.6
     rooms_loops: float = 0.0
     reward: str = "dense"
+    attempt_limit: int = 0
 
     def __post_init__(self):
         for f in dataclasses.fields(self):  # the rules of the config's env settings
@@ -258,6 +263,11 @@ class NavEnv(GoalSampler):
     def in_maze(self, params: EnvParams, state: EnvState) -> EnvParams:
         """``params`` with the state's maze when the mazes are drawn (else unchanged)."""
         return params.replace(maze=state.maze) if self.generates else params
+
+    def attempt_steps(self, params: EnvParams) -> int:
+        """The attempt limit in steps (host side): ``attempt_limit``, or the episode's
+        step limit where it is 0."""
+        return int(self.attempt_limit) or int(params.max_steps)
 
     @property
     def num_actions(self) -> int:
@@ -557,7 +567,12 @@ def make(
     if "omegas" in values:
         values["omegas"] = jnp.asarray(values["omegas"], jnp.float32)
     env = NavEnv(**env_kwargs)
-    return env, EnvParams(maze=maze_obj, **values)
+    params = EnvParams(maze=maze_obj, **values)
+    if env.attempt_limit > int(params.max_steps):
+        raise ValueError(
+            f"attempt_limit ({env.attempt_limit}) must not exceed max_steps ({params.max_steps})"
+        )
+    return env, params
 
 
 def from_config(config: Config) -> tuple[NavEnv, EnvParams]:

@@ -166,7 +166,9 @@ def make_rollouts(config: Config) -> Rollouts:
         number = episode + jnp.cumsum(done.astype(jnp.int32)) - 1  # in environment order
         filed = run & done & (number < limit)
         slot = jnp.where(filed, number % slots, slots)  # out of range: not filed
-        metrics = metrics.record(slot, reward, info["goal_reached"], terminated, done, explore)
+        metrics = metrics.record(
+            slot, reward, info["goal_reached"], terminated, done, explore, env.attempt_limit
+        )
         episode = jnp.minimum(episode + jnp.sum(done, dtype=jnp.int32), limit)
         row = Rollout(
             obs,
@@ -229,7 +231,7 @@ def make_trainer(config: Config) -> Trainer:
             hyper=hyper,
             step=jnp.zeros((), jnp.int32),
             episode=jnp.zeros((), jnp.int32),
-            metrics=Episodes.zeros(slots, envs),
+            metrics=Episodes.zeros(slots, envs, attempts=bool(env.attempt_limit)),
             diverged_at=jnp.asarray(-1, jnp.int32),
         )
 

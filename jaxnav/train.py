@@ -22,7 +22,7 @@ from jaxnav.agent.sharding import initialize, is_writer
 from jaxnav.core import cli
 from jaxnav.core.config import load_config, resolve_config_path
 from jaxnav.core.errors import RunError
-from jaxnav.core.rundir import METRICS, CsvLog
+from jaxnav.core.rundir import CONFIG, METRICS, CsvLog
 from jaxnav.run.training import interrupted_text, resume, train_new
 
 LAST = 50  # training episodes per seed in the summary (summary.json's last50)
@@ -49,10 +49,18 @@ def print_summary(out: Path, summary: dict[str, Any]) -> None:
             f"{100 * summary['lockstep_useful']:.0f}% of the steps computed in lockstep were "
             "real steps (the rest: finished runs waiting for the others)"
         )
-    from jaxnav.report.tables import outcome_text  # its statistics only when done
+    from jaxnav.report.nav_tables import training_success_text  # statistics only when done
+    from jaxnav.report.tables import outcome_text
 
     print(f"last {LAST} training episodes of each seed, mean over seeds [95% CI]:")
-    print(outcome_text(CsvLog(out / METRICS, ()).read(), last=LAST))
+    rows = CsvLog(out / METRICS, ()).read()
+    print(outcome_text(rows, last=LAST))
+    max_steps = load_config(str(out / CONFIG)).env.max_steps
+    print(
+        f"goal attempts of the last {LAST} training episodes of each seed (exploration on; "
+        "attempts cut by an episode's end left out), mean over seeds [95% CI]:"
+    )
+    print(training_success_text(rows, max_steps, LAST))
     for d in summary.get("diverged", []):
         print(f"  dropped: {d['strategy']} seed {d['seed']} diverged at step {d['step']}")
 

@@ -10,7 +10,7 @@ from jaxnav.core import rundir
 from jaxnav.core.config import load_config
 from jaxnav.experiments.evaluation import load_run
 from jaxnav.experiments.rollout import padded_mazes, run_tests
-from jaxnav.report.navigation import SUCCESS, split_attempts
+from jaxnav.report.navigation import CUT, SUCCESS, split_attempts
 from jaxnav.run import training
 from jaxnav.run.training import train_new
 from jaxnav.train import main
@@ -91,7 +91,9 @@ def test_eval_rows_come_at_the_first_chunk_end_past_each_multiple_and_at_the_end
     for r in rows:
         attempts, successes = int(r["attempts"]), int(r["successes"])
         assert attempts >= cfg.run.eval_episodes and 0 <= successes <= attempts
-        assert float(r["success"]) == pytest.approx(successes / attempts)
+        decided = attempts - int(r["cut"])  # success leaves out the cut attempts
+        assert decided == successes + int(r["collisions"]) + int(r["timeouts"])
+        assert float(r["success"]) == pytest.approx(successes / decided)
         assert float(r["wall_s"]) > 0
 
 
@@ -108,11 +110,15 @@ def test_the_last_evaluation_is_the_greedy_test_of_the_saved_policies(runs):
     for i, (arm, seed) in enumerate(run.policies.labels):
         (row,) = [r for r in last if (r["strategy"], int(r["seed"])) == (arm, seed)]
         s = res.steps
-        att = split_attempts(s.pos[i], s.goal[i], s.reached[i], s.collided[i], s.episode[i], n)
+        limit = run.config.env.max_steps  # the attempt limit: the episode's
+        att = split_attempts(
+            s.pos[i], s.goal[i], s.reached[i], s.collided[i], s.episode[i], n, limit
+        )
         assert row["return"] == f"{float(np.mean(res.ret[i])):.6g}"
         assert row["goals"] == f"{float(np.mean(res.goals[i])):.6g}"
         assert int(row["attempts"]) == len(att.outcome)
         assert int(row["successes"]) == int(np.sum(att.outcome == SUCCESS))
+        assert int(row["cut"]) == int(np.sum(att.outcome == CUT))
 
 
 class Killed(BaseException):

@@ -314,6 +314,12 @@ def _check(cfg: Config) -> Config:
     says = env_reward_problem(cfg.env)
     if says:
         raise ConfigError(f"config: {says}")
+    if cfg.env.attempt_limit > cfg.env.max_steps:
+        fail(
+            "env.attempt_limit",
+            f"({cfg.env.attempt_limit}) must not exceed env.max_steps ({cfg.env.max_steps}): "
+            "an attempt never lasts longer than its episode",
+        )
     known = registry.names()
     for s in cfg.strategies:
         if s not in known:

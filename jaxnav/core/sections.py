@@ -33,6 +33,12 @@ class EnvConfig:
     maze: str = setting("square4", "built-in maze name or a maze YAML file")
     n_beams: int = setting(24, "LiDAR beams (360 on the robot)", rule=AT_LEAST_1)
     max_steps: int = setting(500, "an episode is truncated after this many steps", rule=AT_LEAST_1)
+    attempt_limit: int = setting(
+        0,
+        "steps one goal attempt may take before it counts as a time-out in the navigation "
+        "metrics (0: the episode's step limit, env.max_steps); the dynamics do not change",
+        rule=NON_NEGATIVE,
+    )
     lidar_noise_std: float = setting(
         0.0, "std of Gaussian range noise, m (0.01: Gazebo's)", rule=NON_NEGATIVE, sweep=True
     )

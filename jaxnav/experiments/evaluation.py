@@ -153,8 +153,9 @@ def evaluate(
         """Each maze's, run's and episode's sums over its goal attempts."""
         p = policies.env_params
         step_m, dt = float(p.v) * float(p.dt), float(p.dt)
+        limit = policies.env.attempt_steps(p)
         return [
-            navigation_counts(res, maze, n_episodes, step_m, dt, paths)
+            navigation_counts(res, maze, n_episodes, step_m, dt, paths, limit)
             for maze, res in zip(mazes, results)
         ]
 

@@ -48,9 +48,11 @@ def navigation_counts(
     step_m: float,
     dt: float,
     paths: ShortestPaths,
+    limit: int,
 ) -> list[dict[str, np.ndarray]]:
     """Per run of a navigation rollout (``run_tests(..., navigation=True)``) in the
-    test maze ``maze``: each episode's sums over its attempts ({column: f[E]})."""
+    test maze ``maze``: each episode's sums over its attempts ({column: f[E]}) under
+    the attempt limit ``limit`` (steps)."""
     steps = res.steps
     out = []
     for r in range(len(steps.episode)):
@@ -61,6 +63,7 @@ def navigation_counts(
             steps.collided[r],
             steps.episode[r],
             n_episodes,
+            limit,
         )
         shortest = np.zeros(len(att.episode))
         for e in np.unique(att.episode):

@@ -12,7 +12,13 @@ import numpy as np
 from jaxnav.core.sweep import row_arm
 from jaxnav.report import stats
 from jaxnav.report.markdown import aligned_table, interval, markdown_table
-from jaxnav.report.navigation import COUNT_COLUMNS, METRICS, seed_metrics
+from jaxnav.report.navigation import (
+    COUNT_COLUMNS,
+    FIRST_COUNT_COLUMNS,
+    METRICS,
+    seed_metrics,
+    training_outcomes,
+)
 from jaxnav.report.results import arms_in, display_name
 
 # Decimals each metric is shown with.
@@ -20,9 +26,11 @@ DIGITS = {
     "success": 2,
     "collision": 2,
     "timeout": 2,
+    "cut": 2,
     "path_length_m": 2,
     "spl": 2,
     "time_to_goal_s": 1,
+    "goals_per_min": 1,
 }
 
 
@@ -48,7 +56,7 @@ def navigation_section(results: dict, mazes, strategies, seeds) -> list[str]:
     """The tables.md section of one test mode: per maze and arm, each metric's mean
     over seeds [95% CI]. ``results``: read_results()'s (maze, arm, seed) -> episode
     columns; empty if results.csv has no attempt counts (written before them)."""
-    if not all(set(COUNT_COLUMNS) <= set(v) for v in results.values()):
+    if not all(set(FIRST_COUNT_COLUMNS) <= set(v) for v in results.values()):
         return []
     L = [
         "",
@@ -56,13 +64,16 @@ def navigation_section(results: dict, mazes, strategies, seeds) -> list[str]:
         "",
         "An attempt starts when a goal is set (an episode's start, which keeps the goal "
         "after a collision or the step limit, or the next goal after one is reached) and "
-        "ends at the goal (success), in a collision, or at the step limit (timeout). Per "
-        "seed, over all its attempts: the shares of the three ends (they sum to 1), the "
+        "ends at the goal within the attempt limit (success), in a collision within it, "
+        "after the whole attempt limit (timeout; by default the limit is the episode's, so "
+        "only an attempt spanning a whole episode times out), or cut off by its episode's "
+        "end before its own limit (`cut`: counted per episode, left out of the rates). Per "
+        "seed, over its decided attempts: the shares of the three ends (they sum to 1), the "
         "mean path travelled (`path_length_m`), SPL (the mean of S l / max(p, l), l the "
         "shortest path of the robot's disc from the attempt's start to its goal, p the "
-        "path travelled, S the success) and the mean time of the successful attempts "
-        "(`time_to_goal_s`). Then the mean over seeds "
-        f"[{int(stats.CONFIDENCE * 100)}% bootstrap CI].",
+        "path travelled, S the success); the mean time of the successful attempts "
+        "(`time_to_goal_s`) and successes per minute of driving (`goals_per_min`). Then "
+        f"the mean over seeds [{int(stats.CONFIDENCE * 100)}% bootstrap CI].",
         "",
     ]
     rows = [
@@ -117,15 +128,46 @@ def navigation_text(rows: list[dict[str, str]]) -> str:
     """The table ``jaxnav evaluate`` prints (empty without attempt counts): per arm,
     each metric over every attempt of a seed on every test maze, the mean over seeds
     [95% CI]."""
-    if not rows or any(r.get(c) in (None, "") for r in rows for c in COUNT_COLUMNS):
+    if not rows or any(r.get(c) in (None, "") for r in rows for c in FIRST_COUNT_COLUMNS):
         return ""
-    by: dict[str, dict[int, dict[str, float]]] = {}
+    by: dict[str, dict[int, dict[str, list[float]]]] = {}
     for r in rows:
         sums = by.setdefault(row_arm(r), {}).setdefault(int(r["seed"]), {})
         for c in (*COUNT_COLUMNS, "collided"):
-            sums[c] = sums.get(c, 0.0) + float(r[c])
+            if r.get(c) not in (None, ""):
+                sums.setdefault(c, []).append(float(r[c]))
     table = [["strategy", "seeds", *METRICS]]
     for arm in arms_in(by):
-        per_seed = [seed_metrics(s) for s in by[arm].values()]
+        per_seed = [seed_metrics(_arrays(s)) for s in by[arm].values()]
         table.append([arm, str(len(per_seed)), *metric_cells(per_seed)])
+    return aligned_table(table)
+
+
+def _arrays(columns: dict[str, list[float]]) -> dict[str, np.ndarray]:
+    return {c: np.asarray(v, np.float64) for c, v in columns.items()}
+
+
+def training_success_text(rows: list[dict[str, str]], max_steps: int, last: int) -> str:
+    """Per arm, the success of each seed's goal attempts over its last ``last`` training
+    episodes (metrics.csv rows; the cut attempts left out,
+    :func:`jaxnav.report.navigation.training_outcomes`), the mean over seeds [95% CI]."""
+    by: dict[str, dict[int, list[tuple[int, tuple]]]] = {}
+    for r in rows:
+        episodes = by.setdefault(row_arm(r), {}).setdefault(int(r["seed"]), [])
+        episodes.append((int(r["episode"]), training_outcomes(r, max_steps)))
+    table = [["strategy", "seeds", "success", "collision", "timeout", "cut per episode"]]
+    for arm in arms_in(by):
+        per_seed = []
+        for episodes in by[arm].values():
+            tail = [c for _, c in sorted(episodes)[-last:]]
+            s, c, t, x = (float(sum(col)) for col in zip(*tail))
+            decided = s + c + t
+            rates = [v / decided if decided else float("nan") for v in (s, c, t)]
+            per_seed.append([*rates, x / len(tail)])
+        cells = []
+        for k in range(4):
+            x = np.asarray([p[k] for p in per_seed], np.float64)
+            have = x[np.isfinite(x)]
+            cells.append(interval(stats.mean_ci(have), 2) if len(have) else "n/a")
+        table.append([arm, str(len(per_seed)), *cells])
     return aligned_table(table)

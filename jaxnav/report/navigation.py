@@ -1,27 +1,42 @@
-"""Navigation metrics per goal attempt: success, collision and time-out rates, the path
-travelled, SPL and the time to the goal.
+"""Navigation metrics per goal attempt: success, collision and time-out rates over the
+attempts that were decided, the attempts cut off by an episode's end, the path
+travelled, SPL, the time to the goal and goals per minute of driving.
 
 An attempt starts when a goal is set: at an episode's start (a reset, or the restart
 after a collision or the step limit, which keeps the goal) and after a goal is
-reached (the next goal, from where the robot stands). It ends at its goal (a
-success), in a collision, or at the step limit (a time-out). A goal reached on an
-episode's last step leaves no step for the next goal, so that attempt is not
-counted.
+reached (the next goal, from where the robot stands). It may take at most the
+*attempt limit* in steps (``env.attempt_limit``; by default the episode's step limit,
+so an attempt times out only if it spans a whole episode). It ends, in this order of
+precedence:
 
-results.csv keeps each test episode's sums over its attempts (:data:`COUNT_COLUMNS`);
-its ``collided`` column is its collisions (an episode ends at its first). A seed's
-metrics (:data:`METRICS`) are ratios of its sums over all its episodes, so they are
-exact over its attempts:
+* at its goal within the limit: a **success**;
+* in a collision within the limit: a **collision**;
+* having run its limit's worth of steps without either: a **time-out** (what it
+  does after the limit does not change that);
+* at the end of its episode (the step limit) before its own limit: **cut**. A cut
+  attempt is neither a success nor a failure: the episode, not the attempt, ran out
+  of time. In the paper's multi-goal episodes every episode that survives to its
+  step limit ends with one, so counting it as a time-out would cap success near
+  G / (G + 1) for G goals per episode, whatever the driver.
 
-* ``success``, ``collision``, ``timeout``: the share of attempts ending each way
-  (they sum to 1);
-* ``path_length_m``: the mean distance travelled per attempt (m);
+A goal reached on an episode's last step leaves no step for the next goal, so that
+attempt is not counted.
+
+results.csv keeps each test episode's sums over its attempts (:data:`COUNT_COLUMNS`).
+A seed's metrics (:data:`METRICS`) are ratios of its sums over all its episodes, so
+they are exact over its attempts:
+
+* ``success``, ``collision``, ``timeout``: the share of the *decided* attempts (all
+  but the cut ones) ending each way; they sum to 1;
+* ``cut``: the cut attempts per test episode, reported on their own;
+* ``path_length_m``: the mean distance travelled per decided attempt (m);
 * ``spl``: success weighted by path length (Anderson et al., 2018), the mean over
-  attempts of S_i l_i / max(p_i, l_i), with S_i the success, l_i the shortest
-  path's length from the attempt's start to its goal (:mod:`jaxnav.world.paths`)
-  and p_i the path travelled;
+  decided attempts of S_i l_i / max(p_i, l_i), with S_i the success, l_i the
+  shortest path's length from the attempt's start to its goal
+  (:mod:`jaxnav.world.paths`) and p_i the path travelled;
 * ``time_to_goal_s``: the mean time of the successful attempts (steps times dt;
-  NaN without one).
+  NaN without one);
+* ``goals_per_min``: successful attempts per minute of driving (every test step).
 
 No JAX here: the per-step arrays come from the test rollout, the rest from files.
 """
@@ -32,11 +47,23 @@ from typing import NamedTuple
 
 import numpy as np
 
-# results.csv: each episode's sums over its attempts.
-COUNT_COLUMNS = ("attempts", "successes", "timeouts", "path_m", "spl_sum", "time_s")
+# results.csv: each episode's sums over its attempts. The first six are the columns of
+# files written before cut attempts were told apart (read by :func:`censored`).
+FIRST_COUNT_COLUMNS = ("attempts", "successes", "timeouts", "path_m", "spl_sum", "time_s")
+COUNT_COLUMNS = FIRST_COUNT_COLUMNS + ("collisions", "cut", "drive_s")
 # A seed's metrics, as the tables name them.
-METRICS = ("success", "collision", "timeout", "path_length_m", "spl", "time_to_goal_s")
-SUCCESS, COLLISION, TIMEOUT = 0, 1, 2  # how an attempt ends
+METRICS = (
+    "success",
+    "collision",
+    "timeout",
+    "cut",
+    "path_length_m",
+    "spl",
+    "time_to_goal_s",
+    "goals_per_min",
+)
+RATES = ("success", "collision", "timeout")  # shares of the decided attempts: sum 1
+SUCCESS, COLLISION, TIMEOUT, CUT = 0, 1, 2, 3  # how an attempt ends
 
 
 class Attempts(NamedTuple):
@@ -46,7 +73,20 @@ class Attempts(NamedTuple):
     start: np.ndarray  # f[A, 2] where the robot stood when the goal was set
     goal: np.ndarray  # f[A, 2]
     steps: np.ndarray  # i[A] steps taken
-    outcome: np.ndarray  # i[A] SUCCESS, COLLISION or TIMEOUT
+    outcome: np.ndarray  # i[A] SUCCESS, COLLISION, TIMEOUT or CUT
+
+
+def outcome_of(steps, reached, collided, limit: int) -> np.ndarray:
+    """How attempts end (i[A]) from their steps taken and what their last step did
+    (bool[A] each), under the attempt limit ``limit`` (steps): the rule of this
+    module's docstring."""
+    steps = np.asarray(steps)
+    within = steps <= limit
+    return np.select(
+        [np.asarray(reached, bool) & within, np.asarray(collided, bool) & within, steps >= limit],
+        [SUCCESS, COLLISION, TIMEOUT],
+        CUT,
+    ).astype(np.int32)
 
 
 def split_attempts(
@@ -56,12 +96,17 @@ def split_attempts(
     collided: np.ndarray,
     episode: np.ndarray,
     n_episodes: int,
+    limit: int,
 ) -> Attempts:
     """The goal attempts of one run's test from its steps, [T] each (``pos`` and
     ``goal`` [T, 2], before the step; ``reached`` and ``collided`` in the step;
     ``episode`` the step's test episode, ``n_episodes`` or more after the test).
-    The test's last step ends its episode: an attempt still going there is a
-    time-out, as the rollout's last episode always ends by the scan's last step."""
+    ``limit``: the attempt limit in steps (the episode's step limit unless
+    ``env.attempt_limit`` sets one). An attempt ends at a reach, or with its episode:
+    by a collision or at the episode's step limit (then it is a time-out if it took
+    ``limit`` steps, else cut)."""
+    if limit < 1:
+        raise ValueError(f"the attempt limit must be at least one step, not {limit}")
     episode = np.asarray(episode)
     keep = episode < n_episodes
     pos, goal = np.asarray(pos)[keep], np.asarray(goal)[keep]
@@ -74,13 +119,13 @@ def split_attempts(
     first[1:] = (episode[1:] != episode[:-1]) | reached[:-1]  # ... or after a reach
     starts = np.flatnonzero(first)
     ends = np.append(starts[1:] - 1, n - 1)  # attempts tile the steps
-    outcome = np.where(reached[ends], SUCCESS, np.where(collided[ends], COLLISION, TIMEOUT))
+    taken = ends - starts + 1
     return Attempts(
         episode=episode[starts].astype(np.int32),
         start=pos[starts].astype(np.float64),
         goal=goal[starts].astype(np.float64),
-        steps=(ends - starts + 1).astype(np.int32),
-        outcome=outcome.astype(np.int32),
+        steps=taken.astype(np.int32),
+        outcome=outcome_of(taken, reached[ends], collided[ends], limit),
     )
 
 
@@ -104,8 +149,10 @@ def episode_counts(
     :data:`COUNT_COLUMNS`. ``shortest``: l_i per attempt (m; where it is not finite,
     a gap the raster of :mod:`jaxnav.world.paths` cannot pass, the straight line's
     length); ``step_m``: the distance a step travels (the robot drives at a
-    constant speed: v dt, the arc's length)."""
+    constant speed: v dt, the arc's length). Path and SPL sum the decided attempts;
+    ``drive_s`` is the episode's driving time (its attempts tile its steps)."""
     success = att.outcome == SUCCESS
+    decided = att.outcome != CUT
     path = att.steps * float(step_m)
     shortest = np.asarray(shortest, np.float64)
     straight = np.linalg.norm(att.goal - att.start, axis=1)
@@ -121,25 +168,85 @@ def episode_counts(
         "attempts": per_episode(np.ones(len(att.episode))),
         "successes": per_episode(success),
         "timeouts": per_episode(att.outcome == TIMEOUT),
-        "path_m": per_episode(path),
+        "path_m": per_episode(np.where(decided, path, 0.0)),
         "spl_sum": per_episode(spl),
         "time_s": per_episode(np.where(success, att.steps * float(dt), 0.0)),
+        "collisions": per_episode(att.outcome == COLLISION),
+        "cut": per_episode(att.outcome == CUT),
+        "drive_s": per_episode(att.steps * float(dt)),
     }
+
+
+def censored(episodes: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """An episode table ({column: per-episode array}) with every :data:`COUNT_COLUMNS`
+    column. Files written before cut attempts were told apart have only the first six
+    and the episode's ``collided``; their attempt limit was the episode's, so an
+    episode's one attempt left at its step limit was a time-out only if it spanned the
+    whole episode (no goal reached before it) and was cut otherwise. Their path sums
+    include the cut attempts' part; their driving time is unknown (NaN)."""
+    if all(c in episodes for c in COUNT_COLUMNS):
+        return episodes
+    out = dict(episodes)
+    left = np.asarray(episodes["timeouts"], np.float64)  # 0 or 1 an episode
+    reached = np.asarray(episodes["successes"], np.float64) > 0
+    out["cut"] = np.where(reached, left, 0.0)
+    out["timeouts"] = np.where(reached, 0.0, left)
+    out["collisions"] = np.asarray(episodes["collided"], np.float64)
+    out["drive_s"] = np.full(len(left), np.nan)
+    return out
 
 
 def seed_metrics(episodes: dict[str, np.ndarray]) -> dict[str, float]:
     """A seed's :data:`METRICS` from its episodes' columns ({column: per-episode
-    array} with :data:`COUNT_COLUMNS` and ``collided``): ratios of sums."""
-    total = {c: float(np.sum(episodes[c])) for c in (*COUNT_COLUMNS, "collided")}
-    n = total["attempts"]
-    if n == 0:
-        return {m: float("nan") for m in METRICS}
+    array} with :data:`COUNT_COLUMNS`, or the first six and ``collided``: see
+    :func:`censored`): ratios of sums."""
+    e = censored(episodes)
+    total = {c: float(np.sum(e[c])) for c in COUNT_COLUMNS}
+    n_episodes = len(np.asarray(e["attempts"]))
+    decided = total["attempts"] - total["cut"]
     successes = total["successes"]
-    return {
-        "success": successes / n,
-        "collision": total["collided"] / n,
-        "timeout": total["timeouts"] / n,
-        "path_length_m": total["path_m"] / n,
-        "spl": total["spl_sum"] / n,
+    drive_min = total["drive_s"] / 60.0
+    out = {
+        "cut": total["cut"] / n_episodes if n_episodes else float("nan"),
         "time_to_goal_s": total["time_s"] / successes if successes else float("nan"),
+        "goals_per_min": successes / drive_min if drive_min > 0 else float("nan"),
     }
+    if decided == 0:
+        out |= {m: float("nan") for m in ("success", "collision", "timeout", "spl")}
+        out["path_length_m"] = float("nan")
+    else:
+        out |= {
+            "success": successes / decided,
+            "collision": total["collisions"] / decided,
+            "timeout": total["timeouts"] / decided,
+            "path_length_m": total["path_m"] / decided,
+            "spl": total["spl_sum"] / decided,
+        }
+    return {m: out[m] for m in METRICS}
+
+
+# A world is solved by a policy whose mean success is within this of the oracle's, on
+# the same test (the same test keys, episodes and counting): the one rule wherever
+# "solved" appears.
+SOLVED_TOLERANCE = 0.02
+
+
+def solved(success: float, oracle_success: float) -> bool:
+    """Whether a mean success solves a world whose oracle scores ``oracle_success``:
+    within :data:`SOLVED_TOLERANCE` of it (NaN never solves)."""
+    return bool(success >= oracle_success - SOLVED_TOLERANCE)
+
+
+def training_outcomes(row: dict[str, str], max_steps: int) -> tuple[int, int, int, int]:
+    """How one training episode's goal attempts ended, (successes, collisions,
+    time-outs, cut), from its metrics.csv row: the counts themselves where an attempt
+    limit wrote them, else from its goals, collision and length with the episode's
+    step limit ``max_steps`` as the attempt limit (the episode's last attempt is a
+    collision, a time-out if it spanned the whole episode, or cut). A row cannot tell
+    a goal reached on the episode's last step, which opens no attempt: such an episode
+    counts one cut attempt too many, which no rate reads."""
+    if row.get("cut") not in (None, ""):
+        return tuple(int(row[c]) for c in ("successes", "collisions", "timeouts", "cut"))
+    goals, collided = int(row["goals"]), int(row["collided"])
+    truncated = not collided and int(row["length"]) >= max_steps
+    return goals, collided, int(truncated and goals == 0), int(truncated and goals > 0)

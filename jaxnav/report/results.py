@@ -19,7 +19,7 @@ from jaxnav.core import strategies as registry
 from jaxnav.core.errors import RunError
 from jaxnav.core.sweep import row_arm
 from jaxnav.report import stats
-from jaxnav.report.navigation import COUNT_COLUMNS
+from jaxnav.report.navigation import COUNT_COLUMNS, FIRST_COUNT_COLUMNS
 
 EPISODE_COLUMNS = (
     "strategy",
@@ -101,6 +101,9 @@ def _count_cells(counts: dict[str, np.ndarray], e: int) -> tuple:
         f"{c['path_m']:.4f}",
         f"{c['spl_sum']:.6f}",
         f"{c['time_s']:.4f}",
+        int(c["collisions"]),
+        int(c["cut"]),
+        f"{c['drive_s']:.4f}",
     )
 
 
@@ -131,6 +134,8 @@ def _read_episodes(
         columns = ("episode", "return", "goals", "collided", "length")
         if all(row.get(c) not in (None, "") for c in COUNT_COLUMNS):
             columns += COUNT_COLUMNS
+        elif all(row.get(c) not in (None, "") for c in FIRST_COUNT_COLUMNS):
+            columns += FIRST_COUNT_COLUMNS  # written before cut attempts were told apart
         d = out.setdefault(key, {c: [] for c in columns})
         for c in d:
             d[c].append(float(row[c]))

@@ -28,12 +28,13 @@ from jaxnav.core import rundir, sweep
 from jaxnav.core.config import Config
 from jaxnav.core.startup import process_age
 from jaxnav.dqn import Trainer, network_of
-from jaxnav.report.navigation import SUCCESS, split_attempts
+from jaxnav.report.navigation import COLLISION, CUT, SUCCESS, TIMEOUT, split_attempts
 
 # A swept run's eval.csv has one more column per swept key after "strategy", as
 # metrics.csv. return, goals and collided are means over the evaluation's episodes;
-# attempts and successes count its goal attempts (jaxnav.report.navigation), success
-# is their ratio.
+# attempts, successes, collisions, timeouts and cut count its goal attempts
+# (jaxnav.report.navigation: cut attempts are neither success nor failure), success is
+# the successes' share of the decided attempts (attempts - cut).
 EVAL_COLUMNS = (
     "strategy",
     "seed",
@@ -45,6 +46,9 @@ EVAL_COLUMNS = (
     "attempts",
     "successes",
     "success",
+    "collisions",
+    "timeouts",
+    "cut",
 )
 
 
@@ -77,6 +81,7 @@ class GreedyEval:
         )
         self.keys = shard.put(np.asarray(eval_keys(cfg.run_labels())))
         self.env_params = trainer.env_params
+        self.limit = trainer.env.attempt_steps(trainer.env_params)
         self.done = 0  # multiples of ``every`` evaluated so far
 
     def restore(self, step: int, log_size: int | None) -> None:
@@ -121,10 +126,17 @@ class GreedyEval:
         for r, fields in enumerate(self.fields):
             s = res.steps
             att = split_attempts(
-                s.pos[r], s.goal[r], s.reached[r], s.collided[r], s.episode[r], self.n_episodes
+                s.pos[r],
+                s.goal[r],
+                s.reached[r],
+                s.collided[r],
+                s.episode[r],
+                self.n_episodes,
+                self.limit,
             )
-            successes = int(np.sum(att.outcome == SUCCESS))
-            attempts = len(att.outcome)
+            n = {k: int(np.sum(att.outcome == k)) for k in (SUCCESS, COLLISION, TIMEOUT, CUT)}
+            successes, attempts = n[SUCCESS], len(att.outcome)
+            decided = attempts - n[CUT]
             out.append(
                 (
                     *fields,
@@ -135,7 +147,10 @@ class GreedyEval:
                     f"{float(np.mean(res.collided[r])):.6g}",
                     attempts,
                     successes,
-                    f"{successes / attempts:.6g}" if attempts else "nan",
+                    f"{successes / decided:.6g}" if decided else "nan",
+                    n[COLLISION],
+                    n[TIMEOUT],
+                    n[CUT],
                 )
             )
         return out

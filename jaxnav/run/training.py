@@ -40,6 +40,7 @@ from jaxnav.core.config import Config, dump_config, load_config
 from jaxnav.core.errors import RunError
 from jaxnav.core.startup import process_age
 from jaxnav.dqn import Trainer, TrainState, make_trainer, run_inputs, run_limits, still_training
+from jaxnav.report.navigation import training_outcomes
 from jaxnav.run import tblog
 from jaxnav.run.checkpoint import (
     ROW_SEGMENT,
@@ -55,6 +56,9 @@ from jaxnav.run.greedy import GreedyEval
 # A swept run's logs have one more column per swept key, named by it, after "strategy"
 # (jaxnav.core.sweep.with_swept).
 METRIC_COLUMNS = ("strategy", "seed", "episode", "return", "length", "goals", "collided", "explore")
+# With an attempt limit (env.attempt_limit), how each episode's goal attempts ended
+# (jaxnav.report.navigation); without one they follow from goals, collided and length.
+ATTEMPT_COLUMNS = ("successes", "collisions", "timeouts", "cut")
 EXPLORE_COLUMNS = ("strategy", "seed", "step", "explore")
 
 EXPLORE_BLOCK = 100  # env steps averaged per row of explore.csv
@@ -84,7 +88,9 @@ class Run:
         self.shard = RunSharding(cfg.n_runs)
         sharding = self.shard.sharding
         self.init = jax.jit(jax.vmap(self.trainer.init), out_shardings=sharding)
-        self.metric_columns = sweep.with_swept(METRIC_COLUMNS, cfg.sweep)
+        self.counts_attempts = bool(cfg.env.attempt_limit)
+        columns = METRIC_COLUMNS + (ATTEMPT_COLUMNS if self.counts_attempts else ())
+        self.metric_columns = sweep.with_swept(columns, cfg.sweep)
         self.chunk = jax.jit(
             self.shard.per_device(jax.vmap(self.trainer.chunk, in_axes=(0, None)), 2),
             donate_argnums=0,
@@ -101,7 +107,11 @@ class Run:
         on = cfg.run.eval_every > 0  # the greedy evaluations while training (eval.csv)
         self.greedy = GreedyEval(cfg, self.trainer, self.shard, out, EXPLORE_BLOCK) if on else None
         self.logged = np.zeros(cfg.n_runs, np.int64)  # episodes written per run
-        self.recent: dict[tuple[str, int], list[float]] = {label: [] for label in self.labels}
+        # per run, its episodes' (return, successful attempts, decided attempts)
+        self.recent: dict[tuple[str, int], list[tuple[float, int, int]]] = {
+            label: [] for label in self.labels
+        }
+        self.max_steps = cfg.env.max_steps
         self.wall = 0.0  # training seconds over all sessions of this run
         # run-steps the compiled chunks computed over all sessions: every run of the
         # batch takes each chunk's steps, finished runs as no-ops (lockstep)
@@ -143,7 +153,7 @@ class Run:
             eval_size = int(host.get("eval_size", 0)) if is_writer() else None
             self.greedy.restore(int(np.asarray(ts.step).max()), eval_size)
         for row in self.metrics.read():
-            self.recent[(sweep.row_arm(row), int(row["seed"]))].append(float(row["return"]))
+            self._remember((sweep.row_arm(row), int(row["seed"])), row)
         return self.shard.put(ts)
 
     def active(self, ts: TrainState) -> np.ndarray:
@@ -195,18 +205,19 @@ class Run:
             for e in range(self.logged[r], episodes[r]):
                 i = e % slots
                 ret = float(m.ep_return[r, i])
-                self.recent[label].append(ret)
-                rows.append(
-                    (
-                        *self.fields[r],
-                        e,
-                        f"{ret:.6g}",
-                        int(m.ep_length[r, i]),
-                        int(m.ep_goals[r, i]),
-                        int(m.ep_collided[r, i]),
-                        f"{float(m.ep_explore[r, i]):.6g}",
-                    )
+                row = (
+                    *self.fields[r],
+                    e,
+                    f"{ret:.6g}",
+                    int(m.ep_length[r, i]),
+                    int(m.ep_goals[r, i]),
+                    int(m.ep_collided[r, i]),
+                    f"{float(m.ep_explore[r, i]):.6g}",
                 )
+                if self.counts_attempts:
+                    row += tuple(int(getattr(m, f"ep_{c}")[r, i]) for c in ATTEMPT_COLUMNS)
+                rows.append(row)
+                self._remember(label, dict(zip(self.metric_columns, map(str, row))))
             self.logged[r] = episodes[r]
         return rows
 
@@ -279,23 +290,33 @@ class Run:
                 log.restore(size)
             raise
 
+    def _remember(self, label: tuple[str, int], row: dict[str, str]) -> None:
+        """Keep an episode's return and attempts (its metrics.csv row) for the progress."""
+        successes, collisions, timeouts, _ = training_outcomes(row, self.max_steps)
+        decided = successes + collisions + timeouts
+        self.recent[label].append((float(row["return"]), successes, decided))
+
     def progress_text(self, steps_per_s: float) -> str:
-        """Each arm's mean return over its seeds' last episodes; with more than four
-        arms, the lowest and the highest."""
-        means = {}
+        """Each arm's mean return over its seeds' last episodes and the success of their
+        decided goal attempts (jaxnav.report.navigation); with more than four arms, the
+        lowest and the highest return."""
+        means, success = {}, {}
         for s in self.cfg.arm_names():
             recent = [
                 x
-                for (arm, _), returns in self.recent.items()
+                for (arm, _), episodes in self.recent.items()
                 if arm == s
-                for x in returns[-PROGRESS_EPISODES:]
+                for x in episodes[-PROGRESS_EPISODES:]
             ]
             if recent:
-                means[s] = float(np.mean(recent))
+                ret, succ, decided = (np.sum(c) for c in zip(*recent))
+                means[s] = ret / len(recent)
+                success[s] = f" success={succ / decided:.2f}" if decided else ""
         if len(means) > 4:
             lo, hi = min(means, key=means.get), max(means, key=means.get)
+            success = {f"{len(means)} arms, lowest {lo}": success[lo], f"highest {hi}": success[hi]}
             means = {f"{len(means)} arms, lowest {lo}": means[lo], f"highest {hi}": means[hi]}
-        parts = [f"{s} R={m:.0f}" for s, m in means.items()]
+        parts = [f"{s} R={m:.0f}{success[s]}" for s, m in means.items()]
         parts.append(f"{steps_per_s / 1000:.1f}k steps/s")
         return " ".join(parts)
 
