@@ -264,6 +264,14 @@ class NavEnv(GoalSampler):
         """``params`` with the state's maze when the mazes are drawn (else unchanged)."""
         return params.replace(maze=state.maze) if self.generates else params
 
+    def command(self, params: EnvParams, action: chex.Array) -> tuple[chex.Array, chex.Array]:
+        """(v m/s, omega rad/s) the robot drives for ``action`` (any shape): the action's
+        yaw rate at the forward speed, as the firmware clips them if ``wheel_limit``."""
+        omega, v = jnp.asarray(params.omegas)[action], params.v
+        if self.wheel_limit:  # the arc the robot drives, not the one commanded
+            v, omega = firmware_limit(jnp.asarray(v, jnp.float32), omega)
+        return v, omega
+
     def attempt_steps(self, params: EnvParams) -> int:
         """The attempt limit in steps (host side): ``attempt_limit``, or the episode's
         step limit where it is 0."""
@@ -366,9 +374,7 @@ class NavEnv(GoalSampler):
         params = self.in_maze(params, state)
         k_goal, k_obs = _step_keys(key)
         applied = state.pending_action if self.action_delay else action
-        omega, v = jnp.asarray(params.omegas)[applied], params.v
-        if self.wheel_limit:  # the arc the robot drives, not the one commanded
-            v, omega = firmware_limit(jnp.asarray(v, jnp.float32), omega)
+        v, omega = self.command(params, applied)
         maze = self.maze_at(params, state.scale)
         clearance = path_clearance(maze, state.pos, state.yaw, omega, v, params.dt)
         if maze.motion is not None:  # the moving cylinders, over the step's time

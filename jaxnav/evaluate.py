@@ -1,10 +1,13 @@
-"""``python -m jaxnav.evaluate RUN_DIR [--mazes M ...] [--episodes N] [--out DIR] [--robustness]``
+"""``jaxnav evaluate RUN_DIR [--mazes M ...] [--episodes N] [--out DIR] [--robustness]``
+or ``jaxnav evaluate --baseline oracle|dwa WORLD [key=value ...] [--seeds N]``
 
 The paper's test protocol (Sec. 6, Tables 3 and 4) for every trained policy of a
 run: N consecutive greedy test episodes on each test maze, tables with the mean ±
-std of the episode return and statistics over seeds (:mod:`jaxnav.experiments.evaluation`).
-``--robustness`` plays the same test under sensor perturbations instead
-(:mod:`jaxnav.experiments.robustness`).
+std of the episode return and statistics over seeds (:mod:`jaxnav.experiments.evaluation`),
+with the oracle and DWA beside the policies on the same test keys
+(:mod:`jaxnav.experiments.baselines`). ``--robustness`` plays the same test under
+sensor perturbations instead (:mod:`jaxnav.experiments.robustness`). ``--baseline``
+drives one reference driver through the test of any world instead of a run.
 """
 
 from __future__ import annotations
@@ -14,17 +17,21 @@ if __name__ == "__main__":  # before JAX starts: one CPU device per core, compil
 
     before_jax()
 
+import csv
+import io
 import sys
 from collections.abc import Sequence
 from pathlib import Path
 
-from jaxnav.core import cli, rundir
+from jaxnav.core import baselines, cli, rundir
+from jaxnav.core.errors import JaxnavError
 from jaxnav.core.rundir import CsvLog
+from jaxnav.experiments.baselines import evaluate_world, world_config
 from jaxnav.experiments.evaluation import evaluate_to_dir
 from jaxnav.experiments.robustness import PERTURBATIONS, robustness_to_dir
 from jaxnav.report.nav_tables import navigation_text
 from jaxnav.report.results import ordered_unique
-from jaxnav.report.tables import outcome_text, setting_text
+from jaxnav.report.tables import outcome_text, setting_text, tables_markdown
 
 
 def check_outputs(out: Path, names: Sequence[str], overwrite: bool) -> None:
@@ -54,6 +61,33 @@ def print_summary(rows: list[dict[str, str]]) -> None:
             print(nav)
 
 
+def baseline(args) -> None:
+    """``--baseline NAME WORLD``: the reference driver through the world's test, its
+    tables printed (and written with --out)."""
+    if args.mazes or args.robustness or args.no_baselines:
+        raise JaxnavError(
+            "--baseline tests its WORLD: --mazes, --robustness and --no-baselines do not apply"
+        )
+    if args.seeds < 1:
+        raise JaxnavError("--seeds must be at least 1")
+    cfg = world_config(args.run_dir, args.overrides)
+    out = Path(args.out) if args.out else None
+    if out is not None:
+        check_outputs(out, ("results.csv", "tables.md"), args.overwrite)
+    episodes = args.episodes if args.episodes is not None else cfg.run.test_episodes
+    if episodes < 1:
+        raise JaxnavError("--episodes must be at least 1")
+    text, _ = evaluate_world(args.baseline, cfg, args.seeds, episodes)
+    if out is not None:
+        out.mkdir(parents=True, exist_ok=True)
+        rundir.atomic_write_text(out / "results.csv", text)
+        title = f"The {args.baseline} in {args.run_dir}"
+        tables = tables_markdown(text, args.run_dir, cfg.seed, title=title)
+        rundir.atomic_write_text(out / "tables.md", tables)
+        print(f"wrote {out / 'results.csv'} and {out / 'tables.md'}")
+    print_summary(list(csv.DictReader(io.StringIO(text))))
+
+
 def main(argv: list[str] | None = None) -> int:
     p = cli.Parser(
         prog="python -m jaxnav.evaluate",
@@ -61,7 +95,19 @@ def main(argv: list[str] | None = None) -> int:
         "protocol: N consecutive greedy episodes) and write eval/results.csv and eval/tables.md; "
         "with --robustness, test them under sensor perturbations instead.",
     )
-    p.add_argument("run_dir", metavar="RUN_DIR", help="a finished training run (with params.npz)")
+    p.add_argument(
+        "run_dir",
+        metavar="RUN_DIR",
+        help="a finished training run (with params.npz); with --baseline, the WORLD: a "
+        "shipped config's name or a config file (its maze or drawn family and settings), "
+        "or a maze (a built-in name or a maze file)",
+    )
+    p.add_argument(
+        "overrides",
+        nargs="*",
+        metavar="key=value",
+        help="with --baseline: settings of the world (env.max_steps=300, ...)",
+    )
     p.add_argument(
         "--mazes",
         nargs="+",
@@ -88,9 +134,36 @@ def main(argv: list[str] | None = None) -> int:
         "maze. Writes robustness.csv, robustness.md (mean return over seeds with 95%% CI, its "
         "change from 'none', goals, collision rate) and robustness.png",
     )
-    args = p.parse_args(argv)
+    p.add_argument(
+        "--baseline",
+        metavar="NAME",
+        choices=baselines.names(),
+        help="drive the reference driver NAME (oracle: the privileged planner; dwa: the "
+        "dynamic window approach) through the test of WORLD instead of testing a run",
+    )
+    p.add_argument(
+        "--seeds",
+        type=int,
+        default=8,
+        metavar="N",
+        help="with --baseline: test keys (seeds 0..N-1 of the world's config, as a run's)",
+    )
+    p.add_argument(
+        "--no-baselines",
+        action="store_true",
+        help="test the run's policies only, without the oracle's and DWA's rows",
+    )
+    args = p.parse_intermixed_args(argv)
 
     def work() -> None:
+        if args.baseline:
+            baseline(args)
+            return
+        if args.overrides:
+            raise JaxnavError(
+                f"{args.overrides[0]}: settings go with --baseline WORLD; a run is tested "
+                "in the settings it trained in"
+            )
         run_dir = rundir.existing(args.run_dir, finished=True)
         out = Path(args.out) if args.out else run_dir / "eval"
         if args.robustness:
@@ -100,7 +173,8 @@ def main(argv: list[str] | None = None) -> int:
         else:
             written = ("results.csv", "tables.md", "trajectories.npz")
             check_outputs(out, written, args.overwrite)
-            out = evaluate_to_dir(run_dir, args.mazes, args.episodes, out)
+            refs = () if args.no_baselines else baselines.names()
+            out = evaluate_to_dir(run_dir, args.mazes, args.episodes, out, references=refs)
         print(f"wrote {out / written[0]}, {out / written[1]} and {out / written[2]}")
         if not args.robustness:
             print_summary(CsvLog(out / written[0], ()).read())

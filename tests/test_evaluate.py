@@ -45,14 +45,19 @@ def test_evaluation_covers_every_run_maze_and_episode(evaluated):
     rows = _rows(out / "eval" / "results.csv")
     assert tuple(rows[0]) == RESULT_COLUMNS
     per_mode = cfg.n_runs * len(cfg.run.test_mazes) * cfg.run.test_episodes
-    assert len(rows) == 2 * per_mode
-    assert [r["mode"] for r in rows[::per_mode]] == ["greedy", "exploring"]
+    # the greedy test: the policies, then the oracle and DWA once per seed
+    per_driver = cfg.seeds * len(cfg.run.test_mazes) * cfg.run.test_episodes
+    assert len(rows) == 2 * per_mode + 2 * per_driver
+    greedy = rows[: per_mode + 2 * per_driver]
+    assert [r["mode"] for r in rows[:: per_mode + 2 * per_driver]] == ["greedy", "exploring"]
     assert [r["maze"] for r in rows[: per_mode : cfg.n_runs * cfg.run.test_episodes]] == list(
         cfg.run.test_mazes
     )
     assert {(r["strategy"], r["seed"]) for r in rows} == {
-        (s, str(k)) for s in cfg.strategies for k in range(cfg.seeds)
+        (s, str(k)) for s in (*cfg.strategies, "oracle", "dwa") for k in range(cfg.seeds)
     }
+    assert {r["strategy"] for r in rows if r["mode"] == "exploring"} == set(cfg.strategies)
+    assert [r["strategy"] for r in greedy[per_mode::per_driver]] == ["oracle", "dwa"]
     for r in rows:
         length, collided = int(r["length"]), int(r["collided"])
         assert 1 <= length <= cfg.env.max_steps
@@ -86,7 +91,8 @@ def test_tables_are_recomputed_from_results_csv(evaluated):
             f"{np.mean(returns(maze, s, 0)):.2f} ± {np.std(returns(maze, s, 0)):.2f}"
             for s in cfg.strategies
         ]
-        assert f"| {maze} | {cells[0]} | {cells[1]} |" in lines
+        # the policies' columns, then the oracle's and DWA's
+        assert any(line.startswith(f"| {maze} | {cells[0]} | {cells[1]} | ") for line in lines)
         # across seeds: mean of the per-seed means, the IQM and the pooled rates
         for s, name in (("ebe", "EBE"), ("epsilon_greedy", "epsilon-greedy")):
             per_seed = [np.mean(returns(maze, s, k)) for k in range(cfg.seeds)]
@@ -203,10 +209,11 @@ def test_evaluation_on_two_mazes_by_name_and_file(run, tmp_path):
         "2",
         "--out",
         str(tmp_path / "e"),
+        "--no-baselines",
     ]
     assert main(argv) == 0
     rows = _rows(tmp_path / "e" / "results.csv")
-    assert len(rows) == 2 * (2 * cfg.n_runs * 2)  # two test modes
+    assert len(rows) == 2 * (2 * cfg.n_runs * 2)  # two test modes, the policies alone
     mazes = [r["maze"] for r in rows[:: 2 * cfg.n_runs]]
     assert mazes == ["pentagon", str(maze_file)] * 2
     tables = (tmp_path / "e" / "tables.md").read_text()
@@ -276,7 +283,7 @@ def test_outputs_are_checked_before_the_test_starts(run, tmp_path, capsys, monke
     _, src = run
     tested = []
 
-    def evaluate_to_dir(*a):
+    def evaluate_to_dir(*a, references=()):
         tested.append(a)
         Path(a[3]).mkdir(exist_ok=True)
         (Path(a[3]) / "results.csv").write_text("strategy,seed,mode\n")  # no episodes
@@ -327,7 +334,10 @@ def test_evaluate_ends_with_trains_table_per_test_mode(run, tmp_path, capsys):
         expected += "per goal attempt, every attempt of each seed, mean over seeds [95% CI]:\n"
         expected += f"{navigation_text(mine)}\n"
     assert tail == expected
-    header, ebe, eps = outcome_text([r for r in rows if r["mode"] == "greedy"]).splitlines()
+    header, ebe, eps, oracle, dwa = outcome_text(
+        [r for r in rows if r["mode"] == "greedy"]
+    ).splitlines()
+    assert (oracle.split()[0], dwa.split()[0]) == ("oracle", "dwa")
     assert (
         header.split()
         == "strategy seeds return goals per episode share ending in a collision".split()
@@ -350,22 +360,27 @@ def test_evaluate_ends_with_trains_table_per_test_mode(run, tmp_path, capsys):
 
 @pytest.mark.slow
 def test_results_count_every_goal_attempt_of_every_episode(evaluated):
-    """Each episode's attempts tile its steps: its goals are its successes, it ends
-    in a collision or (unless its last step reached a goal) a time-out, and the path
-    driven is its length times v dt."""
+    """Each episode's attempts tile its steps: its goals are its successes (the attempt
+    limit is the episode's), it ends in a collision, a time-out (an attempt spanning the
+    whole episode) or a cut attempt (unless its last step reached a goal); the path
+    driven over its decided attempts is at most its length times v dt."""
     cfg, out = evaluated
     rows = _rows(out / "eval" / "results.csv")
     step_m, dt = 0.15 * 0.2, 0.2
+    columns = ("attempts", "successes", "timeouts", "collisions", "cut", "collided", "goals")
     for r in rows:
-        n = {c: float(r[c]) for c in ("attempts", "successes", "timeouts", "collided", "goals")}
-        assert n["successes"] == n["goals"]
-        assert n["attempts"] == n["successes"] + n["collided"] + n["timeouts"]
-        assert n["collided"] + n["timeouts"] <= 1
-        assert float(r["path_m"]) == pytest.approx(int(r["length"]) * step_m, abs=1e-4)
+        n = {c: float(r[c]) for c in columns}
+        assert n["successes"] == n["goals"] and n["collisions"] == n["collided"]
+        assert n["attempts"] == n["successes"] + n["collided"] + n["timeouts"] + n["cut"]
+        assert n["collided"] + n["timeouts"] + n["cut"] <= 1
+        assert n["timeouts"] == (int(r["length"]) == cfg.env.max_steps and n["goals"] == 0)
+        assert float(r["path_m"]) <= int(r["length"]) * step_m + 1e-4
+        assert float(r["drive_s"]) == pytest.approx(int(r["length"]) * dt, abs=1e-4)
         assert 0 <= float(r["spl_sum"]) <= n["successes"] + 1e-9
         assert 0 <= float(r["time_s"]) <= int(r["length"]) * dt + 1e-4
     tables = (out / "eval" / "tables.md").read_text()
-    assert "| maze | strategy | success | collision | timeout | path_length_m | spl |" in tables
+    header = "| maze | strategy | success | collision | timeout | cut | path_length_m | spl |"
+    assert header in tables
 
 
 def test_a_run_with_no_test_mazes_is_refused_unless_its_mazes_are_drawn():

@@ -13,7 +13,7 @@ seed use the same test key (:func:`eval_keys`). The tests of finished runs
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import TYPE_CHECKING, NamedTuple
+from typing import TYPE_CHECKING, Any, NamedTuple, Protocol
 
 import chex
 import jax
@@ -22,12 +22,24 @@ import jax.numpy as jnp
 from jaxnav.agent.episodes import Episodes
 from jaxnav.agent.exploration import explore_action
 from jaxnav.agent.hyper import Hyper
-from jaxnav.env import EnvParams, NavEnv
+from jaxnav.env import EnvParams, EnvState, NavEnv
 
 if TYPE_CHECKING:  # the network is dqn's; only its apply is called here
     from jaxnav.dqn import QNetwork
 
 EVAL_SALT = 0x7E57  # folded into a seed's key: test goals differ from training's
+
+
+class Planner(Protocol):
+    """A driver that is not a Q-network (the reference drivers of
+    :mod:`jaxnav.planners`): it may read the environment's state and keeps a memory
+    between steps. The rollout plays it exactly as it plays a learned policy."""
+
+    def start(self, params: EnvParams, state: EnvState) -> Any:
+        """Its memory at the test's first step."""
+
+    def plan(self, memory: Any, obs: chex.Array, state: EnvState, params: EnvParams):
+        """(action i32[], memory) for the step from ``state``."""
 
 
 class Trajectory(NamedTuple):
@@ -89,7 +101,7 @@ class Rollout(NamedTuple):
 
 def make_rollout(
     env: NavEnv,
-    network: QNetwork,
+    network: QNetwork | Planner,
     n_episodes: int,
     max_steps: int,
     record: bool = False,
@@ -98,7 +110,9 @@ def make_rollout(
 ):
     """A pure ``rollout(params, key, strategy, hyper, env_params) -> Rollout`` of one
     policy; ``hyper`` is its settings in training (its swept environment settings
-    apply to the test too).
+    apply to the test too). ``network`` is the policy's Q-network, or a
+    :class:`Planner` (then ``params`` and ``strategy`` are not read and the test is
+    greedy: the planner's own choice).
 
     ``record`` keeps the whole :class:`Trajectory`; ``navigation`` the light
     :class:`Steps` and, where an episode's maze can differ from ``env_params``'s
@@ -118,6 +132,7 @@ def make_rollout(
     n_steps = n_episodes * max_steps
     E = n_episodes
     own_mazes = navigation and (env.generates or env.scales_maze)
+    planner = network if hasattr(network, "plan") else None
 
     # One scan body over one explicit carry, read top to bottom: ACT, STEP ENV, RECORD.
 
@@ -136,16 +151,21 @@ def make_rollout(
         obs, state = env.reset(k_reset, env_params)
         # the episode being played, and the test's episodes (jaxnav.agent.episodes)
         mazes0 = _episode_mazes(env, env_params, state, E) if own_mazes else None
-        carry0 = (obs, state, key, jnp.zeros((), jnp.int32), Episodes.zeros(E), mazes0)
+        memory = None if planner is None else planner.start(env_params, state)
+        ep0 = jnp.zeros((), jnp.int32)
+        carry0 = (obs, state, key, ep0, Episodes.zeros(E), mazes0, memory)
 
         def body(carry, _):
-            obs, state, key, ep, episodes, mazes = carry
+            obs, state, key, ep, episodes, mazes, memory = carry
             if own_mazes:  # the maze of an episode, at its first step (slot E: dropped)
                 first = jnp.where((state.t == 0) & (ep < E), ep, E)
                 mazes = _record_maze(mazes, first, _geometry(env, env_params, state))
             key, k_step = jax.random.split(key)
-            # ACT: greedy, or the strategy's own exploration.
-            action = act(params, obs, k_step, strategy, hyper)
+            # ACT: greedy, or the strategy's own exploration; or the planner's choice.
+            if planner is None:
+                action = act(params, obs, k_step, strategy, hyper)
+            else:
+                action, memory = planner.plan(memory, obs, state, env_params)
             # STEP ENV (auto-reset keeps the goal, restarts at the start pose).
             obs2, state2, reward, terminated, truncated, info = env.step(
                 k_step, state, action, env_params
@@ -170,11 +190,11 @@ def make_rollout(
                     episode=ep,
                     circles=state.circles if moves else None,
                 )
-            carry = (obs2, state2, key, ep + done.astype(jnp.int32), episodes, mazes)
+            carry = (obs2, state2, key, ep + done.astype(jnp.int32), episodes, mazes, memory)
             return carry, (steps, traj)
 
         carry, (steps, traj) = jax.lax.scan(body, carry0, None, length=n_steps)
-        e, mazes = carry[-2], carry[-1]
+        e, mazes = carry[4], carry[5]
         return Rollout(e.ep_return, e.ep_goals, e.ep_collided, e.ep_length, traj, steps, mazes)
 
     return rollout

@@ -27,15 +27,23 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from jaxnav.core import rundir
+from jaxnav.core import baselines, rundir
 from jaxnav.core.config import Config, load_config
 from jaxnav.core.errors import JaxnavError, RunError
 from jaxnav.core.settings import family_text
 from jaxnav.core.sweep import with_swept
 from jaxnav.dqn import network_of, run_inputs
 from jaxnav.env import from_config
+from jaxnav.experiments.baselines import in_place_of, planner_problem
 from jaxnav.experiments.navigation import ShortestPaths, navigation_counts
-from jaxnav.experiments.rollout import MODES, Policies, first_episode, padded_mazes, run_tests
+from jaxnav.experiments.rollout import (
+    MODES,
+    Policies,
+    drawn_name,
+    first_episode,
+    padded_mazes,
+    run_tests,
+)
 from jaxnav.report.results import RESULT_COLUMNS, Episodes, episode_rows, episodes_npz
 from jaxnav.report.tables import tables_markdown
 from jaxnav.world.generators import SPLITS
@@ -135,11 +143,14 @@ def evaluate(
     n_episodes: int | None = None,
     modes: Sequence[str] = MODES,
     more_drawn: dict[str, Config] | None = None,
+    references: Sequence[str] = baselines.names(),
 ) -> tuple[LoadedRun, list[str], str, Episodes]:
     """Test every run of ``run_dir`` in ``modes`` (both: greedy, then exploring).
 
     ``more_drawn``: results name -> a config whose drawn mazes (its ``env.split``)
     the policies are tested in too, for example a larger size of the run's family.
+    ``references``: the reference drivers (:mod:`jaxnav.experiments.baselines`) that
+    take the greedy test beside the policies, once per seed on the same keys.
     Returns (run, maze names, results.csv text, the first greedy test episode of
     the config's seed per maze and strategy).
     """
@@ -168,6 +179,13 @@ def evaluate(
             )
         nav = counts(run.policies, mazes, results)
         rows += episode_rows(run.policies.fields, names, results, n_episodes, mode, nav)
+        refs = _usable(references, run.policies.env) if mode == "greedy" else []
+        for ref in refs if mazes else ():
+            driver = in_place_of(ref, run.policies, mazes)
+            res = run_tests(driver, mazes, n_episodes, navigation=True)
+            rows += episode_rows(
+                driver.fields, names, res, n_episodes, mode, counts(driver, mazes, res)
+            )
         if mode == "greedy":
             first = [i for i, (_, seed) in enumerate(labels) if seed == run.config.seed]
             episodes = {
@@ -189,13 +207,25 @@ def evaluate(
             results = run_tests(drawn, template, n_episodes, mode=mode, navigation=True)
             nav = counts(drawn, template, results)
             rows += episode_rows(drawn.fields, [name], results, n_episodes, mode, nav)
+            for ref in _usable(refs, drawn.env):
+                driver = in_place_of(ref, drawn, template)
+                res = run_tests(driver, template, n_episodes, navigation=True)
+                nav = counts(driver, template, res)
+                rows += episode_rows(driver.fields, [name], res, n_episodes, mode, nav)
     columns = with_swept(RESULT_COLUMNS, run.config.sweep)
     return run, names, rundir.csv_text(columns, rows), episodes
 
 
-def drawn_name(cfg: Config, split: str = "test") -> str:
-    """The results' maze name of a run's drawn mazes of a split: ``grid:test``."""
-    return f"{cfg.env.generator}:{split}"
+def _usable(references: Sequence[str], env) -> list[str]:
+    """The reference drivers that can drive in ``env``; a note for each that cannot."""
+    out = []
+    for ref in references:
+        why = planner_problem(ref, env)
+        if why:
+            print(f"note: no {ref} rows: {why}", file=sys.stderr)
+        else:
+            out.append(ref)
+    return out
 
 
 def drawn_policies(run: LoadedRun, split: str = "test", cfg: Config | None = None) -> Policies:
@@ -215,9 +245,12 @@ def evaluate_to_dir(
     out: str | Path | None = None,
     modes: Sequence[str] = MODES,
     more_drawn: dict[str, Config] | None = None,
+    references: Sequence[str] = baselines.names(),
 ) -> Path:
     """Evaluate; write results.csv, tables.md, trajectories.npz (each atomically) into ``out``."""
-    run, names, text, episodes = evaluate(run_dir, maze_names, n_episodes, modes, more_drawn)
+    run, names, text, episodes = evaluate(
+        run_dir, maze_names, n_episodes, modes, more_drawn, references
+    )
     tables = tables_markdown(
         text, trained_on(run.config), run.config.seed, title=f"Test results of {Path(run_dir).name}"
     )

@@ -25,6 +25,7 @@ from jaxnav.agent.rollout import (  # noqa: F401  (re-exported: the tests' recor
     make_rollout,
 )
 from jaxnav.agent.sharding import RunSharding
+from jaxnav.core.config import Config
 from jaxnav.dqn import Hyper, QNetwork
 from jaxnav.env import EnvParams, NavEnv
 from jaxnav.world.maps import MAX_GOAL_POINTS, Maze, make_maze, pad_maze
@@ -104,6 +105,11 @@ def run_tests(
         res = fn(params, keys, strategy, hyper, policies.env_params.replace(maze=maze))
         out.append(shard.get(res))
     return out
+
+
+def drawn_name(cfg: Config, split: str = "test") -> str:
+    """The results' maze name of a run's drawn mazes of a split: ``grid:test``."""
+    return f"{cfg.env.generator}:{split}"
 
 
 def first_episode(res: Rollout, r: int) -> dict[str, Any]:

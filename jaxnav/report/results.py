@@ -15,6 +15,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
+from jaxnav.core import baselines
 from jaxnav.core import strategies as registry
 from jaxnav.core.errors import RunError
 from jaxnav.core.sweep import row_arm
@@ -47,16 +48,20 @@ def arm_strategy(arm: str) -> str:
     return arm.split(" ", 1)[0]
 
 
-def arms_in(arms) -> list[str]:
+def arms_in(arms, with_baselines: bool = True) -> list[str]:
     """The distinct arms among ``arms`` (strategies, or strategies at sweep points),
-    strategy by strategy in registration order, each strategy's points in the order met."""
-    known = registry.names()
+    strategy by strategy in registration order, each strategy's points in the order
+    met; then the reference drivers (:mod:`jaxnav.core.baselines`) unless left out."""
+    known = list(registry.names()) + (list(baselines.names()) if with_baselines else [])
     found = [a for a in ordered_unique(arms) if arm_strategy(a) in known]
     return sorted(found, key=lambda a: known.index(arm_strategy(a)))
 
 
 def display_name(arm: str) -> str:
-    """An arm as tables and figures name it: ``EBE``, ``EBE ebe_temperature=0.1``."""
+    """An arm as tables and figures name it: ``EBE``, ``EBE ebe_temperature=0.1``,
+    ``oracle``."""
+    if baselines.is_baseline(arm):
+        return baselines.BASELINES[arm].label
     strategy, _, point = arm.partition(" ")
     return " ".join(x for x in (registry.label(strategy), point) if x)
 

@@ -6,6 +6,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
+from jaxnav.core import baselines
 from jaxnav.core.config import PAPER_STRATEGIES
 from jaxnav.core.errors import RunError
 from jaxnav.core.sweep import row_arm
@@ -182,7 +183,10 @@ class SweepSummary(NamedTuple):
 
 
 def sweep_summary(t: _Test) -> SweepSummary | None:
-    """The summary of a swept run's test (None without a sweep)."""
+    """The summary of a swept run's test (None without a sweep); the reference drivers
+    have no sweep points and are left out."""
+    learned = [(s, n) for s, n in zip(t.strategies, t.names) if not baselines.is_baseline(s)]
+    t = t._replace(strategies=[s for s, _ in learned], names=[n for _, n in learned])
     if all(s == arm_strategy(s) for s in t.strategies):
         return None
     score = {s: scores_over_mazes(t.results, t.mazes, s, t.seeds) for s in t.strategies}
@@ -257,6 +261,7 @@ def _sweep_section(t: _Test) -> list[str]:
     summary = sweep_summary(t)
     if summary is None:
         return []
+    t = t._replace(strategies=summary.arms)
     mazes = t.mazes if len(t.mazes) > 1 else []
     L = [
         "",

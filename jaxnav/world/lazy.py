@@ -29,9 +29,12 @@ def _where(fresh, new, old):
     return jax.tree.map(lambda a, b: jnp.where(fresh, a, b), new, old)
 
 
-def draw_where(draw: Callable[[Any], Any], fresh, key, old):
+def draw_where(draw: Callable[[Any], Any], fresh, key, old, chunk: int = CHUNK):
     """``where(fresh, draw(key), old)`` leaf by leaf, drawing only where ``fresh`` is set
-    when vmapped (``old`` has ``draw(key)``'s structure)."""
+    when vmapped (``old`` has ``draw(key)``'s structure). ``key`` may be any pytree of
+    the draw's inputs (a PRNG key, or the maze and goal a field is computed from).
+    ``chunk``: environments drawn together per round (1 where one draw is costly and
+    few environments need one at a time)."""
 
     @jax.custom_batching.custom_vmap
     def pick(fresh, key, old):
@@ -44,17 +47,18 @@ def draw_where(draw: Callable[[Any], Any], fresh, key, old):
         def batch(x, is_batched):
             return x if is_batched else jnp.broadcast_to(x, (axis_size, *jnp.shape(x)))
 
-        fresh, key = batch(fresh, fresh_b), batch(key, key_b)
+        fresh = batch(fresh, fresh_b)
+        key = jax.tree.map(batch, key, key_b)
         old = jax.tree.map(batch, old, old_b)
-        out = _draw_needed(draw, fresh, key, old, axis_size)
+        out = _draw_needed(draw, fresh, key, old, axis_size, chunk)
         return out, jax.tree.map(lambda _: True, out)
 
     return pick(fresh, key, old)
 
 
-def _draw_needed(draw, fresh, key, old, n: int):
+def _draw_needed(draw, fresh, key, old, n: int, chunk: int):
     """Over a batch of ``n``: ``old`` with ``draw(key[i])`` at every i where ``fresh``."""
-    m = min(CHUNK, n)
+    m = min(chunk, n)
     count = jnp.sum(fresh.astype(jnp.int32))
     needing = jnp.argsort(~fresh, stable=True)  # the fresh ones first, in batch order
     rounds = -(-n // m)
@@ -69,7 +73,7 @@ def _draw_needed(draw, fresh, key, old, n: int):
         pos = r * m + jnp.arange(m)
         idx = jax.lax.dynamic_slice(needing, (r * m,), (m,))
         idx = jnp.where(pos < count, idx, n)  # past the fresh ones: dropped below
-        new = jax.vmap(draw)(key[jnp.minimum(idx, n - 1)])
+        new = jax.vmap(draw)(jax.tree.map(lambda k: k[jnp.minimum(idx, n - 1)], key))
         out = jax.tree.map(lambda o, x: o.at[idx].set(x, mode="drop"), out, new)
         return r + 1, out
 

@@ -1,0 +1,119 @@
+"""The dynamic window approach (Fox, Burgard & Thrun, "The dynamic window approach to
+collision avoidance", IEEE RAM 1997): the classical local planner that robotics users
+run (ROS 1 move_base's ``dwa_local_planner``, ROS 2 Nav2's DWB), as a reference beside
+the learned policies.
+
+It sees what a policy sees: the LiDAR scan and the goal's heading and distance in the
+observation, nothing of the map. Every step it takes each velocity the action set can
+command (with the paper's actions, the five yaw rates at 0.15 m/s; with a richer set,
+its (v, omega) pairs: the robot has no acceleration limit here, so every one is within
+the window), simulates the arc for ``horizon`` seconds, and drops those that would
+come within the robot's radius (plus ``margin``) of the obstacles it sees: the scan's
+returns, joined into wall pieces where neighbouring beams hit nearly the same range.
+Among the rest it maximises
+
+    G(v, omega) = alpha heading + beta clearance + gamma velocity,
+
+each term normalised over the admissible candidates, as Fox et al. do: heading, how
+well the robot faces the goal after one control period (pi - |angle to the goal|);
+clearance, the smallest distance to an obstacle along the arc, capped; velocity, v.
+Where none is admissible it takes the candidate that keeps the most clearance.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Any
+
+import chex
+import jax.numpy as jnp
+
+from jaxnav.env import EnvParams, EnvState, NavEnv
+from jaxnav.world import sensor
+from jaxnav.world.geometry import displacement, point_segment_distance, wrap_angle
+
+
+@dataclasses.dataclass(frozen=True)
+class DWA:
+    """The dynamic window approach for ``env`` (static fields).
+
+    Attributes:
+      env: the environment it drives (its action set and sensor layout).
+      horizon: how far ahead each velocity is simulated (s).
+      samples: points per second of the simulated arc.
+      margin: clearance kept beyond the robot's radius (m).
+      join: neighbouring beams whose ranges differ by less than this are joined into a
+        wall piece (m); beams farther apart leave a gap (a door, or an edge).
+      clearance_cap: the clearance term counts distances up to this (m).
+      alpha, beta, gamma: the weights of heading, clearance and velocity.
+    """
+
+    env: NavEnv
+    horizon: float = 1.5
+    samples: int = 10
+    margin: float = 0.02
+    join: float = 0.3
+    clearance_cap: float = 1.0
+    alpha: float = 2.0
+    beta: float = 0.2
+    gamma: float = 0.2
+
+    def start(self, params: EnvParams, state: EnvState) -> Any:
+        """DWA keeps no memory between steps."""
+        return None
+
+    def plan(
+        self, memory: Any, obs: chex.Array, state: EnvState, params: EnvParams
+    ) -> tuple[chex.Array, Any]:
+        """(action i32[], None): the best admissible velocity for this scan and goal."""
+        del state  # a scan and a goal are all it sees
+        env = self.env
+        n = env.n_beams
+        ranges, heading, distance = obs[:n], obs[n], obs[n + 1]
+        angles = sensor.beam_angles(n, env.beam_layout == "gazebo")
+        returned = ranges < params.max_range - 1e-3  # a max-range reading hit nothing
+        qx, qy = ranges * jnp.cos(angles), ranges * jnp.sin(angles)  # the robot's frame
+        # wall pieces between neighbouring returns of nearly equal range
+        nx_, ny_ = jnp.roll(qx, -1), jnp.roll(qy, -1)
+        joined = returned & jnp.roll(returned, -1)
+        joined = joined & (jnp.abs(ranges - jnp.roll(ranges, -1)) < self.join)
+
+        A = env.num_actions
+        v, w = env.command(params, jnp.arange(A))
+        v = jnp.broadcast_to(v, (A,))
+        k = max(1, round(self.horizon * self.samples))
+        times = self.horizon * (jnp.arange(k, dtype=jnp.float32) + 1) / k  # [k]
+        path = jnp.moveaxis(displacement(0.0, w[:, None], v[:, None], times[None, :]), 0, -1)
+        px, py = path[..., 0, None], path[..., 1, None]  # [A, k, 1]
+        to_points = jnp.where(returned, jnp.hypot(px - qx, py - qy), jnp.inf)
+        to_walls = jnp.where(joined, point_segment_distance(px, py, qx, qy, nx_, ny_), jnp.inf)
+        clearance = jnp.min(jnp.minimum(to_points, to_walls), axis=(1, 2))  # [A]
+        admissible = clearance >= params.robot_radius + self.margin
+
+        # heading after one control period: the goal's direction seen from there
+        p1 = jnp.moveaxis(displacement(0.0, w, v, params.dt), 0, -1)  # [A, 2]
+        gx, gy = distance * jnp.cos(heading), distance * jnp.sin(heading)
+        to_goal = jnp.arctan2(gy - p1[:, 1], gx - p1[:, 0]) - w * params.dt
+        head = jnp.pi - jnp.abs(wrap_angle(to_goal))
+        clear = jnp.minimum(clearance, self.clearance_cap)
+        score = (
+            self.alpha * _normalised(head, admissible)
+            + self.beta * _normalised(clear, admissible)
+            + self.gamma * _normalised(v, admissible)
+        )
+        best = jnp.where(
+            jnp.any(admissible),
+            jnp.argmax(jnp.where(admissible, score, -jnp.inf)),
+            jnp.argmax(clearance),
+        )
+        return best.astype(jnp.int32), memory
+
+
+def _normalised(x: chex.Array, keep: chex.Array) -> chex.Array:
+    """x over the sum of the kept candidates' x (Fox et al.'s normalisation); 0 where
+    that sum is 0."""
+    total = jnp.sum(jnp.where(keep, x, 0.0))
+    return jnp.where(total > 0, x / jnp.where(total > 0, total, 1.0), 0.0)
+
+
+__all__ = ["DWA"]
