@@ -14,6 +14,10 @@ from collections.abc import Sequence
 COMMANDS: dict[str, tuple[str, bool]] = {
     "train": ("train every seed and strategy of a config in one compiled program", True),
     "evaluate": ("test a finished run's policies on the test mazes (greedy and exploring)", True),
+    "baselines": (
+        "the oracle and DWA through the test of every shipped world, and their page",
+        True,
+    ),
     "plots": ("draw a run's figures from its files", False),
     "render": ("draw a maze with the robot, a goal and LiDAR beams, or a sheet of samples", True),
     "mazes": ("write drawn mazes of a family as maze files (start, goal, shortest path)", True),

@@ -77,7 +77,7 @@ def baseline(args) -> None:
     episodes = args.episodes if args.episodes is not None else cfg.run.test_episodes
     if episodes < 1:
         raise JaxnavError("--episodes must be at least 1")
-    text, _ = evaluate_world(args.baseline, cfg, args.seeds, episodes)
+    text = evaluate_world(args.baseline, cfg, args.seeds, episodes).text
     if out is not None:
         out.mkdir(parents=True, exist_ok=True)
         rundir.atomic_write_text(out / "results.csv", text)

@@ -4,6 +4,7 @@ results_*.csv, summary.csv, curves.png) and the tables of docs/agents.md between
 
     python scripts/agents_study.py [--out runs/agents] [--seeds 16] [--steps 65536]
     python scripts/agents_study.py --publish-only      # the page from the committed data
+    python scripts/agents_study.py --baselines-only    # the oracle's and DWA's rows only
 
 Every agent trains ``--seeds`` seeds of both strategies for ``--steps`` env steps per
 seed (DQN from configs/smoke.yaml with the budget in steps, PQN from configs/pqn.yaml),
@@ -30,7 +31,7 @@ sys.path.insert(0, str(ROOT))
 from jaxnav.report import stats  # noqa: E402
 from jaxnav.report.claims import verdict  # noqa: E402
 from jaxnav.report.markdown import interval, markdown_table  # noqa: E402
-from jaxnav.report.navigation import seed_metrics  # noqa: E402
+from jaxnav.report.navigation import seed_metrics, solved  # noqa: E402
 from jaxnav.report.results import read_results  # noqa: E402
 
 AGENTS = {
@@ -74,9 +75,22 @@ def run_agent(agent: str, out: Path, seeds: int, steps: int) -> Path:
     return run
 
 
+def run_baselines(out: Path, seeds: int) -> None:
+    """The oracle and DWA through the same test (smoke's square4 and step limit, the
+    same seeds' test keys, 10 episodes): docs/agents/baselines_*.csv."""
+    for name in ("oracle", "dwa"):
+        dest = out / name
+        out.mkdir(parents=True, exist_ok=True)
+        if not (dest / "results.csv").is_file():
+            jaxnav("evaluate", "--baseline", name, "smoke", "--seeds", str(seeds), "--episodes",
+                   "10", "--out", str(dest))  # fmt: skip
+        (DOCS / f"baselines_{name}.csv").write_text((dest / "results.csv").read_text())
+
+
 def collect(out: Path, seeds: int, steps: int) -> None:
     """Train and test every agent; write docs/agents/results.csv, summary.csv, curves."""
     DOCS.mkdir(parents=True, exist_ok=True)
+    run_baselines(out, seeds)
     summary, curves = [], {}
     for agent in AGENTS:
         run = run_agent(agent, out, seeds, steps)
@@ -138,9 +152,15 @@ def _curves_figure(curves: dict[str, list[dict]], path: Path, window: int = 20) 
 
 
 def tables() -> str:
-    """The page's tables from docs/agents/results_*.csv and summary.csv."""
+    """The page's tables from docs/agents/results_*.csv, baselines_*.csv and summary.csv."""
     with open(DOCS / "summary.csv") as f:
         summary = {r["agent"]: r for r in csv.DictReader(f)}
+    refs = {}
+    for name in ("oracle", "dwa"):
+        res = read_results((DOCS / f"baselines_{name}.csv").read_text())
+        seeds = sorted({k[2] for k in res})
+        refs[name] = _scores(res, name, seeds, "success")
+    oracle = float(np.mean(refs["oracle"]))
     rows, n_seeds = [], 0
     for agent in AGENTS:
         res = read_results((DOCS / f"results_{slug(agent)}.csv").read_text())
@@ -155,6 +175,12 @@ def tables() -> str:
             else:
                 cells += [interval(stats.mean_ci(ebe), 2), interval(stats.mean_ci(eps), 2)]
             cells += [interval(p, 2), _verdict(p, len(seeds))]
+        cells.append(
+            " / ".join(
+                "yes" if solved(float(np.mean(_scores(res, s, seeds, "success"))), oracle) else "no"
+                for s in ("ebe", "epsilon_greedy")
+            )
+        )
         s = summary[agent]
         cells.append(f"{float(s['steps_per_s']):,.0f}")
         rows.append(cells)
@@ -168,16 +194,28 @@ def tables() -> str:
         "eps success",
         "P(EBE > eps), success",
         "verdict",
+        "solved (EBE / eps)",
         "train transitions/s",
+    ]
+    ref_rows = [
+        [label, interval(stats.mean_ci(refs[name]), 2)]
+        for name, label in (("oracle", "oracle"), ("dwa", "DWA"))
     ]
     lines = [
         f"{n_seeds} seeds per strategy and agent; greedy test, 10 episodes per policy on "
         "square4; each cell the mean over seeds [95% bootstrap CI]. Success is the share "
-        "of goal attempts that reach the goal. Transitions/s is the trainer's steady "
-        "state over all seeds of both strategies (summary.json's steps_per_s), on the "
-        "machine that ran the study.",
+        "of the decided goal attempts that reach the goal (an attempt cut off by an "
+        "episode's end is left out: [navigation metrics](reproducing.md#navigation-metrics)). "
+        "A strategy *solves* square4 when its mean success is within 0.02 of the oracle's "
+        "on the same test. Transitions/s is the trainer's steady state over all seeds of "
+        "both strategies (summary.json's steps_per_s), on the machine that ran the study.",
         "",
         *markdown_table(head, rows),
+        "",
+        "The reference drivers through the same test (the same seeds' test keys, square4, "
+        "its 200-step episodes), success with its 95% interval over seeds:",
+        "",
+        *markdown_table(["driver", "success"], ref_rows),
     ]
     return "\n".join(lines)
 
@@ -210,8 +248,13 @@ def main(argv=None) -> int:
     p.add_argument("--seeds", type=int, default=16)
     p.add_argument("--steps", type=int, default=65536)
     p.add_argument("--publish-only", action="store_true")
+    p.add_argument(
+        "--baselines-only", action="store_true", help="drive the oracle and DWA, then publish"
+    )
     a = p.parse_args(argv)
-    if not a.publish_only:
+    if a.baselines_only:
+        run_baselines(ROOT / a.out, a.seeds)
+    elif not a.publish_only:
         collect(ROOT / a.out, a.seeds, a.steps)
     publish()
     return 0

@@ -112,7 +112,7 @@ def test_the_oracle_reaches_every_goal_it_has_time_for(world):
     """The yardstick: a driver that cannot fail where the world allows, through the
     same test and counting as the policies."""
     cfg = load_config(None, [f"env.maze={world}", "env.max_steps=150"])
-    text, _ = evaluate_world("oracle", cfg, n_seeds=2, n_episodes=2)
+    text = evaluate_world("oracle", cfg, n_seeds=2, n_episodes=2).text
     for m in _metrics(text, world, "oracle", 2):
         assert m["success"] == 1.0 and m["collision"] == 0.0
         assert m["spl"] > 0.85  # its paths are near the shortest (jaxnav.world.paths)
@@ -125,7 +125,7 @@ def test_the_oracle_reaches_every_goal_it_has_time_for(world):
 def test_the_oracle_drives_the_shipped_worlds(world):
     name, *overrides = world.split()
     cfg = world_config(name, overrides)
-    text, names = evaluate_world("oracle", cfg, n_seeds=4, n_episodes=2)
+    text, names, *_ = evaluate_world("oracle", cfg, n_seeds=4, n_episodes=2)
     for maze in names:
         success = [m["success"] for m in _metrics(text, maze, "oracle", 4)]
         assert np.mean(success) >= 0.97, (maze, success)

@@ -12,9 +12,12 @@ any world: a built-in maze, a maze file, or a config's world (its maze or drawn 
 
 from __future__ import annotations
 
+import csv
 import dataclasses
+import io
 import os
 from collections.abc import Sequence
+from typing import NamedTuple
 
 import jax
 import numpy as np
@@ -25,11 +28,19 @@ from jaxnav.core.config import Config, load_config, resolve_config_path
 from jaxnav.core.errors import JaxnavError
 from jaxnav.dqn import run_inputs
 from jaxnav.env import EnvParams, NavEnv, from_config
-from jaxnav.experiments.navigation import ShortestPaths, navigation_counts
+from jaxnav.experiments.navigation import ShortestPaths, attempt_paths
 from jaxnav.experiments.rollout import Policies, drawn_name, padded_mazes, run_tests
 from jaxnav.planners.dwa import DWA
 from jaxnav.planners.oracle import Oracle
 from jaxnav.planners.raster import raster_for
+from jaxnav.report.navigation import (
+    COLLISION,
+    CUT,
+    SUCCESS,
+    TIMEOUT,
+    Attempts,
+    episode_counts,
+)
 from jaxnav.report.results import RESULT_COLUMNS, episode_rows
 from jaxnav.world.generators import SPLITS
 from jaxnav.world.maps import Maze, make_maze
@@ -120,17 +131,26 @@ def _is_maze_file(path: str) -> bool:
     return isinstance(doc, dict) and "outline" in doc
 
 
-def evaluate_world(name: str, cfg: Config, n_seeds: int, n_episodes: int) -> tuple[str, list[str]]:
+class WorldTest(NamedTuple):
+    """A reference driver through a world's test: results.csv text, its test mazes'
+    names, and per test maze each seed's goal attempts with their shortest paths."""
+
+    text: str
+    mazes: list[str]
+    attempts: dict[str, list[tuple[Attempts, np.ndarray]]]
+    limit: int  # the attempt limit (steps)
+    step_m: float  # the most a step drives (m)
+
+
+def evaluate_world(name: str, cfg: Config, n_seeds: int, n_episodes: int) -> WorldTest:
     """The reference driver ``name`` through the test in a config's world: ``n_seeds``
     test keys (the seeds ``cfg.seed``, ... that a run of the config would have),
     ``n_episodes`` consecutive episodes each, on its maze, or on a drawn family's train
-    and test layouts. Returns (results.csv text, the results' maze names)."""
+    and test layouts."""
     env, env_params = from_config(cfg)
     seeds = [cfg.seed + i for i in range(n_seeds)]
     if env.generates:
-        tests = [
-            (drawn_name(cfg, split), dataclasses.replace(env, split=split)) for split in SPLITS
-        ]
+        tests = [(drawn_name(cfg, s), dataclasses.replace(env, split=s)) for s in SPLITS]
         mazes = [[env_params.maze]] * len(tests)
     else:
         tests = [(cfg.env.maze, env)]
@@ -141,17 +161,108 @@ def evaluate_world(name: str, cfg: Config, n_seeds: int, n_episodes: int) -> tup
     paths = ShortestPaths(float(env_params.robot_radius))
     step_m, dt = float(env_params.v) * float(env_params.dt), float(env_params.dt)
     limit = env.attempt_steps(env_params)
-    rows = []
+    rows, attempts = [], {}
     for (maze_name, test_env), maze in zip(tests, mazes):
         driver = world_policies(name, cfg, seeds, test_env, env_params)
         (res,) = run_tests(driver, maze, n_episodes, navigation=True)
-        nav = [navigation_counts(res, maze[0], n_episodes, step_m, dt, paths, limit)]
+        attempts[maze_name] = attempt_paths(res, maze[0], n_episodes, paths, limit)
+        nav = [[episode_counts(a, sp, step_m, dt, n_episodes) for a, sp in attempts[maze_name]]]
         rows += episode_rows(driver.fields, [maze_name], [res], n_episodes, "greedy", nav)
-    return rundir.csv_text(RESULT_COLUMNS, rows), [t[0] for t in tests]
+    text = rundir.csv_text(RESULT_COLUMNS, rows)
+    return WorldTest(text, [t[0] for t in tests], attempts, limit, step_m)
+
+
+# The shipped worlds: the configs' (their maze or drawn family, with their settings),
+# then the built-in mazes and maze files no config trains on, in the default settings.
+SHIPPED_WORLDS = (
+    "paper_no_obstacles",
+    "paper_obstacles",
+    "stage3",
+    "stage4",
+    "grid4",
+    "cylinders",
+    "rooms",
+    "square2",
+    "square8",
+    "triangle",
+    "pentagon",
+    "pentagon_obstacles",
+    "stage3_humble",
+    "stage4_humble",
+    "configs/mazes/corridor.yaml",
+)
+GOOD = 0.98  # the oracle's success below which the page says why
+
+
+def drive_worlds(
+    worlds: Sequence[str], n_seeds: int, n_episodes: int, log=lambda text: None
+) -> tuple[str, list[str]]:
+    """Both reference drivers through each world's test: (the page's data file text,
+    results.csv's columns after a ``world`` column; the page's notes on each test maze
+    where the oracle's success is below :data:`GOOD`, from its attempts)."""
+    rows, notes = [], []
+    for world in worlds:
+        cfg = world_config(world)
+        for name in baselines.names():
+            log(f"{name} in {world}")
+            test = evaluate_world(name, cfg, n_seeds, n_episodes)
+            rows += [[world, *row] for row in list(csv.reader(io.StringIO(test.text)))[1:]]
+            if name == "oracle":
+                notes += _shortfalls(world, cfg, test)
+    return rundir.csv_text(("world", *RESULT_COLUMNS), rows), notes
+
+
+def _shortfalls(world: str, cfg: Config, test: WorldTest) -> list[str]:
+    """Why the oracle fails where it does, from its attempts: time-outs whose shortest
+    path is longer than the attempt limit lets the robot drive, collisions with
+    cylinders that move."""
+    out = []
+    for maze, per_seed in test.attempts.items():
+        outcome = np.concatenate([a.outcome for a, _ in per_seed])
+        shortest = np.concatenate([sp for _, sp in per_seed])
+        decided = outcome != CUT
+        success = float(np.mean(outcome[decided] == SUCCESS)) if decided.any() else float("nan")
+        if not success < GOOD:
+            continue
+        where = world if maze == world else f"{world} ({maze})"
+        reach = test.limit * test.step_m
+        parts = [f"{where}: the oracle's success is {success:.2f}"]
+        timeouts = outcome == TIMEOUT
+        if timeouts.any():
+            far = shortest[timeouts]
+            longer = int(np.sum(far > reach))
+            parts.append(
+                f"{int(timeouts.sum())} time-outs, {longer} of them to goals whose shortest "
+                f"path ({_span(far)} m) is longer than the {reach:g} m its "
+                f"{test.limit}-step attempt limit lets the robot drive at its speed"
+            )
+        collisions = int(np.sum(outcome == COLLISION))
+        if collisions:
+            moving = make_maze(cfg.env.maze).motion is not None and not cfg.env.generator
+            parts.append(
+                f"{collisions} collisions"
+                + (
+                    ", in a world whose cylinders move: at the paper's constant 0.15 m/s "
+                    "the robot cannot stop to let one pass"
+                    if moving
+                    else ""
+                )
+            )
+        out.append("; ".join(parts) + ".")
+    return out
+
+
+def _span(x: np.ndarray) -> str:
+    lo, hi = float(np.min(x)), float(np.max(x))
+    return f"{lo:.1f}" if abs(hi - lo) < 0.05 else f"{lo:.1f}-{hi:.1f}"
 
 
 __all__ = [
+    "GOOD",
     "RASTER_CELL",
+    "SHIPPED_WORLDS",
+    "WorldTest",
+    "drive_worlds",
     "evaluate_world",
     "in_place_of",
     "planner_of",

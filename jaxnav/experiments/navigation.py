@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 
 from jaxnav.experiments.rollout import Rollout
-from jaxnav.report.navigation import episode_counts, split_attempts
+from jaxnav.report.navigation import Attempts, episode_counts, split_attempts
 from jaxnav.world.maps import Maze
 from jaxnav.world.paths import PathFinder
 
@@ -41,18 +41,12 @@ def _real(segments, segment_mask, circles, circle_mask) -> tuple[np.ndarray, np.
     )
 
 
-def navigation_counts(
-    res: Rollout,
-    maze: Maze,
-    n_episodes: int,
-    step_m: float,
-    dt: float,
-    paths: ShortestPaths,
-    limit: int,
-) -> list[dict[str, np.ndarray]]:
+def attempt_paths(
+    res: Rollout, maze: Maze, n_episodes: int, paths: ShortestPaths, limit: int
+) -> list[tuple[Attempts, np.ndarray]]:
     """Per run of a navigation rollout (``run_tests(..., navigation=True)``) in the
-    test maze ``maze``: each episode's sums over its attempts ({column: f[E]}) under
-    the attempt limit ``limit`` (steps)."""
+    test maze ``maze``: its goal attempts under the attempt limit ``limit`` (steps) and
+    the shortest path of each (m) in the maze its episode was played in."""
     steps = res.steps
     out = []
     for r in range(len(steps.episode)):
@@ -78,5 +72,23 @@ def navigation_counts(
                 )
             mine = att.episode == e
             shortest[mine] = paths.finder(walls, circles).lengths(att.start[mine], att.goal[mine])
-        out.append(episode_counts(att, shortest, step_m, dt, n_episodes))
+        out.append((att, shortest))
     return out
+
+
+def navigation_counts(
+    res: Rollout,
+    maze: Maze,
+    n_episodes: int,
+    step_m: float,
+    dt: float,
+    paths: ShortestPaths,
+    limit: int,
+) -> list[dict[str, np.ndarray]]:
+    """Per run of a navigation rollout (``run_tests(..., navigation=True)``) in the
+    test maze ``maze``: each episode's sums over its attempts ({column: f[E]}) under
+    the attempt limit ``limit`` (steps)."""
+    return [
+        episode_counts(att, shortest, step_m, dt, n_episodes)
+        for att, shortest in attempt_paths(res, maze, n_episodes, paths, limit)
+    ]
