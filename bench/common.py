@@ -180,6 +180,33 @@ def train_evaluating(items: list[str], args: argparse.Namespace, log) -> dict:
     return {"rows": rows, "summary": summary, "wall_s": wall}
 
 
+def reference_success(items: list[str], seeds: int, episodes: int, log) -> dict[str, float]:
+    """The oracle's and DWA's mean success over ``seeds`` test keys in the world of a
+    training command's ``items`` (its config and overrides), through the greedy
+    evaluation's test (``episodes`` episodes per seed, the training environment):
+    ``jaxnav evaluate --baseline`` in a subprocess, its results read back."""
+    from jaxnav.report.navigation import seed_metrics
+    from jaxnav.report.results import read_results
+
+    config, *overrides = items
+    out = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        for name in ("oracle", "dwa"):
+            dest = Path(tmp) / name
+            cmd = [sys.executable, "-m", "jaxnav.evaluate", "--baseline", name, config,
+                   *overrides, "--seeds", str(seeds), "--episodes", str(episodes),
+                   "--out", str(dest)]  # fmt: skip
+            log("$ " + " ".join(["python", *cmd[1:]]))
+            p = subprocess.run(cmd, cwd=ROOT, env=child_env(), capture_output=True)
+            if p.returncode != 0:
+                err = p.stderr.decode(errors="replace").strip().splitlines() or ["?"]
+                raise RuntimeError(f"jaxnav evaluate --baseline failed: {err[-1]}")
+            res = read_results((dest / "results.csv").read_text())
+            per_seed = [seed_metrics(v)["success"] for v in res.values()]
+            out[name] = sum(per_seed) / len(per_seed)
+    return out
+
+
 def machine() -> str:
     """One line: CPU model, cores, load, jax version."""
     model = platform.processor() or platform.machine()

@@ -1,15 +1,19 @@
-"""Time to solve: how long after a training command starts its greedy policy succeeds.
+"""Time to solve: how long after a training command starts its greedy policy solves a world.
 
 For each maze (square4, and square4_obstacles, the stage-2 maze with four cylinders)
 and each agent, one ``python -m jaxnav.train`` command trains every seed of EBE and
 epsilon-greedy at once with ``run.eval_every`` (``jaxnav/run/greedy.py``); this
 script starts it in a subprocess with an empty compilation cache, so compilation is
-part of the time, and reads its ``eval.csv``. A run is solved at its first
-evaluation whose greedy policy reaches its goal in at least 95% of its goal
-attempts (``success``, over ``run.eval_episodes`` episodes); its time is that
-row's ``wall_s``, seconds since the command started (the evaluations before it
-included). All runs of a command train side by side in one compiled program, so a
-run's time is the command's wall clock, shared with the other runs.
+part of the time, and reads its ``eval.csv``. A world is solved by a success within
+0.02 of the oracle's on the same test (``jaxnav.report.navigation.solved``): the
+oracle (and DWA, for comparison) first drives through the very evaluation the runs
+take (the same seeds' test keys, ``run.eval_episodes`` episodes in the training
+environment, ``jaxnav evaluate --baseline``). A run is solved at its first
+evaluation whose greedy success (over its decided goal attempts) is within 0.02 of
+the oracle's mean; its time is that row's ``wall_s``, seconds since the command
+started (the evaluations before it included). All runs of a command train side by
+side in one compiled program, so a run's time is the command's wall clock, shared
+with the other runs.
 
 The agents, each its own shipped config with only the maze, the step budget and
 the evaluation changed (a budget of env steps per run, ``episodes=null``):
@@ -37,9 +41,10 @@ import statistics
 import sys
 from pathlib import Path
 
-from common import budget, budget_arguments, machine, train_evaluating
+from common import budget, budget_arguments, machine, reference_success, train_evaluating
 
-THRESHOLD = 0.95  # success per goal attempt that counts as solved
+from jaxnav.report.navigation import SOLVED_TOLERANCE, solved
+
 MAZES = {  # maze -> the paper's config for it
     "square4": "configs/paper_no_obstacles.yaml",
     "square4_obstacles": "configs/paper_obstacles.yaml",
@@ -57,13 +62,16 @@ def agents(maze: str) -> dict[str, list[str]]:
     }
 
 
-def solved_at(rows: list[dict[str, str]]) -> dict[tuple[str, int], tuple[float, int] | None]:
-    """Each run's first (wall_s, env_step) with success >= THRESHOLD; None if never."""
+def solved_at(
+    rows: list[dict[str, str]], oracle: float
+) -> dict[tuple[str, int], tuple[float, int] | None]:
+    """Each run's first (wall_s, env_step) whose success solves the world (within
+    SOLVED_TOLERANCE of the oracle's ``oracle``); None if never."""
     runs: dict[tuple[str, int], tuple[float, int] | None] = {}
     for r in sorted(rows, key=lambda r: int(r["env_step"])):
         key = (r["strategy"], int(r["seed"]))
         runs.setdefault(key, None)
-        if runs[key] is None and float(r["success"]) >= THRESHOLD:
+        if runs[key] is None and solved(float(r["success"]), oracle):
             runs[key] = (float(r["wall_s"]), int(r["env_step"]))
     return runs
 
@@ -73,7 +81,8 @@ def best_mean_success(rows: list[dict[str, str]], strategy: str) -> float:
     by_step: dict[int, list[float]] = {}
     for r in rows:
         if r["strategy"] == strategy:
-            by_step.setdefault(int(r["env_step"]), []).append(float(r["success"]))
+            x = float(r["success"])  # nan: every attempt cut (no decided one)
+            by_step.setdefault(int(r["env_step"]), []).append(0.0 if x != x else x)
     return max(statistics.mean(v) for v in by_step.values())
 
 
@@ -87,11 +96,11 @@ def median_or_never(values: list[float | None]) -> float | None:
     return statistics.mean(mid)
 
 
-def measure(maze: str, agent: str, items: list[str], args, log) -> list[dict]:
+def measure(maze: str, agent: str, items: list[str], args, log, refs) -> list[dict]:
     """Run one command; one result per strategy."""
     res = train_evaluating(items, args, log)
     rows, wall = res["rows"], res["wall_s"]
-    runs = solved_at(rows)
+    runs = solved_at(rows, refs["oracle"])
     log(f"    {wall:.1f} s whole")
     results = []
     for strategy in STRATEGIES:
@@ -113,12 +122,15 @@ def measure(maze: str, agent: str, items: list[str], args, log) -> list[dict]:
     return results
 
 
-def table(results: list[dict], args) -> str:
+def table(results: list[dict], refs: dict[str, dict[str, float]], args) -> str:
     lines = [
-        f"| maze | agent | strategy | solved | median time to {THRESHOLD:.0%} (s) "
+        "| maze | agent | strategy | solved | median time to solve (s) "
         "| median env steps | best mean success | whole command (s) |",
         "|---|---|---|--:|--:|--:|--:|--:|",
     ]
+    for world, ref in refs.items():
+        for name, label in (("oracle", "oracle"), ("dwa", "DWA")):
+            lines.append(f"| `{world}` | {label} | (no training) | | | | {ref[name]:.2f} | |")
     for r in results:
         never = f"not solved in {args.steps:,}"
         s = never if r["median_s"] is None else f"{r['median_s']:.1f}"
@@ -144,22 +156,33 @@ def main(argv=None) -> int:
         print(text, file=sys.stderr, flush=True)
 
     log(f"machine: {machine()}")
-    results = []
+    results, refs, worlds = [], {}, {}
     for maze in args.mazes:
         for agent, items in agents(maze).items():
-            results += measure(maze, agent, items, args, log)
+            # the world's yardstick: the oracle in the very world the agent trains in
+            world = tuple(i for i in items if "=" not in i or i.startswith("env."))
+            if world not in worlds:
+                worlds[world] = reference_success(list(world), args.seeds, args.eval_episodes, log)
+                refs[" ".join(world)] = worlds[world]
+                log(f"  {' '.join(world)}: oracle {worlds[world]['oracle']:.3f}, "
+                    f"DWA {worlds[world]['dwa']:.3f}")  # fmt: skip
+            results += measure(maze, agent, items, args, log, worlds[world])
     flags = (" --quick" if quick else "") + (
         "" if args.mazes == list(MAZES) else " --mazes " + " ".join(args.mazes)
     )
     print(
         f"`python bench/time_to_solve.py{flags}`: {args.seeds} seeds per strategy, "
         f"{args.steps:,} env steps per run, a greedy evaluation of {args.eval_episodes} "
-        f"episodes every {args.eval_every:,}; whole commands, empty compilation cache."
+        f"episodes every {args.eval_every:,}; whole commands, empty compilation cache. "
+        f"Solved: a success within {SOLVED_TOLERANCE} of the oracle's on the same "
+        "evaluation in the agent's world (the oracle's and DWA's rows, by the world's "
+        "config, above the runs')."
     )
     print()
-    print(table(results, args))
+    print(table(results, refs, args))
     if args.json:
-        Path(args.json).write_text(json.dumps(results, indent=2) + "\n")
+        both = {"runs": results, "references": refs}
+        Path(args.json).write_text(json.dumps(both, indent=2) + "\n")
     return 0
 
 

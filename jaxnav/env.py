@@ -43,7 +43,7 @@ import numpy as np
 from flax import struct
 
 from jaxnav.core.config import env_family_problem, env_reward_problem, env_setting_problem
-from jaxnav.core.settings import PRESETS
+from jaxnav.core.settings import ACTION_SETS, PRESETS
 from jaxnav.world import families, generators, motion, sensor
 from jaxnav.world.geometry import (
     displacement,
@@ -60,7 +60,7 @@ from jaxnav.world.maps import (
     Maze,
     make_maze,
 )
-from jaxnav.world.reward import reward_fn, sparse_reward
+from jaxnav.world.reward import progress_reward, reward_fn, sparse_reward
 from jaxnav.world.sensor import goal_heading_distance
 from jaxnav.world.spaces import Box, Discrete
 
@@ -99,6 +99,13 @@ class EnvParams:
     reward_span: float = math.pi / 2  # paper text; ROBOTIS code pi / 4
     reward_distance_exp: bool = False  # False: D = d_c (paper); True: 2^(d_c/d_0)
     goal_min_separation: float = 1.0  # m, a new goal is drawn this far from the last
+    # f32[A] each action's forward speed (m/s), or None: every action drives at v (the
+    # paper's). With an action set (NavEnv.actions) omegas holds its yaw rates.
+    speeds: chex.Array | None = None
+    progress_scale: float = 10.0  # reward "progress": per metre closer to the goal
+    step_penalty: float = 0.0  # taken from every step that neither reaches nor collides
+    proximity_penalty: float = 0.0  # taken, scaled, where the path comes near a surface
+    proximity_distance: float = 0.3  # m of clearance (beyond the radius) where it starts
 
 
 @struct.dataclass
@@ -121,6 +128,9 @@ class EnvState:
     circles: chex.Array | None = None
     # i16[RC, RC]: the drawn grid maze's cell distances, with reward "geodesic" only.
     cell_dist: chex.Array | None = None
+    # f32[2]: the last command driven (v, omega), 0 at an episode's start; with the
+    # normalised observation only (it is part of it).
+    last_command: chex.Array | None = None
 
 
 @dataclasses.dataclass(frozen=True)
@@ -178,9 +188,21 @@ class NavEnv(GoalSampler):
 
     Reward (:mod:`jaxnav.world.reward`):
       reward: "dense" (the paper's: R+, R-, else the heading shaping towards the goal),
-        "sparse" (R+ and R- only, 0 otherwise) or "geodesic" (grid mazes: the shaping
+        "sparse" (R+ and R- only, 0 otherwise), "geodesic" (grid mazes: the shaping
         heads for the next opening on the shortest path through the maze and D is the
-        distance along it, so it never points into a dead end).
+        distance along it, so it never points into a dead end) or "progress" (R+, R-,
+        else ``EnvParams.progress_scale`` per metre the step brought the robot closer
+        to its goal). Beside any of them, ``EnvParams.step_penalty`` and
+        ``proximity_penalty`` are taken from every step that neither reaches nor
+        collides (:func:`jaxnav.world.reward.penalties`).
+
+    Actions and observation (beyond the paper; both off by default):
+      actions: "paper" (``EnvParams.omegas`` at the constant ``v``) or a set of
+        :data:`jaxnav.core.settings.ACTION_SETS`, whose speeds and yaw rates become
+        ``EnvParams.speeds`` and ``omegas``.
+      observation: "robotis" (the ROBOTIS state) or "normalised" (ranges and the goal's
+        distance over the sensor's range, its heading over pi, and the last command over
+        the burger's limits: :func:`jaxnav.world.sensor.normalised_state`).
 
     Navigation metrics (:mod:`jaxnav.report.navigation`):
       attempt_limit: steps one goal attempt may take before it counts as a time-out;
@@ -224,6 +246,8 @@ class NavEnv(GoalSampler):
     rooms_loops: float = 0.0
     reward: str = "dense"
     attempt_limit: int = 0
+    actions: str = "paper"
+    observation: str = "robotis"
 
     def __post_init__(self):
         for f in dataclasses.fields(self):  # the rules of the config's env settings
@@ -266,11 +290,31 @@ class NavEnv(GoalSampler):
 
     def command(self, params: EnvParams, action: chex.Array) -> tuple[chex.Array, chex.Array]:
         """(v m/s, omega rad/s) the robot drives for ``action`` (any shape): the action's
-        yaw rate at the forward speed, as the firmware clips them if ``wheel_limit``."""
-        omega, v = jnp.asarray(params.omegas)[action], params.v
+        yaw rate at its speed (the forward speed ``v`` for the paper's actions), as the
+        firmware clips them if ``wheel_limit``."""
+        omega = jnp.asarray(params.omegas)[action]
+        v = params.v if params.speeds is None else jnp.asarray(params.speeds)[action]
         if self.wheel_limit:  # the arc the robot drives, not the one commanded
             v, omega = firmware_limit(jnp.asarray(v, jnp.float32), omega)
         return v, omega
+
+    def travel(self, params: EnvParams, state: EnvState, action: chex.Array) -> chex.Array:
+        """f32[]: the length of the path the step from ``state`` drives (|v| dt along its
+        arc), for the action chosen (or, with ``action_delay``, the one pending)."""
+        applied = state.pending_action if self.action_delay else action
+        v, _ = self.command(params, applied)
+        return jnp.abs(jnp.asarray(v, jnp.float32)) * params.dt
+
+    def read_observation(
+        self, obs: chex.Array, params: EnvParams
+    ) -> tuple[chex.Array, chex.Array, chex.Array]:
+        """(ranges m f32[n_beams], heading rad f32[], distance m f32[]) of an observation:
+        what a driver that sees only the scan and the goal reads (:mod:`jaxnav.planners.dwa`).
+        The normalised observation's distance is capped at the sensor's range."""
+        n = self.n_beams
+        if self.normalised:
+            return obs[:n] * params.max_range, obs[n] * jnp.pi, obs[n + 1] * params.max_range
+        return obs[:n], obs[n], obs[n + 1]
 
     def attempt_steps(self, params: EnvParams) -> int:
         """The attempt limit in steps (host side): ``attempt_limit``, or the episode's
@@ -279,16 +323,28 @@ class NavEnv(GoalSampler):
 
     @property
     def num_actions(self) -> int:
-        return len(PAPER_OMEGAS)
+        table = ACTION_SETS[self.actions]
+        return len(PAPER_OMEGAS) if table is None else len(table)
+
+    @property
+    def normalised(self) -> bool:
+        """Whether the observation is the normalised one (it holds the last command)."""
+        return self.observation == "normalised"
 
     @property
     def obs_size(self) -> int:
+        if self.normalised:
+            return self.n_beams + 4
         return self.n_beams + 2 + (2 if self.obstacle_obs else 0)
 
     def action_space(self, params: EnvParams | None = None) -> Discrete:
         return Discrete(self.num_actions)
 
     def observation_space(self, params: EnvParams) -> Box:
+        if self.normalised:
+            low = [0.0] * self.n_beams + [-1.0, 0.0, -1.0, -1.0]
+            high = [1.0] * (self.n_beams + 4)
+            return Box(np.asarray(low, np.float32), np.asarray(high, np.float32), (self.obs_size,))
         bounds = np.asarray(jax.device_get(params.maze.bounds))  # host side, not under jit
         big = float(np.max(bounds[..., 2:] - bounds[..., :2])) * self.maze_scale[1]
         low = [params.min_range] * self.n_beams + [-math.pi, 0.0]
@@ -319,12 +375,29 @@ class NavEnv(GoalSampler):
         params: EnvParams,
         scale: chex.Array = 1.0,
         time: chex.Array = 0.0,
+        last_command: chex.Array | None = None,
     ) -> chex.Array:
-        """ROBOTIS state f32[obs_size]: [ranges, heading, distance(, min range, argmin beam)],
-        the moving cylinders (if any) where they are at ``time`` (s into the episode)."""
+        """The observation f32[obs_size], the moving cylinders (if any) where they are at
+        ``time`` (s into the episode): the ROBOTIS state [ranges, heading, distance(, min
+        range, argmin beam)], or the normalised one with ``last_command`` (v, omega)."""
         ranges = sensor.beam_ranges(
             self.maze_at(params, scale, time), pos, yaw, self.n_beams, self.beam_layout == "gazebo"
         )
+        if self.normalised:
+            last = jnp.zeros(2, jnp.float32) if last_command is None else last_command
+            return sensor.normalised_observation(
+                key,
+                ranges,
+                pos,
+                yaw,
+                goal,
+                last,
+                noise_std=params.lidar_noise_std,
+                min_range=params.min_range,
+                max_range=params.max_range,
+                dropout=self.beam_dropout,
+                odom_std=self.odom_noise,
+            )
         return sensor.observation(
             key,
             ranges,
@@ -367,7 +440,10 @@ class NavEnv(GoalSampler):
         reward, its maze's cell distances (``cell_dist`` if known)."""
         if self.reward == "geodesic" and cell_dist is None:
             cell_dist = generators.maze_cell_distances(params.maze, self.grid)
-        return state.replace(circles=self.circles_at(params, state.scale, 0), cell_dist=cell_dist)
+        last = jnp.zeros(2, jnp.float32) if self.normalised else None  # at rest
+        return state.replace(
+            circles=self.circles_at(params, state.scale, 0), cell_dist=cell_dist, last_command=last
+        )
 
     def step_env(self, key: chex.PRNGKey, state: EnvState, action: chex.Array, params: EnvParams):
         """One control period without the auto-reset."""
@@ -405,6 +481,9 @@ class NavEnv(GoalSampler):
             reward = reward_fn(
                 params, action, heading, distance_along, state.goal_distance0, reached, collided
             )
+        elif self.reward == "progress":  # closer to the goal, kept clear of surfaces
+            before = norm2(state.goal - state.pos)
+            reward = progress_reward(params, before, distance, clearance, reached, collided)
         else:
             heading, _ = goal_heading_distance(pos, yaw, state.goal)
             reward = reward_fn(
@@ -424,7 +503,11 @@ class NavEnv(GoalSampler):
             pending_action=action if self.action_delay else None,
             circles=self.circles_at(params, state.scale, t),
         )
-        obs = self.observe(k_obs, pos, yaw, goal, params, state.scale, time)
+        last = None
+        if self.normalised:  # the command just driven is part of the next observation
+            last = jnp.stack([jnp.asarray(v, jnp.float32), omega]).astype(jnp.float32)
+            new_state = new_state.replace(last_command=last)
+        obs = self.observe(k_obs, pos, yaw, goal, params, state.scale, time, last)
         info = {"goal_reached": reached, "collision": collided}
         return obs, new_state, reward.astype(jnp.float32), terminated, truncated, info
 
@@ -573,6 +656,10 @@ def make(
     if "omegas" in values:
         values["omegas"] = jnp.asarray(values["omegas"], jnp.float32)
     env = NavEnv(**env_kwargs)
+    table = ACTION_SETS[env.actions]
+    if table is not None:  # the set's commands: speeds and yaw rates as data
+        values["speeds"] = jnp.asarray([v for v, _ in table], jnp.float32)
+        values["omegas"] = jnp.asarray([w for _, w in table], jnp.float32)
     params = EnvParams(maze=maze_obj, **values)
     if env.attempt_limit > int(params.max_steps):
         raise ValueError(

@@ -110,6 +110,17 @@ def test_several_goals_per_episode_and_the_last_cut_give_success_one():
     assert m["goals_per_min"] == pytest.approx(3 / (5 * DT / 60))
 
 
+def test_an_attempts_path_is_what_its_steps_drove_when_they_say():
+    """With a stop in the action set a step may drive 0 m: the path is the steps'
+    travel, not the steps times 0.15 m/s x 0.2 s."""
+    travel = np.array([0.03, 0.0, 0.0, 0.044, 0.0])  # the last: after the test
+    att = split_attempts(*steps(*EPISODES[1:]), n_episodes=1, limit=LIMIT, travel=travel)
+    np.testing.assert_allclose(att.path, [0.074])
+    counts = episode_counts(att, np.array([0.05]), STEP_M, DT, n_episodes=1)
+    np.testing.assert_allclose(counts["path_m"], [0.074])
+    np.testing.assert_allclose(counts["spl_sum"], [0.05 / 0.074])
+
+
 def test_rates_path_spl_and_time_by_hand():
     att = split_attempts(*steps(*EPISODES), n_episodes=2, limit=LIMIT)
     # shortest paths 0.06 and 0.1 m for the successes (driven: 0.09 and 0.12 m), 2.1 m

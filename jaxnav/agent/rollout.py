@@ -73,6 +73,7 @@ class Steps(NamedTuple):
     reached: chex.Array  # bool[..., T]
     collided: chex.Array  # bool[..., T]
     episode: chex.Array  # i32[..., T]
+    travel: chex.Array  # f32[..., T] the path the step drove, m (|v| dt along its arc)
 
 
 class EpisodeMazes(NamedTuple):
@@ -176,7 +177,8 @@ def make_rollout(
             episodes = episodes.record(slot, reward, info["goal_reached"], terminated, done)
             steps = traj = None
             if navigation:
-                steps = Steps(state.pos, state.goal, info["goal_reached"], terminated, ep)
+                moved = env.travel(env_params, state, action)
+                steps = Steps(state.pos, state.goal, info["goal_reached"], terminated, ep, moved)
             if record:
                 traj = Trajectory(
                     pos=state.pos,

@@ -9,6 +9,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from jaxnav.core.settings import (
+    ACTION_SETS,
     AT_LEAST_1,
     GENERATORS,
     GOAL_CLEARANCE,
@@ -162,9 +163,43 @@ class EnvConfig:
     )
     reward: str = setting(
         "dense",
-        "dense (the paper's heading shaping), sparse (goal and collision only) or geodesic "
-        "(grid: the shaping follows the shortest path through the maze)",
-        rule=one_of("dense", "sparse", "geodesic"),
+        "dense (the paper's heading shaping), sparse (goal and collision only), geodesic "
+        "(grid: the shaping follows the shortest path through the maze) or progress "
+        "(env.progress_scale per metre the robot comes closer to its goal)",
+        rule=one_of("dense", "sparse", "geodesic", "progress"),
+    )
+    progress_scale: float = setting(
+        10.0, "progress reward: reward per metre closer to the goal", rule=NON_NEGATIVE
+    )
+    step_penalty: float = setting(
+        0.0,
+        "progress reward: taken from every step that neither reaches nor collides",
+        rule=NON_NEGATIVE,
+    )
+    proximity_penalty: float = setting(
+        0.0,
+        "progress reward: taken, times 1 - clearance / env.proximity_distance, where the "
+        "robot's path comes within env.proximity_distance of a surface (clearance beyond "
+        "its radius)",
+        rule=NON_NEGATIVE,
+    )
+    proximity_distance: float = setting(
+        0.3,
+        "progress reward: the clearance below which the proximity penalty applies, m",
+        rule=POSITIVE,
+    )
+    actions: str = setting(
+        "paper",
+        "paper (5 yaw rates at 0.15 m/s), paper_stop (those and a stop) or vw (speeds 0, "
+        "0.11 and 0.22 m/s by the 5 yaw rates): the commands the agent picks from",
+        rule=one_of(*ACTION_SETS),
+    )
+    observation: str = setting(
+        "robotis",
+        "robotis (ranges, heading, distance in m and rad, raw) or normalised (ranges and "
+        "distance over the sensor's range, heading over pi, and the last command over the "
+        "burger's limits)",
+        rule=one_of("robotis", "normalised"),
     )
 
 

@@ -110,6 +110,23 @@ SCALE_RANGE = (
 
 # "": the fixed maze env.maze; grid: jaxnav.world.generators; cylinders and rooms:
 # jaxnav.world.families.
+# The burger's teleop limits (turtlebot3_teleop: BURGER_MAX_LIN_VEL, BURGER_MAX_ANG_VEL):
+# every action set stays within them, and the normalised observation scales by them.
+BURGER_MAX_V, BURGER_MAX_OMEGA = 0.22, 2.84
+
+# Action sets: name -> ((v m/s, omega rad/s), ...) per action, or None for the paper's
+# (EnvParams.omegas at the constant EnvParams.v). Every command is within the burger's
+# teleop limits (0.22 m/s, 2.84 rad/s); ``env.wheel_limit`` drives them as the firmware
+# clips them.
+PAPER_YAW_RATES = (-1.5, -0.75, 0.0, 0.75, 1.5)
+ACTION_SETS: dict[str, tuple[tuple[float, float], ...] | None] = {
+    "paper": None,
+    # the paper's five turns at 0.15 m/s, and a stop: the robot can wait
+    "paper_stop": tuple((0.15, w) for w in PAPER_YAW_RATES) + ((0.0, 0.0),),
+    # three speeds (stopped, half and the burger's full 0.22 m/s) by the five turns
+    "vw": tuple((v, w) for v in (0.0, 0.11, 0.22) for w in PAPER_YAW_RATES),
+}
+
 GENERATORS = ("", "grid", "cylinders", "rooms")
 # The robot's diameter (2 x jaxnav.world.maps.ROBOT_RADIUS): a grid cell must be wider.
 ROBOT_DIAMETER = 0.26

@@ -202,7 +202,8 @@ def drive_worlds(
     where the oracle's success is below :data:`GOOD`, from its attempts)."""
     rows, notes = [], []
     for world in worlds:
-        cfg = world_config(world)
+        name, *overrides = world.split()  # a world may carry settings: "stage3 env.actions=vw"
+        cfg = world_config(name, overrides)
         for name in baselines.names():
             log(f"{name} in {world}")
             test = evaluate_world(name, cfg, n_seeds, n_episodes)
@@ -226,7 +227,8 @@ def _shortfalls(world: str, cfg: Config, test: WorldTest) -> list[str]:
             continue
         where = world if maze == world else f"{world} ({maze})"
         reach = test.limit * test.step_m
-        parts = [f"{where}: the oracle's success is {success:.2f}"]
+        moving = not cfg.env.generator and make_maze(cfg.env.maze).motion is not None
+        parts = [f"{where}: the oracle's success is {success:.3f}"]
         timeouts = outcome == TIMEOUT
         if timeouts.any():
             far = shortest[timeouts]
@@ -236,15 +238,20 @@ def _shortfalls(world: str, cfg: Config, test: WorldTest) -> list[str]:
                 f"path ({_span(far)} m) is longer than the {reach:g} m its "
                 f"{test.limit}-step attempt limit lets the robot drive at its speed"
             )
+            if moving and longer < timeouts.sum():
+                parts.append(
+                    "the others in a world whose cylinders move: the robot found no plan that "
+                    "stays clear of them all the way to the goal, kept clear instead, and the "
+                    "attempts ran out"
+                )
         collisions = int(np.sum(outcome == COLLISION))
         if collisions:
-            moving = make_maze(cfg.env.maze).motion is not None and not cfg.env.generator
             parts.append(
                 f"{collisions} collisions"
                 + (
-                    ", in a world whose cylinders move: at the paper's constant 0.15 m/s "
-                    "the robot cannot stop to let one pass"
-                    if moving
+                    ", in a world whose cylinders move, where with the paper's actions the "
+                    "robot cannot stop to let one pass"
+                    if moving and cfg.env.actions == "paper"
                     else ""
                 )
             )

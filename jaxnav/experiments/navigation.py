@@ -58,6 +58,7 @@ def attempt_paths(
             steps.episode[r],
             n_episodes,
             limit,
+            steps.travel[r],
         )
         shortest = np.zeros(len(att.episode))
         for e in np.unique(att.episode):

@@ -69,7 +69,7 @@ class DWA:
         del state  # a scan and a goal are all it sees
         env = self.env
         n = env.n_beams
-        ranges, heading, distance = obs[:n], obs[n], obs[n + 1]
+        ranges, heading, distance = env.read_observation(obs, params)
         angles = sensor.beam_angles(n, env.beam_layout == "gazebo")
         returned = ranges < params.max_range - 1e-3  # a max-range reading hit nothing
         qx, qy = ranges * jnp.cos(angles), ranges * jnp.sin(angles)  # the robot's frame

@@ -29,6 +29,7 @@ import chex
 import jax
 import jax.numpy as jnp
 
+from jaxnav.core.settings import ACTION_SETS
 from jaxnav.env import EnvParams, EnvState, NavEnv
 from jaxnav.planners import raster as rs
 from jaxnav.world import motion
@@ -57,12 +58,18 @@ class Oracle:
       env: the environment it drives (its action set, wheel limit, action delay).
       raster: the raster its fields live on (:func:`jaxnav.planners.raster.raster_for`).
       holds: steps each level of a candidate sequence holds its action; None: (1, 2, 4)
-        (1.4 s ahead), or (1, 3, 10) (2.8 s) where cylinders move, to see them coming.
+        (1.4 s ahead), or (1, 3, 10) (2.8 s) where cylinders move, to see them coming;
+        with more than 7 actions two levels, (1, 5) or (1, 13), so the tree stays small.
       margin: clearance kept from static surfaces beyond the robot's radius after the
         first step (m); the raster's lower bound adds its own slack.
       moving_margin: the same for the moving cylinders (m).
       samples: points checked per simulated step.
       lookahead: how far ahead of a plan's end the field is read to score its heading (m).
+      wait_steps: with a stop in the action set, a plan may end at any of its steps and
+        the robot stands there; where cylinders move, only where it could stand this many
+        control periods without one reaching it.
+      delay_cost: metres of way a plan is charged per step it takes to its end, so that
+        of two plans to the same place the sooner wins (a plan may wait).
     """
 
     env: NavEnv
@@ -72,6 +79,8 @@ class Oracle:
     moving_margin: float = 0.03
     samples: int = 1
     lookahead: float = 0.1
+    wait_steps: int = 16
+    delay_cost: float = 0.01
 
     # -- memory ---------------------------------------------------------------
 
@@ -118,8 +127,10 @@ class Oracle:
         maze = self._geometry(params, state)
         mem = self._update(mem, params, state, maze)
         origin = rs.origin_of(maze, self.raster)
-        holds = self.holds or ((1, 3, 10) if maze.motion is not None else (1, 2, 4))
-        A, L = env.num_actions, len(holds)
+        A = env.num_actions
+        moving = maze.motion is not None
+        holds = self.holds or _default_holds(A, moving)
+        L = len(holds)
         v_a, w_a = env.command(params, jnp.arange(A))
         v_a = jnp.broadcast_to(v_a, (A,))
 
@@ -137,48 +148,86 @@ class Oracle:
 
         # SIMULATE the tree level by level: every node's A actions, each held its steps;
         # a step's points are checked on the raster and against the moving cylinders.
-        bad, reach, step = [], [], offset
+        levels, step = [], offset
         for hold in holds:
             pos = jnp.broadcast_to(pos[:, None, :], (pos.shape[0], A, 2))
             yaw = jnp.broadcast_to(yaw[:, None], pos.shape[:2])
-            bad_l, reach_l = [], []
+            rec = []  # per step: (unsafe, at the goal, position, yaw)
             for _ in range(hold):
                 frac = (jnp.arange(self.samples, dtype=jnp.float32) + 1) / self.samples
                 pts = pos[..., None, :] + jnp.moveaxis(
                     displacement(yaw[..., None], w_a[:, None], v_a[:, None], frac * dt), 0, -1
                 )  # [N, A, samples, 2]
-                bad_l.append(self._unsafe(mem, maze, origin, state, params, pts, step))
+                unsafe = self._unsafe(mem, maze, origin, state, params, pts, step)
                 pos, yaw = pts[..., -1, :], wrap_angle(yaw + w_a * dt)
-                reach_l.append(jnp.linalg.norm(pos - state.goal, axis=-1) < params.goal_radius)
+                at_goal = jnp.linalg.norm(pos - state.goal, axis=-1) < params.goal_radius
+                rec.append((unsafe, at_goal, pos, yaw))
                 step += 1
-            bad.append(jnp.stack(bad_l, -1).reshape(-1, hold))
-            reach.append(jnp.stack(reach_l, -1).reshape(-1, hold))
+            levels.append([jnp.stack(x, 2).reshape(-1, hold, *x[0].shape[2:]) for x in zip(*rec)])
             pos, yaw = pos.reshape(-1, 2), yaw.reshape(-1)
-        # every full sequence's steps: level l's node of sequence s is s // A^(L - l)
+        # every full sequence's steps: level l's node of sequence s is s // A^(L - 1 - l)
         K = A**L
         seq = jnp.arange(K)
-        bad = jnp.concatenate([b[seq // A ** (L - 1 - k)] for k, b in enumerate(bad)], axis=1)
-        reach = jnp.concatenate([x[seq // A ** (L - 1 - k)] for k, x in enumerate(reach)], axis=1)
+        bad, reach, where, heading = (
+            jnp.concatenate([lv[i][seq // A ** (L - 1 - k)] for k, lv in enumerate(levels)], 1)
+            for i in range(4)
+        )  # [K, T] each, where [K, T, 2]
         if env.action_delay:
             bad = bad | ~now
         else:
             bad = bad.at[:, 0].set(bad[:, 0] | ~now[seq // A ** (L - 1)])
         T = bad.shape[1]
         hit_at = jnp.where(jnp.any(bad, axis=1), jnp.argmax(bad, axis=1), T)
-        reach_at = jnp.where(jnp.any(reach, axis=1), jnp.argmax(reach, axis=1), T)
 
         # SCORE: the goal soonest; else the shortest way left, facing along it. A plan
-        # must stay clear to its end, past the goal too: the next goal's plan starts there.
-        ahead = pos + self.lookahead * jnp.stack([jnp.cos(yaw), jnp.sin(yaw)], -1)
-        d_end = rs.field_upper(mem.distance, origin, self.raster, pos[:, 0], pos[:, 1])
-        d_ahead = rs.field_upper(mem.distance, origin, self.raster, ahead[:, 0], ahead[:, 1])
+        # must stay clear to its end, past the goal too (the next goal's plan starts
+        # there); with a stop in the action set it may end at any of its steps, where the
+        # robot then stands (clear of the cylinders for ``wait`` seconds, if they move).
+        ahead = where + self.lookahead * jnp.stack([jnp.cos(heading), jnp.sin(heading)], -1)
+        d_end = rs.field_upper(mem.distance, origin, self.raster, where[..., 0], where[..., 1])
+        d_ahead = rs.field_upper(mem.distance, origin, self.raster, ahead[..., 0], ahead[..., 1])
         d_ahead = jnp.where(jnp.isfinite(d_ahead), d_ahead, d_end + 2 * self.lookahead)
-        straight = jnp.linalg.norm(pos - state.goal, axis=-1)  # where the raster has no way
-        way = jnp.where(jnp.isfinite(d_end), 0.5 * (d_end + d_ahead), 1.0e3 + straight)
-        cost = jnp.where(reach_at < T, -1.0e3 + reach_at, way)
-        cost = jnp.where(hit_at == T, cost, _BIG * (1 + T - hit_at) + jnp.minimum(way, 1.0e4))
+        straight = jnp.linalg.norm(where - state.goal, axis=-1)  # where the raster has no way
+        way = jnp.where(jnp.isfinite(d_end), 0.5 * (d_end + d_ahead), 1.0e3 + straight)  # [K, T]
+        steps = jnp.arange(T)
+        if self.can_stop:  # ends at any step clear so far (and, if they move, of cylinders)
+            valid = steps[None, :] < hit_at[:, None]
+            if moving:
+                valid = valid & ~self._no_wait(maze, state, params, where, offset)
+        else:  # clear to its end; the goal counts wherever the plan reaches it
+            valid = (hit_at == T)[:, None] & ((steps == T - 1)[None, :] | reach)
+        # the goal counts where the plan can go on from it to a valid end
+        later = jnp.flip(jnp.cumsum(jnp.flip(valid, 1), 1), 1) > 0  # a valid end at or after
+        reach_ok = reach & later & (steps[None, :] < hit_at[:, None])
+        # the same place reached a step sooner is better: no putting progress off
+        score = jnp.where(valid, way + self.delay_cost * steps, jnp.inf)
+        score = jnp.where(reach_ok, -1.0e3 + steps[None, :], score)
+        cost = jnp.min(score, axis=1)
+        # none stays clear: the plan that collides latest
+        fallback = _BIG * (1 + T - hit_at) + jnp.minimum(way[:, -1], 1.0e4)
+        cost = jnp.where(jnp.isfinite(cost), cost, fallback)
         choice = jnp.argmin(cost) // A ** (L - 1)
         return choice.astype(jnp.int32), mem
+
+    @property
+    def can_stop(self) -> bool:
+        """Whether the action set holds a stop (the robot can wait where it is)."""
+        table = ACTION_SETS[self.env.actions]
+        return table is not None and (0.0, 0.0) in table
+
+    def _no_wait(self, maze, state, params, where, offset: int) -> chex.Array:
+        """bool[K, T]: whether a moving cylinder would come within reach of the robot
+        standing where each plan is after each of its steps (``where`` f32[K, T, 2]; the
+        plan's step j ends ``offset + j + 1`` steps from now) in the next ``wait``
+        seconds (``wait_steps`` of the control period)."""
+        T = where.shape[1]
+        ahead = jnp.arange(offset + 1, offset + T + self.wait_steps + 1)  # every step's time
+        at = jax.vmap(lambda k: motion.positions(maze.motion, (state.t + k) * params.dt))(ahead)
+        # the cylinders' centres over the wait after each end: [T, wait, M, 2]
+        window = jnp.stack([at[j : j + self.wait_steps] for j in range(T)])
+        gap = jnp.linalg.norm(where[:, :, None, None, :] - window[None], axis=-1)
+        gap = jnp.min(gap - maze.motion.radius, axis=(2, 3))
+        return gap < params.robot_radius + self.moving_margin
 
     def _unsafe(self, mem, maze, origin, state, params, pts, step: int) -> chex.Array:
         """bool[...]: whether each step's points (pts f32[..., samples, 2], the plan's
@@ -205,6 +254,13 @@ class Oracle:
             )
             clearance = jnp.minimum(clearance, moving)
         return clearance
+
+
+def _default_holds(n_actions: int, moving: bool) -> tuple[int, ...]:
+    """The tree's levels (steps each holds its action) for an action set and a world."""
+    if n_actions > 7:
+        return (1, 13) if moving else (1, 5)
+    return (1, 3, 10) if moving else (1, 2, 4)
 
 
 __all__ = ["Oracle", "OracleMemory"]

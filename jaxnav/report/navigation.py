@@ -74,6 +74,7 @@ class Attempts(NamedTuple):
     goal: np.ndarray  # f[A, 2]
     steps: np.ndarray  # i[A] steps taken
     outcome: np.ndarray  # i[A] SUCCESS, COLLISION, TIMEOUT or CUT
+    path: np.ndarray | None = None  # f[A] metres driven, where the steps' travel is known
 
 
 def outcome_of(steps, reached, collided, limit: int) -> np.ndarray:
@@ -97,10 +98,12 @@ def split_attempts(
     episode: np.ndarray,
     n_episodes: int,
     limit: int,
+    travel: np.ndarray | None = None,
 ) -> Attempts:
     """The goal attempts of one run's test from its steps, [T] each (``pos`` and
     ``goal`` [T, 2], before the step; ``reached`` and ``collided`` in the step;
-    ``episode`` the step's test episode, ``n_episodes`` or more after the test).
+    ``episode`` the step's test episode, ``n_episodes`` or more after the test;
+    ``travel``, if known, the metres each step drove).
     ``limit``: the attempt limit in steps (the episode's step limit unless
     ``env.attempt_limit`` sets one). An attempt ends at a reach, or with its episode:
     by a collision or at the episode's step limit (then it is a time-out if it took
@@ -114,18 +117,22 @@ def split_attempts(
     episode = episode[keep]
     n = len(episode)
     if n == 0:
-        return Attempts(*(np.zeros(shape, dtype) for shape, dtype in _EMPTY))
+        return Attempts(*(np.zeros(shape, dtype) for shape, dtype in _EMPTY), np.zeros(0))
     first = np.ones(n, bool)  # an attempt starts at an episode's first step ...
     first[1:] = (episode[1:] != episode[:-1]) | reached[:-1]  # ... or after a reach
     starts = np.flatnonzero(first)
     ends = np.append(starts[1:] - 1, n - 1)  # attempts tile the steps
     taken = ends - starts + 1
+    path = None
+    if travel is not None:
+        path = np.add.reduceat(np.asarray(travel, np.float64)[keep], starts)
     return Attempts(
         episode=episode[starts].astype(np.int32),
         start=pos[starts].astype(np.float64),
         goal=goal[starts].astype(np.float64),
         steps=taken.astype(np.int32),
         outcome=outcome_of(taken, reached[ends], collided[ends], limit),
+        path=path,
     )
 
 
@@ -148,12 +155,13 @@ def episode_counts(
     """Each episode's sums over its attempts, {column: f[n_episodes]} for
     :data:`COUNT_COLUMNS`. ``shortest``: l_i per attempt (m; where it is not finite,
     a gap the raster of :mod:`jaxnav.world.paths` cannot pass, the straight line's
-    length); ``step_m``: the distance a step travels (the robot drives at a
-    constant speed: v dt, the arc's length). Path and SPL sum the decided attempts;
-    ``drive_s`` is the episode's driving time (its attempts tile its steps)."""
+    length); ``step_m``: the distance a step travels where the attempts do not know
+    their paths (``att.path`` None: the paper's robot drives at a constant speed, so v
+    dt, the arc's length). Path and SPL sum the decided attempts; ``drive_s`` is the
+    episode's driving time (its attempts tile its steps)."""
     success = att.outcome == SUCCESS
     decided = att.outcome != CUT
-    path = att.steps * float(step_m)
+    path = att.steps * float(step_m) if att.path is None else np.asarray(att.path, np.float64)
     shortest = np.asarray(shortest, np.float64)
     straight = np.linalg.norm(att.goal - att.start, axis=1)
     shortest = np.where(np.isfinite(shortest), shortest, straight)

@@ -60,3 +60,29 @@ def reward_fn(
 def sparse_reward(params: Any, reached: chex.Array, collided: chex.Array) -> chex.Array:
     """R+ on reaching the goal, R- on collision, else 0 (the time limit still applies)."""
     return jnp.where(collided, params.R_minus, jnp.where(reached, params.R_plus, 0.0))
+
+
+def progress_reward(
+    params: Any,
+    before: chex.Array,
+    after: chex.Array,
+    clearance: chex.Array,
+    reached: chex.Array,
+    collided: chex.Array,
+) -> chex.Array:
+    """R+ on reaching the goal, R- on collision, else the step's progress and penalties:
+    ``progress_scale`` (before - after), the metres the step brought the robot closer
+    to its goal (negative when it moved away), minus ``step_penalty`` and minus
+    ``proximity_penalty`` (1 - c / ``proximity_distance``) where the step's path came
+    within ``proximity_distance`` of a surface, c its clearance beyond the robot's
+    radius (``clearance``: the path's least distance to any surface, as the collision
+    test measures it). The field's shaping: progress towards the goal (turtlebot3_drlnav,
+    JaxMARL's JaxNav), a penalty near obstacles (ROBOTIS' stage code)."""
+    c = clearance - params.robot_radius
+    near = jnp.clip(1.0 - c / params.proximity_distance, 0.0, 1.0)
+    shaping = (
+        params.progress_scale * (before - after)
+        - params.step_penalty
+        - params.proximity_penalty * near
+    )
+    return jnp.where(collided, params.R_minus, jnp.where(reached, params.R_plus, shaping))

@@ -21,6 +21,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from jaxnav.core.settings import BURGER_MAX_OMEGA, BURGER_MAX_V
 from jaxnav.world.geometry import norm2, ray_distances_dir, wrap_angle
 from jaxnav.world.maps import Maze
 
@@ -140,6 +141,15 @@ def observation(
     ``noise_std``, ``min_range`` and ``max_range`` may be data (traced);
     ``dropout``, ``odom_std`` and ``obstacle_obs`` fix the computation.
     """
+    ranges, heading, distance = _seen(
+        key, ranges, pos, yaw, goal, noise_std, min_range, max_range, dropout, odom_std
+    )
+    return robotis_state(ranges, heading, distance, obstacle_obs)
+
+
+def _seen(key, ranges, pos, yaw, goal, noise_std, min_range, max_range, dropout, odom_std):
+    """(ranges, heading, distance) as the robot reads them: the range noise, clipping
+    and dropout on the scan, the odometry noise on the goal's heading and distance."""
     if not (isinstance(noise_std, (int, float)) and noise_std == 0.0):  # no draw for a constant 0
         ranges = range_noise(key, ranges, noise_std)
     ranges = jnp.clip(ranges, min_range, max_range)
@@ -148,4 +158,43 @@ def observation(
     if odom_std != (0.0, 0.0):  # the goal is seen from the odometry pose
         pos, yaw = odometry_noise(jax.random.fold_in(key, 2), pos, yaw, odom_std)
     heading, distance = goal_heading_distance(pos, yaw, goal)
-    return robotis_state(ranges, heading, distance, obstacle_obs)
+    return ranges, heading, distance
+
+
+def normalised_state(
+    ranges: chex.Array, heading: chex.Array, distance: chex.Array, last: chex.Array, max_range
+) -> chex.Array:
+    """[ranges / max range, heading / pi, min(distance, max range) / max range, last v /
+    0.22, last omega / 2.84]: f32[B + 4], every entry within [-1, 1] (the burger's
+    teleop limits scale the command the robot drove last, ``last`` (v, omega))."""
+    scale = jnp.asarray([BURGER_MAX_V, BURGER_MAX_OMEGA], jnp.float32)
+    parts = [
+        ranges / max_range,
+        (heading / jnp.pi)[None],
+        (jnp.minimum(distance, max_range) / max_range)[None],
+        last / scale,
+    ]
+    return jnp.concatenate(parts).astype(jnp.float32)
+
+
+def normalised_observation(
+    key: chex.PRNGKey,
+    ranges: chex.Array,
+    pos: chex.Array,
+    yaw: chex.Array,
+    goal: chex.Array,
+    last: chex.Array,
+    *,
+    noise_std,
+    min_range,
+    max_range,
+    dropout: float = 0.0,
+    odom_std: tuple[float, float] = (0.0, 0.0),
+) -> chex.Array:
+    """The normalised state (:func:`normalised_state`) seen from true ranges at the true
+    pose, with the same noise as :func:`observation`'s; ``last``: the command driven
+    last (v, omega)."""
+    ranges, heading, distance = _seen(
+        key, ranges, pos, yaw, goal, noise_std, min_range, max_range, dropout, odom_std
+    )
+    return normalised_state(ranges, heading, distance, last, max_range)
