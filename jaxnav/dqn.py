@@ -247,7 +247,8 @@ def make_trainer(config: Config) -> Trainer:
     env, base_params = from_config(config)
     d = config.dqn
     network = network_of(config, env)
-    optimizer = optimizer_of(d, d.optimizer)  # the state's layout; a step uses the run's
+    decay = lr_decay_steps(config)
+    optimizer = optimizer_of(d, d.optimizer, decay)  # the state's layout; a step uses the run's
     slots = config.episodes if config.episodes is not None else config.run.chunk_steps
     limits = run_limits(config)
 
@@ -291,7 +292,15 @@ def make_trainer(config: Config) -> Trainer:
         n_steps = ts.step + 1
         with jax.named_scope("learn"):
             params, opt_state, broke, loss, buffer = _learn(
-                network, d, ts, buffer, n_steps, run, (k_sample, k_drop), config.max_total_steps
+                network,
+                d,
+                ts,
+                buffer,
+                n_steps,
+                run,
+                (k_sample, k_drop),
+                config.max_total_steps,
+                decay,
             )
         diverged = (ts.diverged_at < 0) & run & (broke | ~q_finite)
         diverged_at = jnp.where(diverged, n_steps, ts.diverged_at)
@@ -419,19 +428,33 @@ def _loss(
     return td_loss(q, batch.action, y, kind, weights), jax.lax.stop_gradient(q_a - y)
 
 
-def optimizer_of(h: Hyper | DQNConfig, kind: str = "rmsprop") -> optax.GradientTransformation:
+def optimizer_of(
+    h: Hyper | DQNConfig, kind: str = "rmsprop", decay_steps: int | None = None
+) -> optax.GradientTransformation:
     """RMSprop as ROBOTIS' Keras uses it (eps outside the root), ``adam`` (optax's
     defaults: b1 0.9, b2 0.999, eps 1e-8) or ``radam`` (Liu et al. 2020, optax's
     defaults), at the learning rate of a config or of a run (data): optax takes
-    traced hyperparameters as they are."""
+    traced hyperparameters as they are. ``decay_steps``: the rate falls linearly to 0
+    over that many gradient steps (``dqn.lr_decay``)."""
+    lr = h.lr if decay_steps is None else optax.linear_schedule(h.lr, 0.0, decay_steps)
     if kind == "adam":
-        return optax.adam(h.lr)
+        return optax.adam(lr)
     if kind == "radam":
-        return optax.radam(h.lr)
-    return optax.rmsprop(h.lr, decay=h.rms_decay, eps=h.rms_eps, eps_in_sqrt=False)
+        return optax.radam(lr)
+    return optax.rmsprop(lr, decay=h.rms_decay, eps=h.rms_eps, eps_in_sqrt=False)
 
 
-def _learn(network, d: DQNConfig, ts, buffer, n_steps, run, keys, horizon: int):
+def lr_decay_steps(config: Config, per_run_steps: int | None = None) -> int | None:
+    """The gradient steps ``dqn.lr_decay`` spreads the decay over (None: no decay):
+    one per env step of the run's budget (DQN), or ``per_run_steps`` (PQN's)."""
+    if not config.dqn.lr_decay:
+        return None
+    return max(1, per_run_steps if per_run_steps is not None else config.max_total_steps)
+
+
+def _learn(
+    network, d: DQNConfig, ts, buffer, n_steps, run, keys, horizon: int, decay: int | None = None
+):
     """(params, opt_state, broke, loss, buffer) after one gradient step, unchanged before
     learning starts and where the loss or the new parameters would not be finite
     (``broke``); ``loss`` is NaN where no gradient step was due. ``keys``: (sample,
@@ -467,7 +490,7 @@ def _learn(network, d: DQNConfig, ts, buffer, n_steps, run, keys, horizon: int):
     else:
         grad_fn = jax.value_and_grad(loss_fn, has_aux=True)
         (loss, td_error), grads = grad_fn(ts.params, bootstrap, batch, k_drop)
-    updates, opt_state = optimizer_of(h, d.optimizer).update(grads, ts.opt_state, ts.params)
+    updates, opt_state = optimizer_of(h, d.optimizer, decay).update(grads, ts.opt_state, ts.params)
     new_params = optax.apply_updates(ts.params, updates)
     finite = jnp.isfinite(loss) & all_finite(new_params)
     due = run & replay.can_sample(buffer, h.learning_starts)

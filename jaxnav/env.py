@@ -42,7 +42,12 @@ import jax.numpy as jnp
 import numpy as np
 from flax import struct
 
-from jaxnav.core.config import env_family_problem, env_reward_problem, env_setting_problem
+from jaxnav.core.config import (
+    env_family_problem,
+    env_reward_problem,
+    env_scan_problem,
+    env_setting_problem,
+)
 from jaxnav.core.settings import ACTION_SETS, PRESETS
 from jaxnav.world import families, generators, motion, sensor
 from jaxnav.world.geometry import (
@@ -131,6 +136,9 @@ class EnvState:
     # f32[2]: the last command driven (v, omega), 0 at an episode's start; with the
     # normalised observation only (it is part of it).
     last_command: chex.Array | None = None
+    # f32[k, n_beams]: the k scans before this one as observed (normalised), newest
+    # first; with NavEnv.scan_history k > 0 only (they are part of the observation).
+    scans: chex.Array | None = None
 
 
 @dataclasses.dataclass(frozen=True)
@@ -203,6 +211,13 @@ class NavEnv(GoalSampler):
       observation: "robotis" (the ROBOTIS state) or "normalised" (ranges and the goal's
         distance over the sensor's range, its heading over pi, and the last command over
         the burger's limits: :func:`jaxnav.world.sensor.normalised_state`).
+      scan_history: with the normalised observation, the k scans before this one follow
+        it (newest first; at an episode's start copies of its first scan), so the policy
+        can see what moves.
+      scan_beams: 0 (the scan has n_beams beams) or a multiple of n_beams: that many
+        beams are cast and each observed beam is the least range of its sector
+        (:func:`jaxnav.world.sensor.pooled_ranges`), so thin obstacles between the
+        observed beams are seen.
 
     Navigation metrics (:mod:`jaxnav.report.navigation`):
       attempt_limit: steps one goal attempt may take before it counts as a time-out;
@@ -248,6 +263,8 @@ class NavEnv(GoalSampler):
     attempt_limit: int = 0
     actions: str = "paper"
     observation: str = "robotis"
+    scan_beams: int = 0
+    scan_history: int = 0
 
     def __post_init__(self):
         for f in dataclasses.fields(self):  # the rules of the config's env settings
@@ -255,7 +272,7 @@ class NavEnv(GoalSampler):
             if problem:
                 raise ValueError(f"{f.name} {problem}")
         problem = env_family_problem(self) if self.generator else None
-        problem = problem or env_reward_problem(self)
+        problem = problem or env_reward_problem(self) or env_scan_problem(self)
         if problem:
             raise ValueError(problem)
         lo, hi = self.maze_scale
@@ -334,7 +351,7 @@ class NavEnv(GoalSampler):
     @property
     def obs_size(self) -> int:
         if self.normalised:
-            return self.n_beams + 4
+            return self.n_beams * (1 + self.scan_history) + 4
         return self.n_beams + 2 + (2 if self.obstacle_obs else 0)
 
     def action_space(self, params: EnvParams | None = None) -> Discrete:
@@ -343,7 +360,8 @@ class NavEnv(GoalSampler):
     def observation_space(self, params: EnvParams) -> Box:
         if self.normalised:
             low = [0.0] * self.n_beams + [-1.0, 0.0, -1.0, -1.0]
-            high = [1.0] * (self.n_beams + 4)
+            low += [0.0] * (self.n_beams * self.scan_history)
+            high = [1.0] * self.obs_size
             return Box(np.asarray(low, np.float32), np.asarray(high, np.float32), (self.obs_size,))
         bounds = np.asarray(jax.device_get(params.maze.bounds))  # host side, not under jit
         big = float(np.max(bounds[..., 2:] - bounds[..., :2])) * self.maze_scale[1]
@@ -376,16 +394,20 @@ class NavEnv(GoalSampler):
         scale: chex.Array = 1.0,
         time: chex.Array = 0.0,
         last_command: chex.Array | None = None,
+        scans: chex.Array | None = None,
     ) -> chex.Array:
         """The observation f32[obs_size], the moving cylinders (if any) where they are at
         ``time`` (s into the episode): the ROBOTIS state [ranges, heading, distance(, min
         range, argmin beam)], or the normalised one with ``last_command`` (v, omega)."""
-        ranges = sensor.beam_ranges(
-            self.maze_at(params, scale, time), pos, yaw, self.n_beams, self.beam_layout == "gazebo"
-        )
+        maze = self.maze_at(params, scale, time)
+        if self.scan_beams:  # a finer scan, the least range of each sector observed
+            fine = sensor.beam_ranges(maze, pos, yaw, self.scan_beams)
+            ranges = sensor.pooled_ranges(fine, self.n_beams)
+        else:
+            ranges = sensor.beam_ranges(maze, pos, yaw, self.n_beams, self.beam_layout == "gazebo")
         if self.normalised:
             last = jnp.zeros(2, jnp.float32) if last_command is None else last_command
-            return sensor.normalised_observation(
+            obs = sensor.normalised_observation(
                 key,
                 ranges,
                 pos,
@@ -398,6 +420,11 @@ class NavEnv(GoalSampler):
                 dropout=self.beam_dropout,
                 odom_std=self.odom_noise,
             )
+            if self.scan_history:  # the scans before (at an episode's start: this one)
+                if scans is None:
+                    scans = jnp.tile(obs[: self.n_beams], (self.scan_history, 1))
+                obs = jnp.concatenate([obs, scans.reshape(-1)])
+            return obs
         return sensor.observation(
             key,
             ranges,
@@ -433,7 +460,8 @@ class NavEnv(GoalSampler):
         scale = jnp.asarray(scale, jnp.float32)
         state = _new_episode(pos, yaw, goal, scale, self.action_delay, maze, maze_episodes)
         state = self._with_world(state, params)
-        return self.observe(k_obs, pos, yaw, goal, params, scale), state
+        obs = self.observe(k_obs, pos, yaw, goal, params, scale)
+        return obs, self._first_scans(state, obs)
 
     def _with_world(self, state: EnvState, params: EnvParams, cell_dist=None) -> EnvState:
         """A new episode's state with its cylinders at time 0 and, for the geodesic
@@ -507,7 +535,9 @@ class NavEnv(GoalSampler):
         if self.normalised:  # the command just driven is part of the next observation
             last = jnp.stack([jnp.asarray(v, jnp.float32), omega]).astype(jnp.float32)
             new_state = new_state.replace(last_command=last)
-        obs = self.observe(k_obs, pos, yaw, goal, params, state.scale, time, last)
+        obs = self.observe(k_obs, pos, yaw, goal, params, state.scale, time, last, state.scans)
+        if self.scan_history:  # this scan joins the history, the oldest leaves
+            new_state = new_state.replace(scans=self._newer_scans(state.scans, obs))
         info = {"goal_reached": reached, "collision": collided}
         return obs, new_state, reward.astype(jnp.float32), terminated, truncated, info
 
@@ -530,7 +560,7 @@ class NavEnv(GoalSampler):
             goal = goal * (scale / state.scale)
         obs = self.observe(key, pos, yaw, goal, params, scale)
         state = _new_episode(pos, yaw, goal, scale, self.action_delay)
-        return obs, self._with_world(state, params)
+        return obs, self._first_scans(self._with_world(state, params), obs)
 
     def _restart_drawn(self, key, state: EnvState, params: EnvParams, done=None):
         """:meth:`restart` with drawn mazes: the next maze from ``fold_in(key, 5)`` once
@@ -553,7 +583,17 @@ class NavEnv(GoalSampler):
         scale = jnp.asarray(scale, jnp.float32)
         obs = self.observe(key, pos, yaw, goal, params, scale)
         state = _new_episode(pos, yaw, goal, scale, self.action_delay, maze, episodes)
-        return obs, self._with_world(state, params, cell_dist)
+        return obs, self._first_scans(self._with_world(state, params, cell_dist), obs)
+
+    def _first_scans(self, state: EnvState, obs: chex.Array) -> EnvState:
+        """An episode's first state with its scan history: copies of its first scan."""
+        if not self.scan_history:
+            return state
+        return state.replace(scans=jnp.tile(obs[: self.n_beams], (self.scan_history, 1)))
+
+    def _newer_scans(self, scans: chex.Array, obs: chex.Array) -> chex.Array:
+        """The history after a step: its observed scan first, the oldest dropped."""
+        return jnp.concatenate([obs[None, : self.n_beams], scans[:-1]])
 
     def _draw(self, key: chex.PRNGKey):
         """(maze, goal, its cell distances for the geodesic reward or None)."""

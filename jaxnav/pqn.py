@@ -43,6 +43,7 @@ from jaxnav.dqn import (
     StepLog,
     Trainer,
     all_finite,
+    lr_decay_steps,
     network_of,
     optimizer_of,
     run_limits,
@@ -212,7 +213,8 @@ def make_trainer(config: Config) -> Trainer:
     updates = _updates(config)
     length = updates * per_update
     limits = run_limits(config)
-    optimizer = _optimizer(d, d.optimizer, p.max_grad_norm)  # the state's layout
+    decay = lr_decay_steps(config, gradient_steps(config))
+    optimizer = _optimizer(d, d.optimizer, p.max_grad_norm, decay)  # the state's layout
     dropout = d.dropout > 0.0 or any(k == "dqn.dropout" for k, _ in config.sweep)
 
     def init(key: chex.PRNGKey, strategy: chex.Array, hyper: Hyper) -> PQNState:
@@ -298,10 +300,21 @@ def make_trainer(config: Config) -> Trainer:
     return Trainer(env, base_params, slots, init, update, chunk, active, per_update, length)
 
 
-def _optimizer(h, kind: str, max_grad_norm: float) -> optax.GradientTransformation:
+def _optimizer(
+    h, kind: str, max_grad_norm: float, decay: int | None = None
+) -> optax.GradientTransformation:
     """dqn.optimizer at ``h.lr`` (a config's, or a run's as data), the gradients first
-    clipped to their global norm (``pqn.max_grad_norm``)."""
-    return optax.chain(optax.clip_by_global_norm(max_grad_norm), optimizer_of(h, kind))
+    clipped to their global norm (``pqn.max_grad_norm``); ``decay``: gradient steps of
+    the linear decay of ``dqn.lr_decay``."""
+    clip = optax.clip_by_global_norm(max_grad_norm)
+    return optax.chain(clip, optimizer_of(h, kind, decay))
+
+
+def gradient_steps(config: Config) -> int:
+    """A run's gradient steps over its budget (``total_steps``): its updates times
+    ``pqn.epochs`` x ``pqn.minibatches``."""
+    p = config.pqn
+    return -(-config.max_total_steps // (p.num_envs * p.rollout)) * p.epochs * p.minibatches
 
 
 def _learn(network: QNetwork, config: Config, h: Hyper, params, opt_state, data, key, dropout):
@@ -312,7 +325,8 @@ def _learn(network: QNetwork, config: Config, h: Hyper, params, opt_state, data,
     d, p = config.dqn, config.pqn
     n = p.num_envs * p.rollout
     size = n // p.minibatches
-    optimizer = _optimizer(h, d.optimizer, p.max_grad_norm)  # the run's lr
+    decay = lr_decay_steps(config, gradient_steps(config))
+    optimizer = _optimizer(h, d.optimizer, p.max_grad_norm, decay)  # the run's lr
     kind = d.loss if h.loss is None else h.loss
 
     def loss_fn(params, batch, k):

@@ -276,6 +276,23 @@ def env_reward_problem(env: Any) -> str | None:
     return None
 
 
+def env_scan_problem(env: Any) -> str | None:
+    """What is wrong with the pooled scan's setting given the beams, or None."""
+    if env.scan_beams and (env.scan_beams % env.n_beams or env.scan_beams < env.n_beams):
+        return (
+            f"env.scan_beams ({env.scan_beams}) must be 0 or a multiple of env.n_beams "
+            f"({env.n_beams})"
+        )
+    if env.scan_beams and env.beam_layout != "even":
+        return "env.scan_beams pools an even scan: it needs env.beam_layout even"
+    if env.scan_history and env.observation != "normalised":
+        return (
+            "env.scan_history is part of the normalised observation: it needs "
+            "env.observation normalised"
+        )
+    return None
+
+
 def sweep_refusal(key: str) -> str | None:
     """Why ``key`` cannot be swept, or None if it can."""
     if key in SWEEPABLE:
@@ -311,7 +328,7 @@ def _check(cfg: Config) -> Config:
         says = env_family_problem(cfg.env)
         if says:
             raise ConfigError(f"config: {says}")
-    says = env_reward_problem(cfg.env)
+    says = env_reward_problem(cfg.env) or env_scan_problem(cfg.env)
     if says:
         raise ConfigError(f"config: {says}")
     if cfg.env.attempt_limit > cfg.env.max_steps:
@@ -328,6 +345,8 @@ def _check(cfg: Config) -> Config:
         fail("strategies", "lists a strategy twice")
     if cfg.episodes is None and cfg.total_steps is None:
         fail("episodes", "and total_steps cannot both be null")
+    if cfg.dqn.lr_decay and cfg.total_steps is None:
+        fail("dqn.lr_decay", "needs total_steps: the decay spans the run's budget of env steps")
     says = agent_problem(cfg)
     if says:
         raise ConfigError(f"config: {says}")

@@ -194,6 +194,18 @@ class EnvConfig:
         "0.11 and 0.22 m/s by the 5 yaw rates): the commands the agent picks from",
         rule=one_of(*ACTION_SETS),
     )
+    scan_beams: int = setting(
+        0,
+        "0, or beams cast (a multiple of env.n_beams): each observed beam is the least "
+        "range of its sector of them, so thin obstacles between observed beams are seen",
+        rule=NON_NEGATIVE,
+    )
+    scan_history: int = setting(
+        0,
+        "normalised observation: the scans of the last k steps follow this one's (newest "
+        "first), so the policy can see what moves",
+        rule=NON_NEGATIVE,
+    )
     observation: str = setting(
         "robotis",
         "robotis (ranges, heading, distance in m and rad, raw) or normalised (ranges and "
@@ -213,6 +225,10 @@ class DQNConfig:
     )
     gamma: float = setting(PRESETS["paper"].gamma, "discount", rule=UNIT, sweep=True)
     lr: float = setting(0.00025, "learning rate of dqn.optimizer", rule=POSITIVE, sweep=True)
+    lr_decay: bool = setting(
+        False,
+        "the learning rate falls linearly to 0 over the run's gradient steps (needs total_steps)",
+    )
     rms_decay: float = setting(0.9, "RMSprop rho", rule=UNIT_OPEN, sweep=True)
     rms_eps: float = setting(1e-6, "RMSprop epsilon", rule=POSITIVE, sweep=True)
     batch_size: int = setting(64, "transitions per gradient step", rule=AT_LEAST_1)

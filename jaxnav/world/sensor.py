@@ -56,6 +56,17 @@ def beam_ranges(
     return ray_distances_dir(maze, pos, beam_directions(n_beams, yaw, inclusive))
 
 
+def pooled_ranges(ranges: chex.Array, n_beams: int) -> chex.Array:
+    """f32[n_beams]: the least of each sector of a scan of ``len(ranges)`` = m x
+    ``n_beams`` evenly spread beams; sector k holds the m beams around beam k's
+    direction (2 pi k / n_beams): offsets -(m // 2) .. m - 1 - m // 2 beams of the fine
+    scan, so no obstacle between two observed beams goes unseen (Cimurs et al.'s
+    minimum per sector)."""
+    m = ranges.shape[0] // n_beams
+    shifted = jnp.roll(ranges, m // 2)  # beam k m - m // 2 first in its sector
+    return jnp.min(shifted.reshape(n_beams, m), axis=1)
+
+
 def lidar_scan(
     maze: Maze,
     pos: chex.Array,
