@@ -33,7 +33,8 @@ COMMANDS: dict[str, tuple[str, bool]] = {
 def usage() -> str:
     width = max(map(len, COMMANDS))
     lines = [
-        "usage: jaxnav COMMAND [ARGS ...]   (jaxnav COMMAND --help for one command)",
+        "usage: jaxnav COMMAND [ARGS ...]   (jaxnav COMMAND --help for one command; "
+        "jaxnav --version)",
         "",
         "commands:",
     ]
@@ -45,6 +46,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = list(sys.argv[1:] if argv is None else argv)
     if not args or args[0] in ("-h", "--help", "help"):
         print(usage())
+        return 0
+    if args[0] in ("-V", "--version"):
+        from importlib.metadata import PackageNotFoundError, version
+
+        try:
+            print(f"jaxnav {version('jaxnav')}")
+        except PackageNotFoundError:  # run from a checkout that was not installed
+            print("jaxnav (not installed: no version)")
         return 0
     name, rest = args[0], args[1:]
     if name not in COMMANDS:

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import dataclasses
 import os
+import re
 import typing
 from dataclasses import dataclass
 from pathlib import Path
@@ -38,7 +39,6 @@ from jaxnav.core.sections import (
 )
 from jaxnav.core.settings import (
     AT_LEAST_1,
-    NON_NEGATIVE,
     PRESETS,
     cylinders_problem,
     grid_problem,
@@ -57,8 +57,16 @@ STUDY_DIR = CONFIG_DIR / "studies"  # ladder studies: jaxnav study when_ebe_help
 
 @dataclass(frozen=True)
 class Config:
-    preset: str = setting("paper", "paper or robotis: the defaults of the other settings")
-    seed: int = setting(0, "first seed; a run uses seed, ..., seed + seeds - 1", rule=NON_NEGATIVE)
+    preset: str = setting(
+        "paper",
+        "paper, robotis or modern (what the field's navigation agents use): the defaults of "
+        "the other settings",
+    )
+    seed: int = setting(
+        0,
+        "first seed; a run uses seed, ..., seed + seeds - 1 (each below 2^32: a PRNG key's range)",
+        rule=(lambda v: 0 <= v < 2**32, "must be in [0, 2^32): a PRNG key holds 32 bits"),
+    )
     seeds: int = setting(8, "seeds per arm", rule=AT_LEAST_1)
     strategies: tuple[str, ...] = setting(
         PAPER_STRATEGIES,
@@ -345,6 +353,10 @@ def _check(cfg: Config) -> Config:
         fail("strategies", "lists a strategy twice")
     if cfg.episodes is None and cfg.total_steps is None:
         fail("episodes", "and total_steps cannot both be null")
+    if cfg.seed + cfg.seeds > 2**32:
+        last = cfg.seed + cfg.seeds - 1
+        fail("seeds", f"would go up to seed {last}, past 2^32 - 1: a PRNG key holds 32 bits")
+
     if cfg.dqn.lr_decay and cfg.total_steps is None:
         fail("dqn.lr_decay", "needs total_steps: the decay spans the run's budget of env steps")
     says = agent_problem(cfg)
@@ -367,15 +379,16 @@ def agent_problem(cfg: Config) -> str | None:
     naming the setting, or None: PQN has no replay memory and no target network, so
     their settings must keep their defaults (the preset's), and the pqn.* settings
     must keep theirs under DQN; PQN's minibatches split its rollout evenly."""
+    defaults = PRESETS[cfg.preset].training()
     if cfg.dqn.agent == "dqn":
         for name in (f.name for f in dataclasses.fields(PQNConfig)):
-            if getattr(cfg.pqn, name) != SETTINGS[f"pqn.{name}"].default:
-                return f"pqn.{name} is a PQN setting: it needs dqn.agent pqn"
+            key = f"pqn.{name}"
+            if getattr(cfg.pqn, name) != defaults.get(key, SETTINGS[key].default):
+                return f"{key} is a PQN setting: it needs dqn.agent pqn"
         for name in PRIORITISED_ONLY if not cfg.dqn.prioritised else ():
             if getattr(cfg.dqn, name) != SETTINGS[f"dqn.{name}"].default:
                 return f"dqn.{name} is a prioritised replay setting: it needs dqn.prioritised true"
         return None
-    defaults = PRESETS[cfg.preset].training()
     for name in REPLAY_ONLY:
         key = f"dqn.{name}"
         if getattr(cfg.dqn, name) != defaults.get(key, SETTINGS[key].default):
@@ -417,6 +430,14 @@ def _sweep(values: dict[str, Any]) -> tuple[tuple[str, tuple[Any, ...]], ...]:
     return tuple(out)
 
 
+def _did_you_mean(name: str) -> str:
+    """`` (did you mean 'env.max_steps'?)`` for a misspelt key, or nothing."""
+    import difflib
+
+    close = difflib.get_close_matches(name, list(FIELD_TYPES), n=1, cutoff=0.75)
+    return f" (did you mean {close[0]!r}?)" if close else ""
+
+
 def build_config(values: dict[str, Any]) -> Config:
     """A validated Config from flat dotted ``{"dqn.gamma": 0.9, ...}`` values; the
     ``sweep.KEY`` entries are the sweep's values of KEY."""
@@ -431,7 +452,7 @@ def build_config(values: dict[str, Any]) -> Config:
         if name not in FIELD_TYPES:
             if name in SECTIONS:
                 raise ConfigError(f"config: {name} must be a mapping of its fields")
-            raise ConfigError(f"config: unknown key {name!r}")
+            raise ConfigError(f"config: unknown key {name!r}{_did_you_mean(name)}")
     typed = {name: coerce(name, v, FIELD_TYPES[name]) for name, v in merged.items()}
     sections: dict[str, dict[str, Any]] = {}
     top: dict[str, Any] = {}
@@ -479,11 +500,17 @@ def resolve_config_path(name: str) -> str:
 
 
 def builtin_configs() -> dict[str, str]:
-    """Each shipped config's name and the first line of its opening comment."""
+    """Each shipped config's name and the first sentence of its opening comment (the
+    comment's lines up to an indented example command or the first full stop)."""
     out = {}
     for path in sorted(CONFIG_DIR.glob("*.yaml")):
-        first = next((ln for ln in path.read_text().splitlines() if ln.startswith("#")), "#")
-        out[path.stem] = first.lstrip("# ").rstrip(" ,.:")
+        words = []
+        for line in path.read_text().splitlines():
+            if not line.startswith("#") or line.startswith("#  "):
+                break
+            words.append(line.lstrip("# ").strip())
+        text = " ".join(w for w in words if w)
+        out[path.stem] = re.split(r"\.\s+(?=[A-Z])", text)[0].rstrip(" ,.:;")
     return out
 
 

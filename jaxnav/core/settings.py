@@ -30,6 +30,8 @@ class Preset:
     R_minus_obstacles: float  # mazes with obstacles (stage 2)
     reward_span: float  # phi_a spans +-reward_span
     reward_distance_exp: bool  # D = 2^(d_c / d_0) (ROBOTIS) instead of d_c (paper)
+    # more config defaults, as dotted keys (the modern preset's agent, sensor, reward)
+    defaults: dict[str, Any] = field(default_factory=dict)
 
     def training(self) -> dict[str, Any]:
         """Config defaults, as dotted config keys."""
@@ -37,6 +39,7 @@ class Preset:
             "episodes": self.episodes,
             "dqn.gamma": self.gamma,
             "dqn.target_update": self.target_update,
+            **self.defaults,
         }
 
     def reward(self, has_obstacles: bool) -> dict[str, Any]:
@@ -69,6 +72,39 @@ PRESETS: dict[str, Preset] = {
         R_minus_obstacles=-150.0,
         reward_span=math.pi / 4,
         reward_distance_exp=True,
+    ),
+    # Not a paper's: what the field's navigation agents use (docs/driving.md), measured
+    # here to drive. PQN with many environments, a discount of 0.99, the normalised
+    # observation with the last command, three speeds (a stop among them), progress
+    # towards the goal and a penalty near surfaces, the burger's wheel limits.
+    "modern": Preset(
+        episodes=None,
+        gamma=0.99,
+        target_update="periodic",
+        R_plus=10.0,
+        R_minus=-10.0,
+        R_minus_obstacles=-10.0,
+        reward_span=math.pi / 2,
+        reward_distance_exp=False,
+        defaults={
+            "total_steps": 2_000_000,
+            "env.observation": "normalised",
+            "env.actions": "vw",
+            "env.reward": "progress",
+            "env.progress_scale": 5.0,
+            "env.proximity_penalty": 0.2,
+            "env.proximity_distance": 0.3,
+            "dqn.agent": "pqn",
+            "dqn.lr": 0.001,
+            "dqn.optimizer": "radam",
+            "dqn.dropout": 0.0,
+            "pqn.num_envs": 128,
+            "pqn.rollout": 32,
+            "pqn.td_lambda": 0.65,
+            "pqn.epochs": 4,
+            "pqn.minibatches": 4,
+            "run.chunk_steps": 409_600,
+        },
     ),
 }
 

@@ -37,7 +37,7 @@ from jaxnav.agent import replay
 from jaxnav.agent.sharding import RunSharding, is_writer
 from jaxnav.core import rundir, startup, sweep
 from jaxnav.core.config import Config, dump_config, load_config
-from jaxnav.core.errors import RunError
+from jaxnav.core.errors import ConfigError, RunError
 from jaxnav.core.startup import process_age
 from jaxnav.dqn import Trainer, TrainState, make_trainer, run_inputs, run_limits, still_training
 from jaxnav.report.navigation import training_outcomes
@@ -52,6 +52,7 @@ from jaxnav.run.checkpoint import (
     without_rows,
 )
 from jaxnav.run.greedy import GreedyEval
+from jaxnav.world.maps import make_maze
 
 # A swept run's logs have one more column per swept key, named by it, after "strategy"
 # (jaxnav.core.sweep.with_swept).
@@ -565,7 +566,12 @@ def train_new(
 ) -> dict[str, Any]:
     """Start a new run in ``out`` (absent or empty; with ``overwrite``, an existing run
     directory is emptied first, under its lock) and train it to the end."""
-    # builds the env first: a bad maze leaves no directory
+    # builds the env first, and reads every test maze: a bad maze leaves no directory
+    for maze in cfg.run.test_mazes:
+        try:
+            make_maze(maze)
+        except ValueError as e:
+            raise ConfigError(f"config: run.test_mazes: {e}") from None
     run = Run(cfg, out, quiet, keep_checkpoints)
     replace = overwrite and (out / rundir.CONFIG).is_file()
     with _tidy_on_interrupt(out, made=not out.exists()):

@@ -1,0 +1,169 @@
+"""The page of the policies that drive (``docs/driving.md``): each shipped ``drive_*``
+config's committed run beside the oracle and DWA on the same test, from its data.
+
+The data folder holds, per config, the run's ``results.csv`` (``jaxnav evaluate``'s,
+the oracle's and DWA's rows in it) as ``NAME.csv`` and one row of ``runs.csv``: the
+config, its world, the whole command's seconds (compilation included), its env steps
+per run and its seeds. Per world and test maze the page shows each driver's success,
+collision, time-out, SPL and goals per minute (mean over seeds [95% CI]) and whether the
+policies solve it (:func:`jaxnav.report.navigation.solved`, against the oracle's mean on
+the very same test). No JAX: a test rebuilds the page from the committed data.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+from pathlib import Path
+
+import numpy as np
+
+from jaxnav.core import baselines
+from jaxnav.report import stats
+from jaxnav.report.markdown import interval, markdown_table
+from jaxnav.report.navigation import SOLVED_TOLERANCE, seed_metrics, solved
+from jaxnav.report.results import ordered_unique, read_results
+
+RUNS = "runs.csv"
+RUN_COLUMNS = ("config", "world", "command_s", "env_steps", "seeds", "strategy")
+SHOWN = ("success", "collision", "timeout", "spl", "goals_per_min")
+BEGIN, END = "<!-- driving: begin -->", "<!-- driving: end -->"
+
+
+def _runs(folder: Path) -> list[dict[str, str]]:
+    return list(csv.DictReader(io.StringIO((folder / RUNS).read_text())))
+
+
+def world_table(folder: Path) -> list[dict]:
+    """One entry per (config, test maze): each driver's per-seed metrics and the run."""
+    out = []
+    for run in _runs(folder):
+        res = read_results((folder / f"{run['config']}.csv").read_text())
+        for maze in ordered_unique(k[0] for k in res):
+            drivers = {}
+            for name in (run["strategy"], *baselines.names()):
+                seeds = sorted(k[2] for k in res if k[:2] == (maze, name))
+                if seeds:
+                    drivers[name] = [seed_metrics(res[(maze, name, s)]) for s in seeds]
+            out.append({"run": run, "maze": maze, "drivers": drivers})
+    return out
+
+
+def _mean(per_seed: list[dict], metric: str) -> float:
+    x = np.asarray([m[metric] for m in per_seed], np.float64)
+    return float(np.mean(x[np.isfinite(x)])) if np.isfinite(x).any() else float("nan")
+
+
+def _cell(per_seed: list[dict], metric: str) -> str:
+    x = np.asarray([m[metric] for m in per_seed], np.float64)
+    x = x[np.isfinite(x)]
+    if not len(x):
+        return "n/a"
+    return interval(stats.mean_ci(x), 1 if metric == "goals_per_min" else 2)
+
+
+def sentences(folder: Path) -> list[str]:
+    """One sentence per world and test maze: how close the shipped config drives to the
+    oracle, generated from the data (the README's results use them)."""
+    out = []
+    for e in world_table(folder):
+        run, d = e["run"], e["drivers"]
+        policy, oracle = d.get(run["strategy"]), d.get("oracle")
+        if not policy or not oracle:
+            continue
+        ms, mo = _mean(policy, "success"), _mean(oracle, "success")
+        where = run["world"] + ("" if e["maze"] == run["world"] else f" ({e['maze']})")
+        verdict = "solves it" if solved(ms, mo) else "does not solve it"
+        out.append(
+            f"`{run['config']}` on {where}: success {ms:.3f} against the oracle's {mo:.3f}, "
+            f"collisions {_mean(policy, 'collision'):.3f}, {len(policy)} seeds, "
+            f"{float(run['command_s']):.0f} s for the whole command: it {verdict}."
+        )
+    return out
+
+
+def driving_markdown(folder: Path, command: str, machine: str) -> str:
+    """The page from its data folder, the command that wrote it and the machine."""
+    rows = []
+    for e in world_table(folder):
+        run, d = e["run"], e["drivers"]
+        oracle = _mean(d["oracle"], "success") if "oracle" in d else float("nan")
+        for name, per_seed in d.items():
+            label = baselines.BASELINES[name].label if baselines.is_baseline(name) else "policy"
+            is_policy = name == run["strategy"]
+            verdict = ""
+            if is_policy:
+                verdict = "yes" if solved(_mean(per_seed, "success"), oracle) else "no"
+            rows.append(
+                [
+                    f"`{run['config']}`" if is_policy else "",
+                    e["maze"] if is_policy else "",
+                    label,
+                    str(len(per_seed)),
+                    *[_cell(per_seed, m) for m in SHOWN],
+                    verdict,
+                    f"{float(run['command_s']):.0f}" if is_policy else "",
+                    f"{int(run['env_steps']):,}" if is_policy else "",
+                ]
+            )
+    header = ["config", "test maze", "driver", "seeds", *SHOWN, "solved", "command (s)",
+              "env steps per run"]  # fmt: skip
+    L = [
+        "# Policies that drive",
+        "",
+        "Each shipped `drive_*` config trains with the `modern` preset (what the field's "
+        "navigation agents use, [driving.md sources](#the-recipe)) and is tested as every "
+        "run is: `jaxnav evaluate`, its greedy test on the world's test mazes or a drawn "
+        "family's unseen layouts, with the oracle and DWA driven through the very same test "
+        "(the same seeds' test keys). Each cell is the mean over seeds [95% bootstrap CI]; "
+        "success, collision and time-out share the decided goal attempts "
+        "([navigation metrics](reproducing.md#navigation-metrics)). *Solved*: the policies' "
+        f"mean success is within {SOLVED_TOLERANCE} of the oracle's on the same test. "
+        "*Command*: the whole `jaxnav train` command, compilation included (an empty "
+        "compilation cache), on the machine below.",
+        "",
+        f"Written by `{command}` on {machine}.",
+        "",
+        *markdown_table(header, rows),
+        "",
+        "In one sentence each:",
+        "",
+        *[f"- {s}" for s in sentences(folder)],
+        "",
+        *recipe_section(),
+    ]
+    return "\n".join(L) + "\n"
+
+
+def recipe_section() -> list[str]:
+    """The ``modern`` preset's settings, each with its declared help (from the code)."""
+    from jaxnav.core.config import SETTINGS
+    from jaxnav.core.settings import PRESETS
+
+    preset = PRESETS["modern"]
+    values = {
+        "dqn.gamma": preset.gamma,
+        "env.R_plus": preset.R_plus,
+        "env.R_minus": preset.R_minus,
+        **preset.defaults,
+    }
+    rows = [
+        [f"`{k}`", f"`{v}`", SETTINGS[k].help if k in SETTINGS else ""] for k, v in values.items()
+    ]
+    return [
+        "## The recipe",
+        "",
+        "`preset: modern` sets these defaults (`jaxnav list` shows every setting); each "
+        "`drive_*` config adds its world, seeds, budget and the settings it changes. Each "
+        "is off in the `paper` preset, so the reproduction stays exact.",
+        "",
+        *markdown_table(["setting", "value", "what it does"], rows),
+    ]
+
+
+def readme_block(folder: Path) -> str:
+    """The README's results lines, between its markers."""
+    return "\n".join(f"- {s}" for s in sentences(folder))
+
+
+__all__ = ["BEGIN", "END", "RUNS", "RUN_COLUMNS", "driving_markdown", "readme_block", "sentences"]

@@ -1,0 +1,49 @@
+"""What a new user tripped on, each refused or answered in one line before anything is
+written: seeds a PRNG key cannot hold, a test maze that does not exist, a misspelt
+setting, the version, and the shipped configs' descriptions in ``jaxnav list``."""
+
+from __future__ import annotations
+
+import pytest
+
+from jaxnav.__main__ import main as jaxnav_main
+from jaxnav.core.config import ConfigError, builtin_configs, load_config
+from jaxnav.train import main as train_main
+
+
+@pytest.mark.parametrize(
+    "overrides, message",
+    [
+        (["seed=99999999999999999999"], "seed must be in [0, 2^32)"),
+        (["seed=4294967296"], "seed must be in [0, 2^32)"),
+        (["seed=4294967295", "seeds=2"], "would go up to seed 4294967296"),
+        (["env.max_step=3"], "unknown key 'env.max_step' (did you mean 'env.max_steps'?)"),
+    ],
+)
+def test_settings_a_run_cannot_use_are_refused_in_one_line(overrides, message):
+    with pytest.raises(ConfigError) as e:
+        load_config("smoke", overrides)
+    assert message in str(e.value) and "\n" not in str(e.value)
+
+
+def test_the_last_seed_a_key_can_hold_is_accepted():
+    assert load_config("smoke", ["seed=4294967294", "seeds=2"]).seed == 4294967294
+
+
+def test_an_unknown_test_maze_is_refused_before_training_and_leaves_no_directory(tmp_path, capsys):
+    out = tmp_path / "run"
+    assert train_main(["smoke", "run.test_mazes=[square4,nosuch]", "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "run.test_mazes: unknown maze 'nosuch'" in err[0]
+    assert not out.exists()
+
+
+def test_version_is_one_line(capsys):
+    assert jaxnav_main(["--version"]) == 0
+    assert capsys.readouterr().out.startswith("jaxnav ")
+
+
+def test_list_gives_each_shipped_config_its_whole_first_sentence():
+    about = builtin_configs()
+    assert about["stage4"].endswith("episodes last up to 500 steps")
+    assert about["paper_no_obstacles"].startswith("Paper, Sec. 6.1 / Table 3")
