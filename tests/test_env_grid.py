@@ -186,9 +186,14 @@ def test_two_seeds_train_on_a_new_4x4_maze_every_episode(tmp_path):
     evaluated = evaluate_to_dir(out, ["square4"], 2)
     with open(evaluated / "results.csv") as f:
         results = list(csv.DictReader(f))
-    greedy = [r["maze"] for r in results if r["mode"] == "greedy"]
+    learned = [r for r in results if r["strategy"] == "ebe"]
+    greedy = [r["maze"] for r in learned if r["mode"] == "greedy"]
     assert greedy == ["square4"] * 4 + ["grid:train"] * 4 + ["grid:test"] * 4
-    assert len(results) == 2 * 3 * 2 * 2  # modes x mazes x seeds x episodes
+    assert len(learned) == 2 * 3 * 2 * 2  # modes x mazes x seeds x episodes
+    # The oracle and DWA drive the same test, greedily, once per seed.
+    for planner in ("oracle", "dwa"):
+        rows = [r["maze"] for r in results if r["strategy"] == planner]
+        assert sorted(rows) == sorted(greedy), planner
     tables = (evaluated / "tables.md").read_text()
     assert "## Generalisation gap" in tables and "| grid | EBE |" in tables
     drawn = drawn_policies(load_run(out))
@@ -197,7 +202,9 @@ def test_two_seeds_train_on_a_new_4x4_maze_every_episode(tmp_path):
     # Every attempt is counted in drawn mazes too, and the rollout keeps each test
     # episode's maze: the first is the one the test's reset draws.
     for r in results:
-        assert int(r["attempts"]) == int(r["goals"]) + int(r["collided"]) + int(r["timeouts"])
+        ends = ("successes", "collisions", "timeouts", "cut")
+        assert int(r["attempts"]) == sum(int(r[k]) for k in ends)
+        assert int(r["successes"]) == int(r["goals"]) and int(r["collisions"]) == int(r["collided"])
     res = run_tests(drawn, [drawn.env_params.maze], 2, navigation=True)[0]
     for i in range(2):
         _, state = drawn.env.reset(

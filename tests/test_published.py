@@ -52,3 +52,15 @@ def test_the_readme_sums_up_the_ladder_study_in_its_generated_sentence():
     sentence = ladder.summary_sentence(ladder.Data(mod.DATA))
     for page in mod.PAGES:
         assert _between(page.read_text(), mod.BEGIN, mod.END).strip() == sentence
+
+
+def test_the_baselines_page_is_its_data_byte_for_byte():
+    import json
+
+    from jaxnav.report.baselines_page import baselines_markdown
+
+    folder = ROOT / "docs" / "baselines"
+    meta = json.loads((folder / "notes.json").read_text())
+    text = (folder / "baselines.csv").read_text()
+    page = baselines_markdown(text, meta["command"], meta["machine"], meta["notes"])
+    assert (ROOT / "docs" / "baselines.md").read_text() == page

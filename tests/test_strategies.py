@@ -71,5 +71,6 @@ def test_a_registered_strategy_trains_evaluates_and_exports(toy, tmp_path):
     assert any(float(r["explore"]) > 0.0 for r in rows if r["strategy"] == "ebe")
     with open(evaluate_to_dir(out) / "results.csv") as f:
         tested = {r["strategy"] for r in csv.DictReader(f)}
-    assert tested == {"ebe", toy}
+    # the learned arms, and the oracle and DWA beside them
+    assert tested == {"ebe", toy, "oracle", "dwa"}
     assert any(k.endswith("/kernel") for k in export_policy(out, strategy=toy, seed=0))
