@@ -1,4 +1,4 @@
-"""``python -m jaxnav.export RUN_DIR [--strategy ebe] [--seed K] [--out policy.npz]``
+"""``python -m jaxnav.export RUN_DIR [--strategy ebe] [--seed K | --best] [--out policy.npz]``
 
 One trained policy of a run to a portable file (:mod:`jaxnav.robot.export` builds
 and writes it), or ``--info POLICY``: an exported policy's metadata.
@@ -18,7 +18,7 @@ from pathlib import Path
 from jaxnav.core import cli, rundir
 from jaxnav.core.config import load_config
 from jaxnav.robot.deploy import Policy
-from jaxnav.robot.export import export_policy, save_policy
+from jaxnav.robot.export import best_seed, default_strategy, export_policy, save_policy
 
 
 def default_out(run_dir: Path, strategy: str, seed: int | None) -> Path:
@@ -39,11 +39,21 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("run_dir", metavar="RUN_DIR", nargs="?", help="a finished training run")
     p.add_argument(
         "--strategy",
-        default="ebe",
-        help="ebe (default), epsilon_greedy or boltzmann; in a swept run, the arm as params.npz "
-        "names it ('ebe ebe_temperature=0.1')",
+        default=None,
+        help="ebe, epsilon_greedy or boltzmann (default: ebe where the run trained it, else "
+        "its first arm); in a swept run, the arm as params.npz names it "
+        "('ebe ebe_temperature=0.1')",
     )
-    p.add_argument("--seed", type=int, default=None, help="which seed (default: the run's first)")
+    which = p.add_mutually_exclusive_group()
+    which.add_argument(
+        "--seed", type=int, default=None, help="which seed (default: the run's first)"
+    )
+    which.add_argument(
+        "--best",
+        action="store_true",
+        help="the seed with the best greedy success (jaxnav evaluate's test, else the last "
+        "evaluation while training); says which and by how much",
+    )
     p.add_argument(
         "--out", default=None, help="output file (default policy-<strategy>-seed<k>.npz)"
     )
@@ -60,9 +70,14 @@ def main(argv: list[str] | None = None) -> int:
                     print(f"{k}: {v}")
             return
         run_dir = rundir.existing(args.run_dir, finished=True)
-        out = Path(args.out) if args.out else default_out(run_dir, args.strategy, args.seed)
+        strategy = args.strategy or default_strategy(run_dir)
+        seed = args.seed
+        if args.best:
+            seed, line = best_seed(run_dir, strategy)
+            print(line)
+        out = Path(args.out) if args.out else default_out(run_dir, strategy, seed)
         cli.check_output(out, args.overwrite)
-        arrays = export_policy(run_dir, args.strategy, args.seed)
+        arrays = export_policy(run_dir, strategy, seed)
         Policy.from_arrays(arrays)  # what the robot will load must load
         meta = json.loads(str(arrays["meta"]))
         save_policy(arrays, out)

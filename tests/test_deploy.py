@@ -33,18 +33,18 @@ N_STATES = 150
 LDS01 = (0.0, 2 * math.pi / 360)  # angle_min, angle_increment of the TurtleBot3's LDS-01
 
 
-def _fake_run(root: Path, maze: str) -> Path:
+def _fake_run(root: Path, maze: str, extra: tuple[str, ...] = (), name: str | None = None) -> Path:
     """A run directory whose params.npz holds an initialised (untrained) network.
 
     The adapter only has to reproduce the network's input and output, so training is
     not needed; the weights are scaled up so the greedy action varies with the input.
     """
-    cfg = load_config(None, ["seeds=1", "strategies=[ebe]", f"env.maze={maze}"])
+    cfg = load_config(None, ["seeds=1", "strategies=[ebe]", f"env.maze={maze}", *extra])
     env, _ = from_config(cfg)
     net = QNetwork(env.num_actions, cfg.dqn.hidden, cfg.dqn.dropout)
     params = net.init(jax.random.key(7), jnp.zeros(env.obs_size))
     params = jax.tree.map(lambda x: x[None], params)  # leading axis: one run
-    out = root / maze
+    out = root / (name or maze)
     out.mkdir()
     atomic_write_text(out / "config.yaml", dump_config(cfg))
     atomic_write_bytes(out / "params.npz", npz_bytes(params_arrays(cfg, params)))
@@ -192,6 +192,68 @@ def test_scan_through_adapter_gives_the_env_observation_and_action(setups, maze,
     lin, ang = s.policy.command(scans[0], angle_min, increment, p0, (1.0, 1.0))
     a = s.policy.act(s.policy.observe(scans[0], angle_min, increment, p0, (1.0, 1.0)))
     assert (lin, ang) == (0.15, [-1.5, -0.75, 0.0, 0.75, 1.5][a])
+
+
+MODERN = (
+    "env.observation=normalised",  # ranges and goal scaled, the last command in it
+    "env.actions=vw",  # (v, omega) pairs with a stop
+    "env.scan_beams=72",  # the least range of each 15-degree sector of 72 beams
+    "env.wheel_limit=true",  # the last command is what the firmware lets the wheels drive
+)
+
+
+def test_a_modern_policy_sees_on_the_robot_what_it_saw_in_training(tmp_path):
+    """The normalised observation, the pooled scan, the (v, omega) actions and the last
+    command: the adapter's observation from raw 360-ray scans equals the environment's."""
+    s = Setup(_fake_run(tmp_path, "square4_obstacles", MODERN, name="modern"))
+    env, params, policy = s.env, s.params, s.policy
+    assert policy.meta["version"] == deploy.DRIVE_VERSION and policy.obs_size == env.obs_size
+    n_actions = env.num_actions
+    v, w = env.command(params, jnp.arange(n_actions))
+    np.testing.assert_allclose(policy.driven, np.stack([v, w], -1), atol=1e-7)
+    np.testing.assert_allclose(policy.omegas, np.asarray(params.omegas), atol=1e-7)
+    np.testing.assert_allclose(policy.speeds, np.asarray(params.speeds), atol=1e-7)
+    assert np.any(np.abs(policy.driven[:, 1] - policy.omegas) > 1e-3)  # the limit bites
+    maze = params.maze
+    pos, yaw, goal = _random_states(maze, 60, seed=4)
+    before = np.random.default_rng(4).integers(0, n_actions, len(pos))
+    last = np.asarray(jnp.stack(env.command(params, jnp.asarray(before)), -1), np.float32)
+    key = jax.random.key(0)
+    f = jax.jit(jax.vmap(lambda p, y, g, c: env.observe(key, p, y, g, params, 1.0, 0.0, c)))
+    want = np.asarray(f(pos, yaw, goal, last))
+    increment = 2 * math.pi / 360
+    scans = _scans(maze, pos, yaw, 0.0, increment, 360, n_beams=72)
+    got = []
+    for sc, p, y, g, a in zip(scans, pos, yaw, goal, before):
+        policy.take(int(a))  # the command driven last
+        got.append(policy.observe(sc, 0.0, increment, (p[0], p[1], y), g))
+    got = np.stack(got)
+    nb = env.n_beams
+    heading_err = np.abs((got[:, nb] - want[:, nb] + 1.0) % 2.0 - 1.0) * math.pi
+    assert heading_err.max() < 1e-5
+    np.testing.assert_allclose(np.delete(got, nb, 1), np.delete(want, nb, 1), atol=1e-5)
+    np.testing.assert_array_equal(policy.act(got), np.argmax(s.flax_q(want), axis=-1))
+    # A stop (the controller's, or an episode's start) makes the last command (0, 0).
+    policy.rest()
+    obs = policy.observe(scans[0], 0.0, increment, (pos[0][0], pos[0][1], yaw[0]), goal[0])
+    assert np.all(obs[-2:] == 0.0)
+    linear, angular = policy.command(scans[0], 0.0, increment, (0.0, 0.0, 0.0), (1.0, 1.0))
+    a = int(np.argmax(np.all(policy.driven == policy.last_command, axis=1)))
+    assert (linear, angular) == (policy.speeds[a], policy.omegas[a])
+    control = _fed(deploy.Controller(policy))
+    control.on_goal((1.0, 1.0), "odom")
+    c = control.decide(10.0)
+    chosen = np.flatnonzero((policy.speeds == c.linear) & (policy.omegas == c.angular))
+    assert c.reason == "drive" and chosen.size == 1
+    np.testing.assert_array_equal(policy.last_command, policy.driven[chosen[0]])
+    control.on_goal((0.05, 0.0), "odom")  # within the goal radius: the robot stops
+    assert control.decide(10.0).reason == "reached" and np.all(policy.last_command == 0.0)
+
+
+def test_a_policy_with_a_scan_history_is_refused_by_export(tmp_path):
+    run = _fake_run(tmp_path, "square4", ("env.observation=normalised", "env.scan_history=2"))
+    with pytest.raises(deploy.PolicyError, match="scan_history"):
+        export.export_policy(run, "ebe", 0)
 
 
 def test_rays_with_no_return_become_max_range_as_in_the_env(setups):
@@ -579,3 +641,30 @@ def test_a_dueling_network_exports_as_the_plain_network_it_equals():
         h = h @ folded[f"Dense_{i}"]["kernel"] + folded[f"Dense_{i}"]["bias"]
         h = np.maximum(h, 0.0) if i < 2 else h
     np.testing.assert_allclose(h, net.apply(params, x), rtol=1e-5, atol=1e-5)
+
+
+def test_export_best_picks_the_seed_with_the_best_greedy_success(tmp_path):
+    cfg = load_config(None, ["seeds=3", "strategies=[epsilon_greedy]"])
+    run = tmp_path / "run"
+    run.mkdir()
+    atomic_write_text(run / "config.yaml", dump_config(cfg))
+    with pytest.raises(deploy.PolicyError, match="jaxnav evaluate"):
+        export.best_seed(run, "epsilon_greedy")
+    head = "strategy,seed,env_step,success\n"
+    rows = [  # the last evaluation decides: seed 2 there, though seed 0 led before
+        "epsilon_greedy,0,100,1.0",
+        "epsilon_greedy,1,100,0.2",
+        "epsilon_greedy,2,100,0.5",
+        "epsilon_greedy,0,200,0.6",
+        "epsilon_greedy,1,200,0.7",
+        "epsilon_greedy,2,200,0.9",
+    ]
+    (run / "eval.csv").write_text(head + "\n".join(rows) + "\n")
+    seed, line = export.best_seed(run, "epsilon_greedy")
+    assert seed == 2
+    assert (
+        "success 0.900" in line
+        and "next seed 1: 0.700" in line
+        and "median over 3 seeds 0.700" in line
+    )
+    assert export.default_strategy(run) == "epsilon_greedy"

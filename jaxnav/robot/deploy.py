@@ -42,9 +42,19 @@ How a raw LaserScan becomes the trained observation (:meth:`Policy.observe`):
   phantom wall closer than the 0.13 m collision radius, a state the policy never
   saw (training episodes end there). Then everything is clipped to [min_range,
   max_range], as the environment does.
+* Pooled scan (``scan_beams`` > 0, ``env.scan_beams``): the same nearest-ray reading
+  at ``scan_beams`` evenly spread directions, cleaned, then the least of each trained
+  beam's sector (:func:`pool_sectors`, as :func:`jaxnav.world.sensor.pooled_ranges`).
 * Goal: heading = atan2(goal - position) - yaw wrapped to [-pi, pi), distance =
   |goal - position|, from the odometry pose (x, y, yaw) and the goal (x, y) in the
   same frame. With ``obstacle_obs`` the smallest range and its beam index follow.
+* The normalised observation (``observation_kind: normalised``, the ``modern``
+  preset): [ranges / max_range, heading / pi, min(distance, max_range) / max_range,
+  the last command's (v, omega) / ``command_scale``]. The last command is what the
+  robot drove for the policy's previous action (``driven``: per action, after the
+  firmware's wheel limit where the run modelled it), and (0, 0) after a stop:
+  :class:`Policy` keeps it (:meth:`Policy.command` sets it, :meth:`Policy.rest`
+  clears it; :class:`Controller` clears it whenever it stops the robot).
 
 The network runs in float64 (exact ReLU MLP; dropout is off at inference; a PQN
 network normalises each hidden layer before its ReLU, as flax's LayerNorm).
@@ -77,6 +87,11 @@ FORMAT_VERSION = 1
 # A network with LayerNorm (PQN) is written as version 2, which a reader that does not
 # know the norms refuses instead of running the network without them.
 NORMS_VERSION = 2
+# A policy with what version 2 cannot express (the normalised observation with the last
+# command, (v, omega) actions, a pooled scan) is written as version 3.
+DRIVE_VERSION = 3
+VERSIONS = (FORMAT_VERSION, NORMS_VERSION, DRIVE_VERSION)
+OBSERVATIONS = ("robotis", "normalised")
 # Value given to invalid readings (0, nan, negative): the sensor's "no return".
 INVALID_READING = "max_range"
 
@@ -147,6 +162,15 @@ def clean_ranges(
     return np.clip(out, min_range, max_range)
 
 
+def pool_sectors(ranges: np.ndarray, n_beams: int) -> np.ndarray:
+    """The least range of each of ``n_beams`` sectors of an evenly spread scan of m x
+    ``n_beams`` ranges, sector k centred on beam k (offsets -(m // 2) .. m - 1 - m // 2),
+    as :func:`jaxnav.world.sensor.pooled_ranges`."""
+    r = np.asarray(ranges, np.float64)
+    m = r.shape[-1] // n_beams
+    return np.roll(r, m // 2, axis=-1).reshape(*r.shape[:-1], n_beams, m).min(axis=-1)
+
+
 def goal_heading_distance(pose: Sequence[float], goal: Sequence[float]) -> tuple[float, float]:
     """Heading to the goal relative to yaw, in [-pi, pi), and distance to it."""
     x, y, yaw = (float(v) for v in pose)
@@ -211,7 +235,11 @@ class Policy:
       meta: the exported metadata (dict).
       n_beams, obstacle_obs, min_range, max_range: observation layout.
       omegas: f64[A] angular velocity of each action (rad/s, + counter-clockwise).
-      linear_velocity: constant forward speed (m/s).
+      speeds: f64[A] forward speed of each action (m/s); ``linear_velocity`` for every
+        action of the paper's set.
+      linear_velocity: the paper's constant forward speed (m/s).
+      observation: "robotis" or "normalised"; scan_beams: 0 or the pooled scan's size.
+      last_command: f64[2] (v, omega) the robot drove last (the normalised observation's).
       dt: control period (s); goal_radius: the goal counts as reached within it (m).
     """
 
@@ -232,10 +260,27 @@ class Policy:
             self.dt = float(meta.get("dt", 0.2))
             self.goal_radius = float(meta.get("goal_radius", 0.2))
             self.beam_layout = str(meta.get("beam_layout", "even"))
+            self.observation = str(meta.get("observation_kind", "robotis"))
+            self.scan_beams = int(meta.get("scan_beams", 0))
+            speeds = meta.get("speeds", [self.linear_velocity] * len(self.omegas))
+            self.speeds = np.asarray(speeds, np.float64)
+            driven = meta.get("driven", np.stack([self.speeds, self.omegas], axis=-1))
+            self.driven = np.asarray(driven, np.float64).reshape(len(self.omegas), 2)
+            self.command_scale = np.asarray(meta.get("command_scale", (0.22, 2.84)), np.float64)
         except (KeyError, TypeError, ValueError) as e:
             raise PolicyError(f"policy metadata is incomplete or wrong ({e})") from None
         if self.beam_layout not in ("even", "gazebo"):
             raise PolicyError(f"policy metadata has an unknown beam_layout {self.beam_layout!r}")
+        if self.observation not in OBSERVATIONS:
+            raise PolicyError(f"policy metadata has an unknown observation {self.observation!r}")
+        if self.speeds.shape != self.omegas.shape or self.command_scale.shape != (2,):
+            raise PolicyError("policy metadata's speeds or command_scale do not fit its actions")
+        if self.scan_beams and (self.scan_beams % self.n_beams or self.beam_layout != "even"):
+            raise PolicyError(
+                f"policy metadata's scan_beams {self.scan_beams} is not a multiple of its "
+                f"{self.n_beams} evenly spread beams"
+            )
+        self.last_command = np.zeros(2, np.float64)
         self.meta = dict(meta)
         self.layers = [(np.asarray(k, np.float64), np.asarray(b, np.float64)) for k, b in layers]
         width = self.obs_size
@@ -263,6 +308,8 @@ class Policy:
 
     @property
     def obs_size(self) -> int:
+        if self.observation == "normalised":
+            return self.n_beams + 4
         return self.n_beams + 2 + (2 if self.obstacle_obs else 0)
 
     # -- files ---------------------------------------------------------------
@@ -278,10 +325,10 @@ class Policy:
             raise PolicyError("policy metadata is not valid JSON") from None
         if meta.get("format") != FORMAT:
             raise PolicyError("not a jaxnav policy (wrong 'format' in its metadata)")
-        if meta.get("version") not in (FORMAT_VERSION, NORMS_VERSION):
+        if meta.get("version") not in VERSIONS:
             raise PolicyError(
-                f"policy format version {meta.get('version')} is not "
-                f"{FORMAT_VERSION} or {NORMS_VERSION}"
+                f"policy format version {meta.get('version')} is not one of "
+                f"{', '.join(map(str, VERSIONS))}"
             )
         try:
             layers = [(arrays[f"{n}/kernel"], arrays[f"{n}/bias"]) for n in meta["layers"]]
@@ -334,8 +381,12 @@ class Policy:
     ) -> np.ndarray:
         """f32[n_beams]: a raw LaserScan reduced to the trained beams (module docstring)."""
         r = np.asarray(ranges, np.float64).reshape(-1)
-        idx = nearest_rays(len(r), angle_min, angle_increment, self.n_beams, self.beam_layout)
-        return clean_ranges(r[idx], self.min_range, self.max_range, invalid).astype(np.float32)
+        n = self.scan_beams or self.n_beams
+        idx = nearest_rays(len(r), angle_min, angle_increment, n, self.beam_layout)
+        beams = clean_ranges(r[idx], self.min_range, self.max_range, invalid)
+        if self.scan_beams:
+            beams = pool_sectors(beams, self.n_beams)
+        return beams.astype(np.float32)
 
     def observe(
         self,
@@ -346,9 +397,17 @@ class Policy:
         goal: Sequence[float],
         invalid: float | None = None,
     ) -> np.ndarray:
-        """f32[obs_size]: [ranges, heading, distance(, min range, its beam index)]."""
+        """f32[obs_size]: [ranges, heading, distance(, min range, its beam index)], or
+        the normalised observation with the last command (module docstring)."""
         beams = self.scan_to_ranges(ranges, angle_min, angle_increment, invalid)
         heading, distance = goal_heading_distance(pose, goal)
+        if self.observation == "normalised":
+            parts = [
+                beams / np.float32(self.max_range),
+                [heading / math.pi, min(distance, self.max_range) / self.max_range],
+                self.last_command / self.command_scale,
+            ]
+            return np.concatenate(parts).astype(np.float32)
         parts = [beams, np.asarray([heading, distance], np.float32)]
         if self.obstacle_obs:
             parts.append(np.asarray([beams.min(), np.argmin(beams)], np.float32))
@@ -371,8 +430,22 @@ class Policy:
           pose: odometry (x, y, yaw); goal: (x, y) in the same frame.
           invalid: value for invalid readings (default max_range).
         """
-        a = self.act(self.observe(ranges, angle_min, angle_increment, pose, goal, invalid))
-        return self.linear_velocity, float(self.omegas[a])
+        return self.drive(self.observe(ranges, angle_min, angle_increment, pose, goal, invalid))
+
+    def drive(self, obs: np.ndarray) -> tuple[float, float]:
+        """(linear m/s, angular rad/s) of the greedy action for one observation; the
+        action's driven command becomes the next observation's last command."""
+        return self.take(self.act(obs))
+
+    def take(self, action: int) -> tuple[float, float]:
+        """(linear m/s, angular rad/s) of one action; its driven command becomes the next
+        observation's last command."""
+        self.last_command = self.driven[action].copy()
+        return float(self.speeds[action]), float(self.omegas[action])
+
+    def rest(self) -> None:
+        """The robot stopped: the next observation's last command is (0, 0)."""
+        self.last_command = np.zeros(2, np.float64)
 
 
 # ----------------------------------------------------------------------------
@@ -466,6 +539,12 @@ class Controller:
 
     def decide(self, now: float) -> Command:
         """The twist for now: the policy's greedy action, or a stop and why."""
+        command = self._decide(now)
+        if command.reason != "drive":  # stopped: the policy's last command is (0, 0)
+            self.policy.rest()
+        return command
+
+    def _decide(self, now: float) -> Command:
         if self.goal is None:
             return _stop("no goal")
         if self.scan is None or self.odom is None:

@@ -19,8 +19,15 @@ from jaxnav.core import rundir
 from jaxnav.core import strategies as registry
 from jaxnav.core.config import dump_config, load_config
 from jaxnav.core.errors import PolicyError
+from jaxnav.core.settings import BURGER_MAX_OMEGA, BURGER_MAX_V
 from jaxnav.env import from_config
-from jaxnav.robot.deploy import FORMAT, FORMAT_VERSION, INVALID_READING, NORMS_VERSION
+from jaxnav.robot.deploy import (
+    DRIVE_VERSION,
+    FORMAT,
+    FORMAT_VERSION,
+    INVALID_READING,
+    NORMS_VERSION,
+)
 
 NORM_EPSILON = 1e-6  # flax.linen.LayerNorm's default, as jaxnav.dqn.QNetwork uses it
 
@@ -50,12 +57,19 @@ def export_policy(
             f"{params_path} has no parameters for {strategy} seed {seed} (it has {have or 'none'})"
         )
     env, params = from_config(cfg)
+    if env.scan_history:
+        raise PolicyError(
+            f"{run_dir}: a policy trained with env.scan_history cannot be exported yet "
+            "(the robot side keeps no scan history)"
+        )
     net = fold_dueling(rundir.load_params(params_path, strategy, seed).get("params", {}))
     names = _dense_layers(net, env.obs_size, len(np.asarray(params.omegas)), params_path)
     norms = _norms(net, len(names) - 1, params_path)
     meta = _meta(cfg, env, params, strategy, seed, names, run_dir)
     if norms:  # PQN: read only by a reader that applies them
         meta.update(version=NORMS_VERSION, norms=norms, norm_epsilon=NORM_EPSILON)
+    if env.normalised or params.speeds is not None or env.scan_beams:
+        meta.update(version=DRIVE_VERSION, **_drive_meta(env, params))
     arrays: dict[str, np.ndarray] = {"meta": np.asarray(json.dumps(meta, indent=1))}
     for n in names:
         arrays[f"{n}/kernel"] = np.asarray(net[n]["kernel"], np.float32)
@@ -67,6 +81,56 @@ def export_policy(
     arrays["maze/obstacles"] = np.asarray(params.maze.obstacles(), np.float32)
     arrays["maze/start"] = np.asarray(params.maze.start, np.float32)
     return arrays
+
+
+def default_strategy(run_dir: str | os.PathLike) -> str:
+    """The arm ``export`` takes when none is named: EBE where the run trained it, else
+    the run's first arm."""
+    arms = load_config(str(Path(run_dir) / rundir.CONFIG)).arm_names()
+    return "ebe" if "ebe" in arms else arms[0]
+
+
+def best_seed(run_dir: str | os.PathLike, strategy: str) -> tuple[int, str]:
+    """The seed of ``strategy`` with the best greedy success per goal attempt and a line
+    saying by how much: from ``eval/results.csv`` (``jaxnav evaluate``; its success
+    averaged over the test mazes), else from the last greedy evaluation while the run
+    trained (``eval.csv``). PolicyError where the run has neither."""
+    from jaxnav.report.navigation import seed_metrics
+    from jaxnav.report.results import read_results
+
+    run_dir = Path(run_dir)
+    results = run_dir / "eval" / "results.csv"
+    scores: dict[int, list[float]] = {}
+    if results.is_file():
+        where = f"{results} (greedy test, mean over its test mazes)"
+        for (_, arm, seed), episodes in read_results(results.read_text()).items():
+            if arm == strategy:
+                scores.setdefault(seed, []).append(seed_metrics(episodes)["success"])
+    elif (run_dir / rundir.EVAL).is_file():
+        rows = [r for r in rundir.CsvLog(run_dir / rundir.EVAL, ()).read()]
+        rows = [r for r in rows if r["strategy"] == strategy and r.get("success", "") != ""]
+        last = max((int(r["env_step"]) for r in rows), default=None)
+        where = f"{run_dir / rundir.EVAL} (the greedy evaluation at env step {last})"
+        for r in rows:
+            if int(r["env_step"]) == last:
+                scores.setdefault(int(r["seed"]), []).append(float(r["success"]))
+    else:
+        raise PolicyError(
+            f"{run_dir} has no greedy test to pick the best seed from: run "
+            f"jaxnav evaluate {run_dir} first"
+        )
+    mean = {k: float(np.nanmean(v)) for k, v in scores.items() if np.isfinite(v).any()}
+    if not mean:
+        raise PolicyError(f"{where.split(' (')[0]} has no greedy success of {strategy}")
+    ranked = sorted(mean, key=lambda k: (-mean[k], k))
+    best = ranked[0]
+    line = f"best seed of {strategy}: {best}, success {mean[best]:.3f} in {where}"
+    if len(ranked) > 1:
+        line += (
+            f"; next seed {ranked[1]}: {mean[ranked[1]]:.3f}, median over "
+            f"{len(ranked)} seeds {float(np.median(list(mean.values()))):.3f}"
+        )
+    return best, line
 
 
 def fold_dueling(net: dict) -> dict:
@@ -143,6 +207,34 @@ def _meta(cfg, env, params, strategy: str, seed: int, names: list[str], run_dir:
         "jaxnav_version": __version__,
         "config": dump_config(cfg),
     }
+
+
+def _drive_meta(env, params) -> dict:
+    """What a version-3 reader needs beyond version 2: the observation's kind and, per
+    action, its speed and the command the robot drives (the last-command part)."""
+    import jax.numpy as jnp
+
+    actions = jnp.arange(len(np.asarray(params.omegas)))
+    v, omega = env.command(params, actions)
+    v = np.broadcast_to(np.asarray(v, np.float64), np.asarray(omega).shape)
+    speeds = np.broadcast_to(
+        np.asarray(params.v if params.speeds is None else params.speeds, np.float64), v.shape
+    )
+    out = {
+        "observation_kind": env.observation,
+        "scan_beams": int(env.scan_beams),
+        "speeds": [float(x) for x in speeds],
+        "driven": [[float(a), float(b)] for a, b in zip(v, np.asarray(omega, np.float64))],
+        "command_scale": [BURGER_MAX_V, BURGER_MAX_OMEGA],
+    }
+    if env.normalised:
+        out["observation"] = [f"range_{k}/max_range" for k in range(env.n_beams)] + [
+            "heading/pi",
+            "min(distance, max_range)/max_range",
+            "last_v/0.22",
+            "last_omega/2.84",
+        ]
+    return out
 
 
 def save_policy(arrays: dict[str, np.ndarray], out: str | os.PathLike) -> None:

@@ -274,6 +274,7 @@ def play(
     out = []
     while len(out) < n_episodes:
         robot.place(*start)
+        policy.rest()  # at rest: the normalised observation's last command is (0, 0)
         d0 = math.hypot(goal[0] - start[0], goal[1] - start[1])
         ret, reached_goals, t, collided = 0.0, 0, 0, False
         while not collided and t < task.max_steps:
@@ -281,7 +282,7 @@ def play(
             scan = robot.scan(rng, noise_std)
             obs = policy.observe(scan, 0.0, robot.angle_increment, pose, goal)
             action = policy.act(obs)
-            collided = robot.drive(policy.linear_velocity, float(policy.omegas[action]), policy.dt)
+            collided = robot.drive(*policy.take(action), policy.dt)
             pose = robot.pose()
             heading, distance = goal_heading_distance(pose, goal)
             reached = distance < task.goal_radius and not collided
