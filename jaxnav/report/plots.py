@@ -5,6 +5,9 @@
   bootstrap interval; more than three arms get a panel each
   (:mod:`jaxnav.report.fig_training`).
 * ``exploration.png``: each arm's exploration over training (explore.csv), the same way.
+* ``greedy_evaluation.png`` (a run with ``run.eval_every``): success, collision and
+  time-out of the greedy evaluations while it trained, against env steps
+  (:mod:`jaxnav.report.fig_evaluation`).
 * ``sweep.png`` (a swept run): test return against the swept values, per test mode
   (:mod:`jaxnav.report.fig_sweep`).
 * ``trajectory_<maze>.png``: each test maze with its walls and obstacles and every
@@ -41,6 +44,7 @@ from jaxnav.report.fig_common import (
     safe_name,
 )
 from jaxnav.report.fig_episode import FOOTPRINT, GIF_MAX_BYTES, GIF_MAX_FRAMES, animate_episode
+from jaxnav.report.fig_evaluation import plot_greedy_evaluation
 from jaxnav.report.fig_robustness import ROBUSTNESS_MODE, plot_robustness
 from jaxnav.report.fig_sweep import plot_sweep
 from jaxnav.report.fig_training import plot_exploration, plot_training_curves
@@ -64,6 +68,7 @@ __all__ = [
     "make_plots",
     "mode_title",
     "plot_exploration",
+    "plot_greedy_evaluation",
     "plot_robustness",
     "plot_sweep",
     "plot_test_episodes",
@@ -137,6 +142,8 @@ def make_plots(
         plot_training_curves(run_dir, out / "training_curves.png", window),
         plot_exploration(run_dir, out / "exploration.png"),
     ]
+    evaluated = plot_greedy_evaluation(run_dir, out / "greedy_evaluation.png")
+    written += [evaluated] if evaluated is not None else []
     results = run_dir / "eval" / "results.csv"
     if results.is_file():
         swept = plot_sweep(results.read_text(), out / "sweep.png", f"Sweep of {run_dir.name}")
