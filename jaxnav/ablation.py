@@ -102,7 +102,8 @@ def main(argv: list[str] | None = None) -> int:
         )
         print(f"ablation: {path}")
 
-    return cli.run(p.prog, work, interrupted=f"interrupted; continue with --resume --out {out}")
+    given = list(argv if argv is not None else sys.argv[1:])
+    return cli.run(p.prog, work, interrupted=cli.resume_advice("ablation", given, out))
 
 
 if __name__ == "__main__":

@@ -88,6 +88,16 @@ def test_ctrl_c_tidies_says_one_line_and_exits_130(tmp_path, mode):
     assert took < 10, took  # native: the watcher thread acts after a second
 
 
+def test_sigterm_is_answered_as_ctrl_c_with_status_143(tmp_path):
+    proc = _start("python", str(tmp_path))
+    _ready(proc)
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=30)
+    assert proc.returncode == 143, (proc.returncode, err)
+    assert _one_line(err, "jaxnav.demo") == f"jaxnav.demo: stopped; {tmp_path.name}"
+    assert (tmp_path / "tidied").read_text() == "yes"
+
+
 @pytest.mark.slow
 def test_ctrl_c_waits_for_a_no_interrupt_block_but_not_twice(tmp_path):
     proc = _start("block", str(tmp_path), "1.5")

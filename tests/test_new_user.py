@@ -47,3 +47,39 @@ def test_list_gives_each_shipped_config_its_whole_first_sentence():
     about = builtin_configs()
     assert about["stage4"].endswith("episodes last up to 500 steps")
     assert about["paper_no_obstacles"].startswith("Paper, Sec. 6.1 / Table 3")
+
+
+def test_a_sheet_too_large_to_draw_is_refused_in_one_line(tmp_path, capsys):
+    from jaxnav.render import main as render_main
+
+    out = tmp_path / "sheet.png"
+    assert render_main(["grid4", "--samples", "100000", "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--samples 100000: a sheet holds at most 400 panels" in err[0]
+    assert not out.exists()
+
+
+def test_reading_a_run_another_process_trains_says_so(tmp_path):
+    from jaxnav.core import rundir
+    from jaxnav.core.config import dump_config
+    from jaxnav.core.errors import RunError
+
+    run = tmp_path / "run"
+    run.mkdir()
+    (run / rundir.CONFIG).write_text(dump_config(load_config("smoke")))
+    with pytest.raises(RunError, match="resume it first"):
+        rundir.existing(run, finished=True)
+    with rundir.Lock(run):  # flock locks per open file: as another process would hold it
+        assert rundir.in_use(run)
+        with pytest.raises(RunError, match="being trained by another process"):
+            rundir.existing(run, finished=True)
+    assert not rundir.in_use(run)
+
+
+def test_the_advice_after_ctrl_c_repeats_the_options_that_sized_the_run():
+    from jaxnav.core.cli import resume_advice
+
+    line = resume_advice("reproduce", ["--quick", "--out", "runs/r", "--seeds", "3"], "runs/r")
+    assert line.endswith("reproduce --quick --seeds 3 --resume --out runs/r")
+    again = resume_advice("ablation", ["--quick", "--resume", "--out=runs/a"], "runs/a")
+    assert again.endswith("ablation --quick --resume --out runs/a")

@@ -22,15 +22,42 @@ _depth = [0]  # run() calls under way (a command may run another's main)
 
 
 def command_name(prog: str) -> str:
-    """``python -m jaxnav.train`` -> ``jaxnav.train``: how error lines name a command."""
+    """``python -m jaxnav.train`` -> ``jaxnav.train``: how error lines name a command
+    (``jaxnav train`` stays as it is)."""
     return prog.removeprefix("python -m ")
 
 
 class Parser(argparse.ArgumentParser):
-    """argparse with one-line errors: ``jaxnav.<command>: error: message``, exit 2."""
+    """argparse with one-line errors: ``jaxnav.<command>: error: message``, exit 2. A
+    command's ``prog`` (``python -m jaxnav.<command>``) reads ``jaxnav <command>`` in
+    its help and its lines where the ``jaxnav`` script runs it."""
+
+    def __init__(self, *args, prog: str | None = None, **kwargs):
+        if prog and prog.startswith("python -m jaxnav."):
+            prog = startup.invocation(prog.removeprefix("python -m jaxnav."))
+        super().__init__(*args, prog=prog, **kwargs)
 
     def error(self, message):
         self.exit(EXIT_ERROR, f"{command_name(self.prog)}: error: {message}\n")
+
+
+def resume_advice(command: str, argv: list[str], out: str | os.PathLike) -> str:
+    """The line a resumable pipeline prints on Ctrl-C: the same command with the same
+    options (``--quick``, sizes), plus ``--resume --out DIR``, as it was run
+    (``jaxnav reproduce`` or ``python -m jaxnav.reproduce``)."""
+    kept, skip = [], False
+    for a in argv:
+        if skip:
+            skip = False
+            continue
+        if a == "--out":
+            skip = True
+            continue
+        if a == "--resume" or a.startswith("--out="):
+            continue
+        kept.append(a)
+    words = [startup.invocation(command), *kept, "--resume", "--out", str(out)]
+    return "interrupted; continue with " + " ".join(words)
 
 
 def add_overwrite(parser: argparse.ArgumentParser, what: str = "the output") -> None:

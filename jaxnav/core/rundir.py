@@ -310,8 +310,27 @@ def existing(run_dir: str | os.PathLike, finished: bool = False) -> Path:
     if not (run_dir / CONFIG).is_file():
         raise RunError(f"{run_dir} is not a run directory (no {CONFIG})")
     if finished and not (run_dir / PARAMS).is_file():
+        if in_use(run_dir):
+            raise RunError(f"{run_dir} is being trained by another process: wait for it to finish")
         raise RunError(f"{run_dir} has no {PARAMS} (training has not finished; resume it first)")
     return run_dir
+
+
+def in_use(run_dir: str | os.PathLike) -> bool:
+    """Whether another process holds the run directory's :class:`Lock` (trains it now)."""
+    path = Path(run_dir) / LOCK
+    if not path.is_file():
+        return False
+    fd = os.open(path, os.O_RDONLY)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_SH | fcntl.LOCK_NB)
+    except BlockingIOError:
+        return True
+    else:
+        fcntl.flock(fd, fcntl.LOCK_UN)
+        return False
+    finally:
+        os.close(fd)
 
 
 class Lock:

@@ -28,7 +28,8 @@ Ctrl-C does not. When the main thread is busy in native code that does not look
 for signals (a long chunk of training), a watcher thread woken by the signal acts
 for it after a second. At the end of a command the process leaves with its status
 as soon as the ``atexit`` handlers have run, skipping the second or so of module
-teardown in which a Ctrl-C would otherwise kill it by the signal.
+teardown in which a Ctrl-C would otherwise kill it by the signal. SIGTERM (``kill``,
+a job scheduler's stop) is answered the same way, with its own status, 143.
 """
 
 from __future__ import annotations
@@ -94,6 +95,7 @@ def before_jax() -> None:
 # ----------------------------------------------------------------------------
 
 EXIT_INTERRUPTED = 130
+EXIT_TERMINATED = 143  # 128 + SIGTERM, as a shell reports a job ended by it
 WATCHER_GRACE_S = 1.0  # how long the watcher leaves the main thread to answer a Ctrl-C
 
 
@@ -106,7 +108,8 @@ class _Interrupts:
         self.text: str | Callable[[], str] = "interrupted"
         self.tidy: list[Callable[[], None]] = []
         self.status: int | None = None  # what the command returned, for the fast exit
-        self.signals = 0  # Ctrl-Cs received
+        self.signals = 0  # Ctrl-Cs (and SIGTERMs) received
+        self.code = EXIT_INTERRUPTED  # 130 for a Ctrl-C, 143 for a SIGTERM
         self.pending = False  # a Ctrl-C waits for the end of a no_interrupt block
         self.depth = 0  # the main thread's no_interrupt blocks open
         self.writing = threading.RLock()  # held through a no_interrupt block
@@ -164,6 +167,8 @@ def catch_interrupts() -> None:
     _state.installed = True
     _state.prog = _command_name()
     signal.signal(signal.SIGINT, _on_sigint)
+    if signal.getsignal(signal.SIGTERM) is signal.SIG_DFL:
+        signal.signal(signal.SIGTERM, _on_sigint)
     try:
         read, write = os.pipe()
         os.set_blocking(write, False)
@@ -224,7 +229,9 @@ def no_interrupt() -> Iterator[None]:
 
 def _on_sigint(signum, frame) -> None:
     """The SIGINT handler: runs on the main thread, between two Python instructions or
-    where native code checks for signals (jaxlib does while it compiles)."""
+    where native code checks for signals (jaxlib does while it compiles). SIGTERM's too."""
+    if signum == signal.SIGTERM:
+        _state.code = EXIT_TERMINATED
     _state.signals += 1
     if _state.signals > 1 and (_state.pending or _state.leaving.locked()):
         _say_and_exit()  # a second Ctrl-C: no more waiting
@@ -247,7 +254,7 @@ def _watch(fd: int) -> None:
             return
         if not data:
             return
-        if signal.SIGINT not in data:
+        if signal.SIGINT not in data and signal.SIGTERM not in data:
             continue
         deadline = time.monotonic() + WATCHER_GRACE_S
         while time.monotonic() < deadline and not _state.leaving.locked():
@@ -285,7 +292,7 @@ def _say_and_exit() -> None:
     try:
         os.write(2, line.encode(errors="replace"))
     finally:
-        os._exit(EXIT_INTERRUPTED)
+        os._exit(_state.code)
 
 
 def _line_open() -> bool:

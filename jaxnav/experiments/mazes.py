@@ -170,6 +170,10 @@ def _check_round_trip(path: Path, s: Sample, i: int) -> None:
         raise JaxnavError(f"maze {i} does not read back exactly from its maze file")
 
 
+SHEET_MAX = 400  # panels on one sheet
+PANEL_MB = 0.2  # about what one 260 x 260 pixel RGBA panel costs matplotlib to draw
+
+
 def render_sheet(spec: str, out: str, n: int, seed: int = 0, split: str | None = None) -> None:
     """A sheet of ``n`` panels: mazes of the family ``spec`` (or goals in a fixed
     maze) drawn by ``reset`` from ``split(PRNGKey(seed), n)``, each with the robot at
@@ -181,6 +185,12 @@ def render_sheet(spec: str, out: str, n: int, seed: int = 0, split: str | None =
 
     if n < 1:
         raise JaxnavError(f"--samples must be at least 1 (got {n})")
+    if n > SHEET_MAX:  # a 2.6-inch panel each: memory grows with n, legibility does not
+        raise JaxnavError(
+            f"--samples {n}: a sheet holds at most {SHEET_MAX} panels (about "
+            f"{SHEET_MAX * PANEL_MB:.0f} MB to draw); write many drawn mazes as files with "
+            "jaxnav mazes instead"
+        )
     env, params, drawn = sample_env(spec, split)
     samples = sample(env, params, n, seed)
     cols = math.ceil(math.sqrt(n))
