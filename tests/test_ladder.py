@@ -97,9 +97,11 @@ def test_the_cli_refuses_a_broken_study_with_exit_2(tmp_path):
     assert not (tmp_path / "o").exists()
 
 
-def _synthetic(folder: Path, n: int = 16) -> None:
+def _synthetic(folder: Path, n: int = 16, oracle: bool = True) -> None:
     """A data folder: on rung a, EBE reaches every goal and the others half; on rung b
-    all three draw from the same distribution."""
+    all three draw from the same distribution; the oracle reaches every goal on a and
+    0.99 on b (``oracle=False``: a folder written before cut attempts were counted
+    apart, without the cut column and the oracle's rows)."""
     rng = np.random.default_rng(0)
     doc = _parse(STUDY).text.replace("square4_dense", "a").replace("grid4_dense", "b")
     folder.mkdir()
@@ -111,10 +113,18 @@ def _synthetic(folder: Path, n: int = 16) -> None:
                 for test in ("own",) if rung == "a" else ("own", "test"):
                     good = rung == "a" and strategy == "ebe"
                     s = 1.0 if good else float(rng.uniform(0.3, 0.7))
-                    rows.append([rung, "dqn", strategy, seed, test, 2, 4, s * 100, s, s, 0])
+                    rows.append([rung, "dqn", strategy, seed, test, 2, 4, s * 100, s, s, 0, 0])
+            if oracle:
+                for seed in range(n):
+                    s = 1.0 if rung == "a" else 0.99
+                    rows.append([rung, "dqn", "oracle", seed, "own", 2, 4, 0, s, s, 0, 0])
+    columns = list(ladder.SCORE_COLUMNS)
+    if not oracle:
+        columns.remove("cut")
+        rows = [r[:-1] for r in rows]
     with open(folder / "scores.csv", "w", newline="") as f:
         w = csv.writer(f, lineterminator="\n")
-        w.writerow(ladder.SCORE_COLUMNS)
+        w.writerow(columns)
         w.writerows(rows)
     (folder / "curves.csv").write_text("rung,agent,strategy,share,goals,low,high\n")
     (folder / "cells.csv").write_text(
@@ -141,8 +151,19 @@ def test_verdicts_are_rliables_probability_of_improvement_with_the_claims_rule(t
         "entropy-based exploration reaches more goals than epsilon-greedy in 1, fewer in 0, "
         "shows no detectable difference in 1."
     )
+    # solved: within 0.02 of the oracle's success on the same test
+    assert page.oracle_success(data, "a") == 1.0
     assert page.solved_by(data, "a") == [("dqn", "ebe")] and page.solved_by(data, "b") == []
+    assert "an arm solves a world when" in page.ladder_markdown(tmp_path / "d", "x")
     assert page.trajectory_cell(data) == ("a", "dqn")  # b draws its mazes: no fixed maze
+
+
+def test_data_counted_before_cut_attempts_were_told_apart_names_no_solved_world(tmp_path):
+    _synthetic(tmp_path / "d", oracle=False)
+    data = page.Data(tmp_path / "d")
+    assert not data.counted_cut and page.solved_by(data, "a") is None
+    text = page.ladder_markdown(tmp_path / "d", "x")
+    assert "It does not say which worlds are solved" in text and "is solved by" not in text
 
 
 def test_the_page_says_too_few_seeds_below_the_minimum(tmp_path):

@@ -32,6 +32,7 @@ from typing import Any
 import numpy as np
 import yaml
 
+from jaxnav.core import baselines
 from jaxnav.core.config import CONFIG_DIR, Config, build_config, config_to_dict
 from jaxnav.core.errors import ConfigError, JaxnavError
 from jaxnav.core.rundir import METRICS, CsvLog, atomic_write_text, csv_text
@@ -80,6 +81,7 @@ SCORE_COLUMNS = (
     "success",
     "spl",
     "collision",
+    "cut",  # attempts cut by an episode's end, per episode (left out of the rates)
 )
 
 
@@ -293,8 +295,11 @@ def seed_scores(results_text: str, cfg: Config, rung: Rung, agent: Agent) -> lis
     """Per-seed greedy scores of every test of a cell (rows of :data:`SCORE_COLUMNS`)."""
     res = read_results(results_text, "greedy")
     rows = []
+    # the learned arms, then the oracle and DWA where the test drove them
+    drivers = list(cfg.run_labels())
+    drivers += sorted({(k[1], k[2]) for k in res if baselines.is_baseline(k[1])})
     for maze, test in tests_of(cfg, rung):
-        for strategy, seed in cfg.run_labels():
+        for strategy, seed in drivers:
             ep = res.get((maze, strategy, seed))
             if ep is None:  # diverged in training: not tested
                 continue
@@ -312,6 +317,7 @@ def seed_scores(results_text: str, cfg: Config, rung: Rung, agent: Agent) -> lis
                     "success": f"{m['success']:.6g}",
                     "spl": f"{m['spl']:.6g}",
                     "collision": f"{m['collision']:.6g}",
+                    "cut": f"{m['cut']:.6g}",
                 }
             )
     return rows
@@ -368,7 +374,10 @@ def run_cell(study: Study, out: Path, rung: Rung, agent: Agent, quiet: bool, say
     say(f"{name}: testing {cfg.n_runs} policies, {study.test_episodes} episodes per test")
     t0 = time.perf_counter()
     more = {drawn_name(cfg, "larger"): larger_config(cfg, rung)} if rung.larger else None
-    evaluate_to_dir(run, modes=("greedy",), more_drawn=more)
+    # the oracle and DWA drive a world's tests once, beside its first agent's policies
+    first = agent.name == study.agents[0].name
+    refs = baselines.names() if first else ()
+    evaluate_to_dir(run, modes=("greedy",), more_drawn=more, references=refs)
     test_s = time.perf_counter() - t0
     summary = json.loads((run / "summary.json").read_text())
     cell = {
