@@ -20,7 +20,11 @@ the evaluation changed (a budget of env steps per run, ``episodes=null``):
 
 * DQN: the paper's (``configs/paper_no_obstacles.yaml``, ``paper_obstacles.yaml``);
 * double + dueling DQN: the same with ``dqn.double=true dqn.dueling=true``;
-* PQN: ``configs/pqn.yaml`` (its own ``env.max_steps`` of 200 and no range noise).
+* PQN: ``configs/pqn.yaml`` (its own ``env.max_steps`` of 200 and no range noise);
+* PQN, modern: the ``drive_*`` config of the world (``configs/drive_square4.yaml``,
+  ``drive_obstacles.yaml``: the ``modern`` preset's observation, (v, omega) actions and
+  reward, epsilon-greedy only), at its own budget (its learning rate decays over it),
+  evaluated every 40,960 env steps (ten of its updates).
 
 Per maze, agent and strategy: the seeds solved within the budget, the median
 over all seeds of the time (and env steps) to solve, a seed never solved counting
@@ -50,6 +54,12 @@ MAZES = {  # maze -> the paper's config for it
     "square4_obstacles": "configs/paper_obstacles.yaml",
 }
 STRATEGIES = ("ebe", "epsilon_greedy")
+MODERN = {  # maze -> its drive config (the modern recipe)
+    "square4": "configs/drive_square4.yaml",
+    "square4_obstacles": "configs/drive_obstacles.yaml",
+}
+MODERN_AGENT = "PQN, modern"
+MODERN_EVAL_EVERY = 40_960  # ten updates of 128 environments x 32 steps
 
 
 def agents(maze: str) -> dict[str, list[str]]:
@@ -59,7 +69,21 @@ def agents(maze: str) -> dict[str, list[str]]:
         "DQN": [paper],
         "double + dueling DQN": [paper, "dqn.double=true", "dqn.dueling=true"],
         "PQN": ["configs/pqn.yaml", f"env.maze={maze}"],
+        MODERN_AGENT: [MODERN[maze]],
     }
+
+
+def agent_budget(agent: str, items: list[str], args) -> argparse.Namespace:
+    """The budget of one agent's command: the script's, or for the modern recipe its
+    config's own step budget, evaluated every MODERN_EVAL_EVERY steps."""
+    if agent != MODERN_AGENT:
+        return args
+    from jaxnav.core.config import load_config
+
+    out = argparse.Namespace(**vars(args))
+    out.eval_every = 4096 if args.quick else MODERN_EVAL_EVERY
+    out.steps = 8192 if args.quick else int(load_config(items[0]).total_steps)
+    return out
 
 
 def solved_at(
@@ -103,7 +127,7 @@ def measure(maze: str, agent: str, items: list[str], args, log, refs) -> list[di
     runs = solved_at(rows, refs["oracle"])
     log(f"    {wall:.1f} s whole")
     results = []
-    for strategy in STRATEGIES:
+    for strategy in [s for s in STRATEGIES if any(k[0] == s for k in runs)]:
         mine = [v for (s, _), v in sorted(runs.items()) if s == strategy]
         results.append(
             {
@@ -117,6 +141,7 @@ def measure(maze: str, agent: str, items: list[str], args, log, refs) -> list[di
                 "per_seed_s": [None if v is None else v[0] for v in mine],
                 "best_mean_success": best_mean_success(rows, strategy),
                 "command_s": wall,
+                "budget": args.steps,
             }
         )
     return results
@@ -132,7 +157,7 @@ def table(results: list[dict], refs: dict[str, dict[str, float]], args) -> str:
         for name, label in (("oracle", "oracle"), ("dwa", "DWA")):
             lines.append(f"| `{world}` | {label} | (no training) | | | | {ref[name]:.2f} | |")
     for r in results:
-        never = f"not solved in {args.steps:,}"
+        never = f"not solved in {r['budget']:,}"
         s = never if r["median_s"] is None else f"{r['median_s']:.1f}"
         steps = never if r["median_steps"] is None else f"{r['median_steps']:,.0f}"
         lines.append(
@@ -166,14 +191,17 @@ def main(argv=None) -> int:
                 refs[" ".join(world)] = worlds[world]
                 log(f"  {' '.join(world)}: oracle {worlds[world]['oracle']:.3f}, "
                     f"DWA {worlds[world]['dwa']:.3f}")  # fmt: skip
-            results += measure(maze, agent, items, args, log, worlds[world])
+            results += measure(
+                maze, agent, items, agent_budget(agent, items, args), log, worlds[world]
+            )
     flags = (" --quick" if quick else "") + (
         "" if args.mazes == list(MAZES) else " --mazes " + " ".join(args.mazes)
     )
     print(
         f"`python bench/time_to_solve.py{flags}`: {args.seeds} seeds per strategy, "
         f"{args.steps:,} env steps per run, a greedy evaluation of {args.eval_episodes} "
-        f"episodes every {args.eval_every:,}; whole commands, empty compilation cache. "
+        f"episodes every {args.eval_every:,} ({MODERN_AGENT}: its config's budget, every "
+        f"{MODERN_EVAL_EVERY:,}); whole commands, empty compilation cache. "
         f"Solved: a success within {SOLVED_TOLERANCE} of the oracle's on the same "
         "evaluation in the agent's world (the oracle's and DWA's rows, by the world's "
         "config, above the runs')."

@@ -398,3 +398,23 @@ def test_a_run_with_no_test_mazes_is_refused_unless_its_mazes_are_drawn():
     with pytest.raises(JaxnavError, match="no test mazes"):
         test_setup(run(""), None, None, [])
     assert test_setup(run("grid"), None, None, []) == ([], 3)  # its train and test splits
+
+
+def test_a_drawn_test_draws_a_new_layout_every_episode_whatever_training_kept():
+    import dataclasses
+
+    from jaxnav.core.config import load_config
+    from jaxnav.env import from_config
+    from jaxnav.experiments.evaluation import drawn_policies
+
+    cfg = load_config("cylinders", ["env.new_maze_every=10"])
+    env, params = from_config(cfg)
+    assert env.new_maze_every == 10
+
+    class Run:  # what drawn_policies reads of a loaded run
+        config = cfg
+        policies = type("P", (), {"_replace": lambda self, **k: k})()
+
+    drawn = drawn_policies(Run(), "test")
+    assert drawn["env"].new_maze_every == 1 and drawn["env"].split == "test"
+    assert dataclasses.replace(drawn["env"], new_maze_every=10, split="train") == env

@@ -230,11 +230,13 @@ def _usable(references: Sequence[str], env) -> list[str]:
 
 def drawn_policies(run: LoadedRun, split: str = "test", cfg: Config | None = None) -> Policies:
     """A run trained on drawn mazes, its policies in the family's ``split``: every
-    test episode in a maze drawn as in training (a new one every new_maze_every
-    episodes); the test split's layouts are those training never draws. ``cfg``:
-    draw from this config's family instead (the same sensor and observation)."""
+    test episode in a maze of its own, drawn as in training (whatever
+    ``env.new_maze_every`` training kept a layout for, the test draws a new one every
+    episode, so N test episodes are N layouts); the test split's layouts are those
+    training never draws. ``cfg``: draw from this config's family instead (the same
+    sensor and observation)."""
     env, env_params = from_config(cfg if cfg is not None else run.config)
-    env = dataclasses.replace(env, split=split)
+    env = dataclasses.replace(env, split=split, new_maze_every=1)
     return run.policies._replace(env=env, env_params=env_params)
 
 
