@@ -200,9 +200,10 @@ class NavEnv(GoalSampler):
         heads for the next opening on the shortest path through the maze and D is the
         distance along it, so it never points into a dead end) or "progress" (R+, R-,
         else ``EnvParams.progress_scale`` per metre the step brought the robot closer
-        to its goal). Beside any of them, ``EnvParams.step_penalty`` and
-        ``proximity_penalty`` are taken from every step that neither reaches nor
-        collides (:func:`jaxnav.world.reward.penalties`).
+        to its goal; ``progress_path`` "geodesic": along the shortest path through a grid
+        maze, as the geodesic shaping measures it). Beside any of them,
+        ``EnvParams.step_penalty`` and ``proximity_penalty`` are taken from every step
+        that neither reaches nor collides (:func:`jaxnav.world.reward.penalties`).
 
     Actions and observation (beyond the paper; both off by default):
       actions: "paper" (``EnvParams.omegas`` at the constant ``v``) or a set of
@@ -260,6 +261,7 @@ class NavEnv(GoalSampler):
     rooms_door: float = 0.6
     rooms_loops: float = 0.0
     reward: str = "dense"
+    progress_path: str = "straight"
     attempt_limit: int = 0
     actions: str = "paper"
     observation: str = "robotis"
@@ -342,6 +344,14 @@ class NavEnv(GoalSampler):
     def num_actions(self) -> int:
         table = ACTION_SETS[self.actions]
         return len(PAPER_OMEGAS) if table is None else len(table)
+
+    @property
+    def uses_cell_distances(self) -> bool:
+        """Whether an episode carries its grid maze's cell distances (the geodesic
+        shaping, or progress along the shortest path)."""
+        return self.reward == "geodesic" or (
+            self.reward == "progress" and self.progress_path == "geodesic"
+        )
 
     @property
     def normalised(self) -> bool:
@@ -466,7 +476,7 @@ class NavEnv(GoalSampler):
     def _with_world(self, state: EnvState, params: EnvParams, cell_dist=None) -> EnvState:
         """A new episode's state with its cylinders at time 0 and, for the geodesic
         reward, its maze's cell distances (``cell_dist`` if known)."""
-        if self.reward == "geodesic" and cell_dist is None:
+        if self.uses_cell_distances and cell_dist is None:
             cell_dist = generators.maze_cell_distances(params.maze, self.grid)
         last = jnp.zeros(2, jnp.float32) if self.normalised else None  # at rest
         return state.replace(
@@ -509,6 +519,14 @@ class NavEnv(GoalSampler):
             reward = reward_fn(
                 params, action, heading, distance_along, state.goal_distance0, reached, collided
             )
+        elif self.reward == "progress" and self.progress_path == "geodesic":
+            _, before = generators.geodesic_target(
+                params.maze, state.cell_dist, self.grid, state.pos, state.goal
+            )
+            _, after = generators.geodesic_target(
+                params.maze, state.cell_dist, self.grid, pos, state.goal
+            )
+            reward = progress_reward(params, before, after, clearance, reached, collided)
         elif self.reward == "progress":  # closer to the goal, kept clear of surfaces
             before = norm2(state.goal - state.pos)
             reward = progress_reward(params, before, distance, clearance, reached, collided)
@@ -599,7 +617,7 @@ class NavEnv(GoalSampler):
         """(maze, goal, its cell distances for the geodesic reward or None)."""
         maze, goal = self.draw_maze(key)
         dist = None
-        if self.reward == "geodesic":
+        if self.uses_cell_distances:
             dist = generators.maze_cell_distances(maze, self.grid)
         return maze, goal, dist
 

@@ -122,3 +122,34 @@ def test_bad_reward_settings_are_one_line(override, names):
         load_config("smoke", override)
     assert "\n" not in str(e.value)
     load_config("smoke", ["env.generator=grid", "env.reward=geodesic"])
+
+
+def test_progress_along_the_shortest_path_pays_for_heading_to_the_opening():
+    """In cell 0 of the U, driving straight up (towards the opening, away from the goal
+    behind the wall) is 0.03 m of progress along the shortest path, and a loss along the
+    straight line: both by hand."""
+    settings = dict(generator="grid", grid_rows=2, grid_cols=2, reward="progress",
+                    progress_scale=5.0, proximity_penalty=0.0, step_penalty=0.0)  # fmt: skip
+    maze, dist = _u_maze()
+    up = dict(maze=maze, pos=jnp.asarray([-0.5, -0.5]), yaw=jnp.float32(np.pi / 2),
+              goal=jnp.asarray([0.5, -0.5]))  # fmt: skip
+    rewards = {}
+    for path in ("geodesic", "straight"):
+        env, params = jaxnav.make(progress_path=path, **settings)
+        _, state = env.reset(jax.random.PRNGKey(0), params)
+        assert (state.cell_dist is not None) == (path == "geodesic")
+        state = state.replace(**up, cell_dist=dist if path == "geodesic" else None)
+        rewards[path] = float(env.step_env(jax.random.PRNGKey(1), state, jnp.int32(2), params)[2])
+    assert rewards["geodesic"] == pytest.approx(5.0 * 0.03, abs=1e-4)  # 3.0 m -> 2.97 m
+    assert rewards["straight"] == pytest.approx(5.0 * (1.0 - np.hypot(1.0, 0.03)), abs=1e-4)
+
+
+def test_progress_along_the_shortest_path_needs_the_progress_reward_on_a_grid():
+    for overrides in (
+        ["env.progress_path=geodesic"],
+        ["preset=modern", "env.progress_path=geodesic"],
+    ):
+        with pytest.raises(ConfigError, match="progress_path geodesic needs"):
+            load_config("smoke", overrides)
+    cfg = load_config("drive_grid4", ["env.progress_path=geodesic"])
+    assert cfg.env.progress_path == "geodesic"

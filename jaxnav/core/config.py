@@ -281,6 +281,8 @@ def env_reward_problem(env: Any) -> str | None:
     """What is wrong with the reward setting given the maze settings, or None."""
     if env.reward == "geodesic" and env.generator != "grid":
         return "env.reward geodesic needs env.generator grid (its shortest paths)"
+    if env.progress_path == "geodesic" and (env.reward != "progress" or env.generator != "grid"):
+        return "env.progress_path geodesic needs env.reward progress and env.generator grid"
     return None
 
 

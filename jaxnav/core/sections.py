@@ -171,6 +171,12 @@ class EnvConfig:
     progress_scale: float = setting(
         10.0, "progress reward: reward per metre closer to the goal", rule=NON_NEGATIVE
     )
+    progress_path: str = setting(
+        "straight",
+        "progress reward: closer along the straight line to the goal, or (geodesic, grid "
+        "mazes) along the shortest path through the maze, so no dead end pays",
+        rule=one_of("straight", "geodesic"),
+    )
     step_penalty: float = setting(
         0.0,
         "progress reward: taken from every step that neither reaches nor collides",
