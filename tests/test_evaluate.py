@@ -418,3 +418,29 @@ def test_a_drawn_test_draws_a_new_layout_every_episode_whatever_training_kept():
     drawn = drawn_policies(Run(), "test")
     assert drawn["env"].new_maze_every == 1 and drawn["env"].split == "test"
     assert dataclasses.replace(drawn["env"], new_maze_every=10, split="train") == env
+
+
+def test_the_failure_map_holds_every_failed_greedy_attempt_of_results_csv(evaluated, tmp_path):
+    """failures.npz's points, per maze and arm, are results.csv's greedy collisions and
+    time-outs, one point each; a collision's point is within reach of a wall (the pose
+    it collided from); the map is drawn."""
+    from jaxnav.report.plots import plot_failure_maps
+    from jaxnav.report.results import read_failures_npz
+    from jaxnav.world.maps import clearance, make_maze
+
+    cfg, out = evaluated
+    failures, seeds, episodes = read_failures_npz(out / "eval" / "failures.npz")
+    assert seeds == cfg.seeds and episodes == cfg.run.test_episodes
+    rows = [r for r in _rows(out / "eval" / "results.csv") if r["mode"] == "greedy"]
+    assert set(failures) == set(cfg.run.test_mazes)
+    for maze, per_arm in failures.items():
+        for arm, points in per_arm.items():
+            mine = [r for r in rows if r["maze"] == maze and r["strategy"] == arm]
+            assert len(points["collision"]) == sum(int(r["collisions"]) for r in mine)
+            assert len(points["timeout"]) == sum(int(r["timeouts"]) for r in mine)
+            m = make_maze(maze)
+            if len(points["collision"]):  # one step (at most v dt + radius) from a surface
+                near = clearance(points["collision"], m.walls(), m.obstacles())
+                assert near.max() < 0.15 * 0.2 + 0.13 + 1e-3
+    maps = plot_failure_maps(out, tmp_path)
+    assert [p.name for p in maps] == [f"failures_{m}.png" for m in failures]

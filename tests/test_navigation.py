@@ -57,6 +57,8 @@ def test_attempts_start_at_each_goal_and_restart_and_end_at_goal_collision_or_li
     np.testing.assert_array_equal(att.goal, [[1, 0], [0, 2], [0, 2]])
     np.testing.assert_array_equal(att.steps, [3, 2, 4])
     np.testing.assert_array_equal(att.outcome, [SUCCESS, COLLISION, SUCCESS])
+    # where each ended: the position before its last step (the collision's: (0.09, 0.03))
+    np.testing.assert_array_equal(att.end, [[0.06, 0], [0.09, 0.03], [0, 0.09]])
 
 
 def test_an_attempt_cut_by_the_episode_end_before_its_limit_is_cut_not_a_timeout():

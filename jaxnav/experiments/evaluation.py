@@ -35,7 +35,7 @@ from jaxnav.core.sweep import with_swept
 from jaxnav.dqn import network_of, run_inputs
 from jaxnav.env import from_config
 from jaxnav.experiments.baselines import in_place_of, planner_problem
-from jaxnav.experiments.navigation import ShortestPaths, navigation_counts
+from jaxnav.experiments.navigation import ShortestPaths, failure_points, navigation_counts
 from jaxnav.experiments.rollout import (
     MODES,
     Policies,
@@ -44,7 +44,14 @@ from jaxnav.experiments.rollout import (
     padded_mazes,
     run_tests,
 )
-from jaxnav.report.results import RESULT_COLUMNS, Episodes, episode_rows, episodes_npz
+from jaxnav.report.results import (
+    RESULT_COLUMNS,
+    Episodes,
+    Failures,
+    episode_rows,
+    episodes_npz,
+    failures_npz,
+)
 from jaxnav.report.tables import tables_markdown
 from jaxnav.world.generators import SPLITS
 
@@ -62,9 +69,10 @@ def load_run(run_dir: str | Path) -> LoadedRun:
     env, env_params = from_config(cfg)
     if env.generates:  # trained on drawn mazes: tested on the fixed test mazes by name
         # (and on drawn ones: drawn_policies). A fixed maze has no grid of shortest
-        # paths, so a geodesic run's test there scores the dense reward.
+        # paths, so a geodesic run's test there scores the dense reward (progress
+        # along the straight line).
         reward = "dense" if env.reward == "geodesic" else env.reward
-        env = dataclasses.replace(env, generator="", reward=reward)
+        env = dataclasses.replace(env, generator="", reward=reward, progress_path="straight")
     network = network_of(cfg, env)
     template = network.init(jax.random.PRNGKey(0), jnp.zeros(env.obs_size))
     dropped = diverged_runs(run_dir)
@@ -144,7 +152,7 @@ def evaluate(
     modes: Sequence[str] = MODES,
     more_drawn: dict[str, Config] | None = None,
     references: Sequence[str] = baselines.names(),
-) -> tuple[LoadedRun, list[str], str, Episodes]:
+) -> tuple[LoadedRun, list[str], str, Episodes, Failures]:
     """Test every run of ``run_dir`` in ``modes`` (both: greedy, then exploring).
 
     ``more_drawn``: results name -> a config whose drawn mazes (its ``env.split``)
@@ -152,7 +160,8 @@ def evaluate(
     ``references``: the reference drivers (:mod:`jaxnav.experiments.baselines`) that
     take the greedy test beside the policies, once per seed on the same keys.
     Returns (run, maze names, results.csv text, the first greedy test episode of
-    the config's seed per maze and strategy).
+    the config's seed per maze and strategy, where each arm's failed greedy attempts
+    ended in each test maze, pooled over its seeds).
     """
     run = load_run(run_dir)
     names, n_episodes = test_setup(run, maze_names, n_episodes, run.config.run.test_mazes)
@@ -170,7 +179,7 @@ def evaluate(
             for maze, res in zip(mazes, results)
         ]
 
-    rows, episodes = [], {}
+    rows, episodes, failures = [], {}, {}
     for mode in modes:
         results = []
         if mazes:
@@ -187,6 +196,18 @@ def evaluate(
                 driver.fields, names, res, n_episodes, mode, counts(driver, mazes, res)
             )
         if mode == "greedy":
+            limit = run.policies.env.attempt_steps(run.policies.env_params)
+            for name, res in zip(names, results):
+                per_run = failure_points(res, n_episodes, limit)
+                failures[name] = {
+                    arm: {
+                        k: np.concatenate(
+                            [per_run[i][k] for i, (a, _) in enumerate(labels) if a == arm]
+                        )
+                        for k in ("collision", "timeout")
+                    }
+                    for arm in dict.fromkeys(a for a, _ in labels)
+                }
             first = [i for i, (_, seed) in enumerate(labels) if seed == run.config.seed]
             episodes = {
                 name: {labels[i][0]: first_episode(res, i) for i in first}
@@ -213,7 +234,7 @@ def evaluate(
                 nav = counts(driver, template, res)
                 rows += episode_rows(driver.fields, [name], res, n_episodes, mode, nav)
     columns = with_swept(RESULT_COLUMNS, run.config.sweep)
-    return run, names, rundir.csv_text(columns, rows), episodes
+    return run, names, rundir.csv_text(columns, rows), episodes, failures
 
 
 def _usable(references: Sequence[str], env) -> list[str]:
@@ -250,7 +271,7 @@ def evaluate_to_dir(
     references: Sequence[str] = baselines.names(),
 ) -> Path:
     """Evaluate; write results.csv, tables.md, trajectories.npz (each atomically) into ``out``."""
-    run, names, text, episodes = evaluate(
+    run, names, text, episodes, failures = evaluate(
         run_dir, maze_names, n_episodes, modes, more_drawn, references
     )
     tables = tables_markdown(
@@ -262,4 +283,10 @@ def evaluate_to_dir(
     rundir.atomic_write_text(out / "results.csv", text)
     rundir.atomic_write_text(out / "tables.md", tables)
     rundir.atomic_write_bytes(out / "trajectories.npz", episodes_npz(episodes, goal_radius))
+    if failures:
+        seeds = len({seed for _, seed in run.policies.labels})
+        n = n_episodes if n_episodes is not None else run.config.run.test_episodes
+        rundir.atomic_write_bytes(out / "failures.npz", failures_npz(failures, seeds, n))
+    elif (out / "failures.npz").is_file():  # a test of drawn mazes only: no map to put them on
+        (out / "failures.npz").unlink()
     return out

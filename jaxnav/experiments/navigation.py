@@ -14,7 +14,13 @@ from __future__ import annotations
 import numpy as np
 
 from jaxnav.experiments.rollout import Rollout
-from jaxnav.report.navigation import Attempts, episode_counts, split_attempts
+from jaxnav.report.navigation import (
+    COLLISION,
+    TIMEOUT,
+    Attempts,
+    episode_counts,
+    split_attempts,
+)
 from jaxnav.world.maps import Maze
 from jaxnav.world.paths import PathFinder
 
@@ -93,3 +99,28 @@ def navigation_counts(
         episode_counts(att, shortest, step_m, dt, n_episodes)
         for att, shortest in attempt_paths(res, maze, n_episodes, paths, limit)
     ]
+
+
+def failure_points(res: Rollout, n_episodes: int, limit: int) -> list[dict[str, np.ndarray]]:
+    """Per run of a navigation rollout: where its failed attempts ended, {"collision":
+    f[K, 2], "timeout": f[K, 2]} (the robot's position at the attempt's last step; a
+    collision's is the pose it collided from)."""
+    steps = res.steps
+    out = []
+    for r in range(len(steps.episode)):
+        att = split_attempts(
+            steps.pos[r],
+            steps.goal[r],
+            steps.reached[r],
+            steps.collided[r],
+            steps.episode[r],
+            n_episodes,
+            limit,
+        )
+        out.append(
+            {
+                "collision": att.end[att.outcome == COLLISION],
+                "timeout": att.end[att.outcome == TIMEOUT],
+            }
+        )
+    return out

@@ -75,6 +75,7 @@ class Attempts(NamedTuple):
     steps: np.ndarray  # i[A] steps taken
     outcome: np.ndarray  # i[A] SUCCESS, COLLISION, TIMEOUT or CUT
     path: np.ndarray | None = None  # f[A] metres driven, where the steps' travel is known
+    end: np.ndarray | None = None  # f[A, 2] where the robot stood at the attempt's last step
 
 
 def outcome_of(steps, reached, collided, limit: int) -> np.ndarray:
@@ -117,7 +118,9 @@ def split_attempts(
     episode = episode[keep]
     n = len(episode)
     if n == 0:
-        return Attempts(*(np.zeros(shape, dtype) for shape, dtype in _EMPTY), np.zeros(0))
+        return Attempts(
+            *(np.zeros(shape, dtype) for shape, dtype in _EMPTY), np.zeros(0), np.zeros((0, 2))
+        )
     first = np.ones(n, bool)  # an attempt starts at an episode's first step ...
     first[1:] = (episode[1:] != episode[:-1]) | reached[:-1]  # ... or after a reach
     starts = np.flatnonzero(first)
@@ -133,6 +136,7 @@ def split_attempts(
         steps=taken.astype(np.int32),
         outcome=outcome_of(taken, reached[ends], collided[ends], limit),
         path=path,
+        end=pos[ends].astype(np.float64),
     )
 
 

@@ -13,6 +13,9 @@
 * ``trajectory_<maze>.png``: each test maze with its walls and obstacles and every
   arm's path (the config's first seed) over the first test episode, the goals reached
   and where they collided (:mod:`jaxnav.report.fig_trajectory`).
+* ``failures_<maze>.png``: where each arm's failed goal attempts ended in each test
+  maze, over every seed's greedy test (eval/failures.npz;
+  :mod:`jaxnav.report.fig_failures`).
 * ``episode.gif``: that test episode of one arm (EBE if trained) on the first test
   maze: robot, LiDAR beams, goal (:mod:`jaxnav.report.fig_episode`).
 
@@ -45,11 +48,12 @@ from jaxnav.report.fig_common import (
 )
 from jaxnav.report.fig_episode import FOOTPRINT, GIF_MAX_BYTES, GIF_MAX_FRAMES, animate_episode
 from jaxnav.report.fig_evaluation import plot_greedy_evaluation
+from jaxnav.report.fig_failures import plot_failures
 from jaxnav.report.fig_robustness import ROBUSTNESS_MODE, plot_robustness
 from jaxnav.report.fig_sweep import plot_sweep
 from jaxnav.report.fig_training import plot_exploration, plot_training_curves
 from jaxnav.report.fig_trajectory import plot_trajectory
-from jaxnav.report.results import arm_strategy, read_episodes_npz
+from jaxnav.report.results import arm_strategy, read_episodes_npz, read_failures_npz
 from jaxnav.world.maps import make_maze
 
 __all__ = [
@@ -68,6 +72,8 @@ __all__ = [
     "make_plots",
     "mode_title",
     "plot_exploration",
+    "plot_failure_maps",
+    "plot_failures",
     "plot_greedy_evaluation",
     "plot_robustness",
     "plot_sweep",
@@ -126,6 +132,29 @@ def plot_test_episodes(
     return written
 
 
+def plot_failure_maps(run_dir: Path, out_dir: Path) -> list[Path]:
+    """A failure map per fixed test maze of the run's last evaluation (none without
+    eval/failures.npz)."""
+    saved = run_dir / "eval" / "failures.npz"
+    if not saved.is_file():
+        return []
+    try:
+        failures, seeds, episodes = read_failures_npz(saved)
+    except (OSError, ValueError, KeyError) as e:
+        raise RunError(f"{saved} cannot be read ({type(e).__name__})") from None
+    return [
+        plot_failures(
+            make_maze(name),
+            name,
+            per_arm,
+            seeds,
+            episodes,
+            out_dir / f"failures_{safe_name(name)}.png",
+        )  # fmt: skip
+        for name, per_arm in failures.items()
+    ]
+
+
 def make_plots(
     run_dir: str | Path, maze_names: Sequence[str] | None = None, window: int | None = None
 ) -> list[Path]:
@@ -148,6 +177,7 @@ def make_plots(
     if results.is_file():
         swept = plot_sweep(results.read_text(), out / "sweep.png", f"Sweep of {run_dir.name}")
         written += [swept] if swept is not None else []
+    written += plot_failure_maps(run_dir, out)
     tests = plot_test_episodes(run_dir, out, maze_names)
     if not tests:
         print(

@@ -267,6 +267,45 @@ def episodes_npz(episodes: Episodes, goal_radius: float) -> bytes:
     return buf.getvalue()
 
 
+# {maze: {arm: {"collision" | "timeout": f[K, 2]}}}: where a test's failed attempts ended
+Failures = dict[str, dict[str, dict[str, np.ndarray]]]
+FAILURE_KINDS = ("collision", "timeout")
+
+
+def failures_npz(failures: Failures, n_seeds: int, n_episodes: int) -> bytes:
+    """failures.npz bytes: "<maze index>/<arm index>/<kind>" -> f[K, 2], the maze and
+    arm names, and the seeds and episodes they pool."""
+    mazes = list(failures)
+    arms = list(dict.fromkeys(a for per in failures.values() for a in per))
+    arrays: dict[str, np.ndarray] = {
+        "mazes": np.asarray(mazes, dtype=str),
+        "arms": np.asarray(arms, dtype=str),
+        "seeds": np.asarray(n_seeds),
+        "episodes": np.asarray(n_episodes),
+    }
+    for i, m in enumerate(mazes):
+        for a, kinds in failures[m].items():
+            for k in FAILURE_KINDS:
+                arrays[f"{i}/{arms.index(a)}/{k}"] = np.asarray(kinds[k], np.float32).reshape(-1, 2)
+    buf = io.BytesIO()
+    np.savez_compressed(buf, **arrays)
+    return buf.getvalue()
+
+
+def read_failures_npz(path: str | Path) -> tuple[Failures, int, int]:
+    """Inverse of :func:`failures_npz`: (failures, seeds, episodes)."""
+    with np.load(path, allow_pickle=False) as data:
+        mazes = [str(m) for m in data["mazes"]]
+        arms = [str(a) for a in data["arms"]]
+        out: Failures = {m: {} for m in mazes}
+        for key in data.files:
+            if key in ("mazes", "arms", "seeds", "episodes"):
+                continue
+            i, a, k = key.split("/")
+            out[mazes[int(i)]].setdefault(arms[int(a)], {})[k] = data[key]
+        return out, int(data["seeds"]), int(data["episodes"])
+
+
 def read_episodes_npz(path: str | Path) -> tuple[Episodes, float]:
     """Inverse of :func:`episodes_npz`: (episodes, goal radius)."""
     with np.load(path, allow_pickle=False) as data:
