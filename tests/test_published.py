@@ -64,3 +64,16 @@ def test_the_baselines_page_is_its_data_byte_for_byte():
     text = (folder / "baselines.csv").read_text()
     page = baselines_markdown(text, meta["command"], meta["machine"], meta["notes"])
     assert (ROOT / "docs" / "baselines.md").read_text() == page
+
+
+def test_the_driving_page_and_the_readmes_results_are_their_data():
+    import json
+
+    from jaxnav.report.driving_page import BEGIN, END, driving_markdown, readme_block
+
+    folder = ROOT / "docs" / "driving"
+    meta = json.loads((folder / "run.json").read_text())
+    page = driving_markdown(folder, meta["command"], meta["machine"])
+    assert (ROOT / "docs" / "driving.md").read_text() == page
+    readme = (ROOT / "README.md").read_text()
+    assert _between(readme, BEGIN, END).strip() == readme_block(folder).strip()
