@@ -6,6 +6,8 @@ from __future__ import annotations
 import importlib.util
 from pathlib import Path
 
+import pytest
+
 ROOT = Path(__file__).resolve().parents[1]
 
 
@@ -35,6 +37,7 @@ def test_the_agents_page_holds_the_tables_of_its_committed_results():
     assert _between(page, mod.BEGIN, mod.END).strip() == mod.tables().strip()
 
 
+@pytest.mark.slow  # bootstrap intervals of every committed cell: tens of seconds
 def test_the_ladder_study_page_is_its_data_byte_for_byte():
     from jaxnav.report import ladder
 
@@ -45,6 +48,7 @@ def test_the_ladder_study_page_is_its_data_byte_for_byte():
         assert (page.parent / f"{page.stem}-{name}").is_file()
 
 
+@pytest.mark.slow  # bootstrap intervals of every committed cell: tens of seconds
 def test_the_readme_sums_up_the_ladder_study_in_its_generated_sentence():
     from jaxnav.report import ladder
 
@@ -54,6 +58,7 @@ def test_the_readme_sums_up_the_ladder_study_in_its_generated_sentence():
         assert _between(page.read_text(), mod.BEGIN, mod.END).strip() == sentence
 
 
+@pytest.mark.slow  # bootstrap intervals of every committed cell: tens of seconds
 def test_the_baselines_page_is_its_data_byte_for_byte():
     import json
 
@@ -66,6 +71,7 @@ def test_the_baselines_page_is_its_data_byte_for_byte():
     assert (ROOT / "docs" / "baselines.md").read_text() == page
 
 
+@pytest.mark.slow  # bootstrap intervals of every committed cell: tens of seconds
 def test_the_driving_page_and_the_readmes_results_are_their_data():
     import json
 
