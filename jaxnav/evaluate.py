@@ -171,10 +171,14 @@ def main(argv: list[str] | None = None) -> int:
             check_outputs(out, written, args.overwrite)
             out = robustness_to_dir(run_dir, args.mazes, args.episodes, out)
         else:
-            written = ("results.csv", "tables.md", "trajectories.npz")
+            written = ("results.csv", "tables.md", "trajectories.npz", "failures.npz")
             check_outputs(out, written, args.overwrite)
             refs = () if args.no_baselines else baselines.names()
-            out = evaluate_to_dir(run_dir, args.mazes, args.episodes, out, references=refs)
+
+            def say(line: str) -> None:
+                print(f"{line} ...", file=sys.stderr, flush=True)
+
+            out = evaluate_to_dir(run_dir, args.mazes, args.episodes, out, references=refs, say=say)
         print(f"wrote {out / written[0]}, {out / written[1]} and {out / written[2]}")
         if not args.robustness:
             print_summary(CsvLog(out / written[0], ()).read())

@@ -19,7 +19,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import sys
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import NamedTuple
 
@@ -152,6 +152,7 @@ def evaluate(
     modes: Sequence[str] = MODES,
     more_drawn: dict[str, Config] | None = None,
     references: Sequence[str] = baselines.names(),
+    say: Callable[[str], None] | None = None,
 ) -> tuple[LoadedRun, list[str], str, Episodes, Failures]:
     """Test every run of ``run_dir`` in ``modes`` (both: greedy, then exploring).
 
@@ -159,6 +160,7 @@ def evaluate(
     the policies are tested in too, for example a larger size of the run's family.
     ``references``: the reference drivers (:mod:`jaxnav.experiments.baselines`) that
     take the greedy test beside the policies, once per seed on the same keys.
+    ``say``: called with a line before each test starts (progress), if given.
     Returns (run, maze names, results.csv text, the first greedy test episode of
     the config's seed per maze and strategy, where each arm's failed greedy attempts
     ended in each test maze, pooled over its seeds).
@@ -180,9 +182,11 @@ def evaluate(
         ]
 
     rows, episodes, failures = [], {}, {}
+    tell = say or (lambda _: None)
     for mode in modes:
         results = []
         if mazes:
+            tell(f"testing {len(labels)} policies, {mode}, on {', '.join(names)}")
             results = run_tests(
                 run.policies, mazes, n_episodes, record=mode == "greedy", mode=mode, navigation=True
             )
@@ -190,6 +194,7 @@ def evaluate(
         rows += episode_rows(run.policies.fields, names, results, n_episodes, mode, nav)
         refs = _usable(references, run.policies.env) if mode == "greedy" else []
         for ref in refs if mazes else ():
+            tell(f"the {ref} on {', '.join(names)}")
             driver = in_place_of(ref, run.policies, mazes)
             res = run_tests(driver, mazes, n_episodes, navigation=True)
             rows += episode_rows(
@@ -224,11 +229,13 @@ def evaluate(
             for name, cfg in (more_drawn or {}).items()
         ]
         for name, drawn in drawn_tests:
+            tell(f"testing {len(labels)} policies, {mode}, on {name}")
             template = [drawn.env_params.maze]
             results = run_tests(drawn, template, n_episodes, mode=mode, navigation=True)
             nav = counts(drawn, template, results)
             rows += episode_rows(drawn.fields, [name], results, n_episodes, mode, nav)
             for ref in _usable(refs, drawn.env):
+                tell(f"the {ref} on {name}")
                 driver = in_place_of(ref, drawn, template)
                 res = run_tests(driver, template, n_episodes, navigation=True)
                 nav = counts(driver, template, res)
@@ -269,10 +276,12 @@ def evaluate_to_dir(
     modes: Sequence[str] = MODES,
     more_drawn: dict[str, Config] | None = None,
     references: Sequence[str] = baselines.names(),
+    say: Callable[[str], None] | None = None,
 ) -> Path:
-    """Evaluate; write results.csv, tables.md, trajectories.npz (each atomically) into ``out``."""
+    """Evaluate; write results.csv, tables.md, trajectories.npz and, for fixed test
+    mazes, failures.npz (each atomically) into ``out``."""
     run, names, text, episodes, failures = evaluate(
-        run_dir, maze_names, n_episodes, modes, more_drawn, references
+        run_dir, maze_names, n_episodes, modes, more_drawn, references, say
     )
     tables = tables_markdown(
         text, trained_on(run.config), run.config.seed, title=f"Test results of {Path(run_dir).name}"
