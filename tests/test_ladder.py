@@ -195,7 +195,12 @@ def test_a_tiny_study_end_to_end_and_its_resume(tmp_path):
         ("grid4_dense", "larger"),
         ("grid4_dense", "square2"),
     }
-    assert len(rows) == 6 * 3 * 2  # tests x strategies x seeds
+    learned = [r for r in rows if r["strategy"] not in ("oracle", "dwa")]
+    assert len(learned) == 6 * 3 * 2  # tests x strategies x seeds
+    # the oracle and DWA drove every test once, beside the world's first agent
+    assert len(rows) - len(learned) == 6 * 2 * 2
+    assert all(r["cut"] != "" for r in rows)
+    assert "an arm solves a world when its mean success is within 0.02" in text
     again = subprocess.run(cmd, capture_output=True, text=True)
     assert again.returncode == 2 and "--resume" in again.stderr
     params = out / "cells" / "grid4_dense.dqn" / "params.npz"
