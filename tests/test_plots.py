@@ -50,6 +50,7 @@ def test_plots_of_a_tiny_run_are_written_and_non_empty(run, capsys):
     printed = capsys.readouterr().out.split()
     expected = (
         ["training_curves.png", "exploration.png"]
+        + [f"failures_{m}.png" for m in cfg.run.test_mazes]  # where failed attempts ended
         + [f"trajectory_{m}.png" for m in cfg.run.test_mazes]
         + ["episode.gif"]
     )
