@@ -175,10 +175,13 @@ def main(argv: list[str] | None = None) -> int:
             check_outputs(out, written, args.overwrite)
             refs = () if args.no_baselines else baselines.names()
 
-            def say(line: str) -> None:
+            def say(line: str) -> None:  # progress, where a person watches the terminal
                 print(f"{line} ...", file=sys.stderr, flush=True)
 
-            out = evaluate_to_dir(run_dir, args.mazes, args.episodes, out, references=refs, say=say)
+            watched = say if sys.stderr.isatty() else None
+            out = evaluate_to_dir(
+                run_dir, args.mazes, args.episodes, out, references=refs, say=watched
+            )
         print(f"wrote {out / written[0]}, {out / written[1]} and {out / written[2]}")
         if not args.robustness:
             print_summary(CsvLog(out / written[0], ()).read())
