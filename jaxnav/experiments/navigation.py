@@ -19,7 +19,7 @@ from jaxnav.report.navigation import (
     TIMEOUT,
     Attempts,
     episode_counts,
-    split_attempts,
+    run_attempts,
 )
 from jaxnav.world.maps import Maze
 from jaxnav.world.paths import PathFinder
@@ -53,19 +53,9 @@ def attempt_paths(
     """Per run of a navigation rollout (``run_tests(..., navigation=True)``) in the
     test maze ``maze``: its goal attempts under the attempt limit ``limit`` (steps) and
     the shortest path of each (m) in the maze its episode was played in."""
-    steps = res.steps
     out = []
-    for r in range(len(steps.episode)):
-        att = split_attempts(
-            steps.pos[r],
-            steps.goal[r],
-            steps.reached[r],
-            steps.collided[r],
-            steps.episode[r],
-            n_episodes,
-            limit,
-            steps.travel[r],
-        )
+    for r in range(len(res.steps.episode)):
+        att = run_attempts(res.steps, r, n_episodes, limit)
         shortest = np.zeros(len(att.episode))
         for e in np.unique(att.episode):
             if res.mazes is None:
@@ -105,18 +95,9 @@ def failure_points(res: Rollout, n_episodes: int, limit: int) -> list[dict[str, 
     """Per run of a navigation rollout: where its failed attempts ended, {"collision":
     f[K, 2], "timeout": f[K, 2]} (the robot's position at the attempt's last step; a
     collision's is the pose it collided from)."""
-    steps = res.steps
     out = []
-    for r in range(len(steps.episode)):
-        att = split_attempts(
-            steps.pos[r],
-            steps.goal[r],
-            steps.reached[r],
-            steps.collided[r],
-            steps.episode[r],
-            n_episodes,
-            limit,
-        )
+    for r in range(len(res.steps.episode)):
+        att = run_attempts(res.steps, r, n_episodes, limit)
         out.append(
             {
                 "collision": att.end[att.outcome == COLLISION],

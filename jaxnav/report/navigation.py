@@ -140,6 +140,22 @@ def split_attempts(
     )
 
 
+def run_attempts(steps, r: int, n_episodes: int, limit: int) -> Attempts:
+    """Run ``r``'s goal attempts from a navigation rollout's per-step arrays (``steps``: a
+    test rollout's or the greedy evaluation's ``Steps``, [runs, T] each), under the
+    attempt limit ``limit`` (steps)."""
+    return split_attempts(
+        steps.pos[r],
+        steps.goal[r],
+        steps.reached[r],
+        steps.collided[r],
+        steps.episode[r],
+        n_episodes,
+        limit,
+        steps.travel[r],
+    )
+
+
 _EMPTY = (
     ((0,), np.int32),
     ((0, 2), np.float64),

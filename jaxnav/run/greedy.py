@@ -28,7 +28,7 @@ from jaxnav.core import rundir, sweep
 from jaxnav.core.config import Config
 from jaxnav.core.startup import process_age
 from jaxnav.dqn import Trainer, network_of
-from jaxnav.report.navigation import COLLISION, CUT, SUCCESS, TIMEOUT, split_attempts
+from jaxnav.report.navigation import COLLISION, CUT, SUCCESS, TIMEOUT, run_attempts
 
 # A swept run's eval.csv has one more column per swept key after "strategy", as
 # metrics.csv. return, goals and collided are means over the evaluation's episodes;
@@ -124,16 +124,7 @@ class GreedyEval:
         res = self.shard.get(res)
         out = []
         for r, fields in enumerate(self.fields):
-            s = res.steps
-            att = split_attempts(
-                s.pos[r],
-                s.goal[r],
-                s.reached[r],
-                s.collided[r],
-                s.episode[r],
-                self.n_episodes,
-                self.limit,
-            )
+            att = run_attempts(res.steps, r, self.n_episodes, self.limit)
             n = {k: int(np.sum(att.outcome == k)) for k in (SUCCESS, COLLISION, TIMEOUT, CUT)}
             successes, attempts = n[SUCCESS], len(att.outcome)
             decided = attempts - n[CUT]
