@@ -22,6 +22,7 @@ case compiled once, compilation reported beside the steady state):
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import re
 import statistics
 import subprocess
@@ -29,6 +30,7 @@ import sys
 import time
 from pathlib import Path
 
+BANK = 4096  # layouts in the bank of the "bank" cases (env.maze_bank)
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "bench"))
@@ -52,13 +54,24 @@ def env_cases(n_envs: int, n_steps: int, reps: int) -> list[dict]:
 
         return reset, step
 
-    cases = {}
-    for size in (4, 6):
-        grid = {"generator": "grid", "grid_rows": size, "grid_cols": size, "min_path_cells": 2}
-        env, params = jaxnav.make(**grid)
-        cases[f"{size}x{size} grid, a new maze every episode"] = fns(env, params)
+    cases, bank_s = {}, {}
+    families = {
+        "4x4 grid": {"generator": "grid", "grid_rows": 4, "grid_cols": 4, "min_path_cells": 2},
+        "6x6 grid": {"generator": "grid", "grid_rows": 6, "grid_cols": 6, "min_path_cells": 2},
+        "cylinder field": {"generator": "cylinders", "cyl_min_path": 1.5, "max_steps": 200},
+        "2x2 rooms": {"generator": "rooms", "max_steps": 200},
+    }
+    for family, kwargs in families.items():
+        env, params = jaxnav.make(**kwargs)
+        cases[f"{family}, a new maze every episode"] = fns(env, params)
+        banked = dataclasses.replace(env, maze_bank=BANK)
+        t0 = time.perf_counter()
+        with_bank = jax.block_until_ready(jax.jit(banked.with_bank)(params, jax.random.PRNGKey(0)))
+        bank_s[family] = time.perf_counter() - t0
+        cases[f"{family}, a new maze every episode, bank"] = fns(banked, with_bank)
         fixed_maze = env.draw_maze(jax.random.PRNGKey(0))[0]
-        cases[f"{size}x{size} grid, one maze held fixed"] = fns(*jaxnav.make(fixed_maze))
+        keep = {k: v for k, v in kwargs.items() if k == "max_steps"}
+        cases[f"{family}, one maze held fixed"] = fns(*jaxnav.make(fixed_maze, **keep))
     for maze in ("square4", "stage3", "stage4"):
         cases[maze] = fns(*jaxnav.make(maze))
     compiled = {}
@@ -80,7 +93,7 @@ def env_cases(n_envs: int, n_steps: int, reps: int) -> list[dict]:
             "first_call_s": compiled[name][1],
         }
         for name, ts in times.items()
-    ]
+    ], bank_s
 
 
 def lidar_cases(n_poses: int, reps: int) -> list[dict]:
@@ -127,6 +140,13 @@ def train_cases(seeds: int, episodes: int, reps: int) -> list[dict]:
             "env.grid_cols=6",
             "env.max_steps=300",
         ],
+        "6x6 grids, new every episode, bank": [
+            "grid4",
+            "env.grid_rows=6",
+            "env.grid_cols=6",
+            "env.max_steps=300",
+            f"env.maze_bank={BANK}",
+        ],
     }
     rates = {k: [] for k in cmds}
     walls = {k: [] for k in cmds}
@@ -157,17 +177,20 @@ def main(argv=None) -> int:
     p.add_argument("--quick", action="store_true")
     a = p.parse_args(argv)
     n_envs, n_steps, reps = (256, 20, 2) if a.quick else (4096, 20, 3)
-    rows = env_cases(n_envs, n_steps, reps)
+    rows, bank_s = env_cases(n_envs, n_steps, reps)
     base = {r["case"]: r["steps_per_s"] for r in rows}
     print(f"\nenvironment steps/s, {n_envs} envs, random actions, median of {reps}")
-    print(f"  {'case':<42} {'steps/s':>10} {'first call s':>13}")
+    print(f"  {'case':<52} {'steps/s':>10} {'first call s':>13}")
     for r in rows:
-        print(f"  {r['case']:<42} {r['steps_per_s']:>10.0f} {r['first_call_s']:>13.1f}")
-    for size in (4, 6):
-        new = base[f"{size}x{size} grid, a new maze every episode"]
-        fixed = base[f"{size}x{size} grid, one maze held fixed"]
+        print(f"  {r['case']:<52} {r['steps_per_s']:>10.0f} {r['first_call_s']:>13.1f}")
+    for family, seconds in bank_s.items():
+        new = base[f"{family}, a new maze every episode"]
+        banked = base[f"{family}, a new maze every episode, bank"]
+        fixed = base[f"{family}, one maze held fixed"]
         print(
-            f"  {size}x{size}: a new maze every episode keeps {new / fixed:.0%} of the fixed maze's"
+            f"  {family}: a new maze every episode keeps {new / fixed:.0%} of the fixed maze's, "
+            f"{banked / fixed:.0%} from a bank of {BANK} (drawn in {seconds:.1f} s, "
+            "compilation included)"
         )
     print(f"\nLiDAR, 24 beams, {512 if a.quick else 4096} poses, closed grids")
     print(f"  {'segments':>8} {'us/scan':>8}")
@@ -181,8 +204,9 @@ def main(argv=None) -> int:
     print(f"  {'case':<32} {'transitions/s':>14} {'command s':>10}")
     for r in rows:
         print(f"  {r['case']:<32} {r['transitions_per_s']:>14.0f} {r['command_s']:>10.1f}")
-    ratio = rows[1]["transitions_per_s"] / rows[0]["transitions_per_s"]
-    print(f"  6x6 grids keep {ratio:.0%} of square4's transitions/s")
+    for r in rows[1:]:
+        ratio = r["transitions_per_s"] / rows[0]["transitions_per_s"]
+        print(f"  {r['case']} keep {ratio:.0%} of square4's transitions/s")
     return 0
 
 

@@ -48,7 +48,7 @@ from jaxnav.agent.replay import Buffer
 from jaxnav.agent.sharding import any_run
 from jaxnav.core import strategies as registry
 from jaxnav.core.config import Config, DQNConfig
-from jaxnav.env import EnvParams, EnvState, NavEnv, from_config
+from jaxnav.env import EnvParams, EnvState, NavEnv, bank_key, from_config
 
 # ----------------------------------------------------------------------------
 # Network
@@ -206,6 +206,7 @@ class TrainState:
     # not finite; -1 while all are. A diverged run is frozen with its last finite
     # parameters (the update that would have broken them is not applied).
     diverged_at: chex.Array
+    bank: Any = None  # the run's layouts drawn ahead (env.maze_bank), else None
 
 
 class StepLog(NamedTuple):
@@ -256,7 +257,7 @@ def make_trainer(config: Config) -> Trainer:
         buffer = replay.init(
             config.buffer_capacity, env.obs_size, base_params.max_steps, d.prioritised
         )
-        env_params = hyper.env_params(base_params)
+        env_params = env.with_bank(hyper.env_params(base_params), bank_key(key))
         return _init_state(env, env_params, network, optimizer, buffer, slots, key, strategy, hyper)
 
     def active(ts: TrainState) -> chex.Array:
@@ -265,7 +266,7 @@ def make_trainer(config: Config) -> Trainer:
     def step(ts: TrainState, _):
         run = active(ts)
         h = ts.hyper
-        env_params = h.env_params(base_params)
+        env_params = h.env_params(base_params, ts.bank)
         # Each part is a named scope: the compiled program's operations carry its name
         # (bench/profile_train.py sums the time per part).
         with jax.named_scope("keys"):
@@ -385,6 +386,7 @@ def _init_state(
         episode=jnp.zeros((), jnp.int32),
         metrics=Episodes.zeros(slots, attempts=bool(env.attempt_limit)),
         diverged_at=jnp.asarray(-1, jnp.int32),
+        bank=env_params.bank,
     )
 
 

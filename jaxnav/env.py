@@ -43,6 +43,7 @@ import numpy as np
 from flax import struct
 
 from jaxnav.core.config import (
+    env_bank_problem,
     env_family_problem,
     env_reward_problem,
     env_scan_problem,
@@ -71,6 +72,9 @@ from jaxnav.world.spaces import Box, Discrete
 
 if TYPE_CHECKING:
     from jaxnav.core.config import Config
+
+BANK_BATCH = 256  # layouts of a bank drawn side by side (NavEnv.draw_bank)
+RESTARTS = 32  # drawn mazes: environments restarted together per round (NavEnv.step)
 
 # Paper Table 1: action -> angular velocity (rad/s), positive = counter-clockwise.
 PAPER_OMEGAS = (-1.5, -0.75, 0.0, 0.75, 1.5)
@@ -111,6 +115,10 @@ class EnvParams:
     step_penalty: float = 0.0  # taken from every step that neither reaches nor collides
     proximity_penalty: float = 0.0  # taken, scaled, where the path comes near a surface
     proximity_distance: float = 0.3  # m of clearance (beyond the radius) where it starts
+    # Drawn mazes only: layouts drawn ahead (NavEnv.with_bank), (maze, goal, cell
+    # distances or None) with a leading axis of NavEnv.maze_bank; None: each new layout
+    # is drawn when it is needed.
+    bank: Any = None
 
 
 @struct.dataclass
@@ -192,7 +200,10 @@ class NavEnv(GoalSampler):
         next (otherwise it keeps the maze, its start and the goal, as with a fixed
         maze). ``split`` picks the train or the test layouts, never the same.
         "cylinders" (``cyl_*``) and "rooms" (``rooms_*``) are the families of
-        :mod:`jaxnav.world.families`, drawn the same way.
+        :mod:`jaxnav.world.families`, drawn the same way. ``maze_bank`` > 0:
+        :meth:`with_bank` draws that many layouts (maze, start and goal) ahead into
+        ``EnvParams.bank``, and a new layout is then picked from it at random instead
+        of drawn (training does; a test draws each of its layouts).
 
     Reward (:mod:`jaxnav.world.reward`):
       reward: "dense" (the paper's: R+, R-, else the heading shaping towards the goal),
@@ -250,6 +261,7 @@ class NavEnv(GoalSampler):
     grid_loops: float = 0.0
     min_path_cells: int = 1
     new_maze_every: int = 1
+    maze_bank: int = 0
     split: str = "train"
     cyl_count: int = 8
     cyl_radius: tuple[float, float] = (0.1, 0.25)
@@ -275,6 +287,7 @@ class NavEnv(GoalSampler):
                 raise ValueError(f"{f.name} {problem}")
         problem = env_family_problem(self) if self.generator else None
         problem = problem or env_reward_problem(self) or env_scan_problem(self)
+        problem = problem or env_bank_problem(self)
         if problem:
             raise ValueError(problem)
         lo, hi = self.maze_scale
@@ -302,6 +315,35 @@ class NavEnv(GoalSampler):
         if self.generator in families.FAMILIES:
             return families.draw_maze(key, self.family, self.split)
         return generators.draw_maze(key, self.grid, self.split, self.min_path_cells)
+
+    def draw_bank(self, key: chex.PRNGKey):
+        """``maze_bank`` layouts drawn from ``key``, each as :meth:`_draw` gives it (maze,
+        goal, cell distances or None), leaves with a leading axis of ``maze_bank``; drawn
+        ``BANK_BATCH`` at a time side by side."""
+        keys = jax.random.split(key, self.maze_bank)
+        return jax.lax.map(self._draw, keys, batch_size=min(self.maze_bank, BANK_BATCH))
+
+    def layout_bytes(self) -> int:
+        """Bytes one layout of a bank takes (its maze, goal and cell distances), from
+        the shapes alone: nothing is drawn."""
+        shapes = jax.eval_shape(self._draw, jax.random.PRNGKey(0))
+        return sum(math.prod(x.shape) * x.dtype.itemsize for x in jax.tree.leaves(shapes))
+
+    def with_bank(self, params: EnvParams, key: chex.PRNGKey) -> EnvParams:
+        """``params`` with a bank of layouts drawn from ``key`` when ``maze_bank`` is set
+        (else unchanged): the episodes played with them pick their layouts from it."""
+        if not (self.generates and self.maze_bank):
+            return params
+        return params.replace(bank=self.draw_bank(key))
+
+    def _layout(self, key: chex.PRNGKey, params: EnvParams):
+        """A new layout (maze, goal, cell distances or None): drawn from ``key``, or with
+        a bank in ``params`` one of its layouts picked at random with ``key``."""
+        if params.bank is None:
+            return self._draw(key)
+        n = jax.tree.leaves(params.bank)[0].shape[0]
+        i = jax.random.randint(key, (), 0, n)
+        return jax.tree.map(lambda b: b[i], params.bank)
 
     def in_maze(self, params: EnvParams, state: EnvState) -> EnvParams:
         """``params`` with the state's maze when the mazes are drawn (else unchanged)."""
@@ -456,9 +498,9 @@ class NavEnv(GoalSampler):
         k_goal, k_obs = jax.random.split(key)
         scale = self._episode_scale(key)
         start = params.maze.start[:2]
-        maze = maze_episodes = None
+        maze = maze_episodes = cell_dist = None
         if self.generates:  # a new maze, its start and a goal min_path_cells away
-            maze, goal = self.draw_maze(jax.random.fold_in(key, 5))
+            maze, goal, cell_dist = self._layout(jax.random.fold_in(key, 5), params)
             params = params.replace(maze=maze)
             maze_episodes = jnp.zeros((), jnp.int32)
             goal = goal * scale if self.scales_maze else goal
@@ -469,7 +511,7 @@ class NavEnv(GoalSampler):
         pos, yaw = self._start_pose(key, params, goal, scale)
         scale = jnp.asarray(scale, jnp.float32)
         state = _new_episode(pos, yaw, goal, scale, self.action_delay, maze, maze_episodes)
-        state = self._with_world(state, params)
+        state = self._with_world(state, params, cell_dist)
         obs = self.observe(k_obs, pos, yaw, goal, params, scale)
         return obs, self._first_scans(state, obs)
 
@@ -589,7 +631,12 @@ class NavEnv(GoalSampler):
         fresh = episodes >= self.new_maze_every
         needed = fresh if done is None else fresh & done
         old = (state.maze, state.goal, state.cell_dist)
-        maze, new_goal, cell_dist = draw_where(self._draw, needed, jax.random.fold_in(key, 5), old)
+        k_maze = jax.random.fold_in(key, 5)
+        if params.bank is None:
+            maze, new_goal, cell_dist = draw_where(self._draw, needed, k_maze, old)
+        else:  # picking from the bank is a gather: no need to skip the unused ones
+            new = self._layout(k_maze, params)
+            maze, new_goal, cell_dist = jax.tree.map(lambda a, b: jnp.where(needed, a, b), new, old)
         episodes = jnp.where(fresh, 0, episodes)
         params = params.replace(maze=maze)
         scale = self._episode_scale(key)
@@ -627,14 +674,32 @@ class NavEnv(GoalSampler):
         the reset (needed to bootstrap through truncation)."""
         obs_st, st, reward, terminated, truncated, info = self.step_env(key, state, action, params)
         done = terminated | truncated
+        info = dict(info, final_obs=obs_st)
         # The restart observes with the step's own observation key: its range noise
         # (and dropout) is the same draw as the step's, so it costs nothing extra; the
         # two observations are of different poses and never feed one transition.
-        obs_re, st_re = self.restart(_step_keys(key)[1], st, params, done)
+        k_restart = _step_keys(key)[1]
+        if self.generates:
+            # Each environment restarts in a maze of its own, so its restart scan is its
+            # own too: computed only where an episode ended (jaxnav.world.lazy), the
+            # step's own observation and state kept elsewhere. The same numbers as
+            # computing it everywhere and keeping it where done.
+            def restarted(inputs, params):
+                return self._restart_drawn(*inputs, params)
+
+            old = (obs_st, st)
+            obs, state = draw_where(restarted, done, (k_restart, st), old, RESTARTS, params)
+            return obs, state, reward, terminated, truncated, info
+        obs_re, st_re = self.restart(k_restart, st, params, done)
         state = jax.tree.map(lambda a, b: jnp.where(done, a, b), st_re, st)
         obs = jnp.where(done, obs_re, obs_st)
-        info = dict(info, final_obs=obs_st)
         return obs, state, reward, terminated, truncated, info
+
+
+def bank_key(key: chex.PRNGKey) -> chex.PRNGKey:
+    """The key a training run draws its bank of layouts with, from its own key: folded
+    in, so the run's other keys are those of a run without a bank."""
+    return jax.random.fold_in(key, 0x62616E6B)
 
 
 def _step_keys(key: chex.PRNGKey) -> tuple[chex.Array, chex.Array]:
@@ -678,7 +743,7 @@ def scale_maze(maze: Maze, scale: chex.Array) -> Maze:
 
 # The environment's settings: data in EnvParams (vmappable, no recompile), or static
 # in NavEnv (they fix array shapes or the program).
-PARAM_FIELDS = frozenset(f.name for f in dataclasses.fields(EnvParams)) - {"maze"}
+PARAM_FIELDS = frozenset(f.name for f in dataclasses.fields(EnvParams)) - {"maze", "bank"}
 ENV_FIELDS = frozenset(f.name for f in dataclasses.fields(NavEnv))
 
 
@@ -739,6 +804,7 @@ __all__ = [
     "EnvParams",
     "EnvState",
     "NavEnv",
+    "bank_key",
     "from_config",
     "make",
     "scale_maze",

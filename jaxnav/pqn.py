@@ -26,7 +26,7 @@ environment finishes.
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import chex
 import jax
@@ -50,7 +50,7 @@ from jaxnav.dqn import (
     still_training,
     td_loss,
 )
-from jaxnav.env import EnvParams, EnvState, NavEnv, from_config
+from jaxnav.env import EnvParams, EnvState, NavEnv, bank_key, from_config
 
 # ----------------------------------------------------------------------------
 # Lambda-returns
@@ -102,6 +102,7 @@ class PQNState:
     episode: chex.Array  # i32[] episodes finished, all environments together
     metrics: Episodes  # finished episodes; the running sums one per environment
     diverged_at: chex.Array  # i32[] env step of the update that first broke; -1 while none
+    bank: Any = None  # the run's layouts drawn ahead (env.maze_bank), else None
 
 
 class Rollout(NamedTuple):
@@ -161,7 +162,7 @@ def make_rollouts(config: Config) -> Rollouts:
         action, explore = jax.vmap(act)(jax.random.split(k_act, envs), q)
         step = jax.vmap(env.step, in_axes=(0, 0, 0, None))
         new_obs, env_state, reward, terminated, truncated, info = step(
-            jax.random.split(k_env, envs), env_state, action, h.env_params(base_params)
+            jax.random.split(k_env, envs), env_state, action, h.env_params(base_params, ts.bank)
         )
         done = terminated | truncated
         number = episode + jnp.cumsum(done.astype(jnp.int32)) - 1  # in environment order
@@ -218,7 +219,7 @@ def make_trainer(config: Config) -> Trainer:
     dropout = d.dropout > 0.0 or any(k == "dqn.dropout" for k, _ in config.sweep)
 
     def init(key: chex.PRNGKey, strategy: chex.Array, hyper: Hyper) -> PQNState:
-        env_params = hyper.env_params(base_params)
+        env_params = env.with_bank(hyper.env_params(base_params), bank_key(key))
         k_net, k_env, k_run = jax.random.split(key, 3)
         reset = jax.vmap(env.reset, in_axes=(0, None))
         obs, env_state = reset(jax.random.split(k_env, envs), env_params)
@@ -235,6 +236,7 @@ def make_trainer(config: Config) -> Trainer:
             episode=jnp.zeros((), jnp.int32),
             metrics=Episodes.zeros(slots, envs, attempts=bool(env.attempt_limit)),
             diverged_at=jnp.asarray(-1, jnp.int32),
+            bank=env_params.bank,
         )
 
     def active(ts: PQNState) -> chex.Array:

@@ -33,6 +33,26 @@ def default_out(config_path: str | None) -> Path:
     return Path("runs") / f"{stem}-{time.strftime('%Y%m%d-%H%M%S')}"
 
 
+def confirm_memory(cfg, yes: bool, quiet: bool) -> None:
+    """:func:`jaxnav.core.cli.confirm_memory` of the run's replay memory and, with
+    ``env.maze_bank``, its banks of layouts (said unless ``quiet``)."""
+    if not cfg.env.maze_bank:
+        cli.confirm_memory(cfg.memory_estimate(), yes)
+        return
+    from jaxnav.env import from_config
+
+    per = from_config(cfg)[0].layout_bytes()
+    bank = per * cfg.env.maze_bank
+    if not quiet:
+        print(
+            f"maze bank: {cfg.env.maze_bank} layouts of {per / 1024:.1f} KiB, "
+            f"{bank / 2**20:.1f} MiB per run, {bank * cfg.n_runs / 2**20:.1f} MiB in all",
+            file=sys.stderr,
+        )
+    what = "replay and maze-bank memory"
+    cli.confirm_memory(cfg.memory_estimate() + bank * cfg.n_runs, yes, what=what)
+
+
 def print_summary(out: Path, summary: dict[str, Any]) -> None:
     print(f"results in {out}/ (metrics.csv, params.npz, summary.json)")
     print(
@@ -112,7 +132,7 @@ def main(argv: list[str] | None = None) -> int:
             if overrides and "=" not in overrides[0]:
                 config_path = resolve_config_path(overrides.pop(0))
             cfg = load_config(config_path, overrides)
-            cli.confirm_memory(cfg.memory_estimate(), args.yes)  # before anything is allocated
+            confirm_memory(cfg, args.yes, args.quiet)  # before anything is allocated
             out = Path(args.out) if args.out else default_out(config_path)
             summary = train_new(cfg, out, args.quiet, args.overwrite, args.keep_checkpoints)
         if is_writer():

@@ -99,14 +99,16 @@ def gib(n: float) -> str:
     return f"{n / 2**30:.1f} GiB"
 
 
-def confirm_memory(estimate: int, yes: bool, memory: int | None = None, ask=input) -> None:
+def confirm_memory(
+    estimate: int, yes: bool, memory: int | None = None, ask=input, what: str = "replay memory"
+) -> None:
     """Before allocating ``estimate`` bytes: more than this machine's memory is refused;
     more than half of it needs ``--yes``, or a "y" where stdin is a terminal (elsewhere
     it is refused with the estimate). Raises :class:`JaxnavError` with one line."""
     memory = machine_memory() if memory is None else memory
     if memory is None or estimate <= memory // 2:
         return
-    need = f"this run needs about {gib(estimate)} of replay memory"
+    need = f"this run needs about {gib(estimate)} of {what}"
     if estimate > memory:
         raise JaxnavError(f"{need}, more than this machine's {gib(memory)}: use fewer seeds")
     if yes:

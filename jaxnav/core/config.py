@@ -286,6 +286,13 @@ def env_reward_problem(env: Any) -> str | None:
     return None
 
 
+def env_bank_problem(env: Any) -> str | None:
+    """What is wrong with the maze bank's setting given the maze settings, or None."""
+    if env.maze_bank and not env.generator:
+        return "env.maze_bank draws layouts ahead: it needs drawn mazes (env.generator)"
+    return None
+
+
 def env_scan_problem(env: Any) -> str | None:
     """What is wrong with the pooled scan's setting given the beams, or None."""
     if env.scan_beams and (env.scan_beams % env.n_beams or env.scan_beams < env.n_beams):
@@ -338,7 +345,7 @@ def _check(cfg: Config) -> Config:
         says = env_family_problem(cfg.env)
         if says:
             raise ConfigError(f"config: {says}")
-    says = env_reward_problem(cfg.env) or env_scan_problem(cfg.env)
+    says = env_reward_problem(cfg.env) or env_scan_problem(cfg.env) or env_bank_problem(cfg.env)
     if says:
         raise ConfigError(f"config: {says}")
     if cfg.env.attempt_limit > cfg.env.max_steps:

@@ -156,6 +156,13 @@ class EnvConfig:
         0.0, "rooms: fraction of the walls left without a door that get one (loops)", rule=UNIT
     )
     new_maze_every: int = setting(1, "drawn mazes: episodes in each maze", rule=AT_LEAST_1)
+    maze_bank: int = setting(
+        0,
+        "drawn mazes: layouts (maze, start and goal) each training run draws ahead from its "
+        "own key and picks from at random when it needs a new one (0: each layout drawn when "
+        "needed); tests draw as before",
+        rule=NON_NEGATIVE,
+    )
     split: str = setting(
         "train",
         "drawn mazes: train or test mazes (a layout is in one split only)",

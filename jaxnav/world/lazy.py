@@ -29,20 +29,26 @@ def _where(fresh, new, old):
     return jax.tree.map(lambda a, b: jnp.where(fresh, a, b), new, old)
 
 
-def draw_where(draw: Callable[[Any], Any], fresh, key, old, chunk: int = CHUNK):
+def draw_where(draw: Callable[..., Any], fresh, key, old, chunk: int = CHUNK, shared=None):
     """``where(fresh, draw(key), old)`` leaf by leaf, drawing only where ``fresh`` is set
     when vmapped (``old`` has ``draw(key)``'s structure). ``key`` may be any pytree of
     the draw's inputs (a PRNG key, or the maze and goal a field is computed from).
     ``chunk``: environments drawn together per round (1 where one draw is costly and
-    few environments need one at a time)."""
+    few environments need one at a time). ``shared``: a pytree of inputs the draw takes
+    as its second argument, ``draw(key, shared)``, passed whole where it is the same for
+    the batch (the environment's params: never copied per environment). The draw must
+    close over no traced value: pass those in ``key`` or ``shared``."""
+
+    def call(key, shared):
+        return draw(key) if shared is None else draw(key, shared)
 
     @jax.custom_batching.custom_vmap
-    def pick(fresh, key, old):
-        return _where(fresh, draw(key), old)
+    def pick(fresh, key, old, shared):
+        return _where(fresh, call(key, shared), old)
 
     @pick.def_vmap
-    def _batched(axis_size, in_batched, fresh, key, old):
-        fresh_b, key_b, old_b = in_batched
+    def _batched(axis_size, in_batched, fresh, key, old, shared):
+        fresh_b, key_b, old_b, shared_b = in_batched
 
         def batch(x, is_batched):
             return x if is_batched else jnp.broadcast_to(x, (axis_size, *jnp.shape(x)))
@@ -50,14 +56,16 @@ def draw_where(draw: Callable[[Any], Any], fresh, key, old, chunk: int = CHUNK):
         fresh = batch(fresh, fresh_b)
         key = jax.tree.map(batch, key, key_b)
         old = jax.tree.map(batch, old, old_b)
-        out = _draw_needed(draw, fresh, key, old, axis_size, chunk)
+        axes = jax.tree.map(lambda b: 0 if b else None, shared_b)
+        out = _draw_needed(call, fresh, key, old, axis_size, chunk, shared, axes)
         return out, jax.tree.map(lambda _: True, out)
 
-    return pick(fresh, key, old)
+    return pick(fresh, key, old, shared)
 
 
-def _draw_needed(draw, fresh, key, old, n: int, chunk: int):
-    """Over a batch of ``n``: ``old`` with ``draw(key[i])`` at every i where ``fresh``."""
+def _draw_needed(draw, fresh, key, old, n: int, chunk: int, shared=None, axes=None):
+    """Over a batch of ``n``: ``old`` with ``draw(key[i], shared)`` at every i where
+    ``fresh``; ``axes``: per leaf of ``shared``, 0 where it is batched, else None."""
     m = min(chunk, n)
     count = jnp.sum(fresh.astype(jnp.int32))
     needing = jnp.argsort(~fresh, stable=True)  # the fresh ones first, in batch order
@@ -73,7 +81,9 @@ def _draw_needed(draw, fresh, key, old, n: int, chunk: int):
         pos = r * m + jnp.arange(m)
         idx = jax.lax.dynamic_slice(needing, (r * m,), (m,))
         idx = jnp.where(pos < count, idx, n)  # past the fresh ones: dropped below
-        new = jax.vmap(draw)(jax.tree.map(lambda k: k[jnp.minimum(idx, n - 1)], key))
+        at = jnp.minimum(idx, n - 1)
+        picked = jax.tree.map(lambda s, a: s if a is None else s[at], shared, axes)
+        new = jax.vmap(draw, in_axes=(0, axes))(jax.tree.map(lambda k: k[at], key), picked)
         out = jax.tree.map(lambda o, x: o.at[idx].set(x, mode="drop"), out, new)
         return r + 1, out
 
