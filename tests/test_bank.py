@@ -222,3 +222,9 @@ def test_a_run_with_a_bank_trains_the_same_twice_and_resumes_the_same(agent, tmp
     training.resume(c, quiet=True)
     for name in (rundir.METRICS, rundir.PARAMS):
         assert (c / name).read_bytes() == (a / name).read_bytes(), name
+    if agent == "dqn":  # tested as any drawn-maze run: on a fixed maze and drawn layouts
+        from jaxnav.experiments.evaluation import evaluate_to_dir
+
+        with open(evaluate_to_dir(a, ["square4"], 1, references=()) / "results.csv") as f:
+            mazes = {r["maze"] for r in csv.DictReader(f)}
+        assert mazes == {"square4", "grid:train", "grid:test"}

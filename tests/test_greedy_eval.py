@@ -121,6 +121,27 @@ def test_the_last_evaluation_is_the_greedy_test_of_the_saved_policies(runs):
         assert int(row["cut"]) == int(np.sum(att.outcome == CUT))
 
 
+@pytest.mark.slow
+def test_with_drawn_mazes_every_evaluation_episode_is_a_layout_of_its_own(tmp_path):
+    """Training keeps a layout for 10 episodes; the evaluation draws one per episode
+    from the training split: jaxnav evaluate's grid:train test of the same policies."""
+    from jaxnav.experiments.evaluation import drawn_policies
+
+    drawn = ["env.generator=grid", "env.new_maze_every=10", "strategies=[ebe]"]
+    out = tmp_path / "run"
+    train_new(load_config(None, TINY + EVAL + drawn), out, quiet=True)
+    policies = drawn_policies(load_run(out), split="train")
+    n = 3
+    (res,) = run_tests(policies, [policies.env_params.maze], n, navigation=True)
+    segments = np.asarray(res.mazes.segments)
+    assert all(len({segments[i, e].tobytes() for e in range(n)}) == n for i in range(2))
+    last = [r for r in _rows(out / rundir.EVAL) if int(r["env_step"]) == 1000]
+    for i, (arm, seed) in enumerate(policies.labels):
+        (row,) = [r for r in last if (r["strategy"], int(r["seed"])) == (arm, seed)]
+        assert row["return"] == f"{float(np.mean(res.ret[i])):.6g}"
+        assert row["goals"] == f"{float(np.mean(res.goals[i])):.6g}"
+
+
 class Killed(BaseException):
     """A kill between a chunk's log appends and its checkpoint."""
 

@@ -3,8 +3,10 @@
 At the first chunk end at or past every multiple of ``run.eval_every`` env steps
 (and once when training ends), each run's current policy plays
 ``run.eval_episodes`` consecutive episodes greedily (argmax Q, dropout off, no
-exploration) in the training environment: the test rollout of finished runs,
-:func:`jaxnav.agent.rollout.make_rollout`, with the same key as ``jaxnav evaluate``
+exploration) in the training environment (with drawn mazes, layouts of the training
+split, a new one every episode, whatever ``env.new_maze_every``): the test rollout of
+finished runs, :func:`jaxnav.agent.rollout.make_rollout`, with the same key as
+``jaxnav evaluate``
 (:func:`jaxnav.agent.rollout.eval_keys`) at every evaluation. The evaluation only
 reads the training state, so training's numbers are those of a run without it.
 
@@ -16,6 +18,7 @@ only where the logs' blocks of env steps stay as they are without evaluation.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from pathlib import Path
 
@@ -69,8 +72,14 @@ class GreedyEval:
         self.grain = math.lcm(trainer.step_size, block)
         self.log = rundir.CsvLog(out / rundir.EVAL, sweep.with_swept(EVAL_COLUMNS, cfg.sweep))
         self.shard = shard
+        # Drawn mazes: a new layout every episode, as jaxnav evaluate tests, whatever
+        # env.new_maze_every training keeps one for (a greedy policy replays its
+        # failure in a kept layout, so N episodes would be N / new_maze_every layouts).
+        env = trainer.env
+        if env.generates:
+            env = dataclasses.replace(env, new_maze_every=1)
         rollout = make_rollout(
-            trainer.env,
+            env,
             network_of(cfg, trainer.env),
             self.n_episodes,
             int(trainer.env_params.max_steps),
