@@ -228,3 +228,22 @@ def test_a_run_with_a_bank_trains_the_same_twice_and_resumes_the_same(agent, tmp
         with open(evaluate_to_dir(a, ["square4"], 1, references=()) / "results.csv") as f:
             mazes = {r["maze"] for r in csv.DictReader(f)}
         assert mazes == {"square4", "grid:train", "grid:test"}
+
+
+def test_train_says_the_banks_memory_and_refuses_one_larger_than_the_machine(tmp_path):
+    import subprocess
+    import sys
+
+    out = tmp_path / "r"
+    big = ["jaxnav.train", "drive_cylinders", "env.maze_bank=10000000", "--out", str(out)]
+    run = subprocess.run([sys.executable, "-m", *big], capture_output=True, text=True, timeout=120)
+    assert run.returncode == 2, run.stderr
+    lines = run.stderr.splitlines()
+    assert lines[0].startswith("maze bank: 10000000 layouts of 14.7 KiB"), lines
+    assert lines[-1].startswith("jaxnav.train: error: this run needs about ")
+    assert "of replay and maze-bank memory" in lines[-1] and len(lines) == 2
+    assert not out.exists()
+    # The per-layout figure is the layout's own arrays.
+    env, _ = jaxnav.make(generator="cylinders")
+    draw = env._draw(jax.random.PRNGKey(0))
+    assert env.layout_bytes() == sum(np.asarray(x).nbytes for x in jax.tree.leaves(draw))
