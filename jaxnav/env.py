@@ -602,7 +602,7 @@ class NavEnv(GoalSampler):
         return obs, new_state, reward.astype(jnp.float32), terminated, truncated, info
 
     def restart(
-        self, key: chex.PRNGKey, state: EnvState, params: EnvParams, done=None
+        self, key: chex.PRNGKey, state: EnvState, params: EnvParams
     ) -> tuple[chex.Array, EnvState]:
         """TurtleBot3's restart after a collision or the step limit: the start pose
         (random if ``random_start``), the same goal, step count 0, the moving cylinders
@@ -611,7 +611,7 @@ class NavEnv(GoalSampler):
         # Without randomised starts the start-pose scan does not depend on the state:
         # under vmap with shared params it is computed once, not per environment.
         if self.generates:
-            return self._restart_drawn(key, state, params, done)
+            return self._restart_drawn(key, state, params)
         goal = state.goal
         scale = self._episode_scale(key)
         pos, yaw = self._start_pose(key, params, goal, scale)
@@ -622,21 +622,20 @@ class NavEnv(GoalSampler):
         state = _new_episode(pos, yaw, goal, scale, self.action_delay)
         return obs, self._first_scans(self._with_world(state, params), obs)
 
-    def _restart_drawn(self, key, state: EnvState, params: EnvParams, done=None):
+    def _restart_drawn(self, key, state: EnvState, params: EnvParams):
         """:meth:`restart` with drawn mazes: the next maze from ``fold_in(key, 5)`` once
-        the current one has had ``new_maze_every`` episodes. ``done`` (bool[], from
-        :meth:`step`): whether this restart is used; where it is not, no maze is drawn
-        (:func:`jaxnav.world.lazy.draw_where`), which changes no number."""
+        the current one has had ``new_maze_every`` episodes; where it has not, no maze is
+        drawn (:func:`jaxnav.world.lazy.draw_where`), which changes no number. (:meth:`step`
+        runs it only for the environments whose episode ended.)"""
         episodes = state.maze_episodes + 1
         fresh = episodes >= self.new_maze_every
-        needed = fresh if done is None else fresh & done
         old = (state.maze, state.goal, state.cell_dist)
         k_maze = jax.random.fold_in(key, 5)
         if params.bank is None:
-            maze, new_goal, cell_dist = draw_where(self._draw, needed, k_maze, old)
+            maze, new_goal, cell_dist = draw_where(self._draw, fresh, k_maze, old)
         else:  # picking from the bank is a gather: no need to skip the unused ones
             new = self._layout(k_maze, params)
-            maze, new_goal, cell_dist = jax.tree.map(lambda a, b: jnp.where(needed, a, b), new, old)
+            maze, new_goal, cell_dist = jax.tree.map(lambda a, b: jnp.where(fresh, a, b), new, old)
         episodes = jnp.where(fresh, 0, episodes)
         params = params.replace(maze=maze)
         scale = self._episode_scale(key)
@@ -690,7 +689,7 @@ class NavEnv(GoalSampler):
             old = (obs_st, st)
             obs, state = draw_where(restarted, done, (k_restart, st), old, RESTARTS, params)
             return obs, state, reward, terminated, truncated, info
-        obs_re, st_re = self.restart(k_restart, st, params, done)
+        obs_re, st_re = self.restart(k_restart, st, params)
         state = jax.tree.map(lambda a, b: jnp.where(done, a, b), st_re, st)
         obs = jnp.where(done, obs_re, obs_st)
         return obs, state, reward, terminated, truncated, info

@@ -25,6 +25,7 @@ from jaxnav.core.errors import JaxnavError
 from jaxnav.experiments import ladder
 from jaxnav.experiments.study import doc_files, study
 from jaxnav.report import stats
+from jaxnav.run.memory import confirm_memory
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -54,7 +55,7 @@ def main(argv: list[str] | None = None) -> int:
         if config_path is not None and ladder.is_ladder(config_path):
             return ladder_study(config_path, items)
         cfg = load_config(config_path, items)
-        cli.confirm_memory(cfg.memory_estimate(), args.yes)  # before anything is allocated
+        confirm_memory(cfg, args.yes, args.quiet)  # before anything is allocated
         title = args.title or f"Sweep study: {Path(config_path or 'defaults').stem}"
         doc = Path(args.doc) if args.doc else None
         for path in doc_files(doc) if doc else []:

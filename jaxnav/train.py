@@ -23,6 +23,7 @@ from jaxnav.core import cli
 from jaxnav.core.config import load_config, resolve_config_path
 from jaxnav.core.errors import RunError
 from jaxnav.core.rundir import CONFIG, METRICS, CsvLog
+from jaxnav.run.memory import confirm_memory
 from jaxnav.run.training import interrupted_text, resume, train_new
 
 LAST = 50  # training episodes per seed in the summary (summary.json's last50)
@@ -31,26 +32,6 @@ LAST = 50  # training episodes per seed in the summary (summary.json's last50)
 def default_out(config_path: str | None) -> Path:
     stem = Path(config_path).stem if config_path else "default"
     return Path("runs") / f"{stem}-{time.strftime('%Y%m%d-%H%M%S')}"
-
-
-def confirm_memory(cfg, yes: bool, quiet: bool) -> None:
-    """:func:`jaxnav.core.cli.confirm_memory` of the run's replay memory and, with
-    ``env.maze_bank``, its banks of layouts (said unless ``quiet``)."""
-    if not cfg.env.maze_bank:
-        cli.confirm_memory(cfg.memory_estimate(), yes)
-        return
-    from jaxnav.env import from_config
-
-    per = from_config(cfg)[0].layout_bytes()
-    bank = per * cfg.env.maze_bank
-    if not quiet:
-        print(
-            f"maze bank: {cfg.env.maze_bank} layouts of {per / 1024:.1f} KiB, "
-            f"{bank / 2**20:.1f} MiB per run, {bank * cfg.n_runs / 2**20:.1f} MiB in all",
-            file=sys.stderr,
-        )
-    what = "replay and maze-bank memory"
-    cli.confirm_memory(cfg.memory_estimate() + bank * cfg.n_runs, yes, what=what)
 
 
 def print_summary(out: Path, summary: dict[str, Any]) -> None:

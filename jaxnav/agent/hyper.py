@@ -53,8 +53,8 @@ class Hyper:
     loss: chex.Array | None = None  # bool: True for huber, False for mse
 
     def env_params(self, params: EnvParams, bank=None) -> EnvParams:
-        """``params`` with the run's swept environment settings and its bank of drawn
-        layouts (``bank``: a run state's, see :func:`run_env_params`), if any."""
+        """``params`` with the run's swept environment settings and, given one, its bank
+        of drawn layouts (``bank``: the run state's, ``env.maze_bank``)."""
         new = {k: getattr(self, k) for k in ENV_HYPER if getattr(self, k) is not None}
         if bank is not None:
             new["bank"] = bank
