@@ -143,8 +143,8 @@ def compiled_text(config: str, overrides: list[str], devices: int) -> str:
     import jax
     import numpy as np
 
+    from jaxnav.agent.trainer import run_inputs
     from jaxnav.core.config import load_config
-    from jaxnav.dqn import run_inputs
     from jaxnav.run.training import Run
 
     cfg = load_config(config, overrides)

@@ -66,7 +66,7 @@ from peers_rejax import dqn_rmsprop, gymnax_env
 
 WORLDS = {"square4": "paper_no_obstacles", "grid4": "grid4"}
 PQN = [  # the ladder study's PQN (configs/studies/when_ebe_helps.yaml)
-    "dqn.agent=pqn",
+    "agent=pqn",
     "dqn.lr=0.001",
     "dqn.optimizer=radam",
     "dqn.dropout=0.0",

@@ -122,6 +122,7 @@ def learner_alone(seeds: int, beams: int, steps: int, reps: int) -> dict:
     from jaxnav import dqn
     from jaxnav.agent.replay import Batch
     from jaxnav.agent.sharding import RunSharding
+    from jaxnav.agent.trainer import run_inputs
     from jaxnav.core.config import load_config
     from jaxnav.env import from_config
 
@@ -129,7 +130,7 @@ def learner_alone(seeds: int, beams: int, steps: int, reps: int) -> dict:
     env, _ = from_config(cfg)
     d = cfg.dqn
     network = dqn.QNetwork(env.num_actions, tuple(d.hidden), d.dropout)
-    inputs = dqn.run_inputs(cfg)
+    inputs = run_inputs(cfg)
 
     def init(key, hyper):
         k_net, k_batch = jax.random.split(key)

@@ -43,8 +43,9 @@ def run_case(seeds: int, beams: int, steps: int, reps: int, capacity: int) -> di
 
     from jaxnav.agent.replay import nbytes as buffer_bytes
     from jaxnav.agent.sharding import RunSharding
+    from jaxnav.agent.trainer import run_inputs
     from jaxnav.core.config import load_config
-    from jaxnav.dqn import make_trainer, run_inputs
+    from jaxnav.dqn import make_trainer
 
     cfg = load_config(
         None,

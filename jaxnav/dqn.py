@@ -8,16 +8,17 @@ memory is :mod:`jaxnav.agent.replay`.
 
 Paper equations in one place each:
 
-* Q-network (Table 2): :class:`QNetwork`.
-* TD target ``y = r + gamma * max_b Q(s', b; theta^-)``, squared error: :func:`td_loss`.
+* Q-network (Table 2): :class:`jaxnav.agent.networks.QNetwork`.
+* TD target ``y = r + gamma * max_b Q(s', b; theta^-)``, squared error:
+  :func:`jaxnav.agent.qlearning.td_target`, :func:`jaxnav.agent.qlearning.td_loss`.
 * EBE (Sec. 5), epsilon-greedy and Boltzmann exploration: :mod:`jaxnav.agent.exploration`.
   The trainer acts through the run's registered strategy
   (:mod:`jaxnav.core.strategies`, :func:`jaxnav.agent.exploration.explore_action`).
 
 Beyond the paper, each off by default (``dqn.*``; off is the paper's agent): double
-DQN (:func:`td_target`'s ``next_q_online``), the dueling head (:func:`dueling_q`),
-Polyak target updates (:func:`soft_update`), the Huber loss, Adam
-(:func:`optimizer_of`) and n-step returns
+DQN (``td_target``'s ``next_q_online``), the dueling head (``dueling_q``), Polyak
+target updates (``soft_update``), the Huber loss, Adam (``optimizer_of``) and n-step
+returns
 (:func:`jaxnav.agent.replay.sample_n_step`). Each picks its code in Python from the
 static config, so a switch that is off leaves the compiled program as it was.
 """
@@ -25,167 +26,45 @@ static config, so a switch that is off leaves the compiled program as it was.
 from __future__ import annotations
 
 import functools
-from collections.abc import Callable
-from typing import Any, NamedTuple
+from typing import Any
 
 import chex
-import flax.linen as nn
 import jax
 import jax.numpy as jnp
-import numpy as np
 import optax
 from flax import struct
 
 from jaxnav.agent import replay
 from jaxnav.agent.episodes import Episodes
 from jaxnav.agent.exploration import explore_action
-from jaxnav.agent.hyper import (
-    Hyper,
-    arm_hypers,
-    stack,
-)
+from jaxnav.agent.hyper import Hyper
+from jaxnav.agent.networks import QNetwork
+from jaxnav.agent.qlearning import lr_decay_steps, optimizer_of, soft_update, td_loss, td_target
 from jaxnav.agent.replay import Buffer
 from jaxnav.agent.sharding import any_run
-from jaxnav.core import strategies as registry
+from jaxnav.agent.trainer import (
+    RUNNING,
+    StepLog,
+    Trainer,
+    all_finite,
+    run_limits,
+    select,
+    still_training,
+)
 from jaxnav.core.config import Config, DQNConfig
-from jaxnav.env import EnvParams, EnvState, NavEnv, bank_key, from_config
-
-# ----------------------------------------------------------------------------
-# Network
-# ----------------------------------------------------------------------------
-
-
-class QNetwork(nn.Module):
-    """Paper Table 2: Dense 64 ReLU, Dense 64 ReLU, Dropout 0.2, Dense |A| linear.
-
-    ``dueling`` (Wang et al. 2016) replaces the last layer by two linear streams on
-    the same hidden features, a value ``value`` (1 output) and an advantage
-    ``advantage`` (|A| outputs), joined by :func:`dueling_q`. ``layer_norm`` (PQN,
-    Gallici et al. 2024) normalises each hidden layer before its ReLU.
-    """
-
-    num_actions: int = 5
-    hidden: tuple[int, ...] = (64, 64)
-    dropout: float = 0.2
-    dueling: bool = False
-    layer_norm: bool = False
-
-    @nn.compact
-    def __call__(self, obs: chex.Array, train: bool = False, dropout=None) -> chex.Array:
-        """``dropout``: the rate as data (f32[]); None takes ``self.dropout``."""
-        x = obs
-        init = nn.initializers.lecun_uniform()  # ROBOTIS' Keras initialiser
-        for width in self.hidden:
-            x = nn.Dense(width, kernel_init=init)(x)
-            if self.layer_norm:
-                x = nn.LayerNorm()(x)
-            x = nn.relu(x)
-        if train and (dropout is not None or self.dropout > 0.0):
-            rate = self.dropout if dropout is None else dropout
-            x = dropout16(self.make_rng("dropout"), x, rate)
-        if not self.dueling:
-            return nn.Dense(self.num_actions, kernel_init=init)(x)
-        value = nn.Dense(1, kernel_init=init, name="value")(x)
-        advantage = nn.Dense(self.num_actions, kernel_init=init, name="advantage")(x)
-        return dueling_q(value, advantage)
-
-
-def dueling_q(value: chex.Array, advantage: chex.Array) -> chex.Array:
-    """Q = V + A - mean_a A (Wang et al. 2016, eq. 9): ``value`` f32[..., 1],
-    ``advantage`` f32[..., A] -> f32[..., A]."""
-    return value + advantage - jnp.mean(advantage, axis=-1, keepdims=True)
+from jaxnav.env import EnvState, NavEnv, bank_key, from_config
 
 
 def network_of(config: Config, env: NavEnv | None = None) -> QNetwork:
-    """The Q-network of a config's runs (``env``: its environment, if already made);
-    PQN's has LayerNorm."""
+    """DQN's Q-network of a config's runs (``env``: its environment, if already made)."""
     env = from_config(config)[0] if env is None else env
     d = config.dqn
-    return QNetwork(env.num_actions, tuple(d.hidden), d.dropout, d.dueling, d.agent == "pqn")
-
-
-def dropout16(key: chex.PRNGKey, x: chex.Array, rate) -> chex.Array:
-    """Inverted dropout whose mask takes 16 random bits per unit, two per 32-bit draw.
-
-    A unit is dropped when its 16 bits fall below round(rate * 2^16), so the rate is
-    quantised to 1/65536 (0.2 -> 0.199997). Half the random bits of
-    ``flax.linen.Dropout``: the mask is a large share of a small network's step.
-    ``rate`` may be data; rate 0 keeps every unit unchanged.
-    """
-    n = x.size
-    words = jax.random.bits(key, ((n + 1) // 2,), jnp.uint32)
-    halves = jnp.stack([words & 0xFFFF, words >> 16], axis=-1).reshape(-1)[:n]
-    rate = jnp.asarray(rate, jnp.float32)
-    threshold = jnp.round(rate * 65536).astype(jnp.uint32)
-    keep = halves.reshape(x.shape) >= threshold
-    return jnp.where(keep, x / (1.0 - rate), 0.0)
-
-
-# ----------------------------------------------------------------------------
-# TD loss
-# ----------------------------------------------------------------------------
-
-
-def td_target(reward, terminated, next_q_target, gamma, next_q_online=None) -> chex.Array:
-    """y = r + gamma * max_b Q(s', b; theta^-), no bootstrap after a collision.
-
-    Truncation (the step limit) is not terminal, so it bootstraps. With
-    ``next_q_online`` (double DQN, van Hasselt et al. 2016) the online network picks
-    the next action and the target network values it:
-    y = r + gamma * Q(s', argmax_b Q(s', b; theta); theta^-).
-    """
-    if next_q_online is None:
-        next_v = jnp.max(next_q_target, -1)
-    else:
-        pick = jnp.argmax(next_q_online, -1)
-        next_v = jnp.take_along_axis(next_q_target, pick[..., None], axis=-1)[..., 0]
-    return reward + gamma * (1.0 - terminated.astype(jnp.float32)) * next_v
-
-
-def td_loss(q: chex.Array, action: chex.Array, target: chex.Array, kind="mse", weights=None):
-    """Mean TD loss of the taken actions: squared error (``mse``, the paper's) or
-    Huber with delta 1 (``huber``: 0.5 x^2 for |x| <= 1, |x| - 0.5 beyond); ``kind``
-    may be data, bool[] true for Huber (both computed, one kept). ``weights`` (f32[B],
-    prioritised replay's importance weights) weigh each transition's loss in the mean."""
-    q_a = jnp.take_along_axis(q, action[:, None], axis=-1)[:, 0]
-    if weights is not None:
-        target = jax.lax.stop_gradient(target)
-        squared, huber = (q_a - target) ** 2, optax.huber_loss(q_a, target, delta=1.0)
-        if isinstance(kind, str):
-            each = squared if kind == "mse" else huber
-        else:
-            each = jnp.where(kind, huber, squared)
-        return jnp.mean(weights * each)
-    if isinstance(kind, str) and kind == "mse":
-        return jnp.mean((q_a - jax.lax.stop_gradient(target)) ** 2)
-    huber = jnp.mean(optax.huber_loss(q_a, jax.lax.stop_gradient(target), delta=1.0))
-    if isinstance(kind, str):
-        return huber
-    return jnp.where(kind, huber, jnp.mean((q_a - jax.lax.stop_gradient(target)) ** 2))
-
-
-def soft_update(params, target_params, tau: float):
-    """Polyak target update theta^- <- tau theta + (1 - tau) theta^- (tau 1: a copy)."""
-    return jax.tree.map(lambda p, t: tau * p + (1.0 - tau) * t, params, target_params)
+    return QNetwork(env.num_actions, tuple(d.hidden), d.dropout, d.dueling)
 
 
 # ----------------------------------------------------------------------------
 # Training state
 # ----------------------------------------------------------------------------
-
-
-def still_training(episode, step, episodes_limit, steps_limit):
-    """Whether a run still trains: fewer episodes finished and fewer env steps taken
-    than the limits. NumPy or JAX arrays alike (``&``, not ``and``)."""
-    return (episode < episodes_limit) & (step < steps_limit)
-
-
-def run_limits(config: Config) -> tuple[int, int]:
-    """(episodes, env steps) per seed for :func:`still_training`; no limit is int32 max."""
-    never = int(jnp.iinfo(jnp.int32).max)
-    episodes = config.episodes if config.episodes is not None else never
-    steps = config.total_steps if config.total_steps is not None else never
-    return episodes, steps
 
 
 @struct.dataclass
@@ -207,33 +86,6 @@ class TrainState:
     # parameters (the update that would have broken them is not applied).
     diverged_at: chex.Array
     bank: Any = None  # the run's layouts drawn ahead (env.maze_bank), else None
-
-
-class StepLog(NamedTuple):
-    """What one step reports besides the state, each f32[] (f32[chunk_steps] from a
-    chunk); NaN where there is nothing to report."""
-
-    explore: chex.Array  # the strategy's exploration; NaN once the run has finished
-    loss: chex.Array  # the TD loss of the step's gradient step; NaN when none was taken
-    max_q: chex.Array  # max_a Q(s, a) at the acting state; NaN once the run has finished
-
-
-class Trainer(NamedTuple):
-    """The pieces of a run. ``init`` and ``chunk`` are pure; vmap them over runs.
-    ``step`` is ``chunk``'s loop body, one environment step of one run (tests and
-    benchmarks call it alone); :func:`network_of` gives the run's Q-network.
-    ``step_size``: the env steps one ``step`` takes (PQN's update: many);
-    ``chunk_length``: the most env steps one ``chunk`` takes, the length of its logs."""
-
-    env: NavEnv
-    env_params: EnvParams
-    metric_slots: int
-    init: Callable[[chex.PRNGKey, chex.Array, Hyper], Any]
-    step: Callable[[Any, None], tuple[Any, StepLog]]
-    chunk: Callable[..., tuple[Any, StepLog]]  # (state, n_steps=None)
-    active: Callable[[Any], chex.Array]
-    step_size: int = 1
-    chunk_length: int = 0
 
 
 # ----------------------------------------------------------------------------
@@ -315,7 +167,7 @@ def make_trainer(config: Config) -> Trainer:
         metrics = ts.metrics.record(
             slot, reward, info["goal_reached"], terminated, done, explore, env.attempt_limit
         )
-        held_sums = {k: _select(run, getattr(metrics, k), getattr(ts.metrics, k)) for k in _RUNNING}
+        held_sums = {k: select(run, getattr(metrics, k), getattr(ts.metrics, k)) for k in RUNNING}
         metrics = metrics.replace(**held_sums)
 
         # A finished run is held still: params, optimiser, target, buffer and episode
@@ -430,30 +282,6 @@ def _loss(
     return td_loss(q, batch.action, y, kind, weights), jax.lax.stop_gradient(q_a - y)
 
 
-def optimizer_of(
-    h: Hyper | DQNConfig, kind: str = "rmsprop", decay_steps: int | None = None
-) -> optax.GradientTransformation:
-    """RMSprop as ROBOTIS' Keras uses it (eps outside the root), ``adam`` (optax's
-    defaults: b1 0.9, b2 0.999, eps 1e-8) or ``radam`` (Liu et al. 2020, optax's
-    defaults), at the learning rate of a config or of a run (data): optax takes
-    traced hyperparameters as they are. ``decay_steps``: the rate falls linearly to 0
-    over that many gradient steps (``dqn.lr_decay``)."""
-    lr = h.lr if decay_steps is None else optax.linear_schedule(h.lr, 0.0, decay_steps)
-    if kind == "adam":
-        return optax.adam(lr)
-    if kind == "radam":
-        return optax.radam(lr)
-    return optax.rmsprop(lr, decay=h.rms_decay, eps=h.rms_eps, eps_in_sqrt=False)
-
-
-def lr_decay_steps(config: Config, per_run_steps: int | None = None) -> int | None:
-    """The gradient steps ``dqn.lr_decay`` spreads the decay over (None: no decay):
-    one per env step of the run's budget (DQN), or ``per_run_steps`` (PQN's)."""
-    if not config.dqn.lr_decay:
-        return None
-    return max(1, per_run_steps if per_run_steps is not None else config.max_total_steps)
-
-
 def _learn(
     network, d: DQNConfig, ts, buffer, n_steps, run, keys, horizon: int, decay: int | None = None
 ):
@@ -497,16 +325,11 @@ def _learn(
     finite = jnp.isfinite(loss) & all_finite(new_params)
     due = run & replay.can_sample(buffer, h.learning_starts)
     learn = due & finite
-    params = _select(learn, new_params, ts.params)
-    opt_state = _select(learn, opt_state, ts.opt_state)
+    params = select(learn, new_params, ts.params)
+    opt_state = select(learn, opt_state, ts.opt_state)
     if d.prioritised:
         buffer = replay.update_priorities(buffer, idx, td_error, d.per_alpha, d.per_eps, learn)
     return params, opt_state, due & ~finite, jnp.where(due, loss, jnp.nan), buffer
-
-
-def all_finite(tree) -> chex.Array:
-    """bool[]: every element of every leaf is finite."""
-    return jnp.all(jnp.stack([jnp.all(jnp.isfinite(leaf)) for leaf in jax.tree.leaves(tree)]))
 
 
 def _target(d: DQNConfig, h: Hyper, target_params, params, run, n_steps, done):
@@ -521,19 +344,19 @@ def _target(d: DQNConfig, h: Hyper, target_params, params, run, n_steps, done):
     def copied():
         due = run & _target_sync_due(d, h, n_steps, done)
         if d.target_update != "periodic":
-            return _select(due, params, target_params)
+            return select(due, params, target_params)
         # Due once in target_update_every steps: the copy is skipped, not selected away,
         # on the steps where no run of the batch is due.
         return jax.lax.cond(
-            any_run(due), lambda: _select(due, params, target_params), lambda: target_params
+            any_run(due), lambda: select(due, params, target_params), lambda: target_params
         )
 
     if static and tau >= 1.0:
         return copied()
-    polyak = _select(run, soft_update(params, target_params, tau), target_params)
+    polyak = select(run, soft_update(params, target_params, tau), target_params)
     if static:
         return polyak
-    return _select(tau < 1.0, polyak, copied())
+    return select(tau < 1.0, polyak, copied())
 
 
 def _target_sync_due(d: DQNConfig, h: Hyper, n_steps: chex.Array, done: chex.Array):
@@ -545,65 +368,9 @@ def _target_sync_due(d: DQNConfig, h: Hyper, n_steps: chex.Array, done: chex.Arr
     return done
 
 
-def _select(pred, a, b):
-    return jax.tree.map(lambda x, y: jnp.where(pred, x, y), a, b)
-
-
 def _where_running(run: chex.Array, ts: TrainState, **new) -> TrainState:
     """``ts`` with the fields ``new`` where the run is active, unchanged where finished."""
-    return ts.replace(**{k: _select(run, v, getattr(ts, k)) for k, v in new.items()})
+    return ts.replace(**{k: select(run, v, getattr(ts, k)) for k, v in new.items()})
 
 
-# The running sums of Episodes, the fields a finished run's step would still change.
-_RUNNING = (
-    "cur_return",
-    "cur_length",
-    "cur_goals",
-    "cur_explore",
-    "cur_age",  # these three are None (no leaves) without an attempt limit
-    "cur_successes",
-    "cur_timeouts",
-)
-
-
-class RunInputs(NamedTuple):
-    """What ``Trainer.init`` takes, one entry per run along the leading axis."""
-
-    keys: chex.Array  # u32[runs, 2]
-    strategy: chex.Array  # i32[runs] registered strategy number (jaxnav.core.strategies.index)
-    hyper: Hyper  # each field [runs]
-
-
-def run_inputs(config: Config) -> RunInputs:
-    """Per-run PRNG keys, strategy indices and settings, in ``config.run_arms()`` order:
-    strategy, then sweep point, then seed.
-
-    Every arm of one seed shares the seed's key (same initial network and goals), so
-    comparisons between strategies and between sweep points are paired.
-    """
-    seeds = np.arange(config.seeds) + config.seed
-    seed_keys = np.asarray(jax.vmap(jax.random.PRNGKey)(jnp.asarray(seeds)))
-    arms = config.arms()
-    keys = np.concatenate([seed_keys] * len(arms))
-    strat = np.repeat(np.asarray([registry.index(s) for s, _ in arms], np.int32), config.seeds)
-    hypers = [h for h in arm_hypers(config) for _ in range(config.seeds)]
-    return RunInputs(keys, strat, stack(hypers))
-
-
-def make_train(
-    config: Config, trainer: Trainer | None = None
-) -> Callable[[chex.PRNGKey, chex.Array, Hyper], TrainState]:
-    """A pure ``train(key, strategy, hyper) -> TrainState`` that runs one seed to the end.
-
-    Built on the same :class:`Trainer` as ``jaxnav.train``: chunks until inactive.
-    ``jax.jit(jax.vmap(make_train(cfg)))(*run_inputs(cfg))`` trains every seed,
-    strategy and sweep point of the config in one compiled program. ``trainer``: another
-    agent's (``jaxnav.pqn.make_trainer(cfg)``); default this module's DQN.
-    """
-    trainer = make_trainer(config) if trainer is None else trainer
-
-    def train(key: chex.PRNGKey, strategy: chex.Array, hyper: Hyper) -> TrainState:
-        ts = trainer.init(key, strategy, hyper)
-        return jax.lax.while_loop(trainer.active, lambda s: trainer.chunk(s)[0], ts)
-
-    return train
+__all__ = ["TrainState", "make_trainer", "network_of"]

@@ -1,9 +1,9 @@
 """``python -m jaxnav.list`` (``jaxnav list``): what there is to choose from.
 
 The built-in mazes with a line each, the shipped configs (a built-in config's name
-works wherever a config path does: ``jaxnav train smoke``), the exploration
-strategies, and every setting with its default, whether a sweep may vary it and what
-it does, all from their declarations. ``--markdown`` prints docs/settings.md.
+works wherever a config path does: ``jaxnav train smoke``), the agents, the
+exploration strategies, and every setting with its default, whether a sweep may vary it
+and what it does, all from their declarations. ``--markdown`` prints docs/settings.md.
 """
 
 from __future__ import annotations
@@ -11,7 +11,7 @@ from __future__ import annotations
 import sys
 from collections.abc import Sequence
 
-from jaxnav.core import cli, strategies
+from jaxnav.core import agents, cli, strategies
 from jaxnav.core.config import SETTINGS, builtin_configs
 from jaxnav.world.maps import BUILTIN_MAZES
 
@@ -35,6 +35,9 @@ def catalog() -> str:
     configs = builtin_configs()
     width = max(map(len, configs))
     lines += [f"  {name:<{width}}  {what}" for name, what in configs.items()]
+    lines += ["", "agents (agent=...):"]
+    width = max(map(len, agents.names()))
+    lines += [f"  {n:<{width}}  {agents.get(n).about}" for n in agents.names()]
     lines += ["", "exploration strategies (strategies=[...]):"]
     width = max(map(len, strategies.names()))
     lines += [f"  {n:<{width}}  {strategies.get(n).about}" for n in strategies.names()]

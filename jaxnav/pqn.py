@@ -6,7 +6,7 @@ parallel for ``pqn.rollout`` steps (T), computes lambda-returns backwards over t
 rollout from its own network's max-Q (:func:`lambda_returns`), and fits them in
 ``pqn.epochs`` passes of ``pqn.minibatches`` shuffled minibatches, its gradients
 clipped to ``pqn.max_grad_norm``. The Q-network is the paper's with LayerNorm before
-each hidden ReLU (:func:`jaxnav.dqn.network_of`). The run's registered strategy acts
+each hidden ReLU (:func:`network_of`). The run's registered strategy acts
 on the Q-values of every environment, so EBE, epsilon-greedy and Boltzmann work as
 with DQN.
 
@@ -37,20 +37,20 @@ from flax import struct
 from jaxnav.agent.episodes import Episodes
 from jaxnav.agent.exploration import explore_action
 from jaxnav.agent.hyper import Hyper
+from jaxnav.agent.networks import QNetwork
+from jaxnav.agent.qlearning import lr_decay_steps, optimizer_of, td_loss
+from jaxnav.agent.trainer import StepLog, Trainer, all_finite, run_limits, select, still_training
 from jaxnav.core.config import Config
-from jaxnav.dqn import (
-    QNetwork,
-    StepLog,
-    Trainer,
-    all_finite,
-    lr_decay_steps,
-    network_of,
-    optimizer_of,
-    run_limits,
-    still_training,
-    td_loss,
-)
 from jaxnav.env import EnvParams, EnvState, NavEnv, bank_key, from_config
+
+
+def network_of(config: Config, env: NavEnv | None = None) -> QNetwork:
+    """PQN's Q-network of a config's runs: the paper's with LayerNorm before each hidden
+    ReLU (``env``: the config's environment, if already made)."""
+    env = from_config(config)[0] if env is None else env
+    d = config.dqn
+    return QNetwork(env.num_actions, tuple(d.hidden), d.dropout, d.dueling, layer_norm=True)
+
 
 # ----------------------------------------------------------------------------
 # Lambda-returns
@@ -264,14 +264,14 @@ def make_trainer(config: Config) -> Trainer:
         n_steps = ts.step + per_update
         diverged = (ts.diverged_at < 0) & run & (broke | ~jnp.all(ro.q_finite))
         held = ts.replace(
-            params=_select(run, params, ts.params),
-            opt_state=_select(run, opt_state, ts.opt_state),
-            env_state=_select(run, env_state, ts.env_state),
-            obs=_select(run, obs, ts.obs),
-            key=_select(run, key, ts.key),
+            params=select(run, params, ts.params),
+            opt_state=select(run, opt_state, ts.opt_state),
+            env_state=select(run, env_state, ts.env_state),
+            obs=select(run, obs, ts.obs),
+            key=select(run, key, ts.key),
             step=jnp.where(run, n_steps, ts.step),
             episode=jnp.where(run, episode, ts.episode),
-            metrics=_select(run, metrics, ts.metrics),
+            metrics=select(run, metrics, ts.metrics),
             diverged_at=jnp.where(diverged, n_steps, ts.diverged_at),
         )
         nan = jnp.float32(jnp.nan)
@@ -346,8 +346,8 @@ def _learn(network: QNetwork, config: Config, h: Hyper, params, opt_state, data,
         updates, new_state = optimizer.update(grads, opt_state, params)
         new_params = optax.apply_updates(params, updates)
         ok = ~broke & jnp.isfinite(loss) & all_finite(new_params)
-        params = _select(ok, new_params, params)
-        opt_state = _select(ok, new_state, opt_state)
+        params = select(ok, new_params, params)
+        opt_state = select(ok, new_state, opt_state)
         return (params, opt_state, broke | ~ok), loss
 
     def epoch(carry, k):
@@ -361,5 +361,13 @@ def _learn(network: QNetwork, config: Config, h: Hyper, params, opt_state, data,
     return params, opt_state, broke, jnp.mean(losses)
 
 
-def _select(pred, a, b):
-    return jax.tree.map(lambda x, y: jnp.where(pred, x, y), a, b)
+__all__ = [
+    "PQNState",
+    "Rollout",
+    "Rollouts",
+    "gradient_steps",
+    "lambda_returns",
+    "make_rollouts",
+    "make_trainer",
+    "network_of",
+]

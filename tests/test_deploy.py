@@ -17,9 +17,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from jaxnav import export as export_command
+from jaxnav.agent.networks import QNetwork
 from jaxnav.core.config import dump_config, load_config
 from jaxnav.core.rundir import atomic_write_bytes, atomic_write_text, load_params, npz_bytes
-from jaxnav.dqn import QNetwork
 from jaxnav.env import from_config
 from jaxnav.robot import deploy, export
 from jaxnav.robot.deploy import Policy, nearest_rays

@@ -17,24 +17,13 @@ from jaxnav.agent.exploration import (
     explore_or_greedy,
     normalised_entropy,
 )
+from jaxnav.agent.networks import QNetwork, dropout16, dueling_q
+from jaxnav.agent.qlearning import optimizer_of, soft_update, td_loss, td_target
+from jaxnav.agent.trainer import make_train, run_inputs, run_limits, still_training
 from jaxnav.core import strategies as registry
 from jaxnav.core.config import ExplorationConfig, load_config
 from jaxnav.core.errors import ConfigError
-from jaxnav.dqn import (
-    QNetwork,
-    dropout16,
-    dueling_q,
-    make_train,
-    make_trainer,
-    network_of,
-    optimizer_of,
-    run_inputs,
-    run_limits,
-    soft_update,
-    still_training,
-    td_loss,
-    td_target,
-)
+from jaxnav.dqn import make_trainer, network_of
 
 STRATEGIES = registry.names()
 

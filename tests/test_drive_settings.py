@@ -148,7 +148,7 @@ def test_the_scan_history_holds_the_previous_scans_newest_first():
 def test_the_learning_rate_falls_linearly_to_zero():
     """Adam on a constant gradient moves each step by its learning rate (its moments
     are then exactly the gradient and its square): the steps are lr (1 - k / N)."""
-    from jaxnav.dqn import optimizer_of
+    from jaxnav.agent.qlearning import optimizer_of
 
     cfg = load_config("pqn", ["dqn.optimizer=adam", "dqn.lr=0.01"])
     opt = optimizer_of(cfg.dqn, "adam", decay_steps=10)

@@ -28,7 +28,7 @@ TINY = [
 ]
 EVAL = ["run.eval_every=300"]
 PQN = [
-    "dqn.agent=pqn",
+    "agent=pqn",
     "seeds=2",
     "episodes=null",
     "total_steps=3200",

@@ -10,6 +10,7 @@ import pytest
 
 from jaxnav.__main__ import COMMANDS
 from jaxnav.__main__ import main as jaxnav_main
+from jaxnav.core import agents
 from jaxnav.core.config import FIELD_TYPES, SETTINGS, SWEEPABLE, builtin_configs, load_config
 from jaxnav.list import catalog, settings_markdown
 from jaxnav.world.maps import BUILTIN_MAZES, make_maze
@@ -44,6 +45,8 @@ def test_list_shows_mazes_configs_and_every_setting_with_its_sweep_mark():
     assert {"smoke", "paper_no_obstacles", "paper_obstacles"} <= set(configs)
     for name in configs:
         assert f"  {name}  " in text
+    agent_lines = text.split("agents (agent=...):\n")[1].split("\n\n")[0].splitlines()
+    assert [ln.split()[0] for ln in agent_lines] == list(agents.names())
     settings = text.split("settings (")[1].splitlines()[1:-1]
     rows = {ln[4:].split()[0]: ln for ln in settings}
     for key in FIELD_TYPES:

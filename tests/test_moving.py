@@ -226,14 +226,14 @@ def test_mazes_that_move_and_mazes_that_stand_still_stack_and_vmap():
 
 def test_a_test_rollout_records_the_cylinders_where_they_were_at_each_step():
     from jaxnav.agent.hyper import hyper
+    from jaxnav.core import agents
     from jaxnav.core.config import load_config
-    from jaxnav.dqn import network_of
     from jaxnav.env import from_config
     from jaxnav.experiments.rollout import make_rollout
 
     cfg = load_config("stage3", ["env.max_steps=30"])
     env, params = from_config(cfg)
-    net = network_of(cfg, env)
+    net = agents.get(cfg.agent).network_of(cfg, env)
     weights = net.init(jax.random.PRNGKey(0), jnp.zeros(env.obs_size))
     rollout = make_rollout(env, net, 2, 30, record=True)
     res = jax.jit(rollout)(weights, jax.random.PRNGKey(1), jnp.int32(0), hyper(cfg), params)

@@ -8,12 +8,13 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from jaxnav import pqn
+from jaxnav import dqn, pqn
 from jaxnav.agent.exploration import epsilon_schedule, normalised_entropy
-from jaxnav.core import rundir
+from jaxnav.agent.qlearning import td_target
+from jaxnav.agent.trainer import make_train, run_inputs
+from jaxnav.core import agents, rundir
 from jaxnav.core import strategies as registry
 from jaxnav.core.config import dump_config, load_config
-from jaxnav.dqn import make_train, network_of, run_inputs, td_target
 from jaxnav.robot.deploy import FORMAT_VERSION, NORMS_VERSION, Policy
 from jaxnav.robot.export import export_policy
 from jaxnav.run import training
@@ -22,7 +23,7 @@ from jaxnav.train import main
 
 STRATEGIES = registry.names()
 TINY = [
-    "dqn.agent=pqn",
+    "agent=pqn",
     "seeds=2",
     "episodes=12",
     "env.max_steps=20",
@@ -130,8 +131,8 @@ def test_rollout_targets_bootstrap_a_truncation_from_its_final_observation():
 
 
 def test_pqn_network_normalises_each_hidden_layer_before_its_relu():
-    cfg = load_config(None, ["dqn.agent=pqn", "dqn.hidden=[8, 6]"])
-    net = network_of(cfg)
+    cfg = load_config(None, ["agent=pqn", "dqn.hidden=[8, 6]"])
+    net = agents.get(cfg.agent).network_of(cfg)
     x = jax.random.normal(jax.random.PRNGKey(0), (4, 26))
     params = net.init(jax.random.PRNGKey(1), x)
     # a scale and bias that are not the identity's, so a missing one would show
@@ -147,7 +148,9 @@ def test_pqn_network_normalises_each_hidden_layer_before_its_relu():
         h = np.maximum(h * p[f"LayerNorm_{i}"]["scale"] + p[f"LayerNorm_{i}"]["bias"], 0.0)
     h = h @ p["Dense_2"]["kernel"] + p["Dense_2"]["bias"]
     np.testing.assert_allclose(net.apply(params, x), h, rtol=1e-4, atol=1e-5)
-    dqn_params = network_of(load_config(None, ["dqn.hidden=[8, 6]"])).init(jax.random.PRNGKey(1), x)
+    dqn_params = dqn.network_of(load_config(None, ["dqn.hidden=[8, 6]"])).init(
+        jax.random.PRNGKey(1), x
+    )
     assert sorted(dqn_params["params"]) == ["Dense_0", "Dense_1", "Dense_2"]
 
 
@@ -264,7 +267,7 @@ def test_a_pqn_policy_exports_with_its_layer_norms(tiny_pqn_run):
     assert len(policy.norms) == 2
     x = np.random.default_rng(5).uniform(0.1, 3.5, (9, policy.obs_size)).astype(np.float32)
     params = rundir.load_params(out / rundir.PARAMS, "ebe", 0)
-    want = network_of(cfg).apply(params, jnp.asarray(x))
+    want = agents.get(cfg.agent).network_of(cfg).apply(params, jnp.asarray(x))
     np.testing.assert_allclose(policy.q_values(x), want, rtol=1e-4, atol=1e-4)
 
 
@@ -286,20 +289,20 @@ def test_a_pqn_policy_exports_with_its_layer_norms(tiny_pqn_run):
         (["pqn.td_lambda=1.5"], "pqn.td_lambda must be in [0, 1]"),
         (["pqn.num_envs=0"], "pqn.num_envs must be at least 1"),
         (
-            ["dqn.agent=dqn", "pqn.rollout=8"],
-            "pqn.rollout is a PQN setting: it needs dqn.agent pqn",
+            ["agent=dqn", "pqn.rollout=8"],
+            "pqn.rollout is a PQN setting: it needs agent pqn",
         ),
-        (["dqn.agent=ppo"], "dqn.agent must be dqn or pqn"),
+        (["agent=ppo"], "agent must be one of dqn, pqn, got 'ppo'"),
     ],
 )
 def test_bad_pqn_input_is_one_line_and_exit_2(argv, message, capsys, tmp_path):
-    assert main(["dqn.agent=pqn", *argv, "--out", str(tmp_path / "run")]) == 2
+    assert main(["agent=pqn", *argv, "--out", str(tmp_path / "run")]) == 2
     err = capsys.readouterr().err.strip()
     assert message in err and "\n" not in err and "Traceback" not in err
     assert not (tmp_path / "run").exists()
 
 
 def test_pqn_takes_the_presets_target_rule_as_its_default():
-    cfg = load_config(None, ["preset=robotis", "dqn.agent=pqn"])  # episode_end: robotis' default
-    assert cfg.dqn.target_update == "episode_end" and cfg.dqn.agent == "pqn"
-    assert load_config("pqn").dqn.agent == "pqn"
+    cfg = load_config(None, ["preset=robotis", "agent=pqn"])  # episode_end: robotis' default
+    assert cfg.dqn.target_update == "episode_end" and cfg.agent == "pqn"
+    assert load_config("pqn").agent == "pqn"

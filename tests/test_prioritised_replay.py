@@ -87,7 +87,7 @@ def test_uniform_replay_carries_no_priorities():
         (["dqn.per_alpha=0.5"], "dqn.per_alpha is a prioritised replay setting"),
         (["dqn.prioritised=true", "dqn.per_beta=1.5"], "dqn.per_beta must be in [0, 1]"),
         (["dqn.prioritised=true", "dqn.per_eps=0"], "dqn.per_eps must be positive"),
-        (["dqn.agent=pqn", "dqn.prioritised=true"], "dqn.prioritised is a replay or target"),
+        (["agent=pqn", "dqn.prioritised=true"], "dqn.prioritised is a replay or target"),
     ],
 )
 def test_bad_prioritised_settings_are_one_line_naming_the_setting(overrides, message):

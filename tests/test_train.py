@@ -13,9 +13,9 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
+from jaxnav.agent.trainer import make_train, run_inputs
 from jaxnav.core import rundir
 from jaxnav.core.config import load_config
-from jaxnav.dqn import make_train, run_inputs
 from jaxnav.env import from_config
 from jaxnav.experiments.evaluation import evaluate_to_dir
 from jaxnav.run import training

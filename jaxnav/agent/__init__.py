@@ -1,2 +1,3 @@
-"""The agent's parts around ``jaxnav/dqn.py``: exploration strategies, the replay
-buffer and the run axis over devices. Imports the environment and below; no files."""
+"""What the agents (``jaxnav/dqn.py``, ``jaxnav/pqn.py``) are made of: the trainer
+contract, the Q-network and TD loss, exploration strategies, the replay buffer and the
+run axis over devices. Imports the environment and below; no files."""

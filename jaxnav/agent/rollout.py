@@ -24,8 +24,8 @@ from jaxnav.agent.exploration import explore_action
 from jaxnav.agent.hyper import Hyper
 from jaxnav.env import EnvParams, EnvState, NavEnv
 
-if TYPE_CHECKING:  # the network is dqn's; only its apply is called here
-    from jaxnav.dqn import QNetwork
+if TYPE_CHECKING:  # only the network's apply is called here
+    from jaxnav.agent.networks import QNetwork
 
 EVAL_SALT = 0x7E57  # folded into a seed's key: test goals differ from training's
 

@@ -18,6 +18,7 @@ from __future__ import annotations
 import dataclasses
 import os
 import re
+import sys
 import typing
 from dataclasses import dataclass
 from pathlib import Path
@@ -25,6 +26,7 @@ from typing import Any
 
 import yaml
 
+from jaxnav.core import agents
 from jaxnav.core import strategies as registry
 from jaxnav.core import sweep as sweeps
 from jaxnav.core.errors import ConfigError
@@ -82,6 +84,11 @@ class Config:
         None,
         "env steps per run (null: only episodes limits the run)",
         rule=(lambda v: v is None or v >= 1, "must be at least 1"),
+    )
+    agent: str = setting(
+        "dqn",
+        "the agent that learns (jaxnav list): dqn (the paper's: replay and a target "
+        "network) or pqn (parallel envs, lambda-returns, LayerNorm; pqn.*)",
     )
     env: EnvConfig = setting(factory=EnvConfig)
     dqn: DQNConfig = setting(factory=DQNConfig)
@@ -159,23 +166,9 @@ class Config:
         return min(self.dqn.buffer_size, self.max_total_steps)
 
     def memory_estimate(self) -> int:
-        """Bytes the runs' replay memories will take, an upper bound within 10% (for
-        24 beams), before anything is allocated: jaxnav.agent.replay keeps per slot
-        a record of an f32 observation of at most n_beams + 4 values and 12 bytes of
-        reward, action and flags, and ring index, a ring of capacity // max_steps + 2 final
-        observations and, with prioritised replay, a sum tree; the networks and the
-        environment are small beside it. PQN keeps no replay: its rollout of
-        num_envs x rollout transitions (observation, next observation, Q-values, a
-        dozen scalars) is the largest array it holds."""
-        obs = 4 * (self.env.n_beams + 4)
-        if self.dqn.agent == "pqn":
-            rows = self.pqn.num_envs * self.pqn.rollout
-            return self.n_runs * rows * (2 * obs + 64)
-        capacity = self.buffer_capacity
-        ring = capacity // self.env.max_steps + 3  # the final-observation ring and tail
-        # prioritised replay's sum tree: f32[2P], P the power of two at or above capacity
-        tree = 8 << max(0, (capacity - 1).bit_length()) if self.dqn.prioritised else 0
-        return self.n_runs * (capacity * (obs + 12) + ring * obs + 12 + tree)  # + 3 counters
+        """Bytes the runs' largest arrays will take, before anything is allocated: the
+        agent's estimate (:func:`dqn_memory`, :func:`pqn_memory`)."""
+        return agents.get(self.agent).memory_estimate(self)
 
     def env_kwargs(self) -> dict[str, Any]:
         """The environment's settings as ``jaxnav.env.make`` keywords (besides the maze
@@ -371,38 +364,54 @@ def _check(cfg: Config) -> Config:
     says = agent_problem(cfg)
     if says:
         raise ConfigError(f"config: {says}")
-    if cfg.dqn.agent == "pqn":
-        return cfg
-    capacity = cfg.buffer_capacity
-    if cfg.dqn.batch_size > capacity:
-        fail(
-            "dqn.batch_size",
-            f"({cfg.dqn.batch_size}) is larger than the replay memory, {capacity} "
-            "transitions (the smaller of dqn.buffer_size and the most steps a run takes)",
-        )
     return cfg
 
 
 def agent_problem(cfg: Config) -> str | None:
-    """What is wrong with a config's settings of the agent it does not train, one line
-    naming the setting, or None: PQN has no replay memory and no target network, so
-    their settings must keep their defaults (the preset's), and the pqn.* settings
-    must keep theirs under DQN; PQN's minibatches split its rollout evenly."""
+    """What is wrong with a config's agent settings, one line naming the setting, or
+    None: the agent must be registered (:mod:`jaxnav.core.agents`), the settings
+    sections it does not read keep their defaults (the preset's), and the agent's own
+    check passes (:func:`dqn_problem`, :func:`pqn_problem`)."""
+    if cfg.agent not in agents.names():
+        return f"agent must be one of {', '.join(agents.names())}, got {cfg.agent!r}"
+    agent = agents.get(cfg.agent)
     defaults = PRESETS[cfg.preset].training()
-    if cfg.dqn.agent == "dqn":
-        for name in (f.name for f in dataclasses.fields(PQNConfig)):
-            key = f"pqn.{name}"
-            if getattr(cfg.pqn, name) != defaults.get(key, SETTINGS[key].default):
-                return f"{key} is a PQN setting: it needs dqn.agent pqn"
-        for name in PRIORITISED_ONLY if not cfg.dqn.prioritised else ():
-            if getattr(cfg.dqn, name) != SETTINGS[f"dqn.{name}"].default:
-                return f"dqn.{name} is a prioritised replay setting: it needs dqn.prioritised true"
-        return None
+    for section in (s for s in agents.AGENT_SECTIONS if s not in agent.reads):
+        for name in (f.name for f in dataclasses.fields(getattr(cfg, section))):
+            key = f"{section}.{name}"
+            if getattr(getattr(cfg, section), name) != defaults.get(key, SETTINGS[key].default):
+                readers = [a for a in agents.names() if section in agents.get(a).reads]
+                return (
+                    f"{key} is a {section.upper()} setting: it needs agent {' or '.join(readers)}"
+                )
+    return agent.settings_problem(cfg)
+
+
+def dqn_problem(cfg: Config) -> str | None:
+    """DQN's settings together: prioritised replay's settings need it on, and a batch
+    fits the replay memory."""
+    for name in PRIORITISED_ONLY if not cfg.dqn.prioritised else ():
+        if getattr(cfg.dqn, name) != SETTINGS[f"dqn.{name}"].default:
+            return f"dqn.{name} is a prioritised replay setting: it needs dqn.prioritised true"
+    capacity = cfg.buffer_capacity
+    if cfg.dqn.batch_size > capacity:
+        return (
+            f"dqn.batch_size ({cfg.dqn.batch_size}) is larger than the replay memory, "
+            f"{capacity} transitions (the smaller of dqn.buffer_size and the most steps a "
+            "run takes)"
+        )
+    return None
+
+
+def pqn_problem(cfg: Config) -> str | None:
+    """PQN has no replay memory and no target network, so their settings keep their
+    defaults (the preset's); its minibatches split its rollout evenly."""
+    defaults = PRESETS[cfg.preset].training()
     for name in REPLAY_ONLY:
         key = f"dqn.{name}"
         if getattr(cfg.dqn, name) != defaults.get(key, SETTINGS[key].default):
             return (
-                f"{key} is a replay or target-network setting, and PQN (dqn.agent pqn) has "
+                f"{key} is a replay or target-network setting, and PQN (agent pqn) has "
                 "neither: leave it at its default"
             )
     p = cfg.pqn
@@ -412,6 +421,27 @@ def agent_problem(cfg: Config) -> str | None:
             f"({p.num_envs * p.rollout} transitions per update)"
         )
     return None
+
+
+def dqn_memory(cfg: Config) -> int:
+    """Bytes DQN's replay memories take, an upper bound within 10% (for 24 beams):
+    jaxnav.agent.replay keeps per slot a record of an f32 observation of at most
+    n_beams + 4 values and 12 bytes of reward, action and flags, and ring index, a ring
+    of capacity // max_steps + 2 final observations and, with prioritised replay, a sum
+    tree; the networks and the environment are small beside it."""
+    obs = 4 * (cfg.env.n_beams + 4)
+    capacity = cfg.buffer_capacity
+    ring = capacity // cfg.env.max_steps + 3  # the final-observation ring and tail
+    # prioritised replay's sum tree: f32[2P], P the power of two at or above capacity
+    tree = 8 << max(0, (capacity - 1).bit_length()) if cfg.dqn.prioritised else 0
+    return cfg.n_runs * (capacity * (obs + 12) + ring * obs + 12 + tree)  # + 3 counters
+
+
+def pqn_memory(cfg: Config) -> int:
+    """Bytes of PQN's rollouts: num_envs x rollout transitions (observation, next
+    observation, Q-values, a dozen scalars) per run, the largest array it holds."""
+    obs = 4 * (cfg.env.n_beams + 4)
+    return cfg.n_runs * cfg.pqn.num_envs * cfg.pqn.rollout * (2 * obs + 64)
 
 
 def _sweep(values: dict[str, Any]) -> tuple[tuple[str, tuple[Any, ...]], ...]:
@@ -447,10 +477,25 @@ def _did_you_mean(name: str) -> str:
     return f" (did you mean {close[0]!r}?)" if close else ""
 
 
+_NOTED: set[str] = set()
+
+
+def _note_once(text: str) -> None:
+    """One line on stderr, once per process (a deprecated key's note)."""
+    if text not in _NOTED:
+        _NOTED.add(text)
+        print(text, file=sys.stderr)
+
+
 def build_config(values: dict[str, Any]) -> Config:
     """A validated Config from flat dotted ``{"dqn.gamma": 0.9, ...}`` values; the
     ``sweep.KEY`` entries are the sweep's values of KEY."""
     values = dict(values)
+    if "dqn.agent" in values:  # the agent's key before agents had their own setting
+        if "agent" in values:
+            raise ConfigError("config: dqn.agent is the old name of agent: set agent alone")
+        values["agent"] = values.pop("dqn.agent")
+        _note_once(f"note: dqn.agent is now agent (read as agent={values['agent']})")
     sweep = _sweep(values)
     preset = values.get("preset", "paper")
     merged: dict[str, Any] = {}

@@ -230,12 +230,6 @@ class EnvConfig:
 
 @dataclass(frozen=True)
 class DQNConfig:
-    agent: str = setting(
-        "dqn",
-        "dqn (the paper's: replay and a target network) or pqn (parallel envs, "
-        "lambda-returns, LayerNorm; pqn.*)",
-        rule=one_of("dqn", "pqn"),
-    )
     gamma: float = setting(PRESETS["paper"].gamma, "discount", rule=UNIT, sweep=True)
     lr: float = setting(0.00025, "learning rate of dqn.optimizer", rule=POSITIVE, sweep=True)
     lr_decay: bool = setting(
@@ -333,7 +327,7 @@ PRIORITISED_ONLY = ("per_alpha", "per_beta", "per_eps")
 
 @dataclass(frozen=True)
 class PQNConfig:
-    """PQN (Gallici et al. 2024), read when dqn.agent is pqn; it shares dqn.gamma, lr,
+    """PQN (Gallici et al. 2024), read when agent is pqn; it shares dqn.gamma, lr,
     hidden, dropout, dueling, loss and optimizer with DQN."""
 
     num_envs: int = setting(16, "environments each run steps in parallel", rule=AT_LEAST_1)

@@ -94,7 +94,7 @@ PRESETS: dict[str, Preset] = {
             "env.progress_scale": 5.0,
             "env.proximity_penalty": 0.2,
             "env.proximity_distance": 0.3,
-            "dqn.agent": "pqn",
+            "agent": "pqn",
             "dqn.lr": 0.001,
             "dqn.optimizer": "radam",
             "dqn.dropout": 0.0,

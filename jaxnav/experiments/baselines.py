@@ -23,10 +23,10 @@ import jax
 import numpy as np
 import yaml
 
+from jaxnav.agent.trainer import run_inputs
 from jaxnav.core import baselines, rundir
 from jaxnav.core.config import Config, load_config, resolve_config_path
 from jaxnav.core.errors import JaxnavError
-from jaxnav.dqn import run_inputs
 from jaxnav.env import EnvParams, NavEnv, from_config
 from jaxnav.experiments.navigation import ShortestPaths, attempt_paths
 from jaxnav.experiments.rollout import Policies, drawn_name, padded_mazes, run_tests

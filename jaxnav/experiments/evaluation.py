@@ -27,12 +27,12 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from jaxnav.core import baselines, rundir
+from jaxnav.agent.trainer import run_inputs
+from jaxnav.core import agents, baselines, rundir
 from jaxnav.core.config import Config, load_config
 from jaxnav.core.errors import JaxnavError, RunError
 from jaxnav.core.settings import family_text
 from jaxnav.core.sweep import with_swept
-from jaxnav.dqn import network_of, run_inputs
 from jaxnav.env import from_config
 from jaxnav.experiments.baselines import in_place_of, planner_problem
 from jaxnav.experiments.navigation import ShortestPaths, failure_points, navigation_counts
@@ -74,7 +74,7 @@ def load_run(run_dir: str | Path) -> LoadedRun:
         reward = "dense" if env.reward == "geodesic" else env.reward
         fixed = {"generator": "", "maze_bank": 0, "progress_path": "straight"}
         env = dataclasses.replace(env, reward=reward, **fixed)
-    network = network_of(cfg, env)
+    network = agents.get(cfg.agent).network_of(cfg, env)
     template = network.init(jax.random.PRNGKey(0), jnp.zeros(env.obs_size))
     dropped = diverged_runs(run_dir)
     all_labels = cfg.run_labels()

@@ -15,6 +15,8 @@ from typing import Any, NamedTuple
 import jax
 import numpy as np
 
+from jaxnav.agent.hyper import Hyper
+from jaxnav.agent.networks import QNetwork
 from jaxnav.agent.rollout import (  # noqa: F401  (re-exported: the tests' records)
     EVAL_SALT,
     EpisodeMazes,
@@ -26,7 +28,6 @@ from jaxnav.agent.rollout import (  # noqa: F401  (re-exported: the tests' recor
 )
 from jaxnav.agent.sharding import RunSharding
 from jaxnav.core.config import Config
-from jaxnav.dqn import Hyper, QNetwork
 from jaxnav.env import EnvParams, NavEnv
 from jaxnav.world.maps import MAX_GOAL_POINTS, Maze, make_maze, pad_maze
 

@@ -29,7 +29,7 @@ from jaxnav.robot.deploy import (
     NORMS_VERSION,
 )
 
-NORM_EPSILON = 1e-6  # flax.linen.LayerNorm's default, as jaxnav.dqn.QNetwork uses it
+NORM_EPSILON = 1e-6  # flax.linen.LayerNorm's default, as jaxnav.agent.networks.QNetwork uses it
 
 
 def export_policy(

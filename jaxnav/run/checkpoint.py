@@ -8,6 +8,7 @@ the rest of the state, in ``checkpoints/last.npz``, says how many segments it co
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import jax
 import numpy as np
@@ -16,7 +17,6 @@ from jaxnav.agent import replay
 from jaxnav.core import rundir
 from jaxnav.core.config import Config
 from jaxnav.core.errors import RunError
-from jaxnav.dqn import TrainState
 
 # The replay buffer's per-slot arrays. A checkpoint stores them incrementally: each
 # chunk's checkpoint writes the slots written in that chunk to a segment file of its
@@ -44,7 +44,7 @@ def _is_buffer_rows(name: str) -> bool:
     return name == _RECORDS
 
 
-def without_rows(ts: TrainState) -> TrainState:
+def without_rows(ts: Any) -> Any:
     """The training state without the replay buffer's per-slot arrays (a state without
     a replay buffer, PQN's, as it is)."""
     if getattr(ts, "buffer", None) is None:
@@ -52,7 +52,7 @@ def without_rows(ts: TrainState) -> TrainState:
     return ts.replace(buffer=ts.buffer.replace(records=None))
 
 
-def rows_at(ts: TrainState, slots: jax.Array) -> dict[str, jax.Array]:
+def rows_at(ts: Any, slots: jax.Array) -> dict[str, jax.Array]:
     """The replay buffer's per-slot arrays at ``slots`` (i32[n]) of every run (none
     without a replay buffer)."""
     if getattr(ts, "buffer", None) is None:
@@ -71,7 +71,7 @@ def chunk_slots(step_before: np.ndarray, step_after: np.ndarray, capacity: int) 
     return (steps % capacity).astype(np.int32)
 
 
-def checkpoint_arrays(state: TrainState, host: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+def checkpoint_arrays(state: Any, host: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
     """Host copies of the training state without its per-slot replay arrays
     (:func:`without_rows`), and the host loop's own counters."""
     arrays = {
@@ -84,9 +84,9 @@ def checkpoint_arrays(state: TrainState, host: dict[str, np.ndarray]) -> dict[st
 def state_from_checkpoint(
     arrays: dict[str, np.ndarray],
     segments: list[dict[str, np.ndarray]],
-    template: TrainState,
+    template: Any,
     path: Path,
-) -> tuple[TrainState, dict[str, np.ndarray]]:
+) -> tuple[Any, dict[str, np.ndarray]]:
     """Inverse of :func:`checkpoint_arrays` and the row segments (each ``slots`` and
     one array per per-slot field), against a template of the right shapes."""
     leaves = []

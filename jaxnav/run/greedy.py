@@ -27,10 +27,10 @@ import numpy as np
 
 from jaxnav.agent.rollout import eval_keys, make_rollout
 from jaxnav.agent.sharding import RunSharding
-from jaxnav.core import rundir, sweep
+from jaxnav.agent.trainer import Trainer
+from jaxnav.core import agents, rundir, sweep
 from jaxnav.core.config import Config
 from jaxnav.core.startup import process_age
-from jaxnav.dqn import Trainer, network_of
 from jaxnav.report.navigation import COLLISION, CUT, SUCCESS, TIMEOUT, run_attempts
 
 # A swept run's eval.csv has one more column per swept key after "strategy", as
@@ -80,7 +80,7 @@ class GreedyEval:
             env = dataclasses.replace(env, new_maze_every=1)
         rollout = make_rollout(
             env,
-            network_of(cfg, trainer.env),
+            agents.get(cfg.agent).network_of(cfg, trainer.env),
             self.n_episodes,
             int(trainer.env_params.max_steps),
             navigation=True,

@@ -1,13 +1,13 @@
 """The host loop around the compiled trainer: chunks, progress, logs, checkpoints.
 
-All seeds of all strategies run as one vmapped program (:func:`jaxnav.dqn.make_trainer`,
-or :func:`jaxnav.pqn.make_trainer` for ``dqn.agent: pqn``), ``run.chunk_steps``
-environment steps per call. After each chunk the host appends
-the new episodes to ``metrics.csv`` and ``explore.csv`` (and ``run.eval_every``'s
-evaluations to ``eval.csv``, :mod:`jaxnav.run.greedy`) and writes a checkpoint
-that records the training state and how long the logs were, so a run killed at any
-moment (even by SIGKILL) resumes from its last chunk (:func:`resume`) and ends with
-exactly the metrics and parameters of an uninterrupted run. The files and their
+All seeds of all strategies run as one vmapped program (the trainer of the config's
+``agent``, :mod:`jaxnav.core.agents`: :func:`jaxnav.dqn.make_trainer` or
+:func:`jaxnav.pqn.make_trainer`), ``run.chunk_steps`` environment steps per call. After
+each chunk the host appends the new episodes to ``metrics.csv`` and ``explore.csv``
+(and ``run.eval_every``'s evaluations to ``eval.csv``, :mod:`jaxnav.run.greedy`) and
+writes a checkpoint that records the training state and how long the logs were, so a
+run killed at any moment (even by SIGKILL) resumes from its last chunk (:func:`resume`)
+and ends with exactly the metrics and parameters of an uninterrupted run. The files and their
 checks are :mod:`jaxnav.core.rundir`'s.
 
 A finished run removes its checkpoints (unless asked to keep them): nothing reads
@@ -32,14 +32,13 @@ from typing import Any
 import jax
 import numpy as np
 
-from jaxnav import pqn
 from jaxnav.agent import replay
 from jaxnav.agent.sharding import RunSharding, is_writer
-from jaxnav.core import rundir, startup, sweep
+from jaxnav.agent.trainer import Trainer, run_inputs, run_limits, still_training
+from jaxnav.core import agents, rundir, startup, sweep
 from jaxnav.core.config import Config, dump_config, load_config
 from jaxnav.core.errors import ConfigError, RunError
 from jaxnav.core.startup import process_age
-from jaxnav.dqn import Trainer, TrainState, make_trainer, run_inputs, run_limits, still_training
 from jaxnav.report.navigation import training_outcomes
 from jaxnav.run import tblog
 from jaxnav.run.checkpoint import (
@@ -122,10 +121,10 @@ class Run:
 
     # -- state ---------------------------------------------------------------
 
-    def fresh_state(self) -> TrainState:
+    def fresh_state(self) -> Any:
         return self.init(*self.shard.put(tuple(run_inputs(self.cfg))))
 
-    def restored_state(self) -> TrainState:
+    def restored_state(self) -> Any:
         """The last checkpoint's state, the logs cut back to what it covers."""
         cfg = self.cfg
         template = jax.eval_shape(jax.vmap(self.trainer.init), *run_inputs(cfg))
@@ -157,13 +156,13 @@ class Run:
             self._remember((sweep.row_arm(row), int(row["seed"])), row)
         return self.shard.put(ts)
 
-    def active(self, ts: TrainState) -> np.ndarray:
+    def active(self, ts: Any) -> np.ndarray:
         """Which real runs still train (host side, the trainer's own rule)."""
         episode, step, diverged_at = self.shard.get((ts.episode, ts.step, ts.diverged_at))
         running = still_training(episode, step, *run_limits(self.cfg))
         return np.asarray(running & (diverged_at < 0))
 
-    def steps_needed(self, ts: TrainState) -> int:
+    def steps_needed(self, ts: Any) -> int:
         """The most env steps any active run can still take, at most a chunk: a run
         stops within its step limit and within max_steps per episode left; whole
         steps of the trainer (PQN: whole updates)."""
@@ -178,7 +177,7 @@ class Run:
         n = int(min(trainer.chunk_length, -(-left[active].max() // size) * size))
         return n if self.greedy is None else self.greedy.chunk_end(int(step.max()), n)
 
-    def check_divergence(self, ts: TrainState) -> list[str]:
+    def check_divergence(self, ts: Any) -> list[str]:
         """Runs that diverged in the last chunk, each described in words."""
         diverged_at = self.shard.get(ts.diverged_at)
         new = []
@@ -197,7 +196,7 @@ class Run:
 
     # -- per chunk -----------------------------------------------------------
 
-    def new_episodes(self, ts: TrainState) -> list[tuple]:
+    def new_episodes(self, ts: Any) -> list[tuple]:
         """metrics.csv rows of the episodes finished in the last chunk."""
         m, episodes = self.shard.get((ts.metrics, ts.episode))
         slots = self.trainer.metric_slots
@@ -238,7 +237,7 @@ class Run:
 
     def save(
         self,
-        ts: TrainState,
+        ts: Any,
         metric_rows: list,
         explore_rows: list,
         slots: np.ndarray,
@@ -323,7 +322,7 @@ class Run:
 
     # -- loop ----------------------------------------------------------------
 
-    def _progress_bar(self, ts: TrainState):
+    def _progress_bar(self, ts: Any):
         from tqdm import tqdm
 
         cfg = self.cfg
@@ -341,13 +340,13 @@ class Run:
         )
         return bar
 
-    def _done(self, ts: TrainState) -> int:
+    def _done(self, ts: Any) -> int:
         """Progress: episodes (or steps) finished over all runs."""
         if self.cfg.episodes is not None:
             return int(np.minimum(self.shard.get(ts.episode), self.cfg.episodes).sum())
         return int(self.shard.get(ts.step).sum())
 
-    def _tensorboard(self, ts: TrainState) -> tblog.TensorBoardLog | None:
+    def _tensorboard(self, ts: Any) -> tblog.TensorBoardLog | None:
         """The TensorBoard log when asked for; a resumed run's episode curves are
         rewritten from metrics.csv and its step curves purged past the checkpoint."""
         if not (self.cfg.run.tensorboard and self.out is not None and is_writer()):
@@ -361,7 +360,7 @@ class Run:
             tb.add_episodes([tuple(r[c] for c in columns) for r in self.metrics.read()])
         return tb
 
-    def compile_chunk(self, ts: TrainState):
+    def compile_chunk(self, ts: Any):
         """The chunk program, compiled before its first call (loaded from JAX's
         persistent cache when it is there), timed: ``compile_s``, and ``startup_s``,
         the process's age when training can begin (imports, set-up and compilation)."""
@@ -371,7 +370,7 @@ class Run:
         self.startup_s = process_age()
         return compiled
 
-    def train(self, ts: TrainState) -> TrainState:
+    def train(self, ts: Any) -> Any:
         bar = self._progress_bar(ts)
         tb = self._tensorboard(ts)
         chunk = self.compile_chunk(ts) if self.active(ts).any() else None
@@ -422,7 +421,7 @@ class Run:
                 tb.close()
         return ts
 
-    def finish(self, ts: TrainState) -> dict[str, Any]:
+    def finish(self, ts: Any) -> dict[str, Any]:
         """Write params.npz and summary.json; return the summary."""
         steps = int(self.shard.get(ts.step).sum())
         summary: dict[str, Any] = {
@@ -465,13 +464,13 @@ class Run:
 
 
 def trainer_of(cfg: Config) -> Trainer:
-    """The trainer of a config's agent (``dqn.agent``): DQN's or PQN's."""
-    return pqn.make_trainer(cfg) if cfg.dqn.agent == "pqn" else make_trainer(cfg)
+    """The trainer of a config's agent (``agent``, :mod:`jaxnav.core.agents`)."""
+    return agents.get(cfg.agent).make_trainer(cfg)
 
 
 def has_replay(cfg: Config) -> bool:
     """Whether a config's agent keeps a replay memory (DQN does, PQN does not)."""
-    return cfg.dqn.agent != "pqn"
+    return agents.get(cfg.agent).replay
 
 
 def last50(rows: list[dict[str, str]], arms) -> dict[str, dict[str, float]]:

@@ -27,14 +27,23 @@ from __future__ import annotations
 
 import functools
 from collections.abc import Callable
-from typing import TYPE_CHECKING, NamedTuple
+from typing import NamedTuple, Protocol
 
 import chex
 import jax
 import jax.numpy as jnp
 
-if TYPE_CHECKING:  # annotations only: the maze module builds on this one's neighbours
-    from jaxnav.world.maps import Maze
+
+class Surfaces(Protocol):
+    """What the maze-level functions read of a maze (``jaxnav.world.maps.Maze`` has it):
+    its wall segments f32[S, 4] and cylinders f32[C, 3] (x, y, r), each with a mask of
+    the real rows (bool[S], bool[C]); padding rows are ignored."""
+
+    segments: chex.Array
+    segment_mask: chex.Array
+    circles: chex.Array
+    circle_mask: chex.Array
+
 
 _EPS = 1e-9
 
@@ -138,7 +147,7 @@ def ray_circle(ox, oy, dx, dy, cx, cy, r) -> chex.Array:
     return jnp.where((disc >= 0.0) & (tc >= 0.0), tc, jnp.inf)
 
 
-def ray_distances(maze: Maze, origin: chex.Array, angles: chex.Array) -> chex.Array:
+def ray_distances(maze: Surfaces, origin: chex.Array, angles: chex.Array) -> chex.Array:
     """Exact distance along each ray to the first wall or obstacle (inf if none).
 
     Args:
@@ -151,7 +160,7 @@ def ray_distances(maze: Maze, origin: chex.Array, angles: chex.Array) -> chex.Ar
     return ray_distances_dir(maze, origin, jnp.stack([jnp.cos(angles), jnp.sin(angles)], axis=-1))
 
 
-def ray_distances_dir(maze: Maze, origin: chex.Array, dirs: chex.Array) -> chex.Array:
+def ray_distances_dir(maze: Surfaces, origin: chex.Array, dirs: chex.Array) -> chex.Array:
     """:func:`ray_distances` with the rays given as unit vectors f32[B, 2]."""
     ox, oy = origin[0], origin[1]
     dx, dy = dirs[:, 0], dirs[:, 1]  # [B]
@@ -299,7 +308,7 @@ def arc_circle_clearance(arc: Arc, qx, qy, r) -> chex.Array:
 
 
 def path_clearance(
-    maze: Maze, pos: chex.Array, yaw: chex.Array, omega: chex.Array, v: float, dt: float
+    maze: Surfaces, pos: chex.Array, yaw: chex.Array, omega: chex.Array, v: float, dt: float
 ) -> chex.Array:
     """Smallest distance f32[] from the robot centre's path over one step to any surface.
 
