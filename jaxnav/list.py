@@ -12,7 +12,7 @@ import sys
 from collections.abc import Sequence
 
 from jaxnav.core import agents, cli, strategies
-from jaxnav.core.config import SETTINGS, builtin_configs
+from jaxnav.core.config import SETTINGS, builtin_configs, shipped_studies
 from jaxnav.world.maps import BUILTIN_MAZES
 
 
@@ -35,6 +35,11 @@ def catalog() -> str:
     configs = builtin_configs()
     width = max(map(len, configs))
     lines += [f"  {name:<{width}}  {what}" for name, what in configs.items()]
+    studies = shipped_studies()
+    if studies:
+        lines += ["", "shipped studies (jaxnav study NAME [key=value ...] --out DIR):"]
+        width = max(map(len, studies))
+        lines += [f"  {name:<{width}}  {title}" for name, title in studies.items()]
     lines += ["", "agents (agent=...):"]
     width = max(map(len, agents.names()))
     lines += [f"  {n:<{width}}  {agents.get(n).about}" for n in agents.names()]

@@ -21,7 +21,6 @@ from pathlib import Path
 
 from jaxnav.core import cli
 from jaxnav.core.config import load_config, resolve_config_path
-from jaxnav.core.errors import JaxnavError
 from jaxnav.experiments import ladder
 from jaxnav.experiments.study import doc_files, study
 from jaxnav.report import stats
@@ -69,9 +68,7 @@ def main(argv: list[str] | None = None) -> int:
             )
 
     def ladder_study(path: str, items: list[str]) -> None:
-        if items:
-            raise JaxnavError("a ladder study takes no key=value overrides: edit its file")
-        spec = ladder.load_study(path)
+        spec = ladder.load_study(path, items)
         page = Path(args.doc) if args.doc else Path(args.out) / "study.md"
         if args.doc:
             cli.check_output(page, args.overwrite)
@@ -80,7 +77,8 @@ def main(argv: list[str] | None = None) -> int:
         written = ladder.publish(spec, out, page)
         print(f"study: {written[0]} (data in {written[-1]})")
 
-    again = f"interrupted; continue with --resume --out {args.out}"
+    items = shlex.join(args.items)
+    again = f"interrupted; continue with: jaxnav study {items} --resume --out {args.out}"
     return cli.run(p.prog, work, interrupted=again)
 
 

@@ -97,6 +97,54 @@ def test_the_cli_refuses_a_broken_study_with_exit_2(tmp_path):
     assert not (tmp_path / "o").exists()
 
 
+def test_key_value_overrides_reach_the_cells_and_the_studys_text(tmp_path):
+    path = tmp_path / "s.yaml"
+    path.write_text(STUDY)
+    items = ["seeds=3", "settings.env.max_steps=40", "agents.dqn.settings.dqn.lr=0.001"]
+    study = ladder.load_study(str(path), items)
+    assert study.seeds == 3
+    for rung, agent in study.cells():
+        cfg = ladder.cell_config(study, rung, agent)
+        assert cfg.seeds == 3 and cfg.env.max_steps == 40 and cfg.dqn.lr == 0.001
+    assert study.text.startswith(f"# s.yaml with {' '.join(items)}")
+    assert ladder.parse_study(study.text, "again") == study  # the folder's copy is the study
+    assert ladder.load_study(str(path)).seeds == 2  # the file itself is unchanged
+
+
+@pytest.mark.parametrize(
+    "item, message",
+    [
+        ("seedz=3", "unknown key 'seedz'"),
+        ("agents.ppo.settings.dqn.lr=0.1", "agents.ppo is not in the study"),
+        ("title.x=1", "title is not a mapping"),
+        ("seeds=0", "seeds must be at least 1"),
+        ("settings.env.max_stepz=40", "unknown key 'env.max_stepz'"),
+    ],
+)
+def test_a_wrong_override_is_one_line_naming_it(tmp_path, item, message):
+    path = tmp_path / "s.yaml"
+    path.write_text(STUDY)
+    with pytest.raises(ConfigError) as e:
+        ladder.load_study(str(path), [item])
+    assert message in str(e.value) and "\n" not in str(e.value)
+
+
+def test_the_shipped_studies_are_package_data_and_listed():
+    import tomllib
+
+    from jaxnav.core.config import STUDY_DIR, shipped_studies
+    from jaxnav.list import catalog
+
+    root = Path(__file__).resolve().parent.parent
+    data = tomllib.loads((root / "pyproject.toml").read_text())
+    patterns = data["tool"]["setuptools"]["package-data"]["jaxnav"]
+    for path in STUDY_DIR.glob("*.yaml"):
+        rel = path.relative_to(STUDY_DIR.parent.parent)
+        assert any(rel.match(p) for p in patterns), rel
+    assert "when_ebe_helps" in shipped_studies()
+    assert "  when_ebe_helps  " in catalog()
+
+
 def _synthetic(folder: Path, n: int = 16, oracle: bool = True) -> None:
     """A data folder: on rung a, EBE reaches every goal and the others half; on rung b
     all three draw from the same distribution; the oracle reaches every goal on a and

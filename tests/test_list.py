@@ -79,6 +79,7 @@ def test_a_wheel_runs_the_quick_start_from_an_empty_folder(tmp_path):
     (wheel,) = wheels.glob("jaxnav-*.whl")
     subprocess.run([*pip, "install", "--no-deps", "--target", site, wheel], check=True)
     assert (site / "jaxnav" / "configs" / "smoke.yaml").is_file()
+    assert (site / "jaxnav" / "configs" / "studies" / "when_ebe_helps.yaml").is_file()
     env = {**os.environ, "PYTHONPATH": str(site)}
     for config in ("smoke", "configs/smoke.yaml"):
         out = empty / config.replace("/", "_")

@@ -568,6 +568,19 @@ def builtin_configs() -> dict[str, str]:
     return out
 
 
+def shipped_studies() -> dict[str, str]:
+    """Each shipped study file's name and its title (``configs/studies/NAME.yaml``)."""
+    out = {}
+    for path in sorted(STUDY_DIR.glob("*.yaml")):
+        try:
+            doc = yaml.safe_load(path.read_text())
+        except yaml.YAMLError:
+            doc = None
+        if isinstance(doc, dict):
+            out[path.stem] = str(doc.get("title", "")).strip()
+    return out
+
+
 def load_config(path: str | None, overrides: list[str] = ()) -> Config:
     """Config from a YAML file (or the defaults if None) plus ``key=value`` overrides."""
     values: dict[str, Any] = {}

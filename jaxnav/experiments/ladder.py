@@ -25,6 +25,7 @@ import json
 import shutil
 import sys
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -36,7 +37,7 @@ from jaxnav.core import baselines
 from jaxnav.core.config import CONFIG_DIR, Config, build_config, config_to_dict
 from jaxnav.core.errors import ConfigError, JaxnavError
 from jaxnav.core.rundir import METRICS, CsvLog, atomic_write_text, csv_text
-from jaxnav.core.values import flatten
+from jaxnav.core.values import flatten, parse_override
 from jaxnav.experiments.evaluation import drawn_name, evaluate_to_dir
 from jaxnav.experiments.reproduce import machine_info, train_stage
 from jaxnav.report import stats
@@ -218,14 +219,50 @@ def parse_study(text: str, where: str) -> Study:
     return study
 
 
-def load_study(path: str) -> Study:
+def load_study(path: str, overrides: Sequence[str] = ()) -> Study:
+    """The study of a file, with ``key=value`` overrides of its keys (dotted into its
+    mappings: ``seeds=4``, ``settings.env.max_steps=100``,
+    ``agents.pqn.settings.pqn.num_envs=64``). With overrides the study's text, which
+    its folder keeps and ``--resume`` compares, is the overridden document."""
     try:
         text = Path(path).read_text()
     except FileNotFoundError:
         raise ConfigError(f"study: no such file {path}") from None
     except (IsADirectoryError, UnicodeDecodeError):
         raise ConfigError(f"study: {path} is not a YAML text file") from None
-    return parse_study(text, f"study {path}")
+    where = f"study {path}"
+    if overrides:
+        parse_study(text, where)  # the file's own problems first, named as its own
+        doc = yaml.safe_load(text)
+        for item in overrides:
+            key, value = parse_override(item)
+            _set_dotted(doc, key, value, where)
+        head = f"# {Path(path).name} with {' '.join(overrides)}\n"
+        text = head + yaml.safe_dump(doc, sort_keys=False, allow_unicode=True)
+    return parse_study(text, where)
+
+
+# Mappings of settings under which an override may add a key the file does not have.
+_OPEN = ("settings", "larger")
+
+
+def _set_dotted(doc: dict, key: str, value: Any, where: str) -> None:
+    """Set ``doc``'s entry at the dotted ``key``; a top-level key must be a study key, a
+    named agent or rung must exist, and only settings mappings take new mappings."""
+    parts = key.split(".")
+    if parts[0] not in STUDY_KEYS:
+        raise ConfigError(f"{where}: unknown key {parts[0]!r} (known: {', '.join(STUDY_KEYS)})")
+    node, open_ = doc, False
+    for i, part in enumerate(parts[:-1]):
+        open_ = open_ or part in _OPEN
+        if part not in node:
+            if not open_:
+                raise ConfigError(f"{where}: {'.'.join(parts[: i + 1])} is not in the study")
+            node[part] = {}
+        node = node[part]
+        if not isinstance(node, dict):
+            raise ConfigError(f"{where}: {'.'.join(parts[: i + 1])} is not a mapping")
+    node[parts[-1]] = value  # a leaf's name and value are checked with the whole study
 
 
 def _base_values(config: str) -> dict[str, Any]:
