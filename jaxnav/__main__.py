@@ -27,6 +27,7 @@ COMMANDS: dict[str, tuple[str, bool]] = {
     "study": ("a config's sweep trained, tested and written up with computed verdicts", True),
     "sim2sim": ("a run's policies driving a TurtleBot3 burger in MuJoCo physics", True),
     "list": ("the built-in mazes, the shipped configs and every setting", False),
+    "publish": ("rewrite the docs' parts computed from committed data", False),
 }
 
 

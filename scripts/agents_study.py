@@ -3,7 +3,7 @@ and PQN, at equal environment steps on square4; writes docs/agents/ (each agent'
 results_*.csv, summary.csv, curves.png) and the tables of docs/agents.md between its markers.
 
     python scripts/agents_study.py [--out runs/agents] [--seeds 16] [--steps 65536]
-    python scripts/agents_study.py --publish-only      # the page from the committed data
+    python scripts/agents_study.py --publish-only      # = jaxnav publish agents_study
     python scripts/agents_study.py --baselines-only    # the oracle's and DWA's rows only
 
 Every agent trains ``--seeds`` seeds of both strategies for ``--steps`` env steps per
@@ -28,11 +28,8 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+from jaxnav.report import publish as report_publish  # noqa: E402
 from jaxnav.report import stats  # noqa: E402
-from jaxnav.report.claims import verdict  # noqa: E402
-from jaxnav.report.markdown import interval, markdown_table  # noqa: E402
-from jaxnav.report.navigation import seed_metrics, solved  # noqa: E402
-from jaxnav.report.results import read_results  # noqa: E402
 
 AGENTS = {
     "DQN (the paper's)": ("smoke", []),
@@ -40,8 +37,6 @@ AGENTS = {
     "PQN": ("pqn", []),
 }
 DOCS = ROOT / "docs" / "agents"
-PAGE = ROOT / "docs" / "agents.md"
-BEGIN, END = "<!-- agents_study: begin -->", "<!-- agents_study: end -->"
 
 
 def slug(agent: str) -> str:
@@ -151,95 +146,9 @@ def _curves_figure(curves: dict[str, list[dict]], path: Path, window: int = 20) 
     plt.close(fig)
 
 
-def tables() -> str:
-    """The page's tables from docs/agents/results_*.csv, baselines_*.csv and summary.csv."""
-    with open(DOCS / "summary.csv") as f:
-        summary = {r["agent"]: r for r in csv.DictReader(f)}
-    refs = {}
-    for name in ("oracle", "dwa"):
-        res = read_results((DOCS / f"baselines_{name}.csv").read_text())
-        seeds = sorted({k[2] for k in res})
-        refs[name] = _scores(res, name, seeds, "success")
-    oracle = float(np.mean(refs["oracle"]))
-    rows, n_seeds = [], 0
-    for agent in AGENTS:
-        res = read_results((DOCS / f"results_{slug(agent)}.csv").read_text())
-        seeds = sorted({k[2] for k in res})
-        n_seeds = len(seeds)
-        cells = [agent]
-        for measure in ("return", "success"):
-            ebe, eps = (_scores(res, s, seeds, measure) for s in ("ebe", "epsilon_greedy"))
-            p = stats.probability_of_improvement_ci(ebe, eps)
-            if measure == "return":
-                cells += [interval(stats.mean_ci(ebe), 0), interval(stats.mean_ci(eps), 0)]
-            else:
-                cells += [interval(stats.mean_ci(ebe), 2), interval(stats.mean_ci(eps), 2)]
-            cells += [interval(p, 2), _verdict(p, len(seeds))]
-        cells.append(
-            " / ".join(
-                "yes" if solved(float(np.mean(_scores(res, s, seeds, "success"))), oracle) else "no"
-                for s in ("ebe", "epsilon_greedy")
-            )
-        )
-        s = summary[agent]
-        cells.append(f"{float(s['steps_per_s']):,.0f}")
-        rows.append(cells)
-    head = [
-        "agent",
-        "EBE return",
-        "eps return",
-        "P(EBE > eps), return",
-        "verdict",
-        "EBE success",
-        "eps success",
-        "P(EBE > eps), success",
-        "verdict",
-        "solved (EBE / eps)",
-        "train transitions/s",
-    ]
-    ref_rows = [
-        [label, interval(stats.mean_ci(refs[name]), 2)]
-        for name, label in (("oracle", "oracle"), ("dwa", "DWA"))
-    ]
-    lines = [
-        f"{n_seeds} seeds per strategy and agent; greedy test, 10 episodes per policy on "
-        "square4; each cell the mean over seeds [95% bootstrap CI]. Success is the share "
-        "of the decided goal attempts that reach the goal (an attempt cut off by an "
-        "episode's end is left out: [navigation metrics](reproducing.md#navigation-metrics)). "
-        "A strategy *solves* square4 when its mean success is within 0.02 of the oracle's "
-        "on the same test. Transitions/s is the trainer's steady state over all seeds of "
-        "both strategies (summary.json's steps_per_s), on the machine that ran the study.",
-        "",
-        *markdown_table(head, rows),
-        "",
-        "The reference drivers through the same test (the same seeds' test keys, square4, "
-        "its 200-step episodes), success with its 95% interval over seeds:",
-        "",
-        *markdown_table(["driver", "success"], ref_rows),
-    ]
-    return "\n".join(lines)
-
-
-def _scores(res, strategy: str, seeds, measure: str) -> np.ndarray:
-    if measure == "return":
-        return np.asarray([res[("square4", strategy, k)]["return"].mean() for k in seeds])
-    return np.asarray([seed_metrics(res[("square4", strategy, k)])["success"] for k in seeds])
-
-
-def _verdict(p: stats.Interval, n_seeds: int) -> str:
-    if not stats.enough_seeds(n_seeds):
-        return stats.TOO_FEW_SEEDS
-    return {"supported": "EBE better", "contradicted": "EBE worse"}.get(
-        verdict(p), "no detectable difference"
-    )
-
-
 def publish() -> None:
-    page = PAGE.read_text()
-    head, rest = page.split(BEGIN, 1)
-    _, tail = rest.split(END, 1)
-    PAGE.write_text(f"{head}{BEGIN}\n{tables()}\n{END}{tail}")
-    print(f"wrote {PAGE.relative_to(ROOT)}")
+    for page in report_publish.publish(ROOT, ("agents_study",)):
+        print(f"wrote {page}")
 
 
 def main(argv=None) -> int:

@@ -26,15 +26,9 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from jaxnav.core.config import load_config  # noqa: E402
-from jaxnav.core.rundir import atomic_write_text, csv_text  # noqa: E402
-from jaxnav.report.driving_page import (  # noqa: E402
-    BEGIN,
-    END,
-    RUN_COLUMNS,
-    RUNS,
-    driving_markdown,
-    readme_block,
-)
+from jaxnav.core.rundir import csv_text  # noqa: E402
+from jaxnav.report import publish as report_publish  # noqa: E402
+from jaxnav.report.driving_page import RUN_COLUMNS, RUNS  # noqa: E402
 
 CONFIGS = (
     "drive_square4",
@@ -45,8 +39,6 @@ CONFIGS = (
     "drive_grid4",
 )
 DOCS = ROOT / "docs" / "driving"
-PAGE = ROOT / "docs" / "driving.md"
-README = ROOT / "README.md"
 
 
 def jaxnav(*args: str, env: dict | None = None) -> float:
@@ -99,13 +91,8 @@ def run_config(name: str, out: Path) -> dict:
 
 
 def publish() -> None:
-    meta = json.loads((DOCS / "run.json").read_text())
-    atomic_write_text(PAGE, driving_markdown(DOCS, meta["command"], meta["machine"]))
-    text = README.read_text()
-    head, rest = text.split(BEGIN, 1)
-    _, tail = rest.split(END, 1)
-    README.write_text(f"{head}{BEGIN}\n{readme_block(DOCS)}\n{END}{tail}")
-    print(f"wrote {PAGE.relative_to(ROOT)} and the README's results")
+    for page in report_publish.publish(ROOT, ("driving-page", "driving")):
+        print(f"wrote {page}")
 
 
 def main(argv=None) -> int:

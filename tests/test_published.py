@@ -1,85 +1,65 @@
 """The committed pages built from committed data say what their data say: rebuilding
-their generated parts from docs/ gives the same text."""
+their generated parts from docs/ gives the same text (jaxnav.report.publish lists
+them; ``jaxnav publish`` writes them)."""
 
 from __future__ import annotations
 
-import importlib.util
 from pathlib import Path
 
 import pytest
 
+from jaxnav.core.errors import JaxnavError
+from jaxnav.publish import main as publish_main
+from jaxnav.report import publish
+
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def _script(name: str):
-    spec = importlib.util.spec_from_file_location(name, ROOT / "scripts" / f"{name}.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+def _marked(item: publish.Published):
+    return pytest.param(item, id=item.name, marks=[pytest.mark.slow] if item.slow else [])
 
 
-def _between(text: str, begin: str, end: str) -> str:
-    return text.split(begin, 1)[1].split(end, 1)[0]
+@pytest.mark.parametrize("item", [_marked(p) for p in publish.PUBLISHED])
+def test_each_published_part_is_its_data_byte_for_byte(item):
+    rendered = item.render(ROOT)
+    for page in item.pages:
+        text = (ROOT / page).read_text()
+        if item.block:
+            assert publish.between(text, item.name).strip() == rendered.strip(), page
+        else:
+            assert text == rendered, page
 
 
-def test_the_worlds_page_holds_the_grid4_runs_greedy_tables():
-    mod = _script("publish_worlds_run")
-    page = mod.PAGE.read_text()
-    assert (
-        _between(page, mod.BEGIN, mod.END).strip()
-        == mod.greedy_sections(mod.TABLES.read_text()).strip()
-    )
-
-
-def test_the_agents_page_holds_the_tables_of_its_committed_results():
-    mod = _script("agents_study")
-    page = mod.PAGE.read_text()
-    assert _between(page, mod.BEGIN, mod.END).strip() == mod.tables().strip()
-
-
-@pytest.mark.slow  # bootstrap intervals of every committed cell: tens of seconds
-def test_the_ladder_study_page_is_its_data_byte_for_byte():
+@pytest.mark.slow  # the ladder page's bootstrap intervals
+def test_the_ladder_pages_figures_are_beside_it():
     from jaxnav.report import ladder
 
-    page = ROOT / "docs" / "studies" / "when-ebe-helps.md"
-    data = page.parent / page.stem
-    assert page.read_text() == ladder.ladder_markdown(data, page.stem)
+    page = ROOT / f"{publish.LADDER}.md"
     for name in ladder.FIGURES[:2]:
         assert (page.parent / f"{page.stem}-{name}").is_file()
 
 
-@pytest.mark.slow  # bootstrap intervals of every committed cell: tens of seconds
-def test_the_readme_sums_up_the_ladder_study_in_its_generated_sentence():
-    from jaxnav.report import ladder
-
-    mod = _script("publish_ladder")
-    sentence = ladder.summary_sentence(ladder.Data(mod.DATA))
-    for page in mod.PAGES:
-        assert _between(page.read_text(), mod.BEGIN, mod.END).strip() == sentence
-
-
-@pytest.mark.slow  # bootstrap intervals of every committed cell: tens of seconds
-def test_the_baselines_page_is_its_data_byte_for_byte():
-    import json
-
-    from jaxnav.report.baselines_page import baselines_markdown
-
-    folder = ROOT / "docs" / "baselines"
-    meta = json.loads((folder / "notes.json").read_text())
-    text = (folder / "baselines.csv").read_text()
-    page = baselines_markdown(text, meta["command"], meta["machine"], meta["notes"])
-    assert (ROOT / "docs" / "baselines.md").read_text() == page
+def test_publish_rewrites_a_stale_block_and_check_finds_it(tmp_path, capsys):
+    (tmp_path / "docs" / "worlds" / "grid4").mkdir(parents=True)
+    src = ROOT / "docs" / "worlds" / "grid4" / "tables.md"
+    (tmp_path / "docs" / "worlds" / "grid4" / "tables.md").write_text(src.read_text())
+    page = tmp_path / "docs" / "worlds.md"
+    page.write_text("# Worlds\n\n<!-- worlds_run: begin -->\nold\n<!-- worlds_run: end -->\ntail\n")
+    root = ["--root", str(tmp_path)]
+    assert publish_main(["worlds_run", "--check", *root]) == 1
+    assert "docs/worlds.md (worlds_run)" in capsys.readouterr().out
+    assert publish_main(["worlds_run", *root]) == 0
+    text = page.read_text()
+    assert text.startswith("# Worlds\n\n<!-- worlds_run: begin -->\n#### Navigation")
+    assert text.endswith("<!-- worlds_run: end -->\ntail\n")
+    assert publish_main(["worlds_run", "--check", *root]) == 0
+    assert publish.publish(tmp_path, ("worlds_run",)) == []  # nothing left to write
 
 
-@pytest.mark.slow  # bootstrap intervals of every committed cell: tens of seconds
-def test_the_driving_page_and_the_readmes_results_are_their_data():
-    import json
-
-    from jaxnav.report.driving_page import BEGIN, END, driving_markdown, readme_block
-
-    folder = ROOT / "docs" / "driving"
-    meta = json.loads((folder / "run.json").read_text())
-    page = driving_markdown(folder, meta["command"], meta["machine"])
-    assert (ROOT / "docs" / "driving.md").read_text() == page
-    readme = (ROOT / "README.md").read_text()
-    assert _between(readme, BEGIN, END).strip() == readme_block(folder).strip()
+def test_publish_names_what_is_wrong_in_one_line(tmp_path, capsys):
+    assert publish_main(["nosuch", "--root", str(ROOT)]) == 2
+    assert "no published part 'nosuch'" in capsys.readouterr().err
+    assert publish_main(["--root", str(tmp_path)]) == 2
+    assert "has no docs/ folder" in capsys.readouterr().err
+    with pytest.raises(JaxnavError, match="no worlds_run markers"):
+        publish.with_block("no markers here", "worlds_run", "x")

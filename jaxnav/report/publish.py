@@ -1,0 +1,182 @@
+"""Every part of the docs written from committed data, and the one function that writes
+them (``jaxnav publish``).
+
+A published part is either a whole page or a block between ``<!-- NAME: begin -->``
+and ``<!-- NAME: end -->`` markers in one or more pages; its text is a pure function of
+the data under ``docs/`` (no JAX, no training). :data:`PUBLISHED` lists them all;
+``jaxnav publish`` rewrites them after a study or a campaign has committed new data,
+and ``tests/test_published.py`` checks each one against its data byte for byte.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+from jaxnav.core.errors import JaxnavError
+from jaxnav.core.rundir import atomic_write_text
+
+
+@dataclass(frozen=True)
+class Published:
+    name: str  # the block's marker name, or the page's
+    pages: tuple[str, ...]  # paths from the repository's root
+    render: Callable[[Path], str]  # (root) -> the text
+    block: bool = True  # between the markers; False: the whole page
+    slow: bool = False  # bootstrap intervals over many cells: tens of seconds
+
+    def markers(self) -> tuple[str, str]:
+        return f"<!-- {self.name}: begin -->", f"<!-- {self.name}: end -->"
+
+
+def between(text: str, name: str) -> str:
+    """The text of ``name``'s block in ``text`` (a one-line JaxnavError if it has none)."""
+    begin, end = f"<!-- {name}: begin -->", f"<!-- {name}: end -->"
+    if begin not in text or end not in text.split(begin, 1)[1]:
+        raise JaxnavError(f"publish: no {name} markers ({begin} ... {end})")
+    return text.split(begin, 1)[1].split(end, 1)[0]
+
+
+def with_block(text: str, name: str, block: str) -> str:
+    """``text`` with ``name``'s block replaced by ``block`` (stripped, on its own lines)."""
+    between(text, name)  # the markers are there
+    begin, end = f"<!-- {name}: begin -->", f"<!-- {name}: end -->"
+    head, rest = text.split(begin, 1)
+    _, tail = rest.split(end, 1)
+    return f"{head}{begin}\n{block.strip()}\n{end}{tail}"
+
+
+def published_text(item: Published, root: Path, page: str, rendered: str | None = None) -> str:
+    """What ``page`` should hold for ``item`` (``rendered``: its text, if computed)."""
+    text = item.render(root) if rendered is None else rendered
+    if not item.block:
+        return text
+    return with_block((root / page).read_text(), item.name, text)
+
+
+def stale(root: Path, names: tuple[str, ...] = ()) -> list[str]:
+    """The pages (``page (name)``) whose published parts differ from their data."""
+    out = []
+    for item in select(names):
+        rendered = item.render(root)
+        for page in item.pages:
+            if (root / page).read_text() != published_text(item, root, page, rendered):
+                out.append(f"{page} ({item.name})")
+    return out
+
+
+def publish(root: Path, names: tuple[str, ...] = ()) -> list[str]:
+    """Rewrite the published parts (all, or those named) from their data; the pages
+    that changed."""
+    changed = []
+    for item in select(names):
+        rendered = item.render(root)
+        for page in item.pages:
+            new = published_text(item, root, page, rendered)
+            if not (root / page).is_file() or (root / page).read_text() != new:
+                atomic_write_text(root / page, new)
+                changed.append(page)
+    return changed
+
+
+def select(names: tuple[str, ...]) -> list[Published]:
+    """The published parts named (every one for none); an unknown name is one line."""
+    known = {p.name: p for p in PUBLISHED}
+    for n in names:
+        if n not in known:
+            raise JaxnavError(f"publish: no published part {n!r} (known: {', '.join(known)})")
+    return [known[n] for n in names] if names else list(PUBLISHED)
+
+
+# ----------------------------------------------------------------------------
+# The published parts
+# ----------------------------------------------------------------------------
+
+LADDER = "docs/studies/when-ebe-helps"
+WORLDS_SECTIONS = (
+    "### Navigation: per goal attempt",
+    "### Generalisation gap: train layouts minus test layouts",
+    "### Probability of improvement",
+)
+
+
+def _ladder_sentence(root: Path) -> str:
+    from jaxnav.report import ladder
+
+    return ladder.summary_sentence(ladder.Data(root / LADDER))
+
+
+def _ladder_page(root: Path) -> str:
+    from jaxnav.report import ladder
+
+    return ladder.ladder_markdown(root / LADDER, Path(LADDER).name)
+
+
+def _driving_readme(root: Path) -> str:
+    from jaxnav.report.driving_page import readme_block
+
+    return readme_block(root / "docs" / "driving")
+
+
+def _driving_page(root: Path) -> str:
+    from jaxnav.report.driving_page import driving_markdown
+
+    folder = root / "docs" / "driving"
+    meta = json.loads((folder / "run.json").read_text())
+    return driving_markdown(folder, meta["command"], meta["machine"])
+
+
+def _baselines_page(root: Path) -> str:
+    from jaxnav.report.baselines_page import baselines_markdown
+
+    folder = root / "docs" / "baselines"
+    meta = json.loads((folder / "notes.json").read_text())
+    text = (folder / "baselines.csv").read_text()
+    return baselines_markdown(text, meta["command"], meta["machine"], meta["notes"])
+
+
+def _agents_tables(root: Path) -> str:
+    from jaxnav.report.agents_page import tables
+
+    return tables(root / "docs" / "agents")
+
+
+def worlds_sections(tables_md: str) -> str:
+    """The greedy test mode's navigation, generalisation-gap and probability-of-
+    improvement sections of a run's eval/tables.md, each up to the next heading, one
+    level down."""
+    greedy = tables_md.split("## Test mode: greedy", 1)[1].split("\n## Test mode:", 1)[0]
+    out = []
+    for title in WORLDS_SECTIONS:
+        body = greedy.split(title, 1)[1].split("\n#", 1)[0].strip()
+        out.append(f"#{title}\n\n{body}\n")
+    return "\n".join(out)
+
+
+def _worlds_run(root: Path) -> str:
+    return worlds_sections((root / "docs" / "worlds" / "grid4" / "tables.md").read_text())
+
+
+PUBLISHED: tuple[Published, ...] = (
+    Published("when-ebe-helps", ("README.md", "docs/studies.md"), _ladder_sentence, slow=True),
+    Published("when-ebe-helps-page", (f"{LADDER}.md",), _ladder_page, block=False, slow=True),
+    Published("driving", ("README.md",), _driving_readme, slow=True),
+    Published("driving-page", ("docs/driving.md",), _driving_page, block=False, slow=True),
+    Published("baselines-page", ("docs/baselines.md",), _baselines_page, block=False, slow=True),
+    Published("agents_study", ("docs/agents.md",), _agents_tables),
+    Published("worlds_run", ("docs/worlds.md",), _worlds_run),
+)
+
+
+__all__ = [
+    "PUBLISHED",
+    "Published",
+    "between",
+    "publish",
+    "select",
+    "stale",
+    "with_block",
+    "worlds_sections",
+]
