@@ -545,11 +545,11 @@ def resolve_config_path(name: str) -> str:
     """A config path, a built-in config's name (``smoke``: ``configs/smoke.yaml``), a
     shipped study's (``when_ebe_helps``: ``configs/studies/when_ebe_helps.yaml``), or a
     path under ``configs/`` from any folder; a missing one is returned unchanged."""
-    if os.path.exists(name):
+    if os.path.isfile(name):
         return name
     for cand in (CONFIG_DIR / name, CONFIG_DIR / f"{name}.yaml", STUDY_DIR / f"{name}.yaml"):
         if cand.is_file() and "/" not in name:
-            return str(cand)
+            return str(cand)  # a folder of that name here does not hide the shipped file
     return shipped_path(name)
 
 

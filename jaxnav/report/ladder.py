@@ -150,8 +150,15 @@ def summary_sentence(data: Data) -> str:
     c = _count(verdicts(data), EPS, "success")
     n = sum(c.values())
     tail = f", and neither reaches a goal in {c[NO_GOALS]}" if c[NO_GOALS] else ""
+    if c[stats.TOO_FEW_SEEDS]:
+        tail += f" ({stats.TOO_FEW_SEEDS} in {c[stats.TOO_FEW_SEEDS]})"
+    worlds = (
+        f"On {data.rung_label[data.rungs[0]]}"
+        if len(data.rungs) == 1
+        else f"Across {len(data.rungs)} worlds of growing difficulty"
+    )
     return (
-        f"Across {len(data.rungs)} worlds of growing difficulty and {len(data.agents)} agents "
+        f"{worlds} and {len(data.agents)} agents "
         f"({n} cells, {data.n_seeds()} seeds per arm), entropy-based exploration reaches more "
         f"goals than epsilon-greedy in {c['EBE better']}, fewer in {c['EBE worse']}, shows "
         f"no detectable difference in {c['no detectable difference']}{tail}."
@@ -160,20 +167,19 @@ def summary_sentence(data: Data) -> str:
 
 def _verdict_table(data: Data, test: str) -> list[str]:
     rows = []
+    others = [o for o in (EPS, BOLTZMANN) if o in data.strategies]
     by = {(r["rung"], r["agent"], r["other"], r["measure"]): r for r in verdicts(data, test)}
     for rung in data.rungs:
         for agent in data.agents:
             if (rung, agent, EPS, "success") not in by:
                 continue
             cells = [data.rung_label[rung], data.agent_label[agent]]
-            for other in (EPS, BOLTZMANN):
+            for other in others:
                 for measure in MEASURES:
                     r = by.get((rung, agent, other, measure))
                     cells += [f"{interval(r['p'], 2)} {r['verdict']}" if r else ""]
             rows.append(cells)
-    head = ["world", "agent"] + [
-        f"P(EBE > {NAMES[o]}), {m}" for o in (EPS, BOLTZMANN) for m in MEASURES
-    ]
+    head = ["world", "agent"] + [f"P(EBE > {NAMES[o]}), {m}" for o in others for m in MEASURES]
     return markdown_table(head, rows)
 
 
@@ -224,6 +230,8 @@ def _generalisation_verdicts(data: Data) -> list[str]:
                 p, word = compare(data, rung, agent, t, EPS, "success")
                 cells = [data.rung_label[rung], TEST_NAMES.get(t, t), data.agent_label[agent]]
                 rows.append(cells + [interval(p, 2), word])
+    if not rows:
+        return ["No policy of this study was tested on a world it did not train on."]
     head = ["trained on", "tested on", "agent", "P(EBE > epsilon-greedy), success", "verdict"]
     return markdown_table(head, rows)
 
