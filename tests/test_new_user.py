@@ -26,6 +26,36 @@ def test_settings_a_run_cannot_use_are_refused_in_one_line(overrides, message):
     assert message in str(e.value) and "\n" not in str(e.value)
 
 
+@pytest.mark.parametrize("command", ["mazes", "render"])
+@pytest.mark.parametrize("seed", ["99999999999999999999", "4294967296", "-1"])
+def test_a_seed_option_a_key_cannot_hold_is_refused_in_one_line(command, seed, tmp_path, capsys):
+    import importlib
+
+    main = importlib.import_module(f"jaxnav.{command}").main
+    out = tmp_path / ("mazes" if command == "mazes" else "maze.png")
+    argv = ["grid", "--seed", seed, "--out", str(out)] + (
+        ["--n", "2"] if command == "mazes" else []
+    )
+    with pytest.raises(SystemExit) as e:
+        main(argv)
+    assert e.value.code == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "argument --seed: must be in [0, 2^32)" in err[0], err
+    assert not out.exists()
+
+
+def test_a_study_seed_a_key_cannot_hold_is_refused_in_one_line():
+    import yaml
+
+    from jaxnav.core.config import STUDY_DIR
+    from jaxnav.experiments.ladder import parse_study
+
+    doc = yaml.safe_load((STUDY_DIR / "when_ebe_helps.yaml").read_text())
+    for seed in (2**32, -1):
+        with pytest.raises(ConfigError, match=r"^study s: seed must be in \[0, 2\^32\)"):
+            parse_study(yaml.safe_dump({**doc, "seed": seed}), "study s")
+
+
 def test_the_last_seed_a_key_can_hold_is_accepted():
     assert load_config("smoke", ["seed=4294967294", "seeds=2"]).seed == 4294967294
 

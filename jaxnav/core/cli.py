@@ -15,6 +15,7 @@ from pathlib import Path
 
 from jaxnav.core import startup
 from jaxnav.core.errors import JaxnavError
+from jaxnav.core.settings import SEED, problem
 
 EXIT_ERROR = 2
 EXIT_INTERRUPTED = startup.EXIT_INTERRUPTED
@@ -39,6 +40,19 @@ class Parser(argparse.ArgumentParser):
 
     def error(self, message):
         self.exit(EXIT_ERROR, f"{command_name(self.prog)}: error: {message}\n")
+
+
+def seed(text: str) -> int:
+    """The type of a ``--seed`` option: an integer a PRNG key holds, as a config's
+    ``seed`` (a larger one would silently repeat a smaller one, or overflow)."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be an integer, got {text!r}") from None
+    says = problem(SEED, value)
+    if says:
+        raise argparse.ArgumentTypeError(f"{says}, got {value}")
+    return value
 
 
 def resume_advice(command: str, argv: list[str], out: str | os.PathLike) -> str:

@@ -40,6 +40,7 @@ from jaxnav.core.sections import (
 from jaxnav.core.settings import (
     AT_LEAST_1,
     PRESETS,
+    SEED,
     cylinders_problem,
     grid_problem,
     problem,
@@ -65,7 +66,7 @@ class Config:
     seed: int = setting(
         0,
         "first seed; a run uses seed, ..., seed + seeds - 1 (each below 2^32: a PRNG key's range)",
-        rule=(lambda v: 0 <= v < 2**32, "must be in [0, 2^32): a PRNG key holds 32 bits"),
+        rule=SEED,
     )
     seeds: int = setting(8, "seeds per arm", rule=AT_LEAST_1)
     strategies: tuple[str, ...] = setting(
