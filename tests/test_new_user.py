@@ -68,6 +68,16 @@ def test_an_unknown_test_maze_is_refused_before_training_and_leaves_no_directory
     assert not out.exists()
 
 
+def test_an_unknown_test_maze_is_refused_before_a_study_makes_its_folder(tmp_path, capsys):
+    from jaxnav.study import main as study_main
+
+    out = tmp_path / "study"
+    assert study_main(["temperature", "run.test_mazes=[square4,nosuch]", "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "run.test_mazes: unknown maze 'nosuch'" in err[0], err
+    assert not out.exists()
+
+
 def test_version_is_one_line(capsys):
     assert jaxnav_main(["--version"]) == 0
     assert capsys.readouterr().out.startswith("jaxnav ")
