@@ -82,8 +82,8 @@ def main(argv: list[str] | None = None) -> int:
         written = ladder.publish(spec, out, page)
         print(f"study: {written[0]} (data in {written[-1]})")
 
-    again = f"interrupted; continue with --resume --out {args.out}"
-    return cli.run(p.prog, work, interrupted=again)
+    given = list(argv if argv is not None else sys.argv[1:])
+    return cli.run(p.prog, work, interrupted=cli.resume_advice("study", given, args.out))
 
 
 if __name__ == "__main__":

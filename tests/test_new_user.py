@@ -123,3 +123,15 @@ def test_the_advice_after_ctrl_c_repeats_the_options_that_sized_the_run():
     assert line.endswith("reproduce --quick --seeds 3 --resume --out runs/r")
     again = resume_advice("ablation", ["--quick", "--resume", "--out=runs/a"], "runs/a")
     assert again.endswith("ablation --quick --resume --out runs/a")
+
+
+def test_the_advice_after_ctrl_c_in_a_study_is_a_whole_command(monkeypatch):
+    """It was "continue with --resume --out DIR": without the config, which study needs."""
+    import jaxnav.study as command
+
+    told = []
+    monkeypatch.setattr(
+        command.cli, "run", lambda prog, work, interrupted: told.append(interrupted)
+    )
+    command.main(["temperature", "seeds=2", "--out", "my runs/t", "--quiet"])
+    assert told[0].endswith("study temperature seeds=2 --quiet --resume --out 'my runs/t'")

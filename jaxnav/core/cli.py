@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import shlex
 import sys
 from collections.abc import Callable
 from pathlib import Path
@@ -70,8 +71,8 @@ def resume_advice(command: str, argv: list[str], out: str | os.PathLike) -> str:
         if a == "--resume" or a.startswith("--out="):
             continue
         kept.append(a)
-    words = [startup.invocation(command), *kept, "--resume", "--out", str(out)]
-    return "interrupted; continue with " + " ".join(words)
+    words = [*kept, "--resume", "--out", str(out)]
+    return f"interrupted; continue with {startup.invocation(command)} {shlex.join(words)}"
 
 
 def add_overwrite(parser: argparse.ArgumentParser, what: str = "the output") -> None:

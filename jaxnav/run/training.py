@@ -23,6 +23,7 @@ import contextlib
 import json
 import os
 import platform
+import shlex
 import shutil
 import sys
 import time
@@ -528,7 +529,7 @@ def interrupted_text() -> str:
     if left == "emptied":
         return f"interrupted before the first checkpoint; {out} was left empty"
     resume = startup.invocation("train")
-    return f"interrupted; the run can be resumed with {resume} --resume {out}"
+    return f"interrupted; the run can be resumed with {resume} --resume {shlex.quote(str(out))}"
 
 
 @contextlib.contextmanager
