@@ -18,6 +18,13 @@ from jaxnav.train import main as train_main
         (["seed=4294967296"], "seed must be in [0, 2^32)"),
         (["seed=4294967295", "seeds=2"], "would go up to seed 4294967296"),
         (["env.max_step=3"], "unknown key 'env.max_step' (did you mean 'env.max_steps'?)"),
+        (["run.sed=1"], "unknown key 'run.sed' (did you mean 'seed'?)"),
+        (["dqn.lerning_rate=1e-3"], "unknown key 'dqn.lerning_rate' (did you mean 'dqn.lr'?)"),
+        (["dqn.learning_rate=1e-3"], "(did you mean 'dqn.lr'?)"),
+        (
+            ["sweep.dqn.gama=[0.9,0.99]"],
+            "unknown key 'dqn.gama' in sweep (did you mean 'dqn.gamma'?)",
+        ),
     ],
 )
 def test_settings_a_run_cannot_use_are_refused_in_one_line(overrides, message):

@@ -425,7 +425,7 @@ def _sweep(values: dict[str, Any]) -> tuple[tuple[str, tuple[Any, ...]], ...]:
     for name in [n for n in values if n.startswith("sweep.")]:
         key, raw = name[len("sweep.") :], values.pop(name)
         if key not in FIELD_TYPES:
-            raise ConfigError(f"config: unknown key {key!r} in sweep")
+            raise ConfigError(f"config: unknown key {key!r} in sweep{_did_you_mean(key)}")
         why = sweep_refusal(key)
         if why:
             raise ConfigError(f"config: {why}")
@@ -440,12 +440,23 @@ def _sweep(values: dict[str, Any]) -> tuple[tuple[str, tuple[Any, ...]], ...]:
     return tuple(out)
 
 
-def _did_you_mean(name: str) -> str:
-    """`` (did you mean 'env.max_steps'?)`` for a misspelt key, or nothing."""
-    import difflib
+# The names other code bases give the settings jaxnav names short, for did-you-mean.
+SPELLED_OUT = {"learning_rate": "dqn.lr", "discount": "dqn.gamma"}
 
-    close = difflib.get_close_matches(name, list(FIELD_TYPES), n=1, cutoff=0.75)
-    return f" (did you mean {close[0]!r}?)" if close else ""
+
+def _did_you_mean(name: str) -> str:
+    """`` (did you mean 'env.max_steps'?)`` for a misspelt key, or nothing: the key
+    nearest to ``name``, or whose last part (or spelled-out name) is nearest to the
+    last part of ``name``, in any section (``run.sed``: ``seed``;
+    ``dqn.lerning_rate``: ``dqn.lr``), whichever is nearer."""
+    from difflib import SequenceMatcher
+
+    leaf = name.rsplit(".", 1)[-1]
+    pairs = [(name, key, key) for key in FIELD_TYPES]  # (typed, compared with, suggested)
+    pairs += [(leaf, key.rsplit(".", 1)[-1], key) for key in FIELD_TYPES]
+    pairs += [(leaf, spelled, key) for spelled, key in SPELLED_OUT.items()]
+    score, key = max((SequenceMatcher(None, a, b).ratio(), key) for a, b, key in pairs)
+    return f" (did you mean {key!r}?)" if score >= 0.75 else ""
 
 
 def build_config(values: dict[str, Any]) -> Config:
