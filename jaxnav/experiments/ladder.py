@@ -182,7 +182,7 @@ def parse_study(text: str, where: str) -> Study:
             raise ConfigError(f"{at} must be a mapping with a config")
         _typed(r, RUNG_KEYS, at)
         if not (CONFIG_DIR / f"{r['config']}.yaml").is_file():
-            raise ConfigError(f"{at}: no shipped config {r['config']!r} (jaxnav list configs)")
+            raise ConfigError(f"{at}: no shipped config {r['config']!r} (jaxnav list shows them)")
         rung = Rung(
             name,
             r.get("label", name),
