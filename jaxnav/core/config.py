@@ -520,9 +520,15 @@ def resolve_config_path(name: str) -> str:
     return shipped_path(name)
 
 
+# A full stop after one of these ends no sentence ("Sec. 6.1", "et al. 2024").
+_ABBREVIATIONS = ("Sec", "al", "e.g", "i.e", "cf", "Fig", "Eq", "vs", "approx")
+_SENTENCE_END = re.compile("".join(rf"(?<!\b{re.escape(a)})" for a in _ABBREVIATIONS) + r"\.\s+")
+
+
 def builtin_configs() -> dict[str, str]:
     """Each shipped config's name and the first sentence of its opening comment (the
-    comment's lines up to an indented example command or the first full stop)."""
+    comment's lines up to an indented example command or the first full stop that
+    ends a sentence, whatever follows it: "budget. 8 seeds", "cores. docs/...")."""
     out = {}
     for path in sorted(CONFIG_DIR.glob("*.yaml")):
         words = []
@@ -531,7 +537,7 @@ def builtin_configs() -> dict[str, str]:
                 break
             words.append(line.lstrip("# ").strip())
         text = " ".join(w for w in words if w)
-        out[path.stem] = re.split(r"\.\s+(?=[A-Z])", text)[0].rstrip(" ,.:;")
+        out[path.stem] = _SENTENCE_END.split(text)[0].rstrip(" ,.:;")
     return out
 
 
