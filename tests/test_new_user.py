@@ -146,3 +146,21 @@ def test_the_advice_after_ctrl_c_in_a_study_is_a_whole_command(monkeypatch):
     )
     command.main(["temperature", "seeds=2", "--out", "my runs/t", "--quiet"])
     assert told[0].endswith("study temperature seeds=2 --quiet --resume --out 'my runs/t'")
+
+
+def test_a_page_that_runs_the_tensorboard_viewer_says_how_to_install_it():
+    """The extra 'tensorboard' writes the event files (tensorboardX); the viewer that
+    the docs run is either in the extra or installed as the page says."""
+    import re
+    import tomllib
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    extra = tomllib.loads((root / "pyproject.toml").read_text())["project"]
+    extra = extra["optional-dependencies"]["tensorboard"]
+    has_viewer = any(re.match(r"tensorboard\b(?!X)", r, re.I) for r in extra)
+    pages = [root / "README.md", *sorted((root / "docs").rglob("*.md"))]
+    running = [p for p in pages if "tensorboard --logdir" in p.read_text()]
+    assert running, "no page says how to watch a run"
+    for page in running:
+        assert has_viewer or "pip install tensorboard" in page.read_text(), page
