@@ -169,3 +169,26 @@ def test_a_page_that_runs_the_tensorboard_viewer_says_how_to_install_it():
     assert running, "no page says how to watch a run"
     for page in running:
         assert has_viewer or "pip install tensorboard" in page.read_text(), page
+
+
+@pytest.mark.parametrize("command", ["evaluate", "export"])
+def test_evaluate_and_export_of_a_run_another_process_trains_say_so(command, tmp_path, capsys):
+    """They said "resume it first", and a resume is refused while the run trains."""
+    import importlib
+
+    from jaxnav.core import rundir
+    from jaxnav.core.config import dump_config
+
+    main = importlib.import_module(f"jaxnav.{command}").main
+    run = tmp_path / "run"
+    run.mkdir()
+    (run / rundir.CONFIG).write_text(dump_config(load_config("smoke")))
+    with rundir.Lock(run):
+        assert main([str(run)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [
+        f"jaxnav.{command}: error: {run} is being trained by another process: wait for it to finish"
+    ]
+    assert main([str(run)]) == 2  # not training, not finished: a resume finishes it
+    assert "resume it first" in capsys.readouterr().err
+    assert {p.name for p in run.iterdir()} == {rundir.CONFIG, rundir.LOCK}  # nothing written
