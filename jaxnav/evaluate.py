@@ -166,19 +166,19 @@ def main(argv: list[str] | None = None) -> int:
             )
         run_dir = rundir.existing(args.run_dir, finished=True)
         out = Path(args.out) if args.out else run_dir / "eval"
+
+        def say(line: str) -> None:  # progress, where a person watches the terminal
+            print(f"{line} ...", file=sys.stderr, flush=True)
+
+        watched = say if sys.stderr.isatty() else None
         if args.robustness:
             written = ("robustness.csv", "robustness.md", "robustness.png")
             check_outputs(out, written, args.overwrite)
-            out = robustness_to_dir(run_dir, args.mazes, args.episodes, out)
+            out = robustness_to_dir(run_dir, args.mazes, args.episodes, out, say=watched)
         else:
             written = ("results.csv", "tables.md", "trajectories.npz", "failures.npz")
             check_outputs(out, written, args.overwrite)
             refs = () if args.no_baselines else baselines.names()
-
-            def say(line: str) -> None:  # progress, where a person watches the terminal
-                print(f"{line} ...", file=sys.stderr, flush=True)
-
-            watched = say if sys.stderr.isatty() else None
             out = evaluate_to_dir(
                 run_dir, args.mazes, args.episodes, out, references=refs, say=watched
             )

@@ -41,7 +41,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument(
         "--split", choices=SPLITS, default="test", help="the layouts drawn (default: test)"
     )
-    parser.add_argument("--seed", type=int, default=0, help="seed of the draws (default: 0)")
+    parser.add_argument("--seed", type=cli.seed, default=0, help="seed of the draws (default: 0)")
     parser.add_argument("--out", required=True, metavar="DIR", help="the folder to write")
     cli.add_overwrite(parser, "a non-empty --out folder")
     args = parser.parse_args(argv)

@@ -69,7 +69,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     )
     cli.add_overwrite(parser, "the output picture")
     parser.add_argument("--beams", type=int, default=24, help="LiDAR beams to draw (default: 24)")
-    parser.add_argument("--seed", type=int, default=0, help="seed of the goal draw (default: 0)")
+    parser.add_argument(
+        "--seed", type=cli.seed, default=0, help="seed of the goal draw (default: 0)"
+    )
     parser.add_argument(
         "--samples",
         type=int,

@@ -25,6 +25,7 @@ from jaxnav.experiments import ladder
 from jaxnav.experiments.study import doc_files, study
 from jaxnav.report import stats
 from jaxnav.run.memory import confirm_memory
+from jaxnav.run.training import check_test_mazes
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -54,6 +55,7 @@ def main(argv: list[str] | None = None) -> int:
         if config_path is not None and ladder.is_ladder(config_path):
             return ladder_study(config_path, items)
         cfg = load_config(config_path, items)
+        check_test_mazes(cfg)  # before the study's folder is made
         confirm_memory(cfg, args.yes, args.quiet)  # before anything is allocated
         title = args.title or f"Sweep study: {Path(config_path or 'defaults').stem}"
         doc = Path(args.doc) if args.doc else None
@@ -77,9 +79,8 @@ def main(argv: list[str] | None = None) -> int:
         written = ladder.publish(spec, out, page)
         print(f"study: {written[0]} (data in {written[-1]})")
 
-    items = shlex.join(args.items)
-    again = f"interrupted; continue with: jaxnav study {items} --resume --out {args.out}"
-    return cli.run(p.prog, work, interrupted=again)
+    given = list(argv if argv is not None else sys.argv[1:])
+    return cli.run(p.prog, work, interrupted=cli.resume_advice("study", given, args.out))
 
 
 if __name__ == "__main__":

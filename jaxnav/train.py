@@ -24,7 +24,7 @@ from jaxnav.core.config import load_config, resolve_config_path
 from jaxnav.core.errors import RunError
 from jaxnav.core.rundir import CONFIG, METRICS, CsvLog
 from jaxnav.run.memory import confirm_memory
-from jaxnav.run.training import interrupted_text, resume, train_new
+from jaxnav.run.training import check_test_mazes, interrupted_text, resume, train_new
 
 LAST = 50  # training episodes per seed in the summary (summary.json's last50)
 
@@ -113,6 +113,7 @@ def main(argv: list[str] | None = None) -> int:
             if overrides and "=" not in overrides[0]:
                 config_path = resolve_config_path(overrides.pop(0))
             cfg = load_config(config_path, overrides)
+            check_test_mazes(cfg)
             confirm_memory(cfg, args.yes, args.quiet)  # before anything is allocated
             out = Path(args.out) if args.out else default_out(config_path)
             summary = train_new(cfg, out, args.quiet, args.overwrite, args.keep_checkpoints)

@@ -290,7 +290,9 @@ def test_outputs_are_checked_before_the_test_starts(run, tmp_path, capsys, monke
         return Path(a[3])
 
     monkeypatch.setattr(command, "evaluate_to_dir", evaluate_to_dir)
-    monkeypatch.setattr(command, "robustness_to_dir", lambda *a: tested.append(a) or Path(a[3]))
+    monkeypatch.setattr(
+        command, "robustness_to_dir", lambda *a, say=None: tested.append(a) or Path(a[3])
+    )
     full = tmp_path / "full"
     full.mkdir()
     (full / "results.csv").write_text("mine")
@@ -444,3 +446,37 @@ def test_the_failure_map_holds_every_failed_greedy_attempt_of_results_csv(evalua
                 assert near.max() < 0.15 * 0.2 + 0.13 + 1e-3
     maps = plot_failure_maps(out, tmp_path)
     assert [p.name for p in maps] == [f"failures_{m}.png" for m in failures]
+
+
+@pytest.mark.parametrize("robustness", [False, True])
+def test_evaluate_says_what_it_tests_where_a_person_watches(
+    robustness, tmp_path, capsys, monkeypatch
+):
+    """A test of a run takes up to a minute: a line before each part of it on a
+    terminal (none where stderr is piped, so an interrupted evaluate ends in one line)."""
+    import sys
+
+    import jaxnav.evaluate as command
+    from jaxnav.core import rundir
+    from jaxnav.core.config import dump_config, load_config
+
+    run_dir = tmp_path / "run"
+    run_dir.mkdir()
+    (run_dir / rundir.CONFIG).write_text(dump_config(load_config("smoke")))
+    (run_dir / rundir.PARAMS).write_bytes(b"")
+
+    def tested(run_dir, mazes, episodes, out, references=(), say=None, **_):
+        if say is not None:
+            say("testing 4 policies on square4")
+        Path(out).mkdir(exist_ok=True)
+        (Path(out) / "results.csv").write_text("strategy,seed,mode\n")
+        return Path(out)
+
+    monkeypatch.setattr(command, "evaluate_to_dir", tested)
+    monkeypatch.setattr(command, "robustness_to_dir", tested)
+    argv = [str(run_dir), "--out", str(tmp_path / "eval")] + ["--robustness"] * robustness
+    for terminal in (False, True):
+        monkeypatch.setattr(sys.stderr, "isatty", lambda t=terminal: t)
+        assert command.main([*argv, "--overwrite"]) == 0
+        err = capsys.readouterr().err
+        assert err == ("testing 4 policies on square4 ...\n" if terminal else ""), err

@@ -51,10 +51,16 @@ sys.exit(cli.run("python -m jaxnav.demo", work, interrupted=lambda: "stopped; " 
 """
 
 
-def _start(*args: str) -> subprocess.Popen:
+def _ignore_sigint() -> None:
+    """As a shell starts a job with ``&`` (or ``nohup`` does): SIGINT ignored."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+def _start(*args: str, background: bool = False) -> subprocess.Popen:
     cmd = [sys.executable, "-c", SCRIPT, *args]
     pipes = {"stdout": subprocess.PIPE, "stderr": subprocess.PIPE, "text": True}
-    return subprocess.Popen(cmd, cwd=ROOT, **pipes)
+    preexec = _ignore_sigint if background else None
+    return subprocess.Popen(cmd, cwd=ROOT, preexec_fn=preexec, **pipes)
 
 
 def _ready(proc: subprocess.Popen) -> None:
@@ -90,6 +96,17 @@ def test_ctrl_c_tidies_says_one_line_and_exits_130(tmp_path, mode):
 
 def test_sigterm_is_answered_as_ctrl_c_with_status_143(tmp_path):
     proc = _start("python", str(tmp_path))
+    _ready(proc)
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=30)
+    assert proc.returncode == 143, (proc.returncode, err)
+    assert _one_line(err, "jaxnav.demo") == f"jaxnav.demo: stopped; {tmp_path.name}"
+    assert (tmp_path / "tidied").read_text() == "yes"
+
+
+def test_sigterm_is_answered_in_a_job_started_with_an_ampersand(tmp_path):
+    """There SIGINT is ignored: ``kill PID`` used to end the command without a word."""
+    proc = _start("python", str(tmp_path), background=True)
     _ready(proc)
     proc.send_signal(signal.SIGTERM)
     _, err = proc.communicate(timeout=30)
@@ -134,15 +151,17 @@ TINY = ["configs/smoke.yaml", "seeds=1", "episodes=6", "env.max_steps=100"]
 TINY += ["run.chunk_steps=100", "dqn.batch_size=16", "--quiet"]
 
 
-def _train(out: Path, *overrides: str, cold: bool = False) -> subprocess.Popen:
+def _train(
+    out: Path, *overrides: str, cold: bool = False, background: bool = False
+) -> subprocess.Popen:
     env = dict(os.environ)
     if cold:  # compile from scratch: no persistent cache
         env.pop("JAX_COMPILATION_CACHE_DIR", None)
         env["JAXNAV_CACHE"] = "off"
     cmd = [sys.executable, "-m", "jaxnav.train", *TINY, *overrides, "--out", str(out)]
-    return subprocess.Popen(
-        cmd, cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
-    )
+    pipes = {"stdout": subprocess.PIPE, "stderr": subprocess.PIPE, "text": True}
+    preexec = _ignore_sigint if background else None
+    return subprocess.Popen(cmd, cwd=ROOT, env=env, preexec_fn=preexec, **pipes)
 
 
 def _when(proc: subprocess.Popen, path: Path, timeout: float = 120) -> None:
@@ -208,6 +227,19 @@ def test_ctrl_c_at_every_stage_of_training(tmp_path):
         "training": "resumable",
         "finished": "finished",
     }
+
+
+@pytest.mark.slow
+def test_sigterm_in_a_background_training_leaves_it_resumable_and_says_how(tmp_path):
+    out = tmp_path / "run"
+    proc = _train(out, "episodes=40", background=True)
+    _when(proc, out / rundir.CHECKPOINT)
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 143, (proc.returncode, err)
+    line = _one_line(err, "jaxnav.train")
+    assert line.startswith("jaxnav.train: stopped by SIGTERM; ") and "Traceback" not in err
+    assert _left_resumable_finished_or_nothing(out, line) in ("resumable", "finished")
 
 
 @pytest.mark.slow

@@ -31,6 +31,30 @@ def test_help_lists_every_command_with_one_line(capsys):
         assert f"  {name}" in out and what in out
 
 
+@pytest.mark.parametrize("how", ["jaxnav", "python -m jaxnav", "python -m jaxnav."])
+def test_a_commands_help_and_errors_name_it_as_the_user_ran_it(how, tmp_path):
+    """``python -m jaxnav train --help`` said ``usage: python -m jaxnav.train``."""
+    if how == "jaxnav":  # the console script, as pip writes it
+        script = tmp_path / "jaxnav"
+        script.write_text("import sys\nfrom jaxnav.__main__ import main\nsys.exit(main())\n")
+        cmd = [sys.executable, str(script), "train"]
+    elif how == "python -m jaxnav":
+        cmd = [sys.executable, "-m", "jaxnav", "train"]
+    else:
+        cmd = [sys.executable, "-m", "jaxnav.train"]
+    shown = how + ("train" if how.endswith(".") else " train")
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    run = lambda *a: subprocess.run([*cmd, *a], cwd=tmp_path, env=env, capture_output=True)
+    helped = run("--help")
+    assert helped.returncode == 0 and helped.stdout.decode().startswith(f"usage: {shown} ")
+    refused = run("smoke", "sed=1")
+    assert refused.returncode == 2
+    name = shown.removeprefix("python -m ")
+    assert refused.stderr.decode() == (
+        f"{name}: error: config: unknown key 'sed' (did you mean 'seed'?)\n"
+    )
+
+
 def test_unknown_command_is_one_line_and_exit_2(capsys):
     assert jaxnav_main(["trian"]) == 2
     err = capsys.readouterr().err

@@ -4,7 +4,9 @@ them; ``jaxnav publish`` writes them)."""
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
+from urllib.parse import unquote
 
 import pytest
 
@@ -63,3 +65,39 @@ def test_publish_names_what_is_wrong_in_one_line(tmp_path, capsys):
     assert "has no docs/ folder" in capsys.readouterr().err
     with pytest.raises(JaxnavError, match="no worlds_run markers"):
         publish.with_block("no markers here", "worlds_run", "x")
+
+
+_LINK = re.compile(r"!?\[[^\]]*\]\(\s*<?([^)\s>]+)>?(?:\s+\"[^\"]*\")?\s*\)")
+_IMG = re.compile(r"<img\s[^>]*src=\"([^\"]+)\"")
+_REF = re.compile(r"^\s{0,3}\[[^\]]+\]:\s+<?(\S+?)>?(?:\s|$)", re.M)
+
+
+def _pages() -> list[Path]:
+    return [ROOT / "README.md", *sorted((ROOT / "docs").rglob("*.md"))] + sorted(
+        (ROOT / "bench").rglob("*.md")
+    )
+
+
+def _relative_links(page: Path) -> list[str]:
+    text = re.sub(r"```.*?```", "", page.read_text(), flags=re.S)  # code is not a link
+    text = re.sub(r"`[^`\n]*`", "", text)
+    found = [m.group(1) for p in (_LINK, _IMG, _REF) for m in p.finditer(text)]
+    return [t for t in found if not re.match(r"[a-zA-Z][a-zA-Z0-9+.-]*:|#", t)]
+
+
+def test_every_relative_link_and_picture_of_the_pages_exists():
+    """docs/worlds.md once showed three pictures that were never committed."""
+    missing, seen = [], 0
+    for page in _pages():
+        for target in _relative_links(page):
+            seen += 1
+            path = unquote(target.split("#", 1)[0].split("?", 1)[0])
+            if not (page.parent / path).exists():
+                missing.append(f"{page.relative_to(ROOT)}: {target}")
+    assert seen > 100 and not missing, missing
+
+
+def test_the_link_check_finds_a_missing_picture(tmp_path):
+    page = tmp_path / "p.md"
+    page.write_text("![a](there.png) [b](page.md#x) [c](https://x.org) `[d](no.png)`\n")
+    assert _relative_links(page) == ["there.png", "page.md#x"]

@@ -9,12 +9,14 @@ from __future__ import annotations
 
 import argparse
 import os
+import shlex
 import sys
 from collections.abc import Callable
 from pathlib import Path
 
 from jaxnav.core import startup
 from jaxnav.core.errors import JaxnavError
+from jaxnav.core.settings import SEED, problem
 
 EXIT_ERROR = 2
 EXIT_INTERRUPTED = startup.EXIT_INTERRUPTED
@@ -41,6 +43,19 @@ class Parser(argparse.ArgumentParser):
         self.exit(EXIT_ERROR, f"{command_name(self.prog)}: error: {message}\n")
 
 
+def seed(text: str) -> int:
+    """The type of a ``--seed`` option: an integer a PRNG key holds, as a config's
+    ``seed`` (a larger one would silently repeat a smaller one, or overflow)."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be an integer, got {text!r}") from None
+    says = problem(SEED, value)
+    if says:
+        raise argparse.ArgumentTypeError(f"{says}, got {value}")
+    return value
+
+
 def resume_advice(command: str, argv: list[str], out: str | os.PathLike) -> str:
     """The line a resumable pipeline prints on Ctrl-C: the same command with the same
     options (``--quick``, sizes), plus ``--resume --out DIR``, as it was run
@@ -56,8 +71,8 @@ def resume_advice(command: str, argv: list[str], out: str | os.PathLike) -> str:
         if a == "--resume" or a.startswith("--out="):
             continue
         kept.append(a)
-    words = [startup.invocation(command), *kept, "--resume", "--out", str(out)]
-    return "interrupted; continue with " + " ".join(words)
+    words = [*kept, "--resume", "--out", str(out)]
+    return f"interrupted; continue with {startup.invocation(command)} {shlex.join(words)}"
 
 
 def add_overwrite(parser: argparse.ArgumentParser, what: str = "the output") -> None:

@@ -42,6 +42,7 @@ from jaxnav.core.sections import (
 from jaxnav.core.settings import (
     AT_LEAST_1,
     PRESETS,
+    SEED,
     cylinders_problem,
     grid_problem,
     problem,
@@ -67,7 +68,7 @@ class Config:
     seed: int = setting(
         0,
         "first seed; a run uses seed, ..., seed + seeds - 1 (each below 2^32: a PRNG key's range)",
-        rule=(lambda v: 0 <= v < 2**32, "must be in [0, 2^32): a PRNG key holds 32 bits"),
+        rule=SEED,
     )
     seeds: int = setting(8, "seeds per arm", rule=AT_LEAST_1)
     strategies: tuple[str, ...] = setting(
@@ -454,7 +455,7 @@ def _sweep(values: dict[str, Any]) -> tuple[tuple[str, tuple[Any, ...]], ...]:
     for name in [n for n in values if n.startswith("sweep.")]:
         key, raw = name[len("sweep.") :], values.pop(name)
         if key not in FIELD_TYPES:
-            raise ConfigError(f"config: unknown key {key!r} in sweep")
+            raise ConfigError(f"config: unknown key {key!r} in sweep{_did_you_mean(key)}")
         why = sweep_refusal(key)
         if why:
             raise ConfigError(f"config: {why}")
@@ -469,12 +470,23 @@ def _sweep(values: dict[str, Any]) -> tuple[tuple[str, tuple[Any, ...]], ...]:
     return tuple(out)
 
 
-def _did_you_mean(name: str) -> str:
-    """`` (did you mean 'env.max_steps'?)`` for a misspelt key, or nothing."""
-    import difflib
+# The names other code bases give the settings jaxnav names short, for did-you-mean.
+SPELLED_OUT = {"learning_rate": "dqn.lr", "discount": "dqn.gamma"}
 
-    close = difflib.get_close_matches(name, list(FIELD_TYPES), n=1, cutoff=0.75)
-    return f" (did you mean {close[0]!r}?)" if close else ""
+
+def _did_you_mean(name: str) -> str:
+    """`` (did you mean 'env.max_steps'?)`` for a misspelt key, or nothing: the key
+    nearest to ``name``, or whose last part (or spelled-out name) is nearest to the
+    last part of ``name``, in any section (``run.sed``: ``seed``;
+    ``dqn.lerning_rate``: ``dqn.lr``), whichever is nearer."""
+    from difflib import SequenceMatcher
+
+    leaf = name.rsplit(".", 1)[-1]
+    pairs = [(name, key, key) for key in FIELD_TYPES]  # (typed, compared with, suggested)
+    pairs += [(leaf, key.rsplit(".", 1)[-1], key) for key in FIELD_TYPES]
+    pairs += [(leaf, spelled, key) for spelled, key in SPELLED_OUT.items()]
+    score, key = max((SequenceMatcher(None, a, b).ratio(), key) for a, b, key in pairs)
+    return f" (did you mean {key!r}?)" if score >= 0.75 else ""
 
 
 _NOTED: set[str] = set()
@@ -553,9 +565,15 @@ def resolve_config_path(name: str) -> str:
     return shipped_path(name)
 
 
+# A full stop after one of these ends no sentence ("Sec. 6.1", "et al. 2024").
+_ABBREVIATIONS = ("Sec", "al", "e.g", "i.e", "cf", "Fig", "Eq", "vs", "approx")
+_SENTENCE_END = re.compile("".join(rf"(?<!\b{re.escape(a)})" for a in _ABBREVIATIONS) + r"\.\s+")
+
+
 def builtin_configs() -> dict[str, str]:
     """Each shipped config's name and the first sentence of its opening comment (the
-    comment's lines up to an indented example command or the first full stop)."""
+    comment's lines up to an indented example command or the first full stop that
+    ends a sentence, whatever follows it: "budget. 8 seeds", "cores. docs/...")."""
     out = {}
     for path in sorted(CONFIG_DIR.glob("*.yaml")):
         words = []
@@ -564,7 +582,7 @@ def builtin_configs() -> dict[str, str]:
                 break
             words.append(line.lstrip("# ").strip())
         text = " ".join(w for w in words if w)
-        out[path.stem] = re.split(r"\.\s+(?=[A-Z])", text)[0].rstrip(" ,.:;")
+        out[path.stem] = _SENTENCE_END.split(text)[0].rstrip(" ,.:;")
     return out
 
 

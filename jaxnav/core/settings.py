@@ -134,6 +134,8 @@ NON_NEGATIVE = (lambda v: v >= 0, "must be non-negative")
 POSITIVE = (lambda v: v > 0, "must be positive")
 UNIT = (lambda v: 0.0 <= v <= 1.0, "must be in [0, 1]")
 UNIT_OPEN = (lambda v: 0.0 <= v < 1.0, "must be in [0, 1)")
+# every seed a user gives (config, study, --seed): a larger one would repeat a smaller one
+SEED = (lambda v: 0 <= v < 2**32, "must be in [0, 2^32): a PRNG key holds 32 bits")
 PAIR_NON_NEGATIVE = (
     lambda x: _pair(x) and min(x) >= 0,
     "must be [position std, yaw std], both non-negative",

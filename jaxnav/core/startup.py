@@ -29,7 +29,10 @@ for signals (a long chunk of training), a watcher thread woken by the signal act
 for it after a second. At the end of a command the process leaves with its status
 as soon as the ``atexit`` handlers have run, skipping the second or so of module
 teardown in which a Ctrl-C would otherwise kill it by the signal. SIGTERM (``kill``,
-a job scheduler's stop) is answered the same way, with its own status, 143.
+a job scheduler's stop) is answered the same way, its line saying ``stopped by
+SIGTERM`` where a Ctrl-C's says ``interrupted``, with its own status, 143 (what a
+shell reports for it), also in a job started with ``&`` or ``nohup``, where SIGINT
+is ignored.
 """
 
 from __future__ import annotations
@@ -120,10 +123,11 @@ _state = _Interrupts()
 
 
 def _command_name() -> str:
-    """``jaxnav.train`` for ``python -m jaxnav.train``; the script's name otherwise."""
+    """``jaxnav.train`` for ``python -m jaxnav.train``, ``jaxnav`` for ``python -m
+    jaxnav``; the script's name otherwise."""
     spec = getattr(sys.modules.get("__main__"), "__spec__", None)
     if spec is not None and spec.name:
-        return spec.name
+        return spec.name.removesuffix(".__main__")
     return Path(sys.argv[0]).name if sys.argv and sys.argv[0] else "jaxnav"
 
 
@@ -139,10 +143,13 @@ def in_command() -> bool:
 
 def invocation(command: str) -> str:
     """How to run a command the way this process was run: ``jaxnav train`` from the
-    ``jaxnav`` script, ``python -m jaxnav.train`` otherwise."""
+    ``jaxnav`` script, ``python -m jaxnav train`` from ``python -m jaxnav``, ``python
+    -m jaxnav.train`` otherwise."""
     spec = getattr(sys.modules.get("__main__"), "__spec__", None)
     if spec is None and sys.argv and Path(sys.argv[0]).name == "jaxnav":
         return f"jaxnav {command}"
+    if spec is not None and spec.name == "jaxnav.__main__":
+        return f"python -m jaxnav {command}"
     return f"python -m jaxnav.{command}"
 
 
@@ -155,20 +162,28 @@ def catch_interrupts_in_command() -> None:
 
 
 def catch_interrupts() -> None:
-    """Make Ctrl-C end this command at once with one line and exit status 130 (see the
-    module's docstring). For a command's process only, called first thing: a library
-    user's or a test runner's Ctrl-C stays theirs. Nothing happens off the main
-    thread, on a second call, or where SIGINT is ignored (a job started with ``&``
-    or under ``nohup``)."""
+    """Make Ctrl-C end this command at once with one line and exit status 130, and
+    SIGTERM with 143 (see the module's docstring). For a command's process only,
+    called first thing: a library user's or a test runner's Ctrl-C stays theirs.
+    Nothing happens off the main thread or on a second call; a signal that someone
+    else handles or ignores stays theirs: SIGINT is ignored in a job started with
+    ``&`` or under ``nohup``, and its SIGTERM (``kill PID``) is still answered."""
     if _state.installed or threading.current_thread() is not threading.main_thread():
         return
-    if signal.getsignal(signal.SIGINT) is not signal.default_int_handler:
+    ours = [
+        sig
+        for sig, default in (
+            (signal.SIGINT, signal.default_int_handler),
+            (signal.SIGTERM, signal.SIG_DFL),
+        )
+        if signal.getsignal(sig) is default
+    ]
+    if not ours:
         return
     _state.installed = True
     _state.prog = _command_name()
-    signal.signal(signal.SIGINT, _on_sigint)
-    if signal.getsignal(signal.SIGTERM) is signal.SIG_DFL:
-        signal.signal(signal.SIGTERM, _on_sigint)
+    for sig in ours:
+        signal.signal(sig, _on_sigint)
     try:
         read, write = os.pipe()
         os.set_blocking(write, False)
@@ -282,6 +297,8 @@ def _say_and_exit() -> None:
         text = _state.text() if callable(_state.text) else _state.text
     except Exception:
         text = "interrupted"
+    if _state.code == EXIT_TERMINATED and text.startswith("interrupted"):
+        text = "stopped by SIGTERM" + text.removeprefix("interrupted")  # not a Ctrl-C
     for stream in (sys.stdout, sys.stderr):
         try:
             stream.flush()

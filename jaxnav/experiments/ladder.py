@@ -37,6 +37,7 @@ from jaxnav.core import baselines
 from jaxnav.core.config import CONFIG_DIR, Config, build_config, config_to_dict
 from jaxnav.core.errors import ConfigError, JaxnavError
 from jaxnav.core.rundir import METRICS, CsvLog, atomic_write_text, csv_text
+from jaxnav.core.settings import SEED, problem
 from jaxnav.core.values import flatten, parse_override
 from jaxnav.experiments.evaluation import drawn_name, evaluate_to_dir
 from jaxnav.experiments.reproduce import machine_info, train_stage
@@ -166,8 +167,9 @@ def parse_study(text: str, where: str) -> Study:
     for k in ("seeds", "total_steps", "test_episodes"):
         if k in doc and doc[k] < 1:
             raise ConfigError(f"{where}: {k} must be at least 1")
-    if doc.get("seed", 0) < 0:
-        raise ConfigError(f"{where}: seed must not be negative")
+    says = problem(SEED, doc.get("seed", 0))
+    if says:
+        raise ConfigError(f"{where}: seed {says}")
     agents, rungs = [], []
     for name, a in doc["agents"].items():
         at = f"{where}: agents.{_name(name, where)}"
@@ -181,7 +183,7 @@ def parse_study(text: str, where: str) -> Study:
             raise ConfigError(f"{at} must be a mapping with a config")
         _typed(r, RUNG_KEYS, at)
         if not (CONFIG_DIR / f"{r['config']}.yaml").is_file():
-            raise ConfigError(f"{at}: no shipped config {r['config']!r} (jaxnav list configs)")
+            raise ConfigError(f"{at}: no shipped config {r['config']!r} (jaxnav list shows them)")
         rung = Rung(
             name,
             r.get("label", name),

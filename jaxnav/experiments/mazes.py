@@ -174,6 +174,10 @@ SHEET_MAX = 400  # panels on one sheet
 PANEL_MB = 0.2  # about what one 260 x 260 pixel RGBA panel costs matplotlib to draw
 
 
+def _mb(mb: float) -> str:
+    return f"{mb / 1000:.1f} GB" if mb >= 1000 else f"{mb:.0f} MB"
+
+
 def render_sheet(spec: str, out: str, n: int, seed: int = 0, split: str | None = None) -> None:
     """A sheet of ``n`` panels: mazes of the family ``spec`` (or goals in a fixed
     maze) drawn by ``reset`` from ``split(PRNGKey(seed), n)``, each with the robot at
@@ -187,9 +191,10 @@ def render_sheet(spec: str, out: str, n: int, seed: int = 0, split: str | None =
         raise JaxnavError(f"--samples must be at least 1 (got {n})")
     if n > SHEET_MAX:  # a 2.6-inch panel each: memory grows with n, legibility does not
         raise JaxnavError(
-            f"--samples {n}: a sheet holds at most {SHEET_MAX} panels (about "
-            f"{SHEET_MAX * PANEL_MB:.0f} MB to draw); write many drawn mazes as files with "
-            "jaxnav mazes instead"
+            f"--samples {n}: a sheet of {n} panels would take about {_mb(n * PANEL_MB)} to "
+            f"draw; a sheet holds at most {SHEET_MAX} panels (about "
+            f"{_mb(SHEET_MAX * PANEL_MB)}): write many drawn mazes as files with jaxnav "
+            "mazes instead"
         )
     env, params, drawn = sample_env(spec, split)
     samples = sample(env, params, n, seed)

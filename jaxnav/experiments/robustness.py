@@ -18,7 +18,7 @@ for the same mazes and episodes.
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -80,11 +80,13 @@ def robustness(
     maze_names: Sequence[str] | None = None,
     n_episodes: int | None = None,
     perturbations: dict[str, dict[str, Any]] = PERTURBATIONS,
+    say: Callable[[str], None] | None = None,
 ) -> tuple[LoadedRun, list[str], str]:
     """Test every run of ``run_dir`` under each perturbation of the training env.
 
     The plain test (:func:`evaluate`'s rollout, keys and episodes) with the env's
     settings replaced; defaults: the training maze, ``run.test_episodes``.
+    ``say``: called with a line before each perturbation's test (progress), if given.
     Returns (run, maze names, robustness.csv text).
     """
     run = load_run(run_dir)
@@ -95,7 +97,10 @@ def robustness(
     settings = {p: perturb(pol.env, pol.env_params, ov) for p, ov in perturbations.items()}
     mazes = padded_mazes(names)
     rows = []
-    for p, (env, env_params) in settings.items():
+    for i, (p, (env, env_params)) in enumerate(settings.items()):
+        if say is not None:
+            what = f"{len(pol.labels)} policies on {', '.join(names)}"
+            say(f"testing {what} under {p} ({i + 1} of {len(settings)})")
         # record=True: the same program as evaluate()'s, so "none" repeats it exactly.
         # A perturbed setting replaces the run's own where it swept it.
         hyper = pol.hyper.replace(**{k: None for k in perturbations[p] if hasattr(pol.hyper, k)})
@@ -112,9 +117,11 @@ def robustness_to_dir(
     n_episodes: int | None = None,
     out: str | Path | None = None,
     perturbations: dict[str, dict[str, Any]] = PERTURBATIONS,
+    say: Callable[[str], None] | None = None,
 ) -> Path:
-    """The robustness sweep; write robustness.csv, .md and .png (each atomically) into ``out``."""
-    run, _, text = robustness(run_dir, maze_names, n_episodes, perturbations)
+    """The robustness sweep; write robustness.csv, .md and .png (each atomically) into
+    ``out``; ``say`` as :func:`robustness`'s."""
+    run, _, text = robustness(run_dir, maze_names, n_episodes, perturbations, say)
     name = Path(run_dir).name
     pol = run.policies
     md = robustness_markdown(

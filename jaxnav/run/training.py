@@ -23,6 +23,7 @@ import contextlib
 import json
 import os
 import platform
+import shlex
 import shutil
 import sys
 import time
@@ -527,7 +528,7 @@ def interrupted_text() -> str:
     if left == "emptied":
         return f"interrupted before the first checkpoint; {out} was left empty"
     resume = startup.invocation("train")
-    return f"interrupted; the run can be resumed with {resume} --resume {out}"
+    return f"interrupted; the run can be resumed with {resume} --resume {shlex.quote(str(out))}"
 
 
 @contextlib.contextmanager
@@ -556,6 +557,17 @@ def _tidy_on_interrupt(out: Path, made: bool | None):
         yield
 
 
+def check_test_mazes(cfg: Config) -> None:
+    """Read every maze of ``run.test_mazes`` (a name or a maze file): one that does not
+    exist or load is a ConfigError naming it, before anything is trained or written,
+    not a failure at the test after training."""
+    for maze in cfg.run.test_mazes:
+        try:
+            make_maze(maze)
+        except ValueError as e:
+            raise ConfigError(f"config: run.test_mazes: {e}") from None
+
+
 def train_new(
     cfg: Config,
     out: Path,
@@ -565,12 +577,7 @@ def train_new(
 ) -> dict[str, Any]:
     """Start a new run in ``out`` (absent or empty; with ``overwrite``, an existing run
     directory is emptied first, under its lock) and train it to the end."""
-    # builds the env first, and reads every test maze: a bad maze leaves no directory
-    for maze in cfg.run.test_mazes:
-        try:
-            make_maze(maze)
-        except ValueError as e:
-            raise ConfigError(f"config: run.test_mazes: {e}") from None
+    check_test_mazes(cfg)  # and Run builds the env first: a bad maze leaves no directory
     run = Run(cfg, out, quiet, keep_checkpoints)
     replace = overwrite and (out / rundir.CONFIG).is_file()
     with _tidy_on_interrupt(out, made=not out.exists()):
