@@ -30,7 +30,7 @@ import numpy as np
 from jaxnav.core import baselines, rundir
 from jaxnav.core.config import Config, load_config
 from jaxnav.core.errors import JaxnavError, RunError
-from jaxnav.core.settings import family_text
+from jaxnav.core.families import family_text
 from jaxnav.core.sweep import with_swept
 from jaxnav.dqn import network_of, run_inputs
 from jaxnav.env import from_config
