@@ -2,8 +2,9 @@
 
 The built-in mazes with a line each, the shipped configs (a built-in config's name
 works wherever a config path does: ``jaxnav train smoke``), the exploration
-strategies, and every setting with its default, whether a sweep may vary it and what
-it does, all from their declarations. ``--markdown`` prints docs/settings.md.
+strategies, the drawn-maze families, and every setting with its default, whether a
+sweep may vary it and what it does, all from their declarations. ``--markdown``
+prints docs/settings.md.
 """
 
 from __future__ import annotations
@@ -11,7 +12,7 @@ from __future__ import annotations
 import sys
 from collections.abc import Sequence
 
-from jaxnav.core import cli, strategies
+from jaxnav.core import cli, families, strategies
 from jaxnav.core.config import SETTINGS, builtin_configs
 from jaxnav.world.maps import BUILTIN_MAZES
 
@@ -38,6 +39,9 @@ def catalog() -> str:
     lines += ["", "exploration strategies (strategies=[...]):"]
     width = max(map(len, strategies.names()))
     lines += [f"  {n:<{width}}  {strategies.get(n).about}" for n in strategies.names()]
+    lines += ["", "drawn-maze families (env.generator=NAME):"]
+    width = max(map(len, families.names()))
+    lines += [f"  {n:<{width}}  {families.get(n).about}" for n in families.names()]
     lines += [
         "",
         "settings (key=value on the command line; * = can be swept, sweep.KEY=[...]):",

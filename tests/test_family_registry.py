@@ -19,6 +19,7 @@ from jaxnav.core.config import SETTINGS, load_config
 from jaxnav.core.errors import ConfigError
 from jaxnav.env import NavEnv
 from jaxnav.experiments.evaluation import evaluate_to_dir
+from jaxnav.list import catalog
 from jaxnav.run.training import train_new
 from jaxnav.world.generators import SPLITS
 from jaxnav.world.maps import GOAL_CLEARANCE, ROBOTIS_ARENA, Maze
@@ -91,6 +92,7 @@ def test_an_unknown_family_is_refused_in_one_line_listing_the_registered_ones():
 
 
 def test_a_registered_family_is_a_choice_and_its_refusals_run_when_a_config_loads(toy):
+    assert "  empty      an empty 3 m room, a random goal" in catalog()
     cfg = load_config(None, ["env.generator=empty"])
     assert cfg.env.generator == toy and families.family_text(cfg.env) == "3 m empty rooms"
     with pytest.raises(ConfigError, match="config: env.generator must be .*, rooms or empty$"):
