@@ -42,6 +42,7 @@ import jax.numpy as jnp
 import numpy as np
 from flax import struct
 
+from jaxnav.core import families
 from jaxnav.core.config import (
     env_bank_problem,
     env_family_problem,
@@ -50,7 +51,7 @@ from jaxnav.core.config import (
     env_setting_problem,
 )
 from jaxnav.core.settings import ACTION_SETS, PRESETS
-from jaxnav.world import families, generators, motion, sensor
+from jaxnav.world import motion, sensor
 from jaxnav.world.geometry import (
     displacement,
     norm2,
@@ -150,6 +151,7 @@ class EnvState:
 
 
 @dataclasses.dataclass(frozen=True)
+@families.settings_after("generator")
 class NavEnv(GoalSampler):
     """The environment. Its fields fix array shapes, so they are static, not params.
 
@@ -190,17 +192,16 @@ class NavEnv(GoalSampler):
         (the reward still scores the chosen action, as ROBOTIS' does); an episode
         starts with the straight action pending.
 
-    Procedural mazes (off by default; :mod:`jaxnav.world.generators`):
-      generator: "" (the maze is ``EnvParams.maze``) or "grid": a perfect maze on a
-        ``grid_rows`` x ``grid_cols`` grid of ``grid_cell`` m cells, ``grid_loops`` of
-        its closed walls opened, drawn inside jit. The maze moves into the state
-        (``EnvState.maze``); ``EnvParams.maze`` is then only a template of its shapes.
-        A reset draws a maze, a start cell and a goal cell ``min_path_cells`` cells
-        away along the maze; every ``new_maze_every`` episodes the restart draws the
-        next (otherwise it keeps the maze, its start and the goal, as with a fixed
-        maze). ``split`` picks the train or the test layouts, never the same.
-        "cylinders" (``cyl_*``) and "rooms" (``rooms_*``) are the families of
-        :mod:`jaxnav.world.families`, drawn the same way. ``maze_bank`` > 0:
+    Procedural mazes (off by default):
+      generator: "" (the maze is ``EnvParams.maze``) or a maze family of
+        :mod:`jaxnav.core.families` ("grid", "cylinders", "rooms"), drawn inside jit by
+        its static shape (:attr:`family`). Each family's own settings (``grid_*``,
+        ``cyl_*``, ``rooms_*``, ...) are fields here, declared with the family. The maze
+        moves into the state (``EnvState.maze``); ``EnvParams.maze`` is then only a
+        template of its shapes. A reset draws a maze, its start and a first goal; every
+        ``new_maze_every`` episodes the restart draws the next (otherwise it keeps the
+        maze, its start and the goal, as with a fixed maze). ``split`` picks the train
+        or the test layouts, never the same. ``maze_bank`` > 0:
         :meth:`with_bank` draws that many layouts (maze, start and goal) ahead into
         ``EnvParams.bank``, and a new layout is then picked from it at random instead
         of drawn (training does; a test draws each of its layouts).
@@ -254,24 +255,10 @@ class NavEnv(GoalSampler):
     goal_sampler: str = "free"
     beam_layout: str = "even"
     action_delay: bool = False
-    generator: str = ""
-    grid_rows: int = 4
-    grid_cols: int = 4
-    grid_cell: float = 1.0
-    grid_loops: float = 0.0
-    min_path_cells: int = 1
+    generator: str = ""  # the families' own settings follow (families.settings_after)
     new_maze_every: int = 1
     maze_bank: int = 0
     split: str = "train"
-    cyl_count: int = 8
-    cyl_radius: tuple[float, float] = (0.1, 0.25)
-    cyl_room: float = 4.0
-    cyl_min_path: float = 1.0
-    rooms_rows: int = 2
-    rooms_cols: int = 2
-    rooms_size: float = 2.0
-    rooms_door: float = 0.6
-    rooms_loops: float = 0.0
     reward: str = "dense"
     progress_path: str = "straight"
     attempt_limit: int = 0
@@ -290,10 +277,9 @@ class NavEnv(GoalSampler):
         problem = problem or env_bank_problem(self)
         if problem:
             raise ValueError(problem)
-        lo, hi = self.maze_scale
-        object.__setattr__(self, "odom_noise", tuple(float(x) for x in self.odom_noise))
-        object.__setattr__(self, "maze_scale", (float(lo), float(hi)))
-        object.__setattr__(self, "cyl_radius", tuple(float(x) for x in self.cyl_radius))
+        for f in dataclasses.fields(self):  # pairs (a list works too) as tuples of floats
+            if isinstance(f.default, tuple):
+                object.__setattr__(self, f.name, tuple(float(x) for x in getattr(self, f.name)))
 
     @property
     def generates(self) -> bool:
@@ -301,20 +287,16 @@ class NavEnv(GoalSampler):
         return bool(self.generator)
 
     @property
-    def grid(self) -> generators.Grid:
-        """The grid family's static shape."""
-        return generators.Grid(self.grid_rows, self.grid_cols, self.grid_cell, self.grid_loops)
-
-    @property
-    def family(self) -> families.Cylinders | families.Rooms:
-        """The cylinders or rooms family's static shape."""
-        return families.family_of(self)
+    def family(self):
+        """The drawn mazes' family as a static, hashable shape from its settings
+        (:meth:`jaxnav.core.families.Family.shape`): ``draw(key, split)`` gives a maze and
+        its first goal; a family with shortest paths gives their cell distances and
+        targets too (``env.reward geodesic``)."""
+        return families.get(self.generator).shape(self)
 
     def draw_maze(self, key: chex.PRNGKey) -> tuple[Maze, chex.Array]:
         """(maze, goal f32[2]): a maze of the family and split, start and goal in it."""
-        if self.generator in families.FAMILIES:
-            return families.draw_maze(key, self.family, self.split)
-        return generators.draw_maze(key, self.grid, self.split, self.min_path_cells)
+        return self.family.draw(key, self.split)
 
     def draw_bank(self, key: chex.PRNGKey):
         """``maze_bank`` layouts drawn from ``key``, each as :meth:`_draw` gives it (maze,
@@ -519,7 +501,7 @@ class NavEnv(GoalSampler):
         """A new episode's state with its cylinders at time 0 and, for the geodesic
         reward, its maze's cell distances (``cell_dist`` if known)."""
         if self.uses_cell_distances and cell_dist is None:
-            cell_dist = generators.maze_cell_distances(params.maze, self.grid)
+            cell_dist = self.family.cell_distances(params.maze)
         last = jnp.zeros(2, jnp.float32) if self.normalised else None  # at rest
         return state.replace(
             circles=self.circles_at(params, state.scale, 0), cell_dist=cell_dist, last_command=last
@@ -554,20 +536,18 @@ class NavEnv(GoalSampler):
         if self.reward == "sparse":
             reward = sparse_reward(params, reached, collided)
         elif self.reward == "geodesic":  # head for the next opening on the shortest path
-            target, distance_along = generators.geodesic_target(
-                params.maze, state.cell_dist, self.grid, pos, state.goal
+            target, distance_along = self.family.geodesic_target(
+                params.maze, state.cell_dist, pos, state.goal
             )
             heading, _ = goal_heading_distance(pos, yaw, target)
             reward = reward_fn(
                 params, action, heading, distance_along, state.goal_distance0, reached, collided
             )
         elif self.reward == "progress" and self.progress_path == "geodesic":
-            _, before = generators.geodesic_target(
-                params.maze, state.cell_dist, self.grid, state.pos, state.goal
+            _, before = self.family.geodesic_target(
+                params.maze, state.cell_dist, state.pos, state.goal
             )
-            _, after = generators.geodesic_target(
-                params.maze, state.cell_dist, self.grid, pos, state.goal
-            )
+            _, after = self.family.geodesic_target(params.maze, state.cell_dist, pos, state.goal)
             reward = progress_reward(params, before, after, clearance, reached, collided)
         elif self.reward == "progress":  # closer to the goal, kept clear of surfaces
             before = norm2(state.goal - state.pos)
@@ -664,7 +644,7 @@ class NavEnv(GoalSampler):
         maze, goal = self.draw_maze(key)
         dist = None
         if self.uses_cell_distances:
-            dist = generators.maze_cell_distances(maze, self.grid)
+            dist = self.family.cell_distances(maze)
         return maze, goal, dist
 
     def step(self, key: chex.PRNGKey, state: EnvState, action: chex.Array, params: EnvParams):
@@ -753,7 +733,7 @@ def make(
 
     Args:
       maze: a built-in maze name, a path to a maze YAML file, or a ``Maze``; unused
-        with ``generator="grid"`` (the mazes are drawn, ``EnvParams.maze`` is one of
+        with a ``generator`` (the mazes are drawn, ``EnvParams.maze`` is one of
         them as a template of their shapes).
       preset: ``"paper"`` (default) or ``"robotis"`` reward constants
         (:data:`jaxnav.core.settings.PRESETS`; ROBOTIS' R- depends on obstacles).

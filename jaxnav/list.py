@@ -1,9 +1,10 @@
 """``python -m jaxnav.list`` (``jaxnav list``): what there is to choose from.
 
 The built-in mazes with a line each, the shipped configs (a built-in config's name
-works wherever a config path does: ``jaxnav train smoke``), the agents, the
-exploration strategies, and every setting with its default, whether a sweep may vary it
-and what it does, all from their declarations. ``--markdown`` prints docs/settings.md.
+works wherever a config path does: ``jaxnav train smoke``), the shipped studies, the
+agents, the exploration strategies, the drawn-maze families, and every setting with
+its default, whether a sweep may vary it and what it does, all from their
+declarations. ``--markdown`` prints docs/settings.md.
 """
 
 from __future__ import annotations
@@ -11,7 +12,7 @@ from __future__ import annotations
 import sys
 from collections.abc import Sequence
 
-from jaxnav.core import agents, cli, strategies
+from jaxnav.core import agents, cli, families, strategies
 from jaxnav.core.config import SETTINGS, builtin_configs, shipped_studies
 from jaxnav.world.maps import BUILTIN_MAZES
 
@@ -46,6 +47,9 @@ def catalog() -> str:
     lines += ["", "exploration strategies (strategies=[...]):"]
     width = max(map(len, strategies.names()))
     lines += [f"  {n:<{width}}  {strategies.get(n).about}" for n in strategies.names()]
+    lines += ["", "drawn-maze families (env.generator=NAME):"]
+    width = max(map(len, families.names()))
+    lines += [f"  {n:<{width}}  {families.get(n).about}" for n in families.names()]
     lines += [
         "",
         "settings (key=value on the command line; * = can be swept, sweep.KEY=[...]):",

@@ -19,8 +19,7 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
-from jaxnav.core import cli
-from jaxnav.core.settings import GENERATORS
+from jaxnav.core import cli, families
 from jaxnav.experiments.mazes import write_mazes
 from jaxnav.world.generators import SPLITS
 
@@ -34,7 +33,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument(
         "spec",
         metavar="SPEC",
-        help=f"a maze generator ({', '.join(g for g in GENERATORS if g)}) or a config that "
+        help=f"a maze generator ({', '.join(families.names())}) or a config that "
         "sets env.generator (e.g. grid4, or a YAML file)",
     )
     parser.add_argument("--n", type=int, required=True, help="mazes to write, at least 1")

@@ -103,7 +103,7 @@ def test_the_layouts_episodes_play_are_distributed_as_layouts_drawn_one_by_one()
     # The test split's layouts only: the bank was drawn from the env's split.
     from jaxnav.world import generators as gen
 
-    open_ = ~np.asarray(banked.maze.segment_mask[:, : env.grid.n_walls])
+    open_ = ~np.asarray(banked.maze.segment_mask[:, : env.family.n_walls])
     assert (np.asarray(jax.vmap(gen.layout_split)(jnp.asarray(open_))) == 1).all()
 
 

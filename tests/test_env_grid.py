@@ -42,7 +42,7 @@ def test_reset_draws_a_maze_a_start_cell_and_a_far_goal():
     env, params = jaxnav.make(**GRID)
     assert params.maze.segments.shape == (gen.Grid(4, 4).n_segments, 4)
     obs, state = jax.jit(jax.vmap(env.reset, in_axes=(0, None)))(KEYS, params)
-    grid = env.grid
+    grid = env.family
     a, b = gen.wall_cells(grid)
     layouts = set()
     for i in range(len(KEYS)):
@@ -89,7 +89,7 @@ def test_collisions_are_with_the_state_maze():
     env, params = jaxnav.make(**GRID)
     _, state = env.reset(KEYS[0], params)
     maze = maze_of(state)
-    grid = env.grid
+    grid = env.family
     a, b = gen.wall_cells(grid)
     open_ = ~maze.segment_mask[: grid.n_walls]
     # A wall between two side-by-side cells, closed in one maze and open in the other.
@@ -130,7 +130,7 @@ def test_a_new_maze_every_new_maze_every_episodes(every):
 def test_the_test_split_draws_test_layouts():
     env, params = jaxnav.make(**GRID, split="test")
     _, state = jax.vmap(env.reset, in_axes=(0, None))(KEYS, params)
-    open_ = ~np.asarray(state.maze.segment_mask[:, : env.grid.n_walls])
+    open_ = ~np.asarray(state.maze.segment_mask[:, : env.family.n_walls])
     assert (np.asarray(jax.vmap(gen.layout_split)(jnp.asarray(open_))) == 1).all()
 
 

@@ -13,7 +13,7 @@ import jax
 import numpy as np
 import pytest
 
-from jaxnav.core import settings
+from jaxnav.core import families as registry
 from jaxnav.core.errors import ConfigError
 from jaxnav.world import families as fam
 from jaxnav.world import generators as gen
@@ -320,11 +320,11 @@ def test_a_family_with_no_valid_maze_is_one_line_naming_its_settings():
 
 
 def test_the_settings_constants_are_the_worlds():
-    assert settings.ROBOT_DIAMETER == 2 * maps.ROBOT_RADIUS
-    assert settings.GOAL_CLEARANCE == maps.GOAL_CLEARANCE
-    assert settings.DOOR_MARGIN == fam.DOOR_MARGIN
-    assert settings.CYLINDER_GROWTH == pytest.approx(fam.PASS_CLEARANCE, abs=0.01)
-    assert "cylinders" in settings.GENERATORS and "rooms" in settings.GENERATORS
+    assert registry.ROBOT_DIAMETER == 2 * maps.ROBOT_RADIUS
+    assert registry.GOAL_CLEARANCE == maps.GOAL_CLEARANCE
+    assert registry.DOOR_MARGIN == fam.DOOR_MARGIN
+    assert registry.CYLINDER_GROWTH == pytest.approx(fam.PASS_CLEARANCE, abs=0.01)
+    assert "cylinders" in registry.names() and "rooms" in registry.names()
 
 
 @pytest.mark.parametrize(
@@ -342,8 +342,8 @@ def test_the_settings_constants_are_the_worlds():
     ],
 )
 def test_bad_cylinder_settings_are_refused_naming_the_setting(args, says):
-    assert settings.cylinders_problem(*args).startswith(says)
-    assert settings.cylinders_problem(8, (0.1, 0.25), 4.0, 1.65) is None
+    assert registry.cylinders_problem(*args).startswith(says)
+    assert registry.cylinders_problem(8, (0.1, 0.25), 4.0, 1.65) is None
 
 
 @pytest.mark.parametrize(
@@ -360,5 +360,5 @@ def test_bad_cylinder_settings_are_refused_naming_the_setting(args, says):
     ],
 )
 def test_bad_rooms_settings_are_refused_naming_the_setting(args, says):
-    assert settings.rooms_problem(*args).startswith(says)
-    assert settings.rooms_problem(2, 3, 2.0, 0.6, 0.5, 3) is None
+    assert registry.rooms_problem(*args).startswith(says)
+    assert registry.rooms_problem(2, 3, 2.0, 0.6, 0.5, 3) is None

@@ -8,6 +8,7 @@ import jax
 import numpy as np
 import pytest
 
+from jaxnav.core.families import grid_problem
 from jaxnav.world import generators as gen
 
 KEYS = jax.random.split(jax.random.PRNGKey(7), 200)
@@ -141,5 +142,5 @@ def test_no_train_maze_equals_a_test_maze():
     ],
 )
 def test_bad_grids_are_refused_naming_the_setting(rows, cols, cell, loops, min_path, says):
-    assert says in gen.grid_problem(rows, cols, cell, loops, min_path)
-    assert gen.grid_problem(4, 4, 1.0, 0.0, 6) is None
+    assert says in grid_problem(rows, cols, cell, loops, min_path)
+    assert grid_problem(4, 4, 1.0, 0.0, 6) is None

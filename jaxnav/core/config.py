@@ -26,7 +26,7 @@ from typing import Any
 
 import yaml
 
-from jaxnav.core import agents
+from jaxnav.core import agents, families
 from jaxnav.core import strategies as registry
 from jaxnav.core import sweep as sweeps
 from jaxnav.core.errors import ConfigError
@@ -39,16 +39,7 @@ from jaxnav.core.sections import (
     PQNConfig,
     RunConfig,
 )
-from jaxnav.core.settings import (
-    AT_LEAST_1,
-    PRESETS,
-    SEED,
-    cylinders_problem,
-    grid_problem,
-    problem,
-    rooms_problem,
-    setting,
-)
+from jaxnav.core.settings import AT_LEAST_1, PRESETS, SEED, problem, setting
 from jaxnav.core.values import coerce, flatten, parse_override
 
 # The strategies the paper compares; jaxnav.core.strategies has every registered one.
@@ -249,34 +240,22 @@ def env_setting_problem(name: str, value: Any) -> str | None:
 
 
 def env_family_problem(env: Any) -> str | None:
-    """What is wrong with a maze generator's settings together (one line naming the
-    setting), or None; ``env`` is an EnvConfig or a ``jaxnav.env.NavEnv``."""
+    """What is wrong with a maze family's settings together (one line naming the
+    setting), or None; ``env`` is an EnvConfig or a ``jaxnav.env.NavEnv`` whose
+    ``generator`` names a family (:mod:`jaxnav.core.families`)."""
     if env.goal_sampler == "robotis":
         return "env.goal_sampler robotis needs a fixed maze (env.generator empty)"
-    low = min(env.maze_scale)
-    if env.generator == "cylinders":
-        return cylinders_problem(env.cyl_count, env.cyl_radius, env.cyl_room, env.cyl_min_path, low)
-    if env.generator == "rooms":
-        return rooms_problem(
-            env.rooms_rows,
-            env.rooms_cols,
-            env.rooms_size,
-            env.rooms_door,
-            env.rooms_loops,
-            env.min_path_cells,
-            low,
-        )
-    return grid_problem(
-        env.grid_rows, env.grid_cols, env.grid_cell, env.grid_loops, env.min_path_cells
-    )
+    return families.get(env.generator).problem(env)
 
 
 def env_reward_problem(env: Any) -> str | None:
     """What is wrong with the reward setting given the maze settings, or None."""
-    if env.reward == "geodesic" and env.generator != "grid":
-        return "env.reward geodesic needs env.generator grid (its shortest paths)"
-    if env.progress_path == "geodesic" and (env.reward != "progress" or env.generator != "grid"):
-        return "env.progress_path geodesic needs env.reward progress and env.generator grid"
+    paths = families.with_shortest_paths()
+    which = families.listing(paths)
+    if env.reward == "geodesic" and env.generator not in paths:
+        return f"env.reward geodesic needs env.generator {which} (its shortest paths)"
+    if env.progress_path == "geodesic" and (env.reward != "progress" or env.generator not in paths):
+        return f"env.progress_path geodesic needs env.reward progress and env.generator {which}"
     return None
 
 

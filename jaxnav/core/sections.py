@@ -1,26 +1,23 @@
 """The config's sections: every environment, DQN, PQN, exploration and run setting,
 declared once each with :func:`jaxnav.core.settings.setting` (default, a line of help,
 its rule, whether a sweep may vary it). :mod:`jaxnav.core.config` assembles them into
-:class:`~jaxnav.core.config.Config` and derives validation, sweeps and listings.
+:class:`~jaxnav.core.config.Config` and derives validation, sweeps and listings. The
+drawn-maze families' own settings are declared with their family
+(:mod:`jaxnav.core.families`) and laid out in :class:`EnvConfig` after ``generator``.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
+from jaxnav.core import families
 from jaxnav.core.settings import (
     ACTION_SETS,
     AT_LEAST_1,
-    GENERATORS,
-    GOAL_CLEARANCE,
-    MAX_CYLINDER_ROOM,
-    MAX_CYLINDERS,
-    MIN_CYLINDER_ROOM,
     NON_NEGATIVE,
     PAIR_NON_NEGATIVE,
     POSITIVE,
     PRESETS,
-    ROBOT_DIAMETER,
     SCALE_RANGE,
     UNIT,
     UNIT_OPEN,
@@ -30,6 +27,7 @@ from jaxnav.core.settings import (
 
 
 @dataclass(frozen=True)
+@families.settings_after("generator")
 class EnvConfig:
     maze: str = setting("square4", "built-in maze name or a maze YAML file")
     n_beams: int = setting(24, "LiDAR beams (360 on the robot)", rule=AT_LEAST_1)
@@ -85,75 +83,14 @@ class EnvConfig:
         rule=one_of("even", "gazebo"),
     )
     action_delay: bool = setting(False, "each action applied one step late (ROBOTIS' loop)")
-    # Procedural mazes (jaxnav.world.generators and .families), off by default: env.maze
-    # is the maze.
+    # Procedural mazes, off by default: env.maze is the maze. Each family's own settings
+    # (grid_*, cyl_*, rooms_*, ...) follow this one, declared with the family in
+    # jaxnav.core.families.
     generator: str = setting(
         "",
-        "empty: the fixed maze env.maze; grid, cylinders or rooms: a random maze of that "
-        "family, new every new_maze_every episodes",
-        rule=(
-            lambda v: v in GENERATORS,
-            'must be "" (the fixed env.maze), grid, cylinders or rooms',
-        ),
-    )
-    grid_rows: int = setting(4, "grid: rows of cells", rule=AT_LEAST_1)
-    grid_cols: int = setting(4, "grid: columns of cells", rule=AT_LEAST_1)
-    grid_cell: float = setting(
-        1.0,
-        "grid: a cell's side, m",
-        rule=(lambda v: v > ROBOT_DIAMETER, f"must be more than {ROBOT_DIAMETER} m"),
-    )
-    grid_loops: float = setting(
-        0.0, "grid: fraction of the perfect maze's closed walls opened (loops)", rule=UNIT
-    )
-    min_path_cells: int = setting(
-        1,
-        "grid, rooms: cells (rooms) between the start and the first goal along the maze, at least",
-        rule=AT_LEAST_1,
-    )
-    cyl_count: int = setting(
-        8,
-        "cylinders: cylinders in the room",
-        rule=(lambda v: 1 <= v <= MAX_CYLINDERS, f"must be in [1, {MAX_CYLINDERS}]"),
-    )
-    cyl_radius: tuple[float, ...] = setting(
-        (0.1, 0.25),
-        "cylinders: radii drawn from [low, high], m",
-        rule=(
-            lambda x: len(x) == 2 and 0 < x[0] <= x[1],
-            "must be [low, high] with 0 < low <= high, m",
-        ),
-    )
-    cyl_room: float = setting(
-        4.0,
-        "cylinders: the square room's side, m",
-        rule=(
-            lambda v: MIN_CYLINDER_ROOM <= v <= MAX_CYLINDER_ROOM,
-            f"must be in [{MIN_CYLINDER_ROOM:g}, {MAX_CYLINDER_ROOM:g}] m",
-        ),
-    )
-    cyl_min_path: float = setting(
-        1.0,
-        "cylinders: start to first goal along the free space, m, at least",
-        rule=NON_NEGATIVE,
-    )
-    rooms_rows: int = setting(2, "rooms: rows of rooms", rule=AT_LEAST_1)
-    rooms_cols: int = setting(2, "rooms: columns of rooms", rule=AT_LEAST_1)
-    rooms_size: float = setting(
-        2.0,
-        "rooms: a room's side, m",
-        rule=(lambda v: v > 2 * GOAL_CLEARANCE, f"must be more than {2 * GOAL_CLEARANCE:g} m"),
-    )
-    rooms_door: float = setting(
-        0.6,
-        "rooms: a door's width, m",
-        rule=(
-            lambda v: v > ROBOT_DIAMETER,
-            f"must be wider than the robot's diameter ({ROBOT_DIAMETER} m)",
-        ),
-    )
-    rooms_loops: float = setting(
-        0.0, "rooms: fraction of the walls left without a door that get one (loops)", rule=UNIT
+        f"empty: the fixed maze env.maze; {families.listing(families.names())}: a random maze "
+        "of that family, new every new_maze_every episodes",
+        rule=families.GENERATOR_RULE,
     )
     new_maze_every: int = setting(1, "drawn mazes: episodes in each maze", rule=AT_LEAST_1)
     maze_bank: int = setting(

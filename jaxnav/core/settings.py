@@ -115,7 +115,8 @@ REALISM = ("lidar_noise_std", "beam_dropout", "odom_noise", "random_start", "maz
 
 def setting(default: Any = None, help: str = "", *, rule=None, sweep: bool = False, factory=None):
     """One setting's declaration, as a config dataclass field: its default, a line of
-    help, its rule ``(predicate, what it says when it fails)`` and whether a sweep may
+    help, its rule ``(predicate, what it says when it fails)`` (what it says may be a
+    function of nothing, called when the rule fails) and whether a sweep may
     vary it (it is then data in the compiled step: ``jaxnav.dqn.Hyper``). The type is
     the field's annotation. ``jaxnav.core.config`` derives validation, the sweep keys,
     ``jaxnav list`` and the settings table of the docs from these declarations."""
@@ -146,8 +147,6 @@ SCALE_RANGE = (
 )
 
 
-# "": the fixed maze env.maze; grid: jaxnav.world.generators; cylinders and rooms:
-# jaxnav.world.families.
 # The burger's teleop limits (turtlebot3_teleop: BURGER_MAX_LIN_VEL, BURGER_MAX_ANG_VEL):
 # every action set stays within them, and the normalised observation scales by them.
 BURGER_MAX_V, BURGER_MAX_OMEGA = 0.22, 2.84
@@ -165,132 +164,6 @@ ACTION_SETS: dict[str, tuple[tuple[float, float], ...] | None] = {
     "vw": tuple((v, w) for v in (0.0, 0.11, 0.22) for w in PAPER_YAW_RATES),
 }
 
-GENERATORS = ("", "grid", "cylinders", "rooms")
-# The robot's diameter (2 x jaxnav.world.maps.ROBOT_RADIUS): a grid cell must be wider.
-ROBOT_DIAMETER = 0.26
-# jaxnav.world.maps.GOAL_CLEARANCE: a drawn start or goal is this far from every surface.
-GOAL_CLEARANCE = 0.35
-MAX_CYLINDERS = 64
-MIN_CYLINDER_ROOM = 1.5  # m: every start has a goal 0.4 m away (GOAL_START_CLEARANCE)
-MAX_CYLINDER_ROOM = 16.0  # m: the occupancy raster of a cylinder room is 0.1 m cells
-# A cylinder field is refused when its cylinders, each grown by CYLINDER_GROWTH (about
-# jaxnav.world.families.PASS_CLEARANCE: the robot's radius and half a raster cell's
-# diagonal), could cover more than MAX_CYLINDER_COVER of the room: a free path and a
-# far goal would then be rare.
-CYLINDER_GROWTH = 0.2
-MAX_CYLINDER_COVER = 0.5
-DOOR_MARGIN = 0.05  # jaxnav.world.families.DOOR_MARGIN: wall left either side of a door
-
-
-def grid_problem(rows: int, cols: int, cell: float, loops: float, min_path: int) -> str | None:
-    """What is wrong with a grid maze family's settings together, one line naming the
-    setting, or None (each setting's own rule is checked before)."""
-    if rows < 1:
-        return "env.grid_rows must be at least 1"
-    if cols < 1:
-        return "env.grid_cols must be at least 1"
-    if rows * cols < 2:
-        return "env.grid_rows x env.grid_cols must be at least 2 cells (1 x 1 has no goal)"
-    if not cell > ROBOT_DIAMETER:
-        return f"env.grid_cell must be more than the robot's diameter ({ROBOT_DIAMETER} m)"
-    if not 0.0 <= loops <= 1.0:
-        return "env.grid_loops must be in [0, 1]"
-    if min_path > rows + cols - 2:
-        return (
-            f"env.min_path_cells must be at most grid_rows + grid_cols - 2 = {rows + cols - 2} "
-            "(corner to corner)"
-        )
-    return None
-
-
-def cylinders_problem(
-    count: int, radius, room: float, min_path: float, scale_low: float = 1.0
-) -> str | None:
-    """What is wrong with a cylinders family's settings together, one line naming the
-    setting, or None (each setting's own rule is checked before). ``scale_low`` is
-    env.maze_scale's low end."""
-    if not 1 <= count <= MAX_CYLINDERS:
-        return f"env.cyl_count must be in [1, {MAX_CYLINDERS}]"
-    if not (_pair(radius) and 0 < radius[0] <= radius[1]):
-        return "env.cyl_radius must be [low, high] with 0 < low <= high, m"
-    if not MIN_CYLINDER_ROOM <= room <= MAX_CYLINDER_ROOM:
-        return f"env.cyl_room must be in [{MIN_CYLINDER_ROOM:g}, {MAX_CYLINDER_ROOM:g}] m"
-    free = room - 2 * GOAL_CLEARANCE
-    if 2 * radius[1] >= free:
-        return f"env.cyl_radius high must be less than (env.cyl_room - 0.7) / 2 = {free / 2:.3g} m"
-    cover = count * math.pi * (radius[1] + CYLINDER_GROWTH) ** 2 / room**2
-    if cover > MAX_CYLINDER_COVER:
-        return (
-            f"env.cyl_count: {count} cylinders of radius up to {radius[1]:g} m crowd a "
-            f"{room:g} m room too much for a free path (grown by {CYLINDER_GROWTH} m for the "
-            f"robot they could cover {cover:.1%} of it, at most {MAX_CYLINDER_COVER:.0%}): "
-            "fewer or smaller cylinders, or a larger env.cyl_room"
-        )
-    if min_path < 0 or min_path > free / 2:
-        return (
-            f"env.cyl_min_path must be in [0, {free / 2:.3g}] m (half the side of the room's "
-            "free part, so that every start has a goal that far)"
-        )
-    if scale_low < 1.0:
-        return (
-            "env.maze_scale must not shrink a cylinder field (low at least 1): the "
-            "cylinders would move closer and keep their radii, closing the free path"
-        )
-    return None
-
-
-def rooms_problem(
-    rows: int,
-    cols: int,
-    size: float,
-    door: float,
-    loops: float,
-    min_path: int,
-    scale_low: float = 1.0,
-) -> str | None:
-    """What is wrong with a rooms family's settings together, one line naming the
-    setting, or None (each setting's own rule is checked before). ``scale_low`` is
-    env.maze_scale's low end."""
-    if rows < 1:
-        return "env.rooms_rows must be at least 1"
-    if cols < 1:
-        return "env.rooms_cols must be at least 1"
-    if rows * cols < 2:
-        return "env.rooms_rows x env.rooms_cols must be at least 2 rooms"
-    if not door > ROBOT_DIAMETER:
-        return f"env.rooms_door must be wider than the robot's diameter ({ROBOT_DIAMETER} m)"
-    if not size > 2 * GOAL_CLEARANCE:
-        return f"env.rooms_size must be more than {2 * GOAL_CLEARANCE:g} m"
-    if door > size - 2 * DOOR_MARGIN + 1e-9:
-        return (
-            f"env.rooms_door must be at most env.rooms_size - {2 * DOOR_MARGIN:g} m "
-            f"= {size - 2 * DOOR_MARGIN:.3g} m"
-        )
-    if not 0.0 <= loops <= 1.0:
-        return "env.rooms_loops must be in [0, 1]"
-    if min_path > rows + cols - 2:
-        return (
-            f"env.min_path_cells must be at most rooms_rows + rooms_cols - 2 = "
-            f"{rows + cols - 2} (corner room to corner room)"
-        )
-    if not door * scale_low > ROBOT_DIAMETER:
-        return (
-            f"env.maze_scale low ({scale_low:g}) shrinks env.rooms_door ({door:g} m) to the "
-            f"robot's diameter ({ROBOT_DIAMETER} m) or less"
-        )
-    return None
-
-
-def family_text(env: Any) -> str:
-    """A drawn-maze family in a few words ("4 x 4 grid mazes"); ``env`` is an EnvConfig
-    or a ``jaxnav.env.NavEnv``."""
-    if env.generator == "cylinders":
-        lo, hi = env.cyl_radius
-        return f"{env.cyl_count} cylinders (r {lo:g}-{hi:g} m) in a {env.cyl_room:g} m room"
-    if env.generator == "rooms":
-        return f"{env.rooms_rows} x {env.rooms_cols} rooms mazes ({env.rooms_door:g} m doors)"
-    return f"{env.grid_rows} x {env.grid_cols} {env.generator} mazes"
-
 
 def one_of(*choices: str):
     """The rule of a setting that takes one of ``choices``."""
@@ -302,6 +175,7 @@ def problem(rule, value: Any) -> str | None:
     if rule is None:
         return None
     ok, says = rule
+    says = says() if callable(says) else says  # a message of what is known when checked
     try:
         return None if ok(value) else says
     except TypeError:

@@ -31,7 +31,7 @@ from jaxnav.agent.trainer import run_inputs
 from jaxnav.core import agents, baselines, rundir
 from jaxnav.core.config import Config, load_config
 from jaxnav.core.errors import JaxnavError, RunError
-from jaxnav.core.settings import family_text
+from jaxnav.core.families import family_text
 from jaxnav.core.sweep import with_swept
 from jaxnav.env import from_config
 from jaxnav.experiments.baselines import in_place_of, planner_problem

@@ -18,9 +18,9 @@ from typing import NamedTuple
 import jax
 import numpy as np
 
+from jaxnav.core import families
 from jaxnav.core.config import CONFIG_DIR, Config, load_config, resolve_config_path
 from jaxnav.core.errors import JaxnavError, MazeError
-from jaxnav.core.settings import GENERATORS
 from jaxnav.env import NavEnv, make
 from jaxnav.report import drawing
 from jaxnav.world.maps import BUILTIN_MAZES, Maze, load_maze_file, make_maze
@@ -33,7 +33,7 @@ def family_config(name: str) -> Config | None:
     a config file), or None for a maze (built-in or a maze file)."""
     if name in BUILTIN_MAZES:
         return None
-    if name in GENERATORS and name:
+    if name in families.names():
         return load_config(None, [f"env.generator={name}"])
     path = resolve_config_path(name)
     shipped = os.path.dirname(os.path.abspath(path)) == str(CONFIG_DIR)
@@ -123,7 +123,7 @@ def write_mazes(spec: str, n: int, split: str, seed: int, out: Path, overwrite: 
         else:
             what = f"unknown maze family '{spec}'"
         raise JaxnavError(
-            f"{what}: give a maze generator ({', '.join(g for g in GENERATORS if g)}) or a "
+            f"{what}: give a maze generator ({', '.join(families.names())}) or a "
             "config that sets env.generator (e.g. grid4)"
         )
     env, params, _ = sample_env(spec, split)

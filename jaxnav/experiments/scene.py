@@ -11,7 +11,7 @@ import os
 import jax
 import numpy as np
 
-from jaxnav.core.settings import family_text
+from jaxnav.core import families
 from jaxnav.env import make
 from jaxnav.report import drawing
 from jaxnav.world import motion
@@ -65,13 +65,9 @@ def render_maze(
         f"{_display_name(maze_name)}: {xmax - xmin:.2f} m x {ymax - ymin:.2f} m, "
         f"{n_obs} obstacle{'s' if n_obs != 1 else ''}"
     )
-    if drawn and env.generator == "grid":
-        title = (
-            f"{_display_name(maze_name)}: {env.grid_rows} x {env.grid_cols} {env.generator}, "
-            f"{env.grid_cell:g} m cells, {env.split} maze of seed {seed}"
-        )
-    elif drawn:
-        title = f"{_display_name(maze_name)}: {family_text(env)}, {env.split} maze of seed {seed}"
+    if drawn:
+        family = families.get(env.generator).title(env)
+        title = f"{_display_name(maze_name)}: {family}, {env.split} maze of seed {seed}"
     draw_maze(ax, maze, goal=np.asarray(state.goal), n_beams=n_beams, title=title)
     _legend(ax, n_beams, float(params.goal_radius))
     fig.tight_layout()

@@ -57,6 +57,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from jaxnav.core.errors import ConfigError
+from jaxnav.core.families import DOOR_MARGIN
 from jaxnav.world import generators
 from jaxnav.world.generators import SPLITS
 from jaxnav.world.maps import (
@@ -74,7 +75,6 @@ RASTER = 0.1  # m, an occupancy raster cell's side (cylinders)
 PASS_CLEARANCE = ROBOT_RADIUS + RASTER / math.sqrt(2) + 1e-4
 LATTICE = 0.05  # m, cylinder centres and door positions lie on this lattice
 RADIUS_STEP = 0.01  # m, cylinder radii come in these steps
-DOOR_MARGIN = 0.05  # m of wall left at least on either side of a door
 ROOM_GOAL_SPACING = 0.5  # m between a room's goal points, about
 MAX_TRIES = 32  # candidate layouts a draw tries inside jit (cylinders: twice nested)
 FALLBACK_TRIES = 2000  # candidates searched on the host for the fallback maze
@@ -93,7 +93,9 @@ _MOVES = tuple(
 
 
 class Cylinders(NamedTuple):
-    """The static shape of a cylinders family (hashable: it fixes array shapes)."""
+    """The static shape of a cylinders family (hashable: it fixes array shapes), the
+    ``cylinders`` family of :mod:`jaxnav.core.families`: :meth:`draw` gives a maze and
+    its first goal."""
 
     count: int
     r_lo: float
@@ -130,9 +132,23 @@ class Cylinders(NamedTuple):
         cy, cx = np.meshgrid(c, c, indexing="ij")
         return np.stack([cx.ravel(), cy.ravel()], 1).astype(np.float32)
 
+    def draw(self, key: chex.PRNGKey, split: str = "train") -> tuple[Maze, chex.Array]:
+        """(maze, goal f32[2]): a cylinder field of ``split``, the robot at its start facing
+        a uniform yaw, and its first goal ``min_path`` m away."""
+        k_draw, yaw = _yaw(key)
+        return _cylinders_maze_goal(draw_cylinders(k_draw, self, split), self, yaw)
+
+    def candidate(self, key: chex.PRNGKey, split: str) -> CylinderDraw:
+        return _cylinder_candidate(key, self, split)
+
+    def settings_text(self) -> str:
+        """The settings that make its mazes, for a refusal."""
+        return "env.cyl_count, env.cyl_radius, env.cyl_room and env.cyl_min_path"
+
 
 class Rooms(NamedTuple):
-    """The static shape of a rooms family (hashable: it fixes array shapes)."""
+    """The static shape of a rooms family (hashable: it fixes array shapes), the ``rooms``
+    family of :mod:`jaxnav.core.families`: :meth:`draw` gives a maze and its first goal."""
 
     rows: int
     cols: int
@@ -162,6 +178,19 @@ class Rooms(NamedTuple):
     def per_side(self) -> int:
         """Goal points along a room's side (a room has per_side^2)."""
         return int((self.size - 2 * GOAL_CLEARANCE) // ROOM_GOAL_SPACING) + 1
+
+    def draw(self, key: chex.PRNGKey, split: str = "train") -> tuple[Maze, chex.Array]:
+        """(maze, goal f32[2]): a rooms maze of ``split``, the robot at its start facing a
+        uniform yaw, and its first goal ``min_path`` doors away."""
+        k_draw, yaw = _yaw(key)
+        return _rooms_maze_goal(draw_rooms(k_draw, self, split), self, yaw)
+
+    def candidate(self, key: chex.PRNGKey, split: str) -> _Doors:
+        return _rooms_candidate(key, self, split)
+
+    def settings_text(self) -> str:
+        """The settings that make its mazes, for a refusal."""
+        return "env.rooms_rows, env.rooms_cols, env.rooms_size and env.rooms_door"
 
 
 # ----------------------------------------------------------------------------
@@ -210,8 +239,7 @@ def search(key: chex.PRNGKey, family: Cylinders | Rooms, split: str):
     """(candidate, ok): the first valid candidate maze of ``split`` among MAX_TRIES
     (:func:`first_valid`), jitted once per family and split, so the host's fallback
     search and an eager draw share one compiled program."""
-    candidate = functools.partial(_CANDIDATES[type(family)], family=family, split=split)
-    return first_valid(candidate, key)
+    return first_valid(functools.partial(family.candidate, split=split), key)
 
 
 @functools.lru_cache(maxsize=32)
@@ -226,13 +254,8 @@ def fallback(family: Cylinders | Rooms, split: str):
         c, ok = compiled(key)
         if bool(ok):
             return jax.tree.map(np.asarray, c)
-    what = (
-        "env.cyl_count, env.cyl_radius, env.cyl_room and env.cyl_min_path leave"
-        if isinstance(family, Cylinders)
-        else "env.rooms_rows, env.rooms_cols, env.rooms_size and env.rooms_door leave"
-    )
     raise ConfigError(
-        f"config: {what} no valid {split} maze in {FALLBACK_TRIES} tries "
+        f"config: {family.settings_text()} leave no valid {split} maze in {FALLBACK_TRIES} tries "
         "(make the mazes less crowded or the minimum path shorter)"
     )
 
@@ -480,41 +503,32 @@ def rooms_maze(d: RoomsDraw, family: Rooms, yaw: chex.Array) -> Maze:
 
 
 # ----------------------------------------------------------------------------
-# The environment's entry points
+# The families of jaxnav.core.families
 # ----------------------------------------------------------------------------
 
-FAMILIES = ("cylinders", "rooms")
-_CANDIDATES = {Cylinders: _cylinder_candidate, Rooms: _rooms_candidate}
+
+def cylinders_family(env) -> Cylinders:
+    """The cylinders family of ``env``'s settings (an EnvConfig or a ``jaxnav.env.NavEnv``)."""
+    lo, hi = env.cyl_radius
+    return Cylinders(env.cyl_count, float(lo), float(hi), env.cyl_room, env.cyl_min_path)
 
 
-def family_of(env) -> Cylinders | Rooms:
-    """The static shape of ``env.generator``'s family from its settings (``env`` a
-    ``jaxnav.env.NavEnv`` or an EnvConfig)."""
-    if env.generator == "cylinders":
-        lo, hi = env.cyl_radius
-        return Cylinders(env.cyl_count, float(lo), float(hi), env.cyl_room, env.cyl_min_path)
-    if env.generator == "rooms":
-        return Rooms(
-            env.rooms_rows,
-            env.rooms_cols,
-            env.rooms_size,
-            env.rooms_door,
-            env.rooms_loops,
-            env.min_path_cells,
-        )
-    raise ValueError(f"no family {env.generator!r} in jaxnav.world.families")
+def rooms_family(env) -> Rooms:
+    """The rooms family of ``env``'s settings (an EnvConfig or a ``jaxnav.env.NavEnv``)."""
+    return Rooms(
+        env.rooms_rows,
+        env.rooms_cols,
+        env.rooms_size,
+        env.rooms_door,
+        env.rooms_loops,
+        env.min_path_cells,
+    )
 
 
-def draw_maze(
-    key: chex.PRNGKey, family: Cylinders | Rooms, split: str = "train"
-) -> tuple[Maze, chex.Array]:
-    """(maze, goal f32[2]): a maze of the family and ``split``, the robot at its start
-    facing a uniform yaw, and its first goal."""
+def _yaw(key: chex.PRNGKey) -> tuple[chex.PRNGKey, chex.Array]:
+    """(the draw's key, the start's uniform yaw f32[]) of a maze's key."""
     k_draw, k_yaw = jax.random.split(key)
-    yaw = jax.random.uniform(k_yaw, (), jnp.float32, -jnp.pi, jnp.pi)
-    if isinstance(family, Cylinders):
-        return _cylinders_maze_goal(draw_cylinders(k_draw, family, split), family, yaw)
-    return _rooms_maze_goal(draw_rooms(k_draw, family, split), family, yaw)
+    return k_draw, jax.random.uniform(k_yaw, (), jnp.float32, -jnp.pi, jnp.pi)
 
 
 # Jitted so that an eager draw (the template of jaxnav.env.make) is one program each.
@@ -529,7 +543,6 @@ def _rooms_maze_goal(d: RoomsDraw, family: Rooms, yaw) -> tuple[Maze, chex.Array
 
 
 __all__ = [
-    "FAMILIES",
     "PASS_CLEARANCE",
     "RASTER",
     "CylinderDraw",
@@ -539,15 +552,15 @@ __all__ = [
     "clearance_raster",
     "cylinder_codes",
     "cylinder_split",
+    "cylinders_family",
     "cylinders_maze",
     "draw_cylinders",
-    "draw_maze",
     "draw_rooms",
     "fallback",
-    "family_of",
     "first_valid",
     "hash_split",
     "raster_distances",
+    "rooms_family",
     "rooms_maze",
     "rooms_split",
 ]

@@ -43,7 +43,6 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from jaxnav.core.settings import grid_problem
 from jaxnav.world.geometry import norm2
 from jaxnav.world.maps import _FAR, ROBOTIS_ARENA, Maze
 
@@ -55,12 +54,15 @@ _SPLIT_SALT = 0x6A09E667  # fixes the layout hash
 
 
 class Grid(NamedTuple):
-    """The static shape of a grid family (hashable: it fixes array shapes)."""
+    """The static shape of a grid family (hashable: it fixes array shapes), the ``grid``
+    family of :mod:`jaxnav.core.families`: :meth:`draw` gives a maze and its first goal,
+    :meth:`cell_distances` and :meth:`geodesic_target` its shortest paths."""
 
     rows: int
     cols: int
     cell: float = 1.0
     loops: float = 0.0
+    min_path: int = 1  # cells between the start and the first goal along the maze, at least
 
     @property
     def n_cells(self) -> int:
@@ -86,6 +88,28 @@ class Grid(NamedTuple):
     def max_min_path(self) -> int:
         """The longest minimum start-goal path that every maze allows: R + C - 2."""
         return self.rows + self.cols - 2
+
+    def draw(self, key: chex.PRNGKey, split: str = "train") -> tuple[Maze, chex.Array]:
+        """(maze, goal f32[2]) of ``split``, the goal ``min_path`` cells away
+        (:func:`draw_maze`)."""
+        return draw_maze(key, self, split, self.min_path)
+
+    def cell_distances(self, maze: Maze) -> chex.Array:
+        """i16[RC, RC]: the cells' distances through a drawn maze
+        (:func:`maze_cell_distances`)."""
+        return maze_cell_distances(maze, self)
+
+    def geodesic_target(
+        self, maze: Maze, cell_dist: chex.Array, pos: chex.Array, goal: chex.Array
+    ) -> tuple[chex.Array, chex.Array]:
+        """Where the shortest path from ``pos`` to ``goal`` heads next, and its length
+        (:func:`geodesic_target`)."""
+        return geodesic_target(maze, cell_dist, self, pos, goal)
+
+
+def grid_family(env) -> Grid:
+    """The grid family of ``env``'s settings (an EnvConfig or a ``jaxnav.env.NavEnv``)."""
+    return Grid(env.grid_rows, env.grid_cols, env.grid_cell, env.grid_loops, env.min_path_cells)
 
 
 # ----------------------------------------------------------------------------
@@ -377,7 +401,7 @@ __all__ = [
     "cell_neighbours",
     "draw",
     "draw_maze",
-    "grid_problem",
+    "grid_family",
     "layout_maze",
     "geodesic_target",
     "layout_split",
