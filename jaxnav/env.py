@@ -33,14 +33,11 @@ ROBOTIS' own simulation differs from this in four ways, each a switch of
 from __future__ import annotations
 
 import dataclasses
-import math
 from typing import TYPE_CHECKING, Any
 
 import chex
 import jax
 import jax.numpy as jnp
-import numpy as np
-from flax import struct
 
 from jaxnav.core import families
 from jaxnav.core.config import (
@@ -51,7 +48,7 @@ from jaxnav.core.config import (
     env_setting_problem,
 )
 from jaxnav.core.settings import ACTION_SETS, PRESETS
-from jaxnav.world import motion, sensor
+from jaxnav.world import motion
 from jaxnav.world.geometry import (
     displacement,
     norm2,
@@ -60,26 +57,31 @@ from jaxnav.world.geometry import (
 )
 from jaxnav.world.goals import GoalSampler
 from jaxnav.world.kinematics import firmware_limit
+from jaxnav.world.layouts import BANK_BATCH, DrawnLayouts, bank_key
 from jaxnav.world.lazy import draw_where
 from jaxnav.world.maps import (
     BURGER_RADIUS,
-    ROBOT_RADIUS,
     Maze,
     make_maze,
 )
+from jaxnav.world.observer import Observer
 from jaxnav.world.reward import progress_reward, reward_fn, sparse_reward
 from jaxnav.world.sensor import goal_heading_distance
-from jaxnav.world.spaces import Box, Discrete
+from jaxnav.world.spaces import Discrete
+from jaxnav.world.state import (
+    PAPER_OMEGAS,
+    STRAIGHT,
+    EnvParams,
+    EnvState,
+    new_episode,
+    scale_maze,
+    step_keys,
+)
 
 if TYPE_CHECKING:
     from jaxnav.core.config import Config
 
-BANK_BATCH = 256  # layouts of a bank drawn side by side (NavEnv.draw_bank)
 RESTARTS = 32  # drawn mazes: environments restarted together per round (NavEnv.step)
-
-# Paper Table 1: action -> angular velocity (rad/s), positive = counter-clockwise.
-PAPER_OMEGAS = (-1.5, -0.75, 0.0, 0.75, 1.5)
-STRAIGHT = PAPER_OMEGAS.index(0.0)  # the action pending at an episode start (action_delay)
 
 # The ROBOTIS-faithful switches of NavEnv: field -> (jaxnav's default, ROBOTIS' value).
 ROBOTIS_SWITCHES = {
@@ -90,69 +92,9 @@ ROBOTIS_SWITCHES = {
 }
 
 
-@struct.dataclass
-class EnvParams:
-    """Everything about the task that is data (vmappable). Defaults: paper preset."""
-
-    maze: Maze
-    omegas: chex.Array = struct.field(default_factory=lambda: jnp.asarray(PAPER_OMEGAS))
-    v: float = 0.15  # m/s
-    dt: float = 0.2  # s
-    robot_radius: float = ROBOT_RADIUS  # m
-    goal_radius: float = 0.2  # m
-    min_range: float = 0.12  # m
-    max_range: float = 3.5  # m
-    lidar_noise_std: float = 0.0  # m; 0.01 reproduces Gazebo's LDS-01 model
-    max_steps: int = 500
-    R_plus: float = 1000.0
-    R_minus: float = -150.0
-    reward_span: float = math.pi / 2  # paper text; ROBOTIS code pi / 4
-    reward_distance_exp: bool = False  # False: D = d_c (paper); True: 2^(d_c/d_0)
-    goal_min_separation: float = 1.0  # m, a new goal is drawn this far from the last
-    # f32[A] each action's forward speed (m/s), or None: every action drives at v (the
-    # paper's). With an action set (NavEnv.actions) omegas holds its yaw rates.
-    speeds: chex.Array | None = None
-    progress_scale: float = 10.0  # reward "progress": per metre closer to the goal
-    step_penalty: float = 0.0  # taken from every step that neither reaches nor collides
-    proximity_penalty: float = 0.0  # taken, scaled, where the path comes near a surface
-    proximity_distance: float = 0.3  # m of clearance (beyond the radius) where it starts
-    # Drawn mazes only: layouts drawn ahead (NavEnv.with_bank), (maze, goal, cell
-    # distances or None) with a leading axis of NavEnv.maze_bank; None: each new layout
-    # is drawn when it is needed.
-    bank: Any = None
-
-
-@struct.dataclass
-class EnvState:
-    pos: chex.Array  # f32[2]
-    yaw: chex.Array  # f32[]
-    goal: chex.Array  # f32[2]
-    t: chex.Array  # i32[] steps in this episode
-    goal_distance0: chex.Array  # f32[] distance to goal when it was drawn (or at reset)
-    scale: chex.Array  # f32[] this episode's maze scale (1 unless NavEnv.maze_scale)
-    # i32[] the action chosen last step, applied this step; None (no leaf) unless
-    # NavEnv.action_delay, so the state is unchanged when the switch is off.
-    pending_action: chex.Array | None = None
-    # The episode's maze and the episodes begun in it (i32[]) when NavEnv.generator
-    # draws the mazes; None (no leaves) with the fixed maze of EnvParams.
-    maze: Maze | None = None
-    maze_episodes: chex.Array | None = None
-    # f32[k, 3]: every circular obstacle (x, y, r), static or moving, where it is at
-    # this step (the scan's time); padded rows have r = 0.
-    circles: chex.Array | None = None
-    # i16[RC, RC]: the drawn grid maze's cell distances, with reward "geodesic" only.
-    cell_dist: chex.Array | None = None
-    # f32[2]: the last command driven (v, omega), 0 at an episode's start; with the
-    # normalised observation only (it is part of it).
-    last_command: chex.Array | None = None
-    # f32[k, n_beams]: the k scans before this one as observed (normalised), newest
-    # first; with NavEnv.scan_history k > 0 only (they are part of the observation).
-    scans: chex.Array | None = None
-
-
 @dataclasses.dataclass(frozen=True)
 @families.settings_after("generator")
-class NavEnv(GoalSampler):
+class NavEnv(GoalSampler, DrawnLayouts, Observer):
     """The environment. Its fields fix array shapes, so they are static, not params.
 
     Attributes:
@@ -286,47 +228,6 @@ class NavEnv(GoalSampler):
         """Whether the mazes are drawn (``generator`` set), so the state holds the maze."""
         return bool(self.generator)
 
-    @property
-    def family(self):
-        """The drawn mazes' family as a static, hashable shape from its settings
-        (:meth:`jaxnav.core.families.Family.shape`): ``draw(key, split)`` gives a maze and
-        its first goal; a family with shortest paths gives their cell distances and
-        targets too (``env.reward geodesic``)."""
-        return families.get(self.generator).shape(self)
-
-    def draw_maze(self, key: chex.PRNGKey) -> tuple[Maze, chex.Array]:
-        """(maze, goal f32[2]): a maze of the family and split, start and goal in it."""
-        return self.family.draw(key, self.split)
-
-    def draw_bank(self, key: chex.PRNGKey):
-        """``maze_bank`` layouts drawn from ``key``, each as :meth:`_draw` gives it (maze,
-        goal, cell distances or None), leaves with a leading axis of ``maze_bank``; drawn
-        ``BANK_BATCH`` at a time side by side."""
-        keys = jax.random.split(key, self.maze_bank)
-        return jax.lax.map(self._draw, keys, batch_size=min(self.maze_bank, BANK_BATCH))
-
-    def layout_bytes(self) -> int:
-        """Bytes one layout of a bank takes (its maze, goal and cell distances), from
-        the shapes alone: nothing is drawn."""
-        shapes = jax.eval_shape(self._draw, jax.random.PRNGKey(0))
-        return sum(math.prod(x.shape) * x.dtype.itemsize for x in jax.tree.leaves(shapes))
-
-    def with_bank(self, params: EnvParams, key: chex.PRNGKey) -> EnvParams:
-        """``params`` with a bank of layouts drawn from ``key`` when ``maze_bank`` is set
-        (else unchanged): the episodes played with them pick their layouts from it."""
-        if not (self.generates and self.maze_bank):
-            return params
-        return params.replace(bank=self.draw_bank(key))
-
-    def _layout(self, key: chex.PRNGKey, params: EnvParams):
-        """A new layout (maze, goal, cell distances or None): drawn from ``key``, or with
-        a bank in ``params`` one of its layouts picked at random with ``key``."""
-        if params.bank is None:
-            return self._draw(key)
-        n = jax.tree.leaves(params.bank)[0].shape[0]
-        i = jax.random.randint(key, (), 0, n)
-        return jax.tree.map(lambda b: b[i], params.bank)
-
     def in_maze(self, params: EnvParams, state: EnvState) -> EnvParams:
         """``params`` with the state's maze when the mazes are drawn (else unchanged)."""
         return params.replace(maze=state.maze) if self.generates else params
@@ -348,17 +249,6 @@ class NavEnv(GoalSampler):
         v, _ = self.command(params, applied)
         return jnp.abs(jnp.asarray(v, jnp.float32)) * params.dt
 
-    def read_observation(
-        self, obs: chex.Array, params: EnvParams
-    ) -> tuple[chex.Array, chex.Array, chex.Array]:
-        """(ranges m f32[n_beams], heading rad f32[], distance m f32[]) of an observation:
-        what a driver that sees only the scan and the goal reads (:mod:`jaxnav.planners.dwa`).
-        The normalised observation's distance is capped at the sensor's range."""
-        n = self.n_beams
-        if self.normalised:
-            return obs[:n] * params.max_range, obs[n] * jnp.pi, obs[n + 1] * params.max_range
-        return obs[:n], obs[n], obs[n + 1]
-
     def attempt_steps(self, params: EnvParams) -> int:
         """The attempt limit in steps (host side): ``attempt_limit``, or the episode's
         step limit where it is 0."""
@@ -377,34 +267,8 @@ class NavEnv(GoalSampler):
             self.reward == "progress" and self.progress_path == "geodesic"
         )
 
-    @property
-    def normalised(self) -> bool:
-        """Whether the observation is the normalised one (it holds the last command)."""
-        return self.observation == "normalised"
-
-    @property
-    def obs_size(self) -> int:
-        if self.normalised:
-            return self.n_beams * (1 + self.scan_history) + 4
-        return self.n_beams + 2 + (2 if self.obstacle_obs else 0)
-
     def action_space(self, params: EnvParams | None = None) -> Discrete:
         return Discrete(self.num_actions)
-
-    def observation_space(self, params: EnvParams) -> Box:
-        if self.normalised:
-            low = [0.0] * self.n_beams + [-1.0, 0.0, -1.0, -1.0]
-            low += [0.0] * (self.n_beams * self.scan_history)
-            high = [1.0] * self.obs_size
-            return Box(np.asarray(low, np.float32), np.asarray(high, np.float32), (self.obs_size,))
-        bounds = np.asarray(jax.device_get(params.maze.bounds))  # host side, not under jit
-        big = float(np.max(bounds[..., 2:] - bounds[..., :2])) * self.maze_scale[1]
-        low = [params.min_range] * self.n_beams + [-math.pi, 0.0]
-        high = [params.max_range] * self.n_beams + [math.pi, 2 * big]
-        if self.obstacle_obs:
-            low += [params.min_range, 0.0]
-            high += [params.max_range, float(self.n_beams - 1)]
-        return Box(np.asarray(low, np.float32), np.asarray(high, np.float32), (self.obs_size,))
 
     # -- observation ---------------------------------------------------------
 
@@ -417,61 +281,6 @@ class NavEnv(GoalSampler):
     def circles_at(self, params: EnvParams, scale: chex.Array, t: chex.Array) -> chex.Array:
         """f32[k, 3]: every cylinder (static, then moving) after ``t`` steps."""
         return self.maze_at(params, scale, t * params.dt).circles
-
-    def observe(
-        self,
-        key: chex.PRNGKey,
-        pos: chex.Array,
-        yaw: chex.Array,
-        goal: chex.Array,
-        params: EnvParams,
-        scale: chex.Array = 1.0,
-        time: chex.Array = 0.0,
-        last_command: chex.Array | None = None,
-        scans: chex.Array | None = None,
-    ) -> chex.Array:
-        """The observation f32[obs_size], the moving cylinders (if any) where they are at
-        ``time`` (s into the episode): the ROBOTIS state [ranges, heading, distance(, min
-        range, argmin beam)], or the normalised one with ``last_command`` (v, omega)."""
-        maze = self.maze_at(params, scale, time)
-        if self.scan_beams:  # a finer scan, the least range of each sector observed
-            fine = sensor.beam_ranges(maze, pos, yaw, self.scan_beams)
-            ranges = sensor.pooled_ranges(fine, self.n_beams)
-        else:
-            ranges = sensor.beam_ranges(maze, pos, yaw, self.n_beams, self.beam_layout == "gazebo")
-        if self.normalised:
-            last = jnp.zeros(2, jnp.float32) if last_command is None else last_command
-            obs = sensor.normalised_observation(
-                key,
-                ranges,
-                pos,
-                yaw,
-                goal,
-                last,
-                noise_std=params.lidar_noise_std,
-                min_range=params.min_range,
-                max_range=params.max_range,
-                dropout=self.beam_dropout,
-                odom_std=self.odom_noise,
-            )
-            if self.scan_history:  # the scans before (at an episode's start: this one)
-                if scans is None:
-                    scans = jnp.tile(obs[: self.n_beams], (self.scan_history, 1))
-                obs = jnp.concatenate([obs, scans.reshape(-1)])
-            return obs
-        return sensor.observation(
-            key,
-            ranges,
-            pos,
-            yaw,
-            goal,
-            noise_std=params.lidar_noise_std,
-            min_range=params.min_range,
-            max_range=params.max_range,
-            dropout=self.beam_dropout,
-            odom_std=self.odom_noise,
-            obstacle_obs=self.obstacle_obs,
-        )
 
     # -- API -----------------------------------------------------------------
 
@@ -492,7 +301,7 @@ class NavEnv(GoalSampler):
             goal = self.first_goal(k_goal, start, params, scale)
         pos, yaw = self._start_pose(key, params, goal, scale)
         scale = jnp.asarray(scale, jnp.float32)
-        state = _new_episode(pos, yaw, goal, scale, self.action_delay, maze, maze_episodes)
+        state = new_episode(pos, yaw, goal, scale, self.action_delay, maze, maze_episodes)
         state = self._with_world(state, params, cell_dist)
         obs = self.observe(k_obs, pos, yaw, goal, params, scale)
         return obs, self._first_scans(state, obs)
@@ -510,7 +319,7 @@ class NavEnv(GoalSampler):
     def step_env(self, key: chex.PRNGKey, state: EnvState, action: chex.Array, params: EnvParams):
         """One control period without the auto-reset."""
         params = self.in_maze(params, state)
-        k_goal, k_obs = _step_keys(key)
+        k_goal, k_obs = step_keys(key)
         applied = state.pending_action if self.action_delay else action
         v, omega = self.command(params, applied)
         maze = self.maze_at(params, state.scale)
@@ -599,53 +408,8 @@ class NavEnv(GoalSampler):
         if self.scales_maze:  # the kept goal moves with the maze
             goal = goal * (scale / state.scale)
         obs = self.observe(key, pos, yaw, goal, params, scale)
-        state = _new_episode(pos, yaw, goal, scale, self.action_delay)
+        state = new_episode(pos, yaw, goal, scale, self.action_delay)
         return obs, self._first_scans(self._with_world(state, params), obs)
-
-    def _restart_drawn(self, key, state: EnvState, params: EnvParams):
-        """:meth:`restart` with drawn mazes: the next maze from ``fold_in(key, 5)`` once
-        the current one has had ``new_maze_every`` episodes; where it has not, no maze is
-        drawn (:func:`jaxnav.world.lazy.draw_where`), which changes no number. (:meth:`step`
-        runs it only for the environments whose episode ended.)"""
-        episodes = state.maze_episodes + 1
-        fresh = episodes >= self.new_maze_every
-        old = (state.maze, state.goal, state.cell_dist)
-        k_maze = jax.random.fold_in(key, 5)
-        if params.bank is None:
-            maze, new_goal, cell_dist = draw_where(self._draw, fresh, k_maze, old)
-        else:  # picking from the bank is a gather: no need to skip the unused ones
-            new = self._layout(k_maze, params)
-            maze, new_goal, cell_dist = jax.tree.map(lambda a, b: jnp.where(fresh, a, b), new, old)
-        episodes = jnp.where(fresh, 0, episodes)
-        params = params.replace(maze=maze)
-        scale = self._episode_scale(key)
-        kept = state.goal
-        if self.scales_maze:  # the kept goal moves with the maze, the new one is scaled
-            kept, new_goal = kept * (scale / state.scale), new_goal * scale
-        goal = jnp.where(fresh, new_goal, kept)
-        pos, yaw = self._start_pose(key, params, goal, scale)
-        scale = jnp.asarray(scale, jnp.float32)
-        obs = self.observe(key, pos, yaw, goal, params, scale)
-        state = _new_episode(pos, yaw, goal, scale, self.action_delay, maze, episodes)
-        return obs, self._first_scans(self._with_world(state, params, cell_dist), obs)
-
-    def _first_scans(self, state: EnvState, obs: chex.Array) -> EnvState:
-        """An episode's first state with its scan history: copies of its first scan."""
-        if not self.scan_history:
-            return state
-        return state.replace(scans=jnp.tile(obs[: self.n_beams], (self.scan_history, 1)))
-
-    def _newer_scans(self, scans: chex.Array, obs: chex.Array) -> chex.Array:
-        """The history after a step: its observed scan first, the oldest dropped."""
-        return jnp.concatenate([obs[None, : self.n_beams], scans[:-1]])
-
-    def _draw(self, key: chex.PRNGKey):
-        """(maze, goal, its cell distances for the geodesic reward or None)."""
-        maze, goal = self.draw_maze(key)
-        dist = None
-        if self.uses_cell_distances:
-            dist = self.family.cell_distances(maze)
-        return maze, goal, dist
 
     def step(self, key: chex.PRNGKey, state: EnvState, action: chex.Array, params: EnvParams):
         """Step with auto-reset: after a collision or truncation the robot restarts at the
@@ -657,7 +421,7 @@ class NavEnv(GoalSampler):
         # The restart observes with the step's own observation key: its range noise
         # (and dropout) is the same draw as the step's, so it costs nothing extra; the
         # two observations are of different poses and never feed one transition.
-        k_restart = _step_keys(key)[1]
+        k_restart = step_keys(key)[1]
         if self.generates:
             # Each environment restarts in a maze of its own, so its restart scan is its
             # own too: computed only where an episode ended (jaxnav.world.lazy), the
@@ -673,51 +437,6 @@ class NavEnv(GoalSampler):
         state = jax.tree.map(lambda a, b: jnp.where(done, a, b), st_re, st)
         obs = jnp.where(done, obs_re, obs_st)
         return obs, state, reward, terminated, truncated, info
-
-
-def bank_key(key: chex.PRNGKey) -> chex.PRNGKey:
-    """The key a training run draws its bank of layouts with, from its own key: folded
-    in, so the run's other keys are those of a run without a bank."""
-    return jax.random.fold_in(key, 0x62616E6B)
-
-
-def _step_keys(key: chex.PRNGKey) -> tuple[chex.Array, chex.Array]:
-    """(goal key, observation key) of one step."""
-    k_goal, k_obs = jax.random.split(key)
-    return k_goal, k_obs
-
-
-def _new_episode(
-    pos, yaw, goal, scale, action_delay: bool = False, maze=None, maze_episodes=None
-) -> EnvState:
-    """State at the start of an episode: step count 0, d_0 measured from here."""
-    return EnvState(
-        pos=pos,
-        yaw=yaw,
-        goal=goal,
-        t=jnp.zeros((), jnp.int32),
-        goal_distance0=norm2(goal - pos),
-        scale=jnp.asarray(scale, jnp.float32),
-        pending_action=jnp.asarray(STRAIGHT, jnp.int32) if action_delay else None,
-        maze=maze,
-        maze_episodes=maze_episodes,
-    )
-
-
-def scale_maze(maze: Maze, scale: chex.Array) -> Maze:
-    """The maze scaled about the origin; circle radii keep their size (moving ones'
-    paths scale too, their timing stays)."""
-    moving = maze.motion
-    if moving is not None:
-        moving = moving.replace(points=moving.points * scale, centre=moving.centre * scale)
-    return maze.replace(
-        motion=moving,
-        segments=maze.segments * scale,
-        circles=maze.circles.at[:, :2].multiply(scale),
-        start=maze.start.at[:2].multiply(scale),
-        goal_points=maze.goal_points * scale,
-        bounds=maze.bounds * scale,
-    )
 
 
 # The environment's settings: data in EnvParams (vmappable, no recompile), or static
@@ -776,10 +495,13 @@ def from_config(config: Config) -> tuple[NavEnv, EnvParams]:
 
 
 __all__ = [
+    "BANK_BATCH",
     "ENV_FIELDS",
     "PARAM_FIELDS",
     "PAPER_OMEGAS",
+    "RESTARTS",
     "ROBOTIS_SWITCHES",
+    "STRAIGHT",
     "EnvParams",
     "EnvState",
     "NavEnv",

@@ -16,7 +16,8 @@ import pytest
 import jaxnav
 from jaxnav.core.config import load_config
 from jaxnav.core.errors import ConfigError
-from jaxnav.env import _step_keys, bank_key
+from jaxnav.env import bank_key
+from jaxnav.world.state import step_keys
 from jaxnav.run.training import train_new
 from jaxnav.world import lazy
 
@@ -121,7 +122,7 @@ def test_a_drawn_step_restarts_as_computing_every_restart_would(bank):
 
     def eager(k, s, a):
         o, s2, _, te, tr, _ = env.step_env(k, s, a, params)
-        o_re, s_re = env.restart(_step_keys(k)[1], s2, params)
+        o_re, s_re = env.restart(step_keys(k)[1], s2, params)
         done = te | tr
         return jnp.where(done, o_re, o), jax.tree.map(lambda x, y: jnp.where(done, x, y), s_re, s2)
 

@@ -1,0 +1,116 @@
+"""Where a drawn maze's layouts come from (``env.generator``): drawn inside jit by the
+family's static shape, or picked from a bank drawn ahead (``env.maze_bank``), and the
+restart that moves an environment to its next layout. A mixin of
+:class:`jaxnav.env.NavEnv`: the fields and methods it reads are the environment's."""
+
+from __future__ import annotations
+
+import math
+
+import chex
+import jax
+import jax.numpy as jnp
+
+from jaxnav.core import families
+from jaxnav.world.lazy import draw_where
+from jaxnav.world.maps import Maze
+from jaxnav.world.state import EnvParams, EnvState, new_episode
+
+BANK_BATCH = 256  # layouts of a bank drawn side by side (draw_bank)
+
+
+def bank_key(key: chex.PRNGKey) -> chex.PRNGKey:
+    """The key a training run draws its bank of layouts with, from its own key: folded
+    in, so the run's other keys are those of a run without a bank."""
+    return jax.random.fold_in(key, 0x62616E6B)
+
+
+class DrawnLayouts:
+    """The drawn-maze side of :class:`jaxnav.env.NavEnv`."""
+
+    generator: str
+    split: str
+    maze_bank: int
+    new_maze_every: int
+    scales_maze: bool
+    action_delay: bool
+    uses_cell_distances: bool
+
+    @property
+    def family(self):
+        """The drawn mazes' family as a static, hashable shape from its settings
+        (:meth:`jaxnav.core.families.Family.shape`): ``draw(key, split)`` gives a maze and
+        its first goal; a family with shortest paths gives their cell distances and
+        targets too (``env.reward geodesic``)."""
+        return families.get(self.generator).shape(self)
+
+    def draw_maze(self, key: chex.PRNGKey) -> tuple[Maze, chex.Array]:
+        """(maze, goal f32[2]): a maze of the family and split, start and goal in it."""
+        return self.family.draw(key, self.split)
+
+    def draw_bank(self, key: chex.PRNGKey):
+        """``maze_bank`` layouts drawn from ``key``, each as :meth:`_draw` gives it (maze,
+        goal, cell distances or None), leaves with a leading axis of ``maze_bank``; drawn
+        ``BANK_BATCH`` at a time side by side."""
+        keys = jax.random.split(key, self.maze_bank)
+        return jax.lax.map(self._draw, keys, batch_size=min(self.maze_bank, BANK_BATCH))
+
+    def layout_bytes(self) -> int:
+        """Bytes one layout of a bank takes (its maze, goal and cell distances), from
+        the shapes alone: nothing is drawn."""
+        shapes = jax.eval_shape(self._draw, jax.random.PRNGKey(0))
+        return sum(math.prod(x.shape) * x.dtype.itemsize for x in jax.tree.leaves(shapes))
+
+    def with_bank(self, params: EnvParams, key: chex.PRNGKey) -> EnvParams:
+        """``params`` with a bank of layouts drawn from ``key`` when ``maze_bank`` is set
+        (else unchanged): the episodes played with them pick their layouts from it."""
+        if not (self.generates and self.maze_bank):
+            return params
+        return params.replace(bank=self.draw_bank(key))
+
+    def _layout(self, key: chex.PRNGKey, params: EnvParams):
+        """A new layout (maze, goal, cell distances or None): drawn from ``key``, or with
+        a bank in ``params`` one of its layouts picked at random with ``key``."""
+        if params.bank is None:
+            return self._draw(key)
+        n = jax.tree.leaves(params.bank)[0].shape[0]
+        i = jax.random.randint(key, (), 0, n)
+        return jax.tree.map(lambda b: b[i], params.bank)
+
+    def _draw(self, key: chex.PRNGKey):
+        """(maze, goal, its cell distances for the geodesic reward or None)."""
+        maze, goal = self.draw_maze(key)
+        dist = None
+        if self.uses_cell_distances:
+            dist = self.family.cell_distances(maze)
+        return maze, goal, dist
+
+    def _restart_drawn(self, key, state: EnvState, params: EnvParams):
+        """:meth:`restart` with drawn mazes: the next maze from ``fold_in(key, 5)`` once
+        the current one has had ``new_maze_every`` episodes; where it has not, no maze is
+        drawn (:func:`jaxnav.world.lazy.draw_where`), which changes no number. (:meth:`step`
+        runs it only for the environments whose episode ended.)"""
+        episodes = state.maze_episodes + 1
+        fresh = episodes >= self.new_maze_every
+        old = (state.maze, state.goal, state.cell_dist)
+        k_maze = jax.random.fold_in(key, 5)
+        if params.bank is None:
+            maze, new_goal, cell_dist = draw_where(self._draw, fresh, k_maze, old)
+        else:  # picking from the bank is a gather: no need to skip the unused ones
+            new = self._layout(k_maze, params)
+            maze, new_goal, cell_dist = jax.tree.map(lambda a, b: jnp.where(fresh, a, b), new, old)
+        episodes = jnp.where(fresh, 0, episodes)
+        params = params.replace(maze=maze)
+        scale = self._episode_scale(key)
+        kept = state.goal
+        if self.scales_maze:  # the kept goal moves with the maze, the new one is scaled
+            kept, new_goal = kept * (scale / state.scale), new_goal * scale
+        goal = jnp.where(fresh, new_goal, kept)
+        pos, yaw = self._start_pose(key, params, goal, scale)
+        scale = jnp.asarray(scale, jnp.float32)
+        obs = self.observe(key, pos, yaw, goal, params, scale)
+        state = new_episode(pos, yaw, goal, scale, self.action_delay, maze, episodes)
+        return obs, self._first_scans(self._with_world(state, params, cell_dist), obs)
+
+
+__all__ = ["BANK_BATCH", "DrawnLayouts", "bank_key"]

@@ -1,0 +1,137 @@
+"""What the robot observes: the LiDAR scan (as many beams as observed, or finer beams
+pooled to them) with range noise and dropout, the goal's heading and distance from the
+(noisy) odometry, and, in the normalised observation, the last command and the scans
+before. A mixin of :class:`jaxnav.env.NavEnv`: the fields and methods it reads
+(``n_beams``, ``maze_at``, ...) are the environment's."""
+
+from __future__ import annotations
+
+import math
+
+import chex
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from jaxnav.world import sensor
+from jaxnav.world.spaces import Box
+from jaxnav.world.state import EnvParams, EnvState
+
+
+class Observer:
+    """The observation side of :class:`jaxnav.env.NavEnv`."""
+
+    n_beams: int
+    obstacle_obs: bool
+    observation: str
+    scan_beams: int
+    scan_history: int
+    beam_layout: str
+    beam_dropout: float
+    odom_noise: tuple[float, float]
+    maze_scale: tuple[float, float]
+
+    @property
+    def normalised(self) -> bool:
+        """Whether the observation is the normalised one (it holds the last command)."""
+        return self.observation == "normalised"
+
+    @property
+    def obs_size(self) -> int:
+        if self.normalised:
+            return self.n_beams * (1 + self.scan_history) + 4
+        return self.n_beams + 2 + (2 if self.obstacle_obs else 0)
+
+    def observation_space(self, params: EnvParams) -> Box:
+        if self.normalised:
+            low = [0.0] * self.n_beams + [-1.0, 0.0, -1.0, -1.0]
+            low += [0.0] * (self.n_beams * self.scan_history)
+            high = [1.0] * self.obs_size
+            return Box(np.asarray(low, np.float32), np.asarray(high, np.float32), (self.obs_size,))
+        bounds = np.asarray(jax.device_get(params.maze.bounds))  # host side, not under jit
+        big = float(np.max(bounds[..., 2:] - bounds[..., :2])) * self.maze_scale[1]
+        low = [params.min_range] * self.n_beams + [-math.pi, 0.0]
+        high = [params.max_range] * self.n_beams + [math.pi, 2 * big]
+        if self.obstacle_obs:
+            low += [params.min_range, 0.0]
+            high += [params.max_range, float(self.n_beams - 1)]
+        return Box(np.asarray(low, np.float32), np.asarray(high, np.float32), (self.obs_size,))
+
+    def observe(
+        self,
+        key: chex.PRNGKey,
+        pos: chex.Array,
+        yaw: chex.Array,
+        goal: chex.Array,
+        params: EnvParams,
+        scale: chex.Array = 1.0,
+        time: chex.Array = 0.0,
+        last_command: chex.Array | None = None,
+        scans: chex.Array | None = None,
+    ) -> chex.Array:
+        """The observation f32[obs_size], the moving cylinders (if any) where they are at
+        ``time`` (s into the episode): the ROBOTIS state [ranges, heading, distance(, min
+        range, argmin beam)], or the normalised one with ``last_command`` (v, omega)."""
+        maze = self.maze_at(params, scale, time)
+        if self.scan_beams:  # a finer scan, the least range of each sector observed
+            fine = sensor.beam_ranges(maze, pos, yaw, self.scan_beams)
+            ranges = sensor.pooled_ranges(fine, self.n_beams)
+        else:
+            ranges = sensor.beam_ranges(maze, pos, yaw, self.n_beams, self.beam_layout == "gazebo")
+        if self.normalised:
+            last = jnp.zeros(2, jnp.float32) if last_command is None else last_command
+            obs = sensor.normalised_observation(
+                key,
+                ranges,
+                pos,
+                yaw,
+                goal,
+                last,
+                noise_std=params.lidar_noise_std,
+                min_range=params.min_range,
+                max_range=params.max_range,
+                dropout=self.beam_dropout,
+                odom_std=self.odom_noise,
+            )
+            if self.scan_history:  # the scans before (at an episode's start: this one)
+                if scans is None:
+                    scans = jnp.tile(obs[: self.n_beams], (self.scan_history, 1))
+                obs = jnp.concatenate([obs, scans.reshape(-1)])
+            return obs
+        return sensor.observation(
+            key,
+            ranges,
+            pos,
+            yaw,
+            goal,
+            noise_std=params.lidar_noise_std,
+            min_range=params.min_range,
+            max_range=params.max_range,
+            dropout=self.beam_dropout,
+            odom_std=self.odom_noise,
+            obstacle_obs=self.obstacle_obs,
+        )
+
+    def read_observation(
+        self, obs: chex.Array, params: EnvParams
+    ) -> tuple[chex.Array, chex.Array, chex.Array]:
+        """(ranges m f32[n_beams], heading rad f32[], distance m f32[]) of an observation:
+        what a driver that sees only the scan and the goal reads (:mod:`jaxnav.planners.dwa`).
+        The normalised observation's distance is capped at the sensor's range."""
+        n = self.n_beams
+        if self.normalised:
+            return obs[:n] * params.max_range, obs[n] * jnp.pi, obs[n + 1] * params.max_range
+        return obs[:n], obs[n], obs[n + 1]
+
+    def _first_scans(self, state: EnvState, obs: chex.Array) -> EnvState:
+        """An episode's first state with its scan history: copies of its first scan."""
+        if not self.scan_history:
+            return state
+        return state.replace(scans=jnp.tile(obs[: self.n_beams], (self.scan_history, 1)))
+
+    def _newer_scans(self, scans: chex.Array, obs: chex.Array) -> chex.Array:
+        """The history after a step: its observed scan first, the oldest dropped."""
+        return jnp.concatenate([obs[None, : self.n_beams], scans[:-1]])
+
+
+__all__ = ["Observer"]
