@@ -17,9 +17,9 @@ import jaxnav
 from jaxnav.core.config import load_config
 from jaxnav.core.errors import ConfigError
 from jaxnav.env import bank_key
-from jaxnav.world.state import step_keys
 from jaxnav.run.training import train_new
 from jaxnav.world import lazy
+from jaxnav.world.state import step_keys
 
 GRID = {"generator": "grid", "grid_rows": 3, "grid_cols": 3, "min_path_cells": 2}
 

@@ -47,6 +47,8 @@ from typing import NamedTuple
 
 import numpy as np
 
+from jaxnav.core import sweep
+
 # results.csv: each episode's sums over its attempts. The first six are the columns of
 # files written before cut attempts were told apart (read by :func:`censored`).
 FIRST_COUNT_COLUMNS = ("attempts", "successes", "timeouts", "path_m", "spl_sum", "time_s")
@@ -278,3 +280,28 @@ def training_outcomes(row: dict[str, str], max_steps: int) -> tuple[int, int, in
     goals, collided = int(row["goals"]), int(row["collided"])
     truncated = not collided and int(row["length"]) >= max_steps
     return goals, collided, int(truncated and goals == 0), int(truncated and goals > 0)
+
+
+def last_episodes(rows: list[dict[str, str]], arms, n: int = 50) -> dict[str, dict[str, float]]:
+    """Mean over seeds of each seed's last ``n`` training episodes (metrics.csv's rows),
+    per arm (strategy, or strategy at a sweep point: :func:`jaxnav.core.sweep.row_arm`);
+    summary.json's ``last50``."""
+    out = {}
+    for s in arms:
+        per_seed: dict[int, list[tuple[int, float, float]]] = {}
+        for r in rows:
+            if sweep.row_arm(r) == s:
+                per_seed.setdefault(int(r["seed"]), []).append(
+                    (int(r["episode"]), float(r["return"]), float(r["goals"]))
+                )
+        ret, goals = [], []
+        for eps in per_seed.values():
+            tail = sorted(eps)[-n:]
+            ret.append(np.mean([x[1] for x in tail]))
+            goals.append(np.mean([x[2] for x in tail]))
+        out[s] = {
+            "return_mean": round(float(np.mean(ret)), 2),
+            "return_std_over_seeds": round(float(np.std(ret)), 2),
+            "goals_per_episode": round(float(np.mean(goals)), 3),
+        }
+    return out

@@ -40,7 +40,7 @@ from jaxnav.core import agents, rundir, startup, sweep
 from jaxnav.core.config import Config, dump_config, load_config
 from jaxnav.core.errors import ConfigError, RunError
 from jaxnav.core.startup import process_age
-from jaxnav.report.navigation import training_outcomes
+from jaxnav.report.navigation import last_episodes, training_outcomes
 from jaxnav.run import tblog
 from jaxnav.run.checkpoint import (
     ROW_SEGMENT,
@@ -446,7 +446,9 @@ class Run:
             f"on {jax.default_backend()}",
             "devices": self.shard.n_devices,
             "processes": jax.process_count(),
-            "last50": last50(self.metrics.read(), self.cfg.arm_names()) if is_writer() else {},
+            "last50": last_episodes(self.metrics.read(), self.cfg.arm_names())
+            if is_writer()
+            else {},
             "diverged": self.diverged_runs(),
         }
         params = self.shard.get(ts.params)  # every process: collective across hosts
@@ -472,30 +474,6 @@ def trainer_of(cfg: Config) -> Trainer:
 def has_replay(cfg: Config) -> bool:
     """Whether a config's agent keeps a replay memory (DQN does, PQN does not)."""
     return agents.get(cfg.agent).replay
-
-
-def last50(rows: list[dict[str, str]], arms) -> dict[str, dict[str, float]]:
-    """Mean over seeds of each seed's last 50 training episodes (from metrics.csv), per
-    arm (strategy, or strategy at a sweep point)."""
-    out = {}
-    for s in arms:
-        per_seed: dict[int, list[tuple[int, float, float]]] = {}
-        for r in rows:
-            if sweep.row_arm(r) == s:
-                per_seed.setdefault(int(r["seed"]), []).append(
-                    (int(r["episode"]), float(r["return"]), float(r["goals"]))
-                )
-        ret, goals = [], []
-        for eps in per_seed.values():
-            tail = sorted(eps)[-50:]
-            ret.append(np.mean([x[1] for x in tail]))
-            goals.append(np.mean([x[2] for x in tail]))
-        out[s] = {
-            "return_mean": round(float(np.mean(ret)), 2),
-            "return_std_over_seeds": round(float(np.std(ret)), 2),
-            "goals_per_episode": round(float(np.mean(goals)), 3),
-        }
-    return out
 
 
 # ----------------------------------------------------------------------------
