@@ -144,7 +144,7 @@ def get(name: str) -> Agent:
 
 
 # The built-in agents. Their settings' checks and memory estimates are in
-# jaxnav.core.config, beside the settings they read.
+# jaxnav.core.agent_settings.
 register(
     "dqn",
     trainer="jaxnav.dqn:make_trainer",
@@ -153,16 +153,16 @@ register(
     replay=True,
     target_network=True,
     about="the paper's DQN: replay and a target network (dqn.*)",
-    problem="jaxnav.core.config:dqn_problem",
-    memory="jaxnav.core.config:dqn_memory",
+    problem="jaxnav.core.agent_settings:dqn_problem",
+    memory="jaxnav.core.agent_settings:dqn_memory",
 )
 register(
     "pqn",
     trainer="jaxnav.pqn:make_trainer",
     network="jaxnav.pqn:network_of",
     reads=("dqn", "pqn"),
-    problem="jaxnav.core.config:pqn_problem",
-    memory="jaxnav.core.config:pqn_memory",
+    problem="jaxnav.core.agent_settings:pqn_problem",
+    memory="jaxnav.core.agent_settings:pqn_memory",
     about="PQN: parallel environments, lambda-returns, LayerNorm (pqn.*; shares dqn.gamma, "
     "lr, hidden, dropout, dueling, loss and optimizer)",
 )

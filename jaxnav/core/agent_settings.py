@@ -1,0 +1,69 @@
+"""The built-in agents' own settings checks and memory estimates (registered with them
+in :mod:`jaxnav.core.agents`): what DQN and PQN need of a config beyond each setting's
+own rule, and the bytes their runs' largest arrays take. No JAX."""
+
+from __future__ import annotations
+
+from jaxnav.core.config import SETTINGS, Config
+from jaxnav.core.sections import PRIORITISED_ONLY, REPLAY_ONLY
+from jaxnav.core.settings import PRESETS
+
+
+def dqn_problem(cfg: Config) -> str | None:
+    """DQN's settings together: prioritised replay's settings need it on, and a batch
+    fits the replay memory."""
+    for name in PRIORITISED_ONLY if not cfg.dqn.prioritised else ():
+        if getattr(cfg.dqn, name) != SETTINGS[f"dqn.{name}"].default:
+            return f"dqn.{name} is a prioritised replay setting: it needs dqn.prioritised true"
+    capacity = cfg.buffer_capacity
+    if cfg.dqn.batch_size > capacity:
+        return (
+            f"dqn.batch_size ({cfg.dqn.batch_size}) is larger than the replay memory, "
+            f"{capacity} transitions (the smaller of dqn.buffer_size and the most steps a "
+            "run takes)"
+        )
+    return None
+
+
+def pqn_problem(cfg: Config) -> str | None:
+    """PQN has no replay memory and no target network, so their settings keep their
+    defaults (the preset's); its minibatches split its rollout evenly."""
+    defaults = PRESETS[cfg.preset].training()
+    for name in REPLAY_ONLY:
+        key = f"dqn.{name}"
+        if getattr(cfg.dqn, name) != defaults.get(key, SETTINGS[key].default):
+            return (
+                f"{key} is a replay or target-network setting, and PQN (agent pqn) has "
+                "neither: leave it at its default"
+            )
+    p = cfg.pqn
+    if (p.num_envs * p.rollout) % p.minibatches:
+        return (
+            f"pqn.minibatches ({p.minibatches}) must divide pqn.num_envs x pqn.rollout "
+            f"({p.num_envs * p.rollout} transitions per update)"
+        )
+    return None
+
+
+def dqn_memory(cfg: Config) -> int:
+    """Bytes DQN's replay memories take, an upper bound within 10% (for 24 beams):
+    jaxnav.agent.replay keeps per slot a record of an f32 observation of at most
+    n_beams + 4 values and 12 bytes of reward, action and flags, and ring index, a ring
+    of capacity // max_steps + 2 final observations and, with prioritised replay, a sum
+    tree; the networks and the environment are small beside it."""
+    obs = 4 * (cfg.env.n_beams + 4)
+    capacity = cfg.buffer_capacity
+    ring = capacity // cfg.env.max_steps + 3  # the final-observation ring and tail
+    # prioritised replay's sum tree: f32[2P], P the power of two at or above capacity
+    tree = 8 << max(0, (capacity - 1).bit_length()) if cfg.dqn.prioritised else 0
+    return cfg.n_runs * (capacity * (obs + 12) + ring * obs + 12 + tree)  # + 3 counters
+
+
+def pqn_memory(cfg: Config) -> int:
+    """Bytes of PQN's rollouts: num_envs x rollout transitions (observation, next
+    observation, Q-values, a dozen scalars) per run, the largest array it holds."""
+    obs = 4 * (cfg.env.n_beams + 4)
+    return cfg.n_runs * cfg.pqn.num_envs * cfg.pqn.rollout * (2 * obs + 64)
+
+
+__all__ = ["dqn_memory", "dqn_problem", "pqn_memory", "pqn_problem"]
