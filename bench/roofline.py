@@ -150,7 +150,7 @@ def learner_alone(seeds: int, beams: int, steps: int, reps: int) -> dict:
         def body(_, carry):
             params, target, opt_state, batch, key = carry
             key, k_drop = jax.random.split(key)
-            loss_fn = functools.partial(dqn._loss, network, hyper)
+            loss_fn = functools.partial(dqn.batch_loss, network, hyper)
             _, grads = jax.value_and_grad(loss_fn)(params, target, batch, k_drop)
             updates, opt_state = dqn.optimizer_of(hyper).update(grads, opt_state, params)
             return optax.apply_updates(params, updates), target, opt_state, batch, key

@@ -250,7 +250,7 @@ def _act(network: QNetwork, config: Config, ts: TrainState, key: chex.PRNGKey):
     return action, prob, jnp.all(jnp.isfinite(q)), jnp.max(q)
 
 
-def _loss(
+def batch_loss(
     network: QNetwork,
     h: Hyper,
     params,
@@ -314,7 +314,7 @@ def _learn(
         )
     double = d.double if h.double is None else h.double  # swept: the run's, as data
     kind = d.loss if h.loss is None else h.loss
-    loss_fn = functools.partial(_loss, network, h, double=double, kind=kind, weights=weights)
+    loss_fn = functools.partial(batch_loss, network, h, double=double, kind=kind, weights=weights)
     if weights is None:
         loss, grads = jax.value_and_grad(loss_fn)(ts.params, bootstrap, batch, k_drop)
     else:
@@ -373,4 +373,4 @@ def _where_running(run: chex.Array, ts: TrainState, **new) -> TrainState:
     return ts.replace(**{k: select(run, v, getattr(ts, k)) for k, v in new.items()})
 
 
-__all__ = ["TrainState", "make_trainer", "network_of"]
+__all__ = ["TrainState", "batch_loss", "make_trainer", "network_of"]

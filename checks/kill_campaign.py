@@ -1,6 +1,6 @@
 """Kill a training with SIGKILL at random moments, resume after each, and compare.
 
-    python bench/kill_campaign.py [--kills 20] [--seed 0] [--out DIR]
+    python checks/kill_campaign.py [--kills 20] [--seed 0] [--out DIR]
 
 Trains a small config once without interruption (the reference), then trains it
 again, killing the process (SIGKILL, no chance to clean up) at ``--kills`` random
