@@ -136,3 +136,27 @@ def test_the_settings_page_is_generated_from_the_declarations():
     assert page == settings_markdown(), "regenerate: jaxnav list --markdown > docs/settings.md"
     for key, s in SETTINGS.items():
         assert f"| `{key}` |" in page and s.help in page
+
+
+def test_the_architecture_page_has_a_line_for_every_module():
+    """docs/architecture.md's "One line per module" names every module of the package
+    under its subpackage's heading (commands and the top modules under "On top")."""
+    import re
+
+    text = (ROOT / "docs" / "architecture.md").read_text().split("## One line per module")[1]
+    named: dict[str, set[str]] = {}
+    section = "top"
+    for line in text.splitlines():
+        heading = re.match(r"\*\*(\w+)/\*\*", line)
+        if heading or line.startswith("**On top**"):
+            section = heading.group(1) if heading else "top"
+        elif line.startswith("- "):
+            named.setdefault(section, set()).update(re.findall(r"`(\w+)`", line))
+    package = ROOT / "jaxnav"
+    missing = []
+    for path in sorted(package.rglob("*.py")):
+        rel = path.relative_to(package)
+        section = "top" if len(rel.parts) == 1 else rel.parts[0]
+        if path.stem != "__init__" and path.stem not in named.get(section, set()):
+            missing.append(str(rel))
+    assert not missing, f"modules without a line in docs/architecture.md: {missing}"
