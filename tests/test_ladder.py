@@ -129,6 +129,33 @@ def test_a_wrong_override_is_one_line_naming_it(tmp_path, item, message):
     assert message in str(e.value) and "\n" not in str(e.value)
 
 
+def test_a_world_may_have_its_own_budget_and_the_page_says_it(tmp_path):
+    text = STUDY.replace(
+        "square4_dense: {config: paper_no_obstacles}",
+        "square4_dense: {config: paper_no_obstacles, total_steps: 2048}",
+    )
+    study = _parse(text)
+    budgets = {
+        r.name: ladder.cell_config(study, r, study.agents[0]).total_steps for r in study.rungs
+    }
+    assert budgets == {"square4_dense": 2048, "grid4_dense": 512}  # the other keeps the study's
+    with pytest.raises(ConfigError, match="total_steps must be at least 1"):
+        _parse(text.replace("total_steps: 2048", "total_steps: 0"))
+    folder = tmp_path / "d"
+    _synthetic(folder)
+    doc = (folder / "study.yaml").read_text()
+    (folder / "study.yaml").write_text(
+        doc.replace(
+            "a: {config: paper_no_obstacles}", "a: {config: paper_no_obstacles, total_steps: 2048}"
+        )
+    )
+    md = page.ladder_markdown(folder, "d")
+    assert "its world's budget of environment steps per seed" in md
+    assert "| world | config | settings over it | env steps per seed |" in md
+    assert "| a | `paper_no_obstacles` | none | 2,048 |" in md
+    assert "| b | `grid4` | `env.reward=geodesic` | 512 |" in md
+
+
 def test_the_shipped_studies_are_package_data_and_listed():
     import tomllib
 

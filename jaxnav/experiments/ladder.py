@@ -68,7 +68,7 @@ STUDY_KEYS = {
 }
 REQUIRED = ("title", "seeds", "total_steps", "strategies", "agents", "rungs")
 AGENT_KEYS = {"label": str, "settings": dict}
-RUNG_KEYS = {"label": str, "config": str, "settings": dict, "larger": dict}
+RUNG_KEYS = {"label": str, "config": str, "settings": dict, "larger": dict, "total_steps": int}
 CURVE_POINTS = 41  # learning-curve points per cell, over the share of the step budget
 CURVE_WINDOW = 20  # episodes in a curve's moving mean
 SCORE_COLUMNS = (
@@ -94,6 +94,7 @@ class Rung:
     config: str  # a shipped config's name
     settings: dict[str, Any]
     larger: dict[str, Any]  # settings over the cell's config for the larger size ({} none)
+    total_steps: int | None = None  # the world's own budget per seed (None: the study's)
 
 
 @dataclass(frozen=True)
@@ -182,6 +183,8 @@ def parse_study(text: str, where: str) -> Study:
         if not isinstance(r, dict) or "config" not in r:
             raise ConfigError(f"{at} must be a mapping with a config")
         _typed(r, RUNG_KEYS, at)
+        if r.get("total_steps", 1) < 1:
+            raise ConfigError(f"{at}: total_steps must be at least 1")
         if not (CONFIG_DIR / f"{r['config']}.yaml").is_file():
             raise ConfigError(f"{at}: no shipped config {r['config']!r} (jaxnav list shows them)")
         rung = Rung(
@@ -190,6 +193,7 @@ def parse_study(text: str, where: str) -> Study:
             r["config"],
             flatten(r.get("settings", {})),
             flatten(r.get("larger", {})),
+            r.get("total_steps"),
         )
         rungs.append(rung)
     if not agents or not rungs:
@@ -286,7 +290,7 @@ def cell_config(study: Study, rung: Rung, agent: Agent) -> Config:
             "seeds": study.seeds,
             "strategies": list(study.strategies),
             "episodes": None,
-            "total_steps": study.total_steps,
+            "total_steps": rung.total_steps or study.total_steps,
             "run.test_episodes": study.test_episodes,
         }
     )

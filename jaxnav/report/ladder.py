@@ -331,6 +331,14 @@ def ladder_markdown(folder: Path, prefix: str) -> str:
     rung_rows = [
         [data.rung_label[r], f"`{v['config']}`", _settings_text(v)] for r, v in doc["rungs"].items()
     ]
+    own_budgets = any("total_steps" in v for v in doc["rungs"].values())
+    budget = f"{int(doc['total_steps']):,} environment steps per seed"
+    rung_head = ["world", "config", "settings over it"]
+    if own_budgets:  # each world's budget in its row
+        budget = "its world's budget of environment steps per seed (the table below)"
+        rung_head.append("env steps per seed")
+        for row, v in zip(rung_rows, doc["rungs"].values()):
+            row.append(f"{int(v.get('total_steps', doc['total_steps'])):,}")
     agent_rows = [[data.agent_label[a], _settings_text(v)] for a, v in doc["agents"].items()]
     traj = trajectory_cell(data)
     L = [
@@ -346,7 +354,7 @@ def ladder_markdown(folder: Path, prefix: str) -> str:
         "",
         "## Setup",
         "",
-        f"- Every arm trains {int(doc['total_steps']):,} environment steps per seed, "
+        f"- Every arm trains {budget}, "
         f"{n} seeds per arm, every strategy and seed of a world and agent in one compiled "
         f"program; strategies {', '.join(NAMES[s] for s in data.strategies)}; "
         f"settings over every world: {_settings_text(doc)}.",
@@ -361,7 +369,7 @@ def ladder_markdown(folder: Path, prefix: str) -> str:
         "this seed count. With 2 opponents, 2 measures and many cells, about one verdict "
         "in twenty names a winner by chance: a lone verdict is a hypothesis for fresh seeds.",
         "",
-        *markdown_table(["world", "config", "settings over it"], rung_rows),
+        *markdown_table(rung_head, rung_rows),
         "",
         *markdown_table(["agent", "settings"], agent_rows),
         "",
