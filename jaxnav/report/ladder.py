@@ -153,12 +153,12 @@ def summary_sentence(data: Data) -> str:
     if c[stats.TOO_FEW_SEEDS]:
         tail += f" ({stats.TOO_FEW_SEEDS} in {c[stats.TOO_FEW_SEEDS]})"
     worlds = (
-        f"On {data.rung_label[data.rungs[0]]}"
+        f"On {data.rung_label[data.rungs[0]]} with"
         if len(data.rungs) == 1
-        else f"Across {len(data.rungs)} worlds of growing difficulty"
+        else f"Across {len(data.rungs)} worlds of growing difficulty and"
     )
     return (
-        f"{worlds} and {len(data.agents)} agents "
+        f"{worlds} {len(data.agents)} agents "
         f"({n} cells, {data.n_seeds()} seeds per arm), entropy-based exploration reaches more "
         f"goals than epsilon-greedy in {c['EBE better']}, fewer in {c['EBE worse']}, shows "
         f"no detectable difference in {c['no detectable difference']}{tail}."
@@ -291,12 +291,13 @@ def _solved_lines(data: Data) -> list[str]:
         s = solved_by(data, rung)
         names = ", ".join(f"{NAMES[b]} ({data.agent_label[a]})" for a, b in s) or "none"
         out.append(f"- {data.rung_label[rung]}: {len(s)} of {arms} arms ({names}).")
-    out.append("")
-    out.append(
-        f"The easiest world ({data.rung_label[first]}) is solved by "
-        f"{len(solved_by(data, first))} of {arms} arms; the hardest "
-        f"({data.rung_label[last]}) by {len(solved_by(data, last))}."
-    )
+    if len(data.rungs) > 1:
+        out.append("")
+        out.append(
+            f"The easiest world ({data.rung_label[first]}) is solved by "
+            f"{len(solved_by(data, first))} of {arms} arms; the hardest "
+            f"({data.rung_label[last]}) by {len(solved_by(data, last))}."
+        )
     return out
 
 

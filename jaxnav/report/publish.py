@@ -95,6 +95,7 @@ def select(names: tuple[str, ...]) -> list[Published]:
 # ----------------------------------------------------------------------------
 
 LADDER = "docs/studies/when-ebe-helps"
+AGENTS_STUDY = "docs/studies/agents"
 WORLDS_SECTIONS = (
     "### Navigation: per goal attempt",
     "### Generalisation gap: train layouts minus test layouts",
@@ -102,16 +103,26 @@ WORLDS_SECTIONS = (
 )
 
 
-def _ladder_sentence(root: Path) -> str:
-    from jaxnav.report import ladder
+def _study_sentence(folder: str) -> Callable[[Path], str]:
+    """A committed study's one-sentence summary, from its data folder."""
 
-    return ladder.summary_sentence(ladder.Data(root / LADDER))
+    def render(root: Path) -> str:
+        from jaxnav.report import ladder
+
+        return ladder.summary_sentence(ladder.Data(root / folder))
+
+    return render
 
 
-def _ladder_page(root: Path) -> str:
-    from jaxnav.report import ladder
+def _study_page(folder: str) -> Callable[[Path], str]:
+    """A committed study's page (``folder``.md), from its data folder."""
 
-    return ladder.ladder_markdown(root / LADDER, Path(LADDER).name)
+    def render(root: Path) -> str:
+        from jaxnav.report import ladder
+
+        return ladder.ladder_markdown(root / folder, Path(folder).name)
+
+    return render
 
 
 def _driving_readme(root: Path) -> str:
@@ -137,12 +148,6 @@ def _baselines_page(root: Path) -> str:
     return baselines_markdown(text, meta["command"], meta["machine"], meta["notes"])
 
 
-def _agents_tables(root: Path) -> str:
-    from jaxnav.report.agents_page import tables
-
-    return tables(root / "docs" / "agents")
-
-
 def worlds_sections(tables_md: str) -> str:
     """The greedy test mode's navigation, generalisation-gap and probability-of-
     improvement sections of a run's eval/tables.md, each up to the next heading, one
@@ -160,12 +165,23 @@ def _worlds_run(root: Path) -> str:
 
 
 PUBLISHED: tuple[Published, ...] = (
-    Published("when-ebe-helps", ("README.md", "docs/studies.md"), _ladder_sentence, slow=True),
-    Published("when-ebe-helps-page", (f"{LADDER}.md",), _ladder_page, block=False, slow=True),
+    Published(
+        "when-ebe-helps", ("README.md", "docs/studies.md"), _study_sentence(LADDER), slow=True
+    ),
+    Published(
+        "when-ebe-helps-page", (f"{LADDER}.md",), _study_page(LADDER), block=False, slow=True
+    ),
+    Published("agents-study", ("docs/agents.md",), _study_sentence(AGENTS_STUDY), slow=True),
+    Published(
+        "agents-study-page",
+        (f"{AGENTS_STUDY}.md",),
+        _study_page(AGENTS_STUDY),
+        block=False,
+        slow=True,
+    ),
     Published("driving", ("README.md",), _driving_readme, slow=True),
     Published("driving-page", ("docs/driving.md",), _driving_page, block=False, slow=True),
     Published("baselines-page", ("docs/baselines.md",), _baselines_page, block=False, slow=True),
-    Published("agents_study", ("docs/agents.md",), _agents_tables),
     Published("worlds_run", ("docs/worlds.md",), _worlds_run),
 )
 
