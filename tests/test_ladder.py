@@ -156,6 +156,18 @@ def test_a_world_may_have_its_own_budget_and_the_page_says_it(tmp_path):
     assert "| b | `grid4` | `env.reward=geodesic` | 512 |" in md
 
 
+def test_the_page_says_how_each_arm_drives_beside_the_oracle(tmp_path):
+    folder = tmp_path / "d"
+    _synthetic(folder)
+    md = page.ladder_markdown(folder, "d")
+    table = md.split("## How they drive")[1].split("## Does it generalise?")[0]
+    assert "| world | agent | driver | success | collision | time-out | SPL |" in table
+    # rung a: EBE reaches every goal, never collides: nothing is left for time-outs
+    assert "| a | DQN | EBE | 1.00 [1.00, 1.00] | 0.00 [0.00, 0.00] | 0.00 [0.00, 0.00] |" in table
+    assert "| a |  | oracle | 1.00 [1.00, 1.00] |" in table
+    assert table.count("| oracle |") == 2  # once per world
+
+
 def test_the_shipped_studies_are_package_data_and_listed():
     import tomllib
 

@@ -28,6 +28,8 @@ TRAJECTORY_SUCCESS = 0.5  # the trajectory figure's world: an arm reaches this s
 EBE, EPS, BOLTZMANN = "ebe", "epsilon_greedy", "boltzmann"
 NAMES = {EBE: "EBE", EPS: "epsilon-greedy", BOLTZMANN: "Boltzmann"}
 MEASURES = ("success", "return")
+DRIVE_MEASURES = ("collision", "spl")  # how the arms drive, beside success
+DRIVERS = {ORACLE: "oracle", "dwa": "DWA"}  # the reference drivers, as tables name them
 NO_GOALS = "neither reaches a goal"  # a success verdict where every seed of both scores 0
 FIGURES = ("ladder.png", "curves.png", "trajectories.png")
 DATA_FILES = ("study.yaml", "scores.csv", "curves.csv", "cells.csv", "run.json")
@@ -56,7 +58,9 @@ class Data:
         self.counted_cut = bool(rows) and "cut" in rows[0]
         for r in rows:
             key = (r["rung"], r["agent"], r["test"], r["strategy"])
-            self.scores.setdefault(key, {})[int(r["seed"])] = {m: float(r[m]) for m in MEASURES}
+            self.scores.setdefault(key, {})[int(r["seed"])] = {
+                m: float(r[m]) for m in (*MEASURES, *DRIVE_MEASURES) if m in r
+            }
         self.curves = _rows(folder / "curves.csv")
         self.cells = _rows(folder / "cells.csv")
         self.run = json.loads((folder / "run.json").read_text())
@@ -195,6 +199,30 @@ def _success_table(data: Data) -> list[str]:
             rows.append(cells)
     names = [NAMES[s] for s in data.strategies] + (["oracle"] if oracle else [])
     return markdown_table(["world", "agent", *names], rows)
+
+
+def _drive_table(data: Data) -> list[str]:
+    rows = []
+
+    def cells(rung, agent, who) -> list[str]:
+        s, c, spl = (
+            data.per_seed(rung, agent, "own", who, m) for m in ("success", *DRIVE_MEASURES)
+        )
+        out = (s, c, np.maximum(1.0 - s - c, 0.0), spl)  # a share's rounding is not below 0
+        return [interval(stats.mean_ci(x), 2) for x in out]
+
+    for rung in data.rungs:
+        for agent in data.agents:
+            for s in data.strategies:
+                if data.per_seed(rung, agent, "own", s, "success").size:
+                    label = [data.rung_label[rung], data.agent_label[agent], NAMES[s]]
+                    rows.append(label + cells(rung, agent, s))
+        for who, name in DRIVERS.items():  # driven once per world, beside one agent
+            have = [a for a in data.agents if data.per_seed(rung, a, "own", who, "spl").size]
+            if have:
+                rows.append([data.rung_label[rung], "", name] + cells(rung, have[0], who))
+    head = ["world", "agent", "driver", "success", "collision", "time-out", "SPL"]
+    return markdown_table(head, rows)
 
 
 def _gap_table(data: Data) -> list[str]:
@@ -397,6 +425,20 @@ def ladder_markdown(folder: Path, prefix: str) -> str:
         *_success_table(data),
         "",
         *_solved_lines(data),
+        "",
+        "## How they drive",
+        "",
+        "How each arm's goal attempts end on its own world, beside the reference drivers' "
+        "on the same test: the shares of successes, collisions and time-outs (they sum to "
+        "1) and SPL (success weighted by the shortest path over the path driven); mean "
+        "over seeds [95% CI]."
+        + (
+            ""
+            if data.counted_cut
+            else " This data counts an attempt cut by its episode's end as a time-out."
+        ),
+        "",
+        *_drive_table(data),
         "",
         "## Does it generalise?",
         "",
