@@ -42,20 +42,20 @@ def test_the_ladder_pages_figures_are_beside_it():
 
 
 def test_publish_rewrites_a_stale_block_and_check_finds_it(tmp_path, capsys):
-    (tmp_path / "docs" / "worlds" / "grid4").mkdir(parents=True)
-    src = ROOT / "docs" / "worlds" / "grid4" / "tables.md"
-    (tmp_path / "docs" / "worlds" / "grid4" / "tables.md").write_text(src.read_text())
-    page = tmp_path / "docs" / "worlds.md"
-    page.write_text("# Worlds\n\n<!-- worlds_run: begin -->\nold\n<!-- worlds_run: end -->\ntail\n")
+    import shutil
+
+    shutil.copytree(ROOT / publish.AGENTS_STUDY, tmp_path / publish.AGENTS_STUDY)
+    page = tmp_path / "docs" / "agents.md"
+    page.write_text("# A\n\n<!-- agents-study: begin -->\nold\n<!-- agents-study: end -->\ntail\n")
     root = ["--root", str(tmp_path)]
-    assert publish_main(["worlds_run", "--check", *root]) == 1
-    assert "docs/worlds.md (worlds_run)" in capsys.readouterr().out
-    assert publish_main(["worlds_run", *root]) == 0
+    assert publish_main(["agents-study", "--check", *root]) == 1
+    assert "docs/agents.md (agents-study)" in capsys.readouterr().out
+    assert publish_main(["agents-study", *root]) == 0
     text = page.read_text()
-    assert text.startswith("# Worlds\n\n<!-- worlds_run: begin -->\n#### Navigation")
-    assert text.endswith("<!-- worlds_run: end -->\ntail\n")
-    assert publish_main(["worlds_run", "--check", *root]) == 0
-    assert publish.publish(tmp_path, ("worlds_run",)) == []  # nothing left to write
+    assert text.startswith("# A\n\n<!-- agents-study: begin -->\nOn square4 with 3 agents")
+    assert text.endswith("<!-- agents-study: end -->\ntail\n")
+    assert publish_main(["agents-study", "--check", *root]) == 0
+    assert publish.publish(tmp_path, ("agents-study",)) == []  # nothing left to write
 
 
 def test_publish_names_what_is_wrong_in_one_line(tmp_path, capsys):
@@ -63,8 +63,8 @@ def test_publish_names_what_is_wrong_in_one_line(tmp_path, capsys):
     assert "no published part 'nosuch'" in capsys.readouterr().err
     assert publish_main(["--root", str(tmp_path)]) == 2
     assert "has no docs/ folder" in capsys.readouterr().err
-    with pytest.raises(JaxnavError, match="no worlds_run markers"):
-        publish.with_block("no markers here", "worlds_run", "x")
+    with pytest.raises(JaxnavError, match="no agents-study markers"):
+        publish.with_block("no markers here", "agents-study", "x")
 
 
 _LINK = re.compile(r"!?\[[^\]]*\]\(\s*<?([^)\s>]+)>?(?:\s+\"[^\"]*\")?\s*\)")
