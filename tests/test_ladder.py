@@ -234,7 +234,7 @@ def test_verdicts_are_rliables_probability_of_improvement_with_the_claims_rule(t
         assert word == ("EBE better" if rung == "a" else "no detectable difference")
         assert word == "EBE better" or p.low < 0.5 < p.high
     assert page.summary_sentence(data) == (
-        "Across 2 worlds of growing difficulty and 1 agents (2 cells, 16 seeds per arm), "
+        "Across 2 worlds of growing difficulty and 1 agent (2 cells, 16 seeds per arm), "
         "entropy-based exploration reaches more goals than epsilon-greedy in 1, fewer in 0, "
         "shows no detectable difference in 1."
     )

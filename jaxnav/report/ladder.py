@@ -161,9 +161,11 @@ def summary_sentence(data: Data) -> str:
         if len(data.rungs) == 1
         else f"Across {len(data.rungs)} worlds of growing difficulty and"
     )
+    agents = f"{len(data.agents)} agent" + ("s" if len(data.agents) != 1 else "")
+    cells = f"{n} cell" + ("s" if n != 1 else "")
     return (
-        f"{worlds} {len(data.agents)} agents "
-        f"({n} cells, {data.n_seeds()} seeds per arm), entropy-based exploration reaches more "
+        f"{worlds} {agents} "
+        f"({cells}, {data.n_seeds()} seeds per arm), entropy-based exploration reaches more "
         f"goals than epsilon-greedy in {c['EBE better']}, fewer in {c['EBE worse']}, shows "
         f"no detectable difference in {c['no detectable difference']}{tail}."
     )

@@ -96,11 +96,7 @@ def select(names: tuple[str, ...]) -> list[Published]:
 
 LADDER = "docs/studies/when-ebe-helps"
 AGENTS_STUDY = "docs/studies/agents"
-WORLDS_SECTIONS = (
-    "### Navigation: per goal attempt",
-    "### Generalisation gap: train layouts minus test layouts",
-    "### Probability of improvement",
-)
+WORLDS_STUDY = "docs/studies/worlds"
 
 
 def _study_sentence(folder: str) -> Callable[[Path], str]:
@@ -148,22 +144,6 @@ def _baselines_page(root: Path) -> str:
     return baselines_markdown(text, meta["command"], meta["machine"], meta["notes"])
 
 
-def worlds_sections(tables_md: str) -> str:
-    """The greedy test mode's navigation, generalisation-gap and probability-of-
-    improvement sections of a run's eval/tables.md, each up to the next heading, one
-    level down."""
-    greedy = tables_md.split("## Test mode: greedy", 1)[1].split("\n## Test mode:", 1)[0]
-    out = []
-    for title in WORLDS_SECTIONS:
-        body = greedy.split(title, 1)[1].split("\n#", 1)[0].strip()
-        out.append(f"#{title}\n\n{body}\n")
-    return "\n".join(out)
-
-
-def _worlds_run(root: Path) -> str:
-    return worlds_sections((root / "docs" / "worlds" / "grid4" / "tables.md").read_text())
-
-
 PUBLISHED: tuple[Published, ...] = (
     Published(
         "when-ebe-helps", ("README.md", "docs/studies.md"), _study_sentence(LADDER), slow=True
@@ -182,7 +162,14 @@ PUBLISHED: tuple[Published, ...] = (
     Published("driving", ("README.md",), _driving_readme, slow=True),
     Published("driving-page", ("docs/driving.md",), _driving_page, block=False, slow=True),
     Published("baselines-page", ("docs/baselines.md",), _baselines_page, block=False, slow=True),
-    Published("worlds_run", ("docs/worlds.md",), _worlds_run),
+    Published("worlds-study", ("docs/worlds.md",), _study_sentence(WORLDS_STUDY), slow=True),
+    Published(
+        "worlds-study-page",
+        (f"{WORLDS_STUDY}.md",),
+        _study_page(WORLDS_STUDY),
+        block=False,
+        slow=True,
+    ),
 )
 
 
@@ -194,5 +181,4 @@ __all__ = [
     "select",
     "stale",
     "with_block",
-    "worlds_sections",
 ]
