@@ -1,4 +1,5 @@
 """``python -m jaxnav.ablation [--seeds N] [--out DIR] [--quick] [--resume] [--variants A,B]``
+``python -m jaxnav.ablation --merge DIR [DIR ...] --out DIR``
 
 Both experiments under each ROBOTIS-faithful switch, and ``DIR/ablation.md``: the
 work is :func:`jaxnav.experiments.ablation.ablation` (its module says what it
@@ -18,7 +19,7 @@ from pathlib import Path
 
 from jaxnav.core import cli
 from jaxnav.core.errors import JaxnavError
-from jaxnav.experiments.ablation import DEFAULT_SEEDS, VARIANTS, ablation
+from jaxnav.experiments.ablation import DEFAULT_SEEDS, VARIANTS, ablation, merge
 from jaxnav.experiments.reproduce import EXPERIMENTS, QUICK
 
 
@@ -53,6 +54,14 @@ def _parser() -> cli.Parser:
     p.add_argument("--test-episodes", type=int, metavar="N", help="test episodes per maze")
     p.add_argument("--resume", action="store_true", help="reuse finished runs in --out")
     p.add_argument("--quiet", action="store_true", help="no progress output")
+    p.add_argument(
+        "--merge",
+        nargs="+",
+        metavar="DIR",
+        help="merge finished ablations (each DIR an --out of this command) into --out "
+        "instead of running one: their per-seed scores, the tables recomputed, each "
+        "part's wall-clock",
+    )
     return p
 
 
@@ -72,6 +81,12 @@ def main(argv: list[str] | None = None) -> int:
     out = Path(args.out) if args.out else Path("runs") / f"ablation-{stamp}"
 
     def work() -> None:
+        if args.merge:
+            if not args.out:
+                raise JaxnavError("--merge needs --out DIR (where the merged ablation goes)")
+            path = merge([Path(d) for d in args.merge], out)
+            print(f"ablation: {path} (merged from {len(args.merge)})")
+            return
         variants = args.variants.split(",") if args.variants else list(VARIANTS)
         unknown = [v for v in variants if v not in VARIANTS]
         if unknown:

@@ -121,3 +121,35 @@ def test_the_robotis_goals_confirmation_is_computed_from_its_results():
     tables = tables_markdown(text, "square4", 100, title="Test results of confirm_goals")
     assert tables == (d / "tables.md").read_text()
     assert "| all mazes | 0.57 [0.46, 0.67] |" in tables  # quoted in its README
+
+
+@pytest.mark.slow  # the ablation's tables twice: about a minute
+def test_ablations_run_apart_merge_into_one_with_their_tables_recomputed(tmp_path, capsys):
+    doc = ROOT / "docs" / "ablation"
+    rows = list(csv.DictReader((doc / "ablation.csv").open()))
+    variants = sorted({r["variant"] for r in rows})
+    assert len(variants) >= 2
+    parts = []
+    for i, chosen in enumerate((variants[:1], variants[1:])):
+        part = tmp_path / f"part{i}"
+        part.mkdir()
+        mine = [r for r in rows if r["variant"] in chosen]
+        (part / "ablation.csv").write_text(ablation.rows_to_csv(mine))
+        (part / "ablation.md").write_text(f"# Part {i}\n\n## Wall-clock\n\nrun {i} took 1 s\n")
+        parts.append(str(part))
+    out = tmp_path / "merged"
+    assert ablation_command.main(["--merge", *parts, "--out", str(out)]) == 0
+    merged = list(csv.DictReader((out / "ablation.csv").open()))
+    key = sorted(tuple(r.values()) for r in rows)
+    assert sorted(tuple(r.values()) for r in merged) == key
+    text = (out / "ablation.md").read_text()
+    assert text.startswith(ablation.ablation_markdown(merged))
+    assert "### Wall-clock\n\nrun 0 took 1 s" in text and "run 1 took 1 s" in text
+    capsys.readouterr()
+    # a variant in two parts, a part without its files: one line, exit 2
+    assert ablation_command.main(["--merge", parts[0], parts[0], "--out", str(out)]) == 2
+    assert f"is in both {parts[0]} and {parts[0]}" in capsys.readouterr().err
+    assert ablation_command.main(["--merge", str(tmp_path), "--out", str(out)]) == 2
+    assert "has no ablation.csv" in capsys.readouterr().err
+    assert ablation_command.main(["--merge", parts[0]]) == 2
+    assert "--merge needs --out" in capsys.readouterr().err

@@ -32,6 +32,7 @@ import numpy as np
 
 from jaxnav.core import strategies as registry
 from jaxnav.core.config import PAPER_STRATEGIES
+from jaxnav.core.errors import JaxnavError
 from jaxnav.core.rundir import atomic_write_text
 from jaxnav.experiments.evaluation import evaluate_to_dir
 from jaxnav.experiments.reproduce import (
@@ -287,3 +288,33 @@ def ablation(
     path = out / "ablation.md"
     atomic_write_text(path, md)
     return path
+
+
+def merge(sources: list[Path], dst: Path) -> Path:
+    """Ablations run apart (``jaxnav ablation --out DIR`` on several machines or days)
+    merged into ``dst``: ``ablation.csv`` with every per-seed score, and ``ablation.md``
+    with the tables recomputed from them, then each part's wall-clock section. A
+    variant may come from one part only; a part without its files is a one-line error."""
+    rows: list[dict[str, str]] = []
+    made: list[str] = []
+    owner: dict[str, Path] = {}
+    for src in sources:
+        try:
+            part = list(csv.DictReader(io.StringIO((src / "ablation.csv").read_text())))
+            md = (src / "ablation.md").read_text()
+        except FileNotFoundError as e:
+            raise JaxnavError(f"ablation --merge: {src} has no {Path(e.filename).name}") from None
+        for v in sorted({r["variant"] for r in part}):
+            if v in owner:
+                raise JaxnavError(f"ablation --merge: variant {v} is in both {owner[v]} and {src}")
+            owner[v] = src
+        rows += part
+        if "## Wall-clock" in md:
+            made.append(
+                md[md.index("## Wall-clock") :].replace("## Wall-clock", "### Wall-clock", 1)
+            )
+    dst.mkdir(parents=True, exist_ok=True)
+    atomic_write_text(dst / "ablation.csv", rows_to_csv(rows))
+    text = ablation_markdown(rows) + "\n## How it was made\n\n" + "\n".join(made)
+    atomic_write_text(dst / "ablation.md", text)
+    return dst / "ablation.md"
