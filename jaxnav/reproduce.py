@@ -1,4 +1,5 @@
 """``python -m jaxnav.reproduce [--seeds N] [--out DIR] [--quick] [--resume]``
+``python -m jaxnav.reproduce --out DIR --publish docs/report``
 
 The paper's two experiments end to end, and ``DIR/report.md``: the work is
 :func:`jaxnav.experiments.reproduce.reproduce` (its module says what it does and how
@@ -23,6 +24,7 @@ from jaxnav.experiments.reproduce import (
     EXPERIMENTS,
     QUICK,
     experiment_config,
+    publish_report,
     reproduce,
 )
 
@@ -86,6 +88,12 @@ def _parser() -> cli.Parser:
         help="start a run that needs over half of this machine's memory without asking",
     )
     p.add_argument("--quiet", action="store_true", help="no progress output")
+    p.add_argument(
+        "--publish",
+        metavar="PATH",
+        help="copy the finished reproduction in --out to PATH (docs/report), replacing it: "
+        "its report, claims, figures and the data behind them; trains nothing",
+    )
     return p
 
 
@@ -103,6 +111,12 @@ def main(argv: list[str] | None = None) -> int:
     command = "python -m jaxnav.reproduce " + " ".join(argv if argv is not None else sys.argv[1:])
 
     def work() -> None:
+        if args.publish:
+            if not args.out:
+                raise JaxnavError("--publish needs --out DIR (the finished reproduction)")
+            files = publish_report(out, Path(args.publish))
+            print(f"copied {len(files)} files from {out} to {args.publish}")
+            return
         if args.resume and not args.out:
             raise JaxnavError("--resume needs --out DIR")
         sizes = (seeds, episodes, max_steps, test_episodes)

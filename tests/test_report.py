@@ -44,3 +44,31 @@ def test_the_readme_the_docs_and_the_report_quote_the_claims_table_unchanged(com
         assert row in readme, row
         assert row in reproducing, row
         assert row in report, row
+
+
+def test_a_finished_reproduction_is_published_whole_and_a_partial_one_is_refused(tmp_path, capsys):
+    """jaxnav reproduce --out DIR --publish PATH copies what docs/report holds: the
+    committed report, taken as a finished reproduction, comes back file for file."""
+    import shutil
+
+    from jaxnav import reproduce as reproduce_command
+
+    src = ROOT / "docs" / "report"
+    dst = tmp_path / "report"
+    dst.mkdir()
+    (dst / "stale.md").write_text("left from an older report")
+    argv = ["--out", str(src), "--publish", str(dst)]
+    assert reproduce_command.main(argv) == 0
+    have = sorted(p.relative_to(src) for p in src.rglob("*") if p.is_file())
+    got = sorted(p.relative_to(dst) for p in dst.rglob("*") if p.is_file())
+    assert got == have  # the stale file is gone, nothing is missing
+    assert all((dst / p).read_bytes() == (src / p).read_bytes() for p in have)
+    capsys.readouterr()
+    partial = tmp_path / "partial"
+    shutil.copytree(src, partial)
+    (partial / "claims.md").unlink()
+    assert reproduce_command.main(["--out", str(partial), "--publish", str(dst)]) == 2
+    assert "has no claims.md" in capsys.readouterr().err
+    assert reproduce_command.main(["--out", str(tmp_path), "--publish", str(dst)]) == 2
+    assert "holds no finished reproduction" in capsys.readouterr().err
+    assert got == sorted(p.relative_to(dst) for p in dst.rglob("*") if p.is_file())  # kept

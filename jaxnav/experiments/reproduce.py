@@ -374,3 +374,37 @@ def experiment_files(
         rows = CsvLog(run_dir / METRICS, ()).read()
         files[name] = (rows, (run_dir / "eval" / "results.csv").read_text())
     return files
+
+
+# The data behind a reproduction's claims and tables, per experiment (publish_report).
+REPORT_DATA = (
+    "config.yaml",
+    "summary.json",
+    "metrics.csv",
+    "eval/results.csv",
+    "eval/robustness.csv",
+)
+
+
+def publish_report(src: Path, dst: Path) -> list[str]:
+    """Copy a finished reproduction in ``src`` to ``dst`` (``docs/report``), replacing
+    it: report.md, claims.md, every file report.md shows, and each experiment's data
+    behind the claims and tables (:data:`REPORT_DATA`). The files copied, relative."""
+    import re
+    import shutil
+
+    if not (src / "report.md").is_file():
+        raise JaxnavError(f"reproduce --publish: {src} holds no finished reproduction (report.md)")
+    links = re.findall(r"!\[[^\]]*\]\(([^)]+)\)", (src / "report.md").read_text())
+    experiments = sorted({Path(link).parts[0] for link in links if "/" in link})
+    files = ["report.md", "claims.md", *links]
+    files += [f"{e}/{name}" for e in experiments for name in REPORT_DATA]
+    missing = [f for f in files if not (src / f).is_file()]
+    if missing:
+        raise JaxnavError(f"reproduce --publish: {src} has no {missing[0]}")
+    if dst.exists():
+        shutil.rmtree(dst)
+    for name in files:
+        (dst / name).parent.mkdir(parents=True, exist_ok=True)
+        shutil.copy(src / name, dst / name)
+    return files
