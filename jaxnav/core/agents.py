@@ -28,23 +28,16 @@ where its policy cannot be run yet.
 
 from __future__ import annotations
 
-import importlib
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
 from jaxnav.core.errors import ConfigError
+from jaxnav.core.refs import resolve
 
 # The settings sections an agent may read (besides env, exploration and run, which
 # every agent reads).
 AGENT_SECTIONS = ("dqn", "pqn")
-
-
-def _load(ref: Callable[..., Any] | str) -> Callable[..., Any]:
-    if callable(ref):
-        return ref
-    module, name = ref.split(":")
-    return getattr(importlib.import_module(module), name)
 
 
 @dataclass(frozen=True)
@@ -65,19 +58,19 @@ class Agent:
 
     def make_trainer(self, config: Any) -> Any:
         """The agent's trainer of ``config``."""
-        return _load(self.trainer)(config)
+        return resolve(self.trainer)(config)
 
     def network_of(self, config: Any, env: Any = None) -> Any:
         """The network the agent's policy acts with (``env``: the config's, if made)."""
-        return _load(self.network)(config, env)
+        return resolve(self.network)(config, env)
 
     def settings_problem(self, config: Any) -> str | None:
         """What is wrong with ``config``'s settings of this agent, or None."""
-        return None if self.problem is None else _load(self.problem)(config)
+        return None if self.problem is None else resolve(self.problem)(config)
 
     def memory_estimate(self, config: Any) -> int:
         """Bytes the runs' largest arrays take, before anything is allocated."""
-        return 0 if self.memory is None else int(_load(self.memory)(config))
+        return 0 if self.memory is None else int(resolve(self.memory)(config))
 
 
 _REGISTRY: dict[str, Agent] = {}

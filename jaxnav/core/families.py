@@ -25,7 +25,6 @@ they could no longer become config keys.
 from __future__ import annotations
 
 import dataclasses
-import importlib
 import math
 import typing
 from collections.abc import Callable
@@ -33,6 +32,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from jaxnav.core.errors import ConfigError
+from jaxnav.core.refs import resolve
 from jaxnav.core.settings import AT_LEAST_1, NON_NEGATIVE, UNIT, setting
 
 # The robot's diameter (2 x jaxnav.world.maps.ROBOT_RADIUS): a grid cell must be wider.
@@ -67,11 +67,7 @@ class Family:
     def shape(self, env: Any) -> Any:
         """The family's static shape from ``env``'s settings (an EnvConfig or a
         ``jaxnav.env.NavEnv``): a hashable object with ``draw(key, split)``."""
-        build = self.build
-        if not callable(build):
-            module, name = build.split(":")
-            build = getattr(importlib.import_module(module), name)
-        return build(env)
+        return resolve(self.build)(env)
 
 
 _REGISTRY: dict[str, Family] = {}

@@ -21,12 +21,12 @@ where ``settings`` has the exploration settings as attributes (a run's
 
 from __future__ import annotations
 
-import importlib
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
 from jaxnav.core.errors import ConfigError
+from jaxnav.core.refs import resolve
 
 
 @dataclass(frozen=True)
@@ -39,10 +39,7 @@ class Strategy:
 
     def function(self) -> Callable[..., Any]:
         """``act`` as a callable."""
-        if callable(self.act):
-            return self.act
-        module, name = self.act.split(":")
-        return getattr(importlib.import_module(module), name)
+        return resolve(self.act)
 
 
 _REGISTRY: dict[str, Strategy] = {}
