@@ -49,6 +49,7 @@ from jaxnav.agent.trainer import (
     all_finite,
     run_limits,
     select,
+    step_chunk,
     still_training,
 )
 from jaxnav.core.config import Config, DQNConfig
@@ -195,25 +196,7 @@ def make_trainer(config: Config) -> Trainer:
         )
         return held, log
 
-    def chunk(ts: TrainState, n_steps: chex.Array | None = None):
-        """Up to ``run.chunk_steps`` env steps of one run in one compiled loop.
-
-        ``n_steps`` (i32[], the same for every run under vmap) ends the loop early: the
-        host passes the most steps any run can still take, so the last chunk (or all of
-        a short run) does not step runs that have finished to the chunk's end.
-        Returns (state, :class:`StepLog` of f32[chunk_steps] per step, NaN where no
-        step was taken)."""
-        length = config.run.chunk_steps
-        n = length if n_steps is None else jnp.minimum(n_steps, length)
-
-        def body(i, carry):
-            ts, logs = carry
-            ts, log = step(ts, None)
-            return ts, jax.tree.map(lambda a, x: a.at[i].set(x), logs, log)
-
-        logs = StepLog(*(jnp.full(length, jnp.nan, jnp.float32) for _ in StepLog._fields))
-        return jax.lax.fori_loop(0, n, body, (ts, logs))
-
+    chunk = step_chunk(step, config.run.chunk_steps)
     return Trainer(env, base_params, slots, init, step, chunk, active, 1, config.run.chunk_steps)
 
 

@@ -20,7 +20,15 @@ from jaxnav.agent.episodes import Episodes
 from jaxnav.agent.exploration import explore_action
 from jaxnav.agent.networks import QNetwork
 from jaxnav.agent.qlearning import td_loss, td_target
-from jaxnav.agent.trainer import StepLog, Trainer, make_train, run_inputs, run_limits, select
+from jaxnav.agent.trainer import (
+    StepLog,
+    Trainer,
+    make_train,
+    run_inputs,
+    run_limits,
+    select,
+    step_chunk,
+)
 from jaxnav.core import agents, rundir
 from jaxnav.core.config import load_config
 from jaxnav.core.errors import ConfigError
@@ -112,18 +120,7 @@ def toy_trainer(config) -> Trainer:
         held = select(run, new, ts)
         return held, StepLog(explore, jnp.where(run, value, jnp.nan), jnp.max(q))
 
-    def chunk(ts, n_steps=None):
-        length = config.run.chunk_steps
-        n = length if n_steps is None else jnp.minimum(n_steps, length)
-
-        def body(i, carry):
-            ts, logs = carry
-            ts, log = step(ts, None)
-            return ts, jax.tree.map(lambda a, x: a.at[i].set(x), logs, log)
-
-        logs = StepLog(*(jnp.full(length, jnp.nan, jnp.float32) for _ in StepLog._fields))
-        return jax.lax.fori_loop(0, n, body, (ts, logs))
-
+    chunk = step_chunk(step, config.run.chunk_steps)  # the contract's loop of steps
     return Trainer(env, base, slots, init, step, chunk, active, 1, config.run.chunk_steps)
 
 

@@ -70,6 +70,29 @@ class Trainer(NamedTuple):
     chunk_length: int = 0
 
 
+def step_chunk(step: Callable[[Any, None], tuple[Any, StepLog]], length: int):
+    """The ``chunk`` of a trainer whose ``step`` takes one env step: up to ``length``
+    steps of one run in one compiled loop.
+
+    ``n_steps`` (i32[], the same for every run under vmap) ends the loop early: the host
+    passes the most steps any run can still take, so the last chunk (or all of a short
+    run) does not step runs that have finished to the chunk's end. Returns (state,
+    :class:`StepLog` of f32[length] per step, NaN where no step was taken)."""
+
+    def chunk(ts, n_steps: chex.Array | None = None):
+        n = length if n_steps is None else jnp.minimum(n_steps, length)
+
+        def body(i, carry):
+            ts, logs = carry
+            ts, log = step(ts, None)
+            return ts, jax.tree.map(lambda a, x: a.at[i].set(x), logs, log)
+
+        logs = StepLog(*(jnp.full(length, jnp.nan, jnp.float32) for _ in StepLog._fields))
+        return jax.lax.fori_loop(0, n, body, (ts, logs))
+
+    return chunk
+
+
 def all_finite(tree) -> chex.Array:
     """bool[]: every element of every leaf is finite."""
     return jnp.all(jnp.stack([jnp.all(jnp.isfinite(leaf)) for leaf in jax.tree.leaves(tree)]))
@@ -144,5 +167,6 @@ __all__ = [
     "run_inputs",
     "run_limits",
     "select",
+    "step_chunk",
     "still_training",
 ]
