@@ -94,19 +94,11 @@ def test_ctrl_c_tidies_says_one_line_and_exits_130(tmp_path, mode):
     assert took < 10, took  # native: the watcher thread acts after a second
 
 
-def test_sigterm_is_answered_as_ctrl_c_with_status_143(tmp_path):
-    proc = _start("python", str(tmp_path))
-    _ready(proc)
-    proc.send_signal(signal.SIGTERM)
-    _, err = proc.communicate(timeout=30)
-    assert proc.returncode == 143, (proc.returncode, err)
-    assert _one_line(err, "jaxnav.demo") == f"jaxnav.demo: stopped; {tmp_path.name}"
-    assert (tmp_path / "tidied").read_text() == "yes"
-
-
-def test_sigterm_is_answered_in_a_job_started_with_an_ampersand(tmp_path):
-    """There SIGINT is ignored: ``kill PID`` used to end the command without a word."""
-    proc = _start("python", str(tmp_path), background=True)
+@pytest.mark.parametrize("background", [False, True], ids=["foreground", "ampersand"])
+def test_sigterm_is_answered_as_ctrl_c_with_status_143(tmp_path, background):
+    """In a job started with ``&`` SIGINT is ignored: ``kill PID`` used to end the
+    command there without a word."""
+    proc = _start("python", str(tmp_path), background=background)
     _ready(proc)
     proc.send_signal(signal.SIGTERM)
     _, err = proc.communicate(timeout=30)
