@@ -48,7 +48,7 @@ def main(argv: list[str] | None = None) -> int:
 
     def work() -> None:
         from jaxnav.experiments.baselines import SHIPPED_WORLDS, drive_worlds
-        from jaxnav.experiments.reproduce import machine_info
+        from jaxnav.experiments.runner import machine_line
         from jaxnav.report.baselines_page import baselines_markdown
 
         out = Path(args.out)
@@ -69,9 +69,7 @@ def main(argv: list[str] | None = None) -> int:
                 ["jaxnav baselines", *args.worlds, f"--seeds {args.seeds}"]
                 + [f"--episodes {args.episodes}", f"--out {args.out}", f"--doc {args.doc}"]
             )
-            info = machine_info()
-            machine = f"{info['CPU']}, {info['cores']}, {info['memory']}, JAX {info['JAX']}"
-            meta = {"command": command, "machine": machine, "notes": notes}
+            meta = {"command": command, "machine": machine_line(), "notes": notes}
             rundir.atomic_write_text(out / DATA, text)
             rundir.atomic_write_text(out / NOTES, json.dumps(meta, indent=1) + "\n")
         page = baselines_markdown(text, meta["command"], meta["machine"], meta["notes"])

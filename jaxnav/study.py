@@ -21,7 +21,7 @@ from pathlib import Path
 
 from jaxnav.core import cli
 from jaxnav.core.config import load_config, resolve_config_path
-from jaxnav.experiments import ladder
+from jaxnav.experiments import studies
 from jaxnav.experiments.study import doc_files, study
 from jaxnav.report import stats
 from jaxnav.run.memory import confirm_memory
@@ -52,8 +52,8 @@ def main(argv: list[str] | None = None) -> int:
     def work() -> None:
         items = list(args.items)
         config_path = None if "=" in items[0] else resolve_config_path(items.pop(0))
-        if config_path is not None and ladder.is_ladder(config_path):
-            return ladder_study(config_path, items)
+        if config_path is not None and studies.is_study(config_path):
+            return study_file(config_path, items)
         cfg = load_config(config_path, items)
         check_test_mazes(cfg)  # before the study's folder is made
         confirm_memory(cfg, args.yes, args.quiet)  # before anything is allocated
@@ -69,14 +69,13 @@ def main(argv: list[str] | None = None) -> int:
                 f"its verdicts say {stats.TOO_FEW_SEEDS}"
             )
 
-    def ladder_study(path: str, items: list[str]) -> None:
-        spec = ladder.load_study(path, items)
+    def study_file(path: str, items: list[str]) -> None:
+        spec = studies.load(path, items)
         page = Path(args.doc) if args.doc else Path(args.out) / "study.md"
         if args.doc:
             cli.check_output(page, args.overwrite)
         out = Path(args.out)
-        ladder.run_study(spec, out, args.resume, args.quiet, command.strip())
-        written = ladder.publish(spec, out, page)
+        written = studies.run(spec, out, page, args.resume, args.quiet, command.strip())
         print(f"study: {written[0]} (data in {written[-1]})")
 
     given = list(argv if argv is not None else sys.argv[1:])

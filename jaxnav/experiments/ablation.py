@@ -17,14 +17,15 @@ writes ``DIR/ablation.md``:
 and ``DIR/ablation.csv``, the per-seed scores behind both tables (the tables are
 recomputed from it by :func:`ablation_markdown`).
 
-Layout: ``DIR/<variant>/<experiment>/``, each a training run with ``eval/``.
+Layout: ``DIR/<variant>/<experiment>/``, each a training run with ``eval/``: a cell of
+the study runner (:mod:`jaxnav.experiments.runner`, :func:`variant_cells`), trained,
+reused or resumed and tested by the same rule as every study's cells.
 """
 
 from __future__ import annotations
 
 import csv
 import io
-import sys
 import time
 from pathlib import Path
 
@@ -34,15 +35,8 @@ from jaxnav.core import strategies as registry
 from jaxnav.core.config import PAPER_STRATEGIES
 from jaxnav.core.errors import JaxnavError
 from jaxnav.core.rundir import atomic_write_text
-from jaxnav.experiments.evaluation import evaluate_to_dir
-from jaxnav.experiments.reproduce import (
-    EXPERIMENTS,
-    check_request,
-    experiment_config,
-    experiment_files,
-    machine_info,
-    train_stage,
-)
+from jaxnav.experiments import runner
+from jaxnav.experiments.reproduce import EXPERIMENTS, experiment_config, experiment_files
 from jaxnav.report import stats
 from jaxnav.report.claims import CLAIMS, OTHER, Claim, claim_scores, judge
 from jaxnav.report.markdown import interval
@@ -77,17 +71,28 @@ TRAIN_MAZE = {"paper_no_obstacles": "square4", "paper_obstacles": "square4_obsta
 CSV_COLUMNS = ("variant", "source", "statement", "mode", "strategy", "seed", "task", "score")
 
 
+def variant_cells(variant: str, out: Path, sizes: dict, experiments: list[str]) -> list:
+    """The runner's cells of one variant: each experiment with the variant's switches,
+    in ``DIR/<variant>/<experiment>/``."""
+    return [
+        runner.Cell(
+            f"{variant}/{name}",
+            experiment_config(name, **sizes, extra=VARIANTS[variant][1]),
+            out / variant / name,
+        )
+        for name in experiments
+    ]
+
+
 def run_variant(
     variant: str, out: Path, sizes: dict, experiments: list[str], quiet: bool, say
 ) -> float:
     """Train and test the experiments of one variant; seconds taken."""
     t0 = time.perf_counter()
-    for name in experiments:
-        cfg = experiment_config(name, **sizes, extra=VARIANTS[variant][1])
-        run_dir = out / variant / name
-        train_stage(f"{variant}/{name}", cfg, run_dir, quiet, say)
-        say(f"{variant}/{name}: testing on {', '.join(cfg.run.test_mazes)}")
-        evaluate_to_dir(run_dir)
+    for cell in variant_cells(variant, out, sizes, experiments):
+        runner.train(cell, quiet, say)
+        say(f"{cell.name}: testing on {', '.join(cell.cfg.run.test_mazes)}")
+        runner.test(cell)
     return time.perf_counter() - t0
 
 
@@ -265,12 +270,9 @@ def ablation(
     command: str = "",
 ) -> Path:
     experiments = experiments or [name for name, _ in EXPERIMENTS]
-    check_request(out, seeds, {}, resume_ok)
+    runner.check_request(out, seeds, {}, resume_ok)
     out.mkdir(parents=True, exist_ok=True)
-
-    def say(msg):
-        if not quiet:
-            print(f"[ablation] {msg}", file=sys.stderr, flush=True)
+    say = runner.sayer("ablation", quiet)
 
     times = {}
     rows: list[dict[str, str]] = []
@@ -279,7 +281,7 @@ def ablation(
         rows += score_rows(v, out / v)
     atomic_write_text(out / "ablation.csv", rows_to_csv(rows))
     md = ablation_markdown(rows, quick=quick)
-    info = machine_info()
+    info = runner.machine_info()
     md += f"\n## Wall-clock\n\n| variant | train and test: {', '.join(experiments)} |\n|---|---|\n"
     md += "".join(f"| {v} | {t:.0f} s |\n" for v, t in times.items())
     md += f"\nMachine: {info['CPU']}; {info['cores']}; JAX {info['JAX']}.\n"

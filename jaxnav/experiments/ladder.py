@@ -23,7 +23,6 @@ from __future__ import annotations
 
 import json
 import shutil
-import sys
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -31,16 +30,15 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
 
 from jaxnav.core import baselines
-from jaxnav.core.config import CONFIG_DIR, Config, build_config, config_to_dict
+from jaxnav.core.config import CONFIG_DIR, Config, config_to_dict
 from jaxnav.core.errors import ConfigError, JaxnavError
 from jaxnav.core.rundir import METRICS, CsvLog, atomic_write_text, csv_text
 from jaxnav.core.settings import SEED, problem
-from jaxnav.core.values import flatten, parse_override
-from jaxnav.experiments.evaluation import drawn_name, evaluate_to_dir
-from jaxnav.experiments.reproduce import machine_info, train_stage
+from jaxnav.core.values import flatten
+from jaxnav.experiments import runner, studyfile
+from jaxnav.experiments.evaluation import drawn_name
 from jaxnav.report import stats
 from jaxnav.report.ladder import (
     DATA_FILES,
@@ -55,6 +53,7 @@ from jaxnav.report.results import read_results
 from jaxnav.world.maps import make_maze
 
 STUDY_KEYS = {
+    "kind": str,  # "ladder", or left out: a file with rungs is one
     "title": str,
     "seed": int,
     "seeds": int,
@@ -122,67 +121,28 @@ class Study:
         return [(r, a) for r in self.rungs for a in self.agents]
 
 
-def is_ladder(path: str) -> bool:
-    """Whether a YAML file is a ladder study (it has ``rungs:``) rather than a config."""
-    try:
-        with open(path) as f:
-            doc = yaml.safe_load(f)
-    except (OSError, yaml.YAMLError, UnicodeDecodeError):
-        return False
-    return isinstance(doc, dict) and "rungs" in doc
-
-
-def _typed(doc: dict, keys: dict[str, type], where: str) -> None:
-    for k, v in doc.items():
-        if k not in keys:
-            raise ConfigError(f"{where}: unknown key {k!r} (known: {', '.join(keys)})")
-        want = keys[k]
-        if want is int and (isinstance(v, bool) or not isinstance(v, int)):
-            raise ConfigError(f"{where}: {k} must be an integer, not {v!r}")
-        if want is not int and not isinstance(v, want):
-            raise ConfigError(f"{where}: {k} must be a {want.__name__}, not {v!r}")
-
-
-def _name(name: Any, where: str) -> str:
-    if not isinstance(name, str) or not name.replace("_", "").isalnum():
-        raise ConfigError(f"{where}: name {name!r} must be letters, digits and underscores")
-    return name
-
-
 def parse_study(text: str, where: str) -> Study:
     """A study from its YAML text; every cell's config is built, so a wrong setting
     anywhere is one line here, before any training."""
-    try:
-        doc = yaml.safe_load(text)
-    except yaml.YAMLError as e:
-        mark = getattr(e, "problem_mark", None)
-        raise ConfigError(
-            f"{where} is not valid YAML" + (f" at line {mark.line + 1}" if mark else "")
-        ) from None
-    if not isinstance(doc, dict):
-        raise ConfigError(f"{where} must hold a mapping of keys")
-    _typed(doc, STUDY_KEYS, where)
-    for k in REQUIRED:
-        if k not in doc:
-            raise ConfigError(f"{where}: {k} is required")
-    for k in ("seeds", "total_steps", "test_episodes"):
-        if k in doc and doc[k] < 1:
-            raise ConfigError(f"{where}: {k} must be at least 1")
+    doc = studyfile.mapping(text, where)
+    studyfile.typed(doc, STUDY_KEYS, where)
+    studyfile.required(doc, REQUIRED, where)
+    studyfile.at_least_one(doc, ("seeds", "total_steps", "test_episodes"), where)
     says = problem(SEED, doc.get("seed", 0))
     if says:
         raise ConfigError(f"{where}: seed {says}")
     agents, rungs = [], []
     for name, a in doc["agents"].items():
-        at = f"{where}: agents.{_name(name, where)}"
+        at = f"{where}: agents.{studyfile.name_of(name, where)}"
         if not isinstance(a, dict):
             raise ConfigError(f"{at} must be a mapping (label, settings)")
-        _typed(a, AGENT_KEYS, at)
+        studyfile.typed(a, AGENT_KEYS, at)
         agents.append(Agent(name, a.get("label", name), flatten(a.get("settings", {}))))
     for name, r in doc["rungs"].items():
-        at = f"{where}: rungs.{_name(name, where)}"
+        at = f"{where}: rungs.{studyfile.name_of(name, where)}"
         if not isinstance(r, dict) or "config" not in r:
             raise ConfigError(f"{at} must be a mapping with a config")
-        _typed(r, RUNG_KEYS, at)
+        studyfile.typed(r, RUNG_KEYS, at)
         if r.get("total_steps", 1) < 1:
             raise ConfigError(f"{at}: total_steps must be at least 1")
         if not (CONFIG_DIR / f"{r['config']}.yaml").is_file():
@@ -228,58 +188,14 @@ def parse_study(text: str, where: str) -> Study:
 def load_study(path: str, overrides: Sequence[str] = ()) -> Study:
     """The study of a file, with ``key=value`` overrides of its keys (dotted into its
     mappings: ``seeds=4``, ``settings.env.max_steps=100``,
-    ``agents.pqn.settings.pqn.num_envs=64``). With overrides the study's text, which
-    its folder keeps and ``--resume`` compares, is the overridden document."""
-    try:
-        text = Path(path).read_text()
-    except FileNotFoundError:
-        raise ConfigError(f"study: no such file {path}") from None
-    except (IsADirectoryError, UnicodeDecodeError):
-        raise ConfigError(f"study: {path} is not a YAML text file") from None
-    where = f"study {path}"
-    if overrides:
-        parse_study(text, where)  # the file's own problems first, named as its own
-        doc = yaml.safe_load(text)
-        for item in overrides:
-            key, value = parse_override(item)
-            _set_dotted(doc, key, value, where)
-        head = f"# {Path(path).name} with {' '.join(overrides)}\n"
-        text = head + yaml.safe_dump(doc, sort_keys=False, allow_unicode=True)
-    return parse_study(text, where)
-
-
-# Mappings of settings under which an override may add a key the file does not have.
-_OPEN = ("settings", "larger")
-
-
-def _set_dotted(doc: dict, key: str, value: Any, where: str) -> None:
-    """Set ``doc``'s entry at the dotted ``key``; a top-level key must be a study key, a
-    named agent or rung must exist, and only settings mappings take new mappings."""
-    parts = key.split(".")
-    if parts[0] not in STUDY_KEYS:
-        raise ConfigError(f"{where}: unknown key {parts[0]!r} (known: {', '.join(STUDY_KEYS)})")
-    node, open_ = doc, False
-    for i, part in enumerate(parts[:-1]):
-        open_ = open_ or part in _OPEN
-        if part not in node:
-            if not open_:
-                raise ConfigError(f"{where}: {'.'.join(parts[: i + 1])} is not in the study")
-            node[part] = {}
-        node = node[part]
-        if not isinstance(node, dict):
-            raise ConfigError(f"{where}: {'.'.join(parts[: i + 1])} is not a mapping")
-    node[parts[-1]] = value  # a leaf's name and value are checked with the whole study
-
-
-def _base_values(config: str) -> dict[str, Any]:
-    with open(CONFIG_DIR / f"{config}.yaml") as f:
-        return flatten(yaml.safe_load(f) or {})
+    ``agents.pqn.settings.pqn.num_envs=64``; :func:`jaxnav.experiments.studyfile.read_text`)."""
+    return studyfile.read_text(path, overrides, parse_study, STUDY_KEYS, ("settings", "larger"))
 
 
 def cell_config(study: Study, rung: Rung, agent: Agent) -> Config:
     """A cell's config: the rung's shipped config, the study's settings, the agent's,
     the rung's, then the study's size (seeds, budget in env steps, tests)."""
-    values = _base_values(rung.config)
+    values = studyfile.base_values(rung.config)
     values.update(study.settings)
     values.update(agent.settings)
     values.update(rung.settings)
@@ -294,11 +210,11 @@ def cell_config(study: Study, rung: Rung, agent: Agent) -> Config:
             "run.test_episodes": study.test_episodes,
         }
     )
-    cfg = _build(values, f"rungs.{rung.name} with agents.{agent.name}")
+    cfg = studyfile.build(values, f"rungs.{rung.name} with agents.{agent.name}")
     mazes = [] if cfg.env.generator else [cfg.env.maze]
     mazes += [m for m in study.generalise_to if m not in mazes]
     values["run.test_mazes"] = mazes
-    return _build(values, f"rungs.{rung.name} with agents.{agent.name}")
+    return studyfile.build(values, f"rungs.{rung.name} with agents.{agent.name}")
 
 
 def larger_config(cfg: Config, rung: Rung) -> Config:
@@ -307,14 +223,7 @@ def larger_config(cfg: Config, rung: Rung) -> Config:
     values.pop("sweep", None)
     values.update(rung.larger)
     values["env.split"] = "test"
-    return _build(values, f"rungs.{rung.name}.larger")
-
-
-def _build(values: dict[str, Any], where: str) -> Config:
-    try:
-        return build_config(values)
-    except ConfigError as e:
-        raise ConfigError(f"study: {where}: {str(e).removeprefix('config: ')}") from None
+    return studyfile.build(values, f"rungs.{rung.name}.larger")
 
 
 def tests_of(cfg: Config, rung: Rung) -> list[tuple[str, str]]:
@@ -412,18 +321,18 @@ def run_cell(study: Study, out: Path, rung: Rung, agent: Agent, quiet: bool, say
     if done.is_file():
         return
     run.parent.mkdir(parents=True, exist_ok=True)
-    name = f"{rung.name} / {agent.name}"
-    train_s, _ = train_stage(name, cfg, run, quiet, say)
-    say(f"{name}: testing {cfg.n_runs} policies, {study.test_episodes} episodes per test")
+    cell = runner.Cell(f"{rung.name} / {agent.name}", cfg, run)
+    train_s, _ = runner.train(cell, quiet, say)
+    say(f"{cell.name}: testing {cfg.n_runs} policies, {study.test_episodes} episodes per test")
     t0 = time.perf_counter()
     more = {drawn_name(cfg, "larger"): larger_config(cfg, rung)} if rung.larger else None
     # the oracle and DWA drive a world's tests once, beside its first agent's policies
     first = agent.name == study.agents[0].name
     refs = baselines.names() if first else ()
-    evaluate_to_dir(run, modes=("greedy",), more_drawn=more, references=refs)
+    runner.test(cell, modes=("greedy",), more_drawn=more, references=refs)
     test_s = time.perf_counter() - t0
     summary = json.loads((run / "summary.json").read_text())
-    cell = {
+    row = {
         "rung": rung.name,
         "agent": agent.name,
         "runs": cfg.n_runs,
@@ -438,36 +347,19 @@ def run_cell(study: Study, out: Path, rung: Rung, agent: Agent, quiet: bool, say
     atomic_write_text(
         run / "curves.csv", csv_text(list(curves[0]), [list(r.values()) for r in curves])
     )
-    atomic_write_text(run / "cell.json", json.dumps(cell))
+    atomic_write_text(run / "cell.json", json.dumps(row))
     atomic_write_text(done, csv_text(SCORE_COLUMNS, [[r[c] for c in SCORE_COLUMNS] for r in rows]))
-
-
-def check_out(out: Path, study: Study, resume_ok: bool) -> None:
-    if out.exists() and not out.is_dir():
-        raise JaxnavError(f"{out} exists and is not a directory")
-    saved = out / "study.yaml"
-    if out.is_dir() and any(out.iterdir()):
-        if not resume_ok:
-            raise JaxnavError(
-                f"output directory {out} already exists and is not empty "
-                "(use --resume to continue it)"
-            )
-        if not saved.is_file() or saved.read_text() != study.text:
-            raise JaxnavError(f"{out} holds another study; use another --out")
 
 
 def run_study(study: Study, out: Path, resume_ok: bool, quiet: bool, command: str) -> Path:
     """Every cell, then ``DIR/data/``; returns the data folder."""
-    check_out(out, study, resume_ok)
+    runner.check_out(out, resume_ok, (out / "study.yaml", study.text))
     out.mkdir(parents=True, exist_ok=True)
     atomic_write_text(out / "study.yaml", study.text)
     if not (out / "command.txt").is_file():  # the command that started it, for the page
         atomic_write_text(out / "command.txt", command + "\n")
 
-    def say(msg: str) -> None:
-        if not quiet:
-            print(f"[study] {msg}", file=sys.stderr, flush=True)
-
+    say = runner.sayer("study", quiet)
     for k, (rung, agent) in enumerate(study.cells()):
         say(f"cell {k + 1} of {len(study.cells())}: {rung.name} with {agent.name}")
         run_cell(study, out, rung, agent, quiet, say)
@@ -493,11 +385,9 @@ def write_data(study: Study, out: Path, command: str) -> Path:
     atomic_write_text(
         data / "cells.csv", csv_text(list(cells[0]), [list(c.values()) for c in cells])
     )
-    info = machine_info()
-    machine = f"{info['CPU']}, {info['cores']}, {info['memory']}, JAX {info['JAX']}"
     started = out / "command.txt"
     run = {"command": started.read_text().strip() if started.is_file() else command}
-    run["machine"] = machine
+    run["machine"] = runner.machine_line()
     atomic_write_text(data / "run.json", json.dumps(run, indent=1) + "\n")
     return data
 

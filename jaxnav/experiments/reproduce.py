@@ -18,7 +18,9 @@ minutes with the robustness stage, for checking that everything runs (its number
 ``--episodes``, ``--max-steps``, ``--test-episodes`` override those sizes (tests use
 them for a tiny end-to-end run). ``--resume`` continues an interrupted
 reproduction in DIR: finished trainings are reused, an unfinished one resumes from
-its last checkpoint, evaluation and figures are redone.
+its last checkpoint, evaluation and figures are redone. Each experiment is a cell of
+the study runner (:mod:`jaxnav.experiments.runner`): trained, reused, resumed or
+refused and tested by the same rule as every study's cells.
 
 Layout::
 
@@ -30,26 +32,19 @@ Layout::
 from __future__ import annotations
 
 import importlib.util
-import json
-import os
-import platform
 import re
 import subprocess
-import sys
 import time
 from pathlib import Path
-
-import jax
 
 from jaxnav.core.config import CONFIG_DIR, Config, load_config
 from jaxnav.core.errors import JaxnavError
 from jaxnav.core.rundir import METRICS, CsvLog, atomic_write_text
-from jaxnav.experiments.evaluation import evaluate_to_dir
+from jaxnav.experiments import runner
 from jaxnav.experiments.robustness import robustness_to_dir
 from jaxnav.report import plots
 from jaxnav.report.claims import claims_markdown, evaluate_claims
 from jaxnav.report.tables import training_markdown
-from jaxnav.run.training import resume, train_new
 
 DEFAULT_SEEDS = 8
 QUICK = {"seeds": 2, "episodes": 50, "max_steps": 200, "test_episodes": 3}
@@ -60,40 +55,6 @@ EXPERIMENTS = (
     ),
     ("paper_obstacles", "Trained on square4 with obstacles (paper Sec. 6.2, Table 4, Fig. 4)"),
 )
-
-
-def machine_info() -> dict[str, str]:
-    """CPU model, cores, memory, Python, JAX version and backend."""
-    cpu = platform.processor() or platform.machine()
-    try:
-        with open("/proc/cpuinfo") as f:
-            for line in f:
-                if line.lower().startswith("model name"):
-                    cpu = line.split(":", 1)[1].strip()
-                    break
-    except OSError:
-        pass
-    try:
-        usable = len(os.sched_getaffinity(0))
-    except AttributeError:
-        usable = os.cpu_count() or 0
-    mem = ""
-    try:
-        with open("/proc/meminfo") as f:
-            kb = int(re.search(r"MemTotal:\s+(\d+)", f.read()).group(1))
-            mem = f"{kb / 2**20:.1f} GiB"
-    except (OSError, AttributeError):
-        pass
-    devices = jax.devices()
-    return {
-        "CPU": cpu,
-        "cores": f"{usable} usable ({os.cpu_count()} in the machine)",
-        "memory": mem or "unknown",
-        "OS": f"{platform.system()} {platform.release()} {platform.machine()}",
-        "Python": platform.python_version(),
-        "JAX": f"{jax.__version__}, backend {jax.default_backend()} "
-        f"({len(devices)} x {devices[0].device_kind})",
-    }
 
 
 def experiment_config(
@@ -171,60 +132,14 @@ def write_report(
     return path
 
 
-def check_request(out: Path, seeds: int, sizes: dict[str, int | None], resume_ok: bool):
-    if seeds < 1:
-        raise JaxnavError("--seeds must be at least 1")
-    for flag, v in sizes.items():
-        if v is not None and v < 1:
-            raise JaxnavError(f"{flag} must be at least 1")
-    if out.exists() and not out.is_dir():
-        raise JaxnavError(f"{out} exists and is not a directory")
-    if out.is_dir() and any(out.iterdir()) and not resume_ok:
-        raise JaxnavError(
-            f"output directory {out} already exists and is not empty (use --resume to continue it)"
-        )
-
-
-def train_stage(name: str, cfg: Config, run_dir: Path, quiet: bool, say) -> tuple[float, str]:
-    """Train (or reuse, or resume) one experiment; (seconds, note) for the report."""
-    t0 = time.perf_counter()
-    arms = len(cfg.arms())
-    what = f"{arms} arms" if cfg.sweep else f"{arms} strategies"
-    where = f"{cfg.env.generator} mazes" if cfg.env.generator else cfg.env.maze
-    note = f"{cfg.seeds} seeds x {what} on {where}"
-    started = (run_dir / "config.yaml").is_file()
-    if started and load_config(str(run_dir / "config.yaml")) != cfg:
-        what = "trained" if (run_dir / "params.npz").is_file() else "started"
-        raise JaxnavError(f"{run_dir} was {what} with other settings; use another --out")
-    if (run_dir / "params.npz").is_file():
-        say(f"{name}: reusing the finished training in {run_dir}")
-        note += ", reused (trained before"
-        try:  # report the earlier training's time, not the ~0 s of reusing it
-            wall = float(json.loads((run_dir / "summary.json").read_text())["wall_clock_s"])
-            t0 -= wall
-            note += "; time from its summary.json, chunks only, no compile)"
-        except (OSError, ValueError, KeyError, TypeError):
-            note += ")"
-    elif started:
-        say(f"{name}: resuming training in {run_dir}")
-        resume(run_dir, quiet=quiet)
-        note += ", resumed"
-    else:
-        budget = f"{cfg.episodes} episodes" if cfg.episodes is not None else ""
-        if cfg.total_steps is not None:
-            budget += (" or " if budget else "") + f"{cfg.total_steps:,} env steps"
-        say(f"{name}: training {cfg.n_runs} runs ({note}), {budget} each")
-        train_new(cfg, run_dir, quiet=quiet)
-    return time.perf_counter() - t0, note
-
-
 def _experiment(
     name: str, title: str, cfg: Config, out: Path, quiet: bool, say, sim_seeds: int = 0
 ) -> tuple[list[tuple[str, float, str]], list[str]]:
     """Train, test, plot and perturb one experiment, and test its first ``sim_seeds``
     seeds in MuJoCo: (timings, report section)."""
-    run_dir = out / name
-    timings = [(f"train {name}", *train_stage(name, cfg, run_dir, quiet, say))]
+    cell = runner.Cell(name, cfg, out / name)
+    run_dir = cell.run
+    timings = [(f"train {name}", *runner.train(cell, quiet, say))]
 
     def stage(label: str, note: str, fn):
         t0 = time.perf_counter()
@@ -234,7 +149,7 @@ def _experiment(
 
     say(f"{name}: testing on {', '.join(cfg.run.test_mazes)}")
     tests = f"{cfg.run.test_episodes} episodes x {cfg.n_runs} runs x {len(cfg.run.test_mazes)}"
-    eval_dir = stage("evaluate", lambda _: f"{tests} mazes", lambda: evaluate_to_dir(run_dir))
+    eval_dir = stage("evaluate", lambda _: f"{tests} mazes", lambda: runner.test(cell))
     say(f"{name}: drawing figures")
     written = stage("plot", lambda w: f"{len(w)} files", lambda: plots.make_plots(run_dir))
     # ROBUSTNESS: the same test under sensor perturbations, on the training maze
@@ -257,8 +172,7 @@ def _experiment(
 def sim_to_sim(run_dir: Path, seeds: list[int]) -> Path:
     """``python -m jaxnav.sim2sim RUN_DIR --seeds ...`` (its own process: only that
     command imports MuJoCo); the path of its markdown table."""
-    cmd = [sys.executable, "-m", "jaxnav.sim2sim", str(run_dir), "--seeds", *map(str, seeds)]
-    done = subprocess.run(cmd, capture_output=True, text=True)
+    done = subprocess.run(runner.sim2sim_argv(run_dir, seeds), capture_output=True, text=True)
     if done.returncode != 0:
         last = (done.stderr.strip().splitlines() or ["no output"])[-1]
         raise JaxnavError(f"the sim-to-sim stage failed: {last}")
@@ -326,7 +240,7 @@ def reproduce(
     """Both experiments end to end into ``out``; ``sim_seeds``: test that many seeds
     of each in MuJoCo too. Returns report.md."""
     sizes = {"--episodes": episodes, "--max-steps": max_steps, "--test-episodes": test_episodes}
-    check_request(out, seeds, sizes, resume_ok)
+    runner.check_request(out, seeds, sizes, resume_ok)
     if sim_seeds < 0:
         raise JaxnavError("--sim2sim must not be negative")
     check_mujoco(sim_seeds)
@@ -336,11 +250,8 @@ def reproduce(
     }
     out.mkdir(parents=True, exist_ok=True)
 
-    def say(msg):
-        if not quiet:
-            print(f"[reproduce] {msg}", file=sys.stderr, flush=True)
-
-    info = machine_info()
+    say = runner.sayer("reproduce", quiet)
+    info = runner.machine_info()
     timings: list[tuple[str, float, str]] = []
     sections: list[str] = []
     for name, title in EXPERIMENTS:

@@ -21,7 +21,6 @@ from __future__ import annotations
 
 import gzip
 import shutil
-import sys
 import time
 from pathlib import Path
 
@@ -29,8 +28,7 @@ from jaxnav.core.config import Config
 from jaxnav.core.errors import JaxnavError
 from jaxnav.core.rundir import METRICS, CsvLog, atomic_write_bytes, atomic_write_text
 from jaxnav.core.sweep import short_names, value_text
-from jaxnav.experiments.evaluation import evaluate_to_dir
-from jaxnav.experiments.reproduce import check_request, machine_info, train_stage
+from jaxnav.experiments import runner
 from jaxnav.report import plots, stats
 from jaxnav.report.tables import sweep_markdown, training_markdown
 
@@ -94,7 +92,7 @@ def study_markdown(
     L += ["## Time and machine", "", "| stage | seconds | what |", "|---|---|---|"]
     L += [f"| {stage} | {t:.0f} | {note} |" for stage, t, note in timings]
     L += [f"| total | {total:.0f} | |", ""]
-    L += [f"- {k}: {v}" for k, v in machine_info().items()]
+    L += [f"- {k}: {v}" for k, v in runner.machine_info().items()]
     return "\n".join(L) + "\n"
 
 
@@ -113,18 +111,15 @@ def study(
     """Train, test and write the study; returns DIR/study.md."""
     if not cfg.sweep:
         raise JaxnavError("the config has no sweep: a study compares the points of one")
-    check_request(out, cfg.seeds, {}, resume_ok)
+    runner.check_request(out, cfg.seeds, {}, resume_ok)
     out.mkdir(parents=True, exist_ok=True)
-
-    def say(msg: str) -> None:
-        if not quiet:
-            print(f"[study] {msg}", file=sys.stderr, flush=True)
-
-    run_dir = out / "run"
-    timings = [("train", *train_stage("sweep", cfg, run_dir, quiet, say))]
+    say = runner.sayer("study", quiet)
+    cell = runner.Cell("sweep", cfg, out / "run")
+    run_dir = cell.run
+    timings = [("train", *runner.train(cell, quiet, say))]
     say(f"testing {cfg.n_runs} runs on {', '.join(cfg.run.test_mazes)}, both test modes")
     t0 = time.perf_counter()
-    eval_dir = evaluate_to_dir(run_dir)
+    eval_dir = runner.test(cell)
     n_tests = f"{cfg.run.test_episodes} episodes x {cfg.n_runs} runs x 2 modes"
     timings.append(("test", time.perf_counter() - t0, n_tests))
     results = (eval_dir / "results.csv").read_text()
