@@ -14,11 +14,11 @@ from pathlib import Path
 from types import ModuleType
 from typing import Any, NamedTuple
 
-from jaxnav.experiments import ladder, studyfile
+from jaxnav.experiments import driving, ladder, studyfile
 
 
 def kinds() -> dict[str, ModuleType]:
-    return {"ladder": ladder}
+    return {"ladder": ladder, "driving": driving}
 
 
 class StudyFile(NamedTuple):

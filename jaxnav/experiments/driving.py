@@ -1,0 +1,205 @@
+"""The driving study (``kind: driving``): the policies that drive. Each shipped config
+it names (``configs/studies/driving.yaml``: every ``drive_*`` config) is trained and
+tested beside the oracle and DWA, into the page of :mod:`jaxnav.report.driving_page`.
+
+Every config trains in one whole ``jaxnav train NAME`` command with an empty
+compilation cache (its seconds, compilation included, are what the page reports), then
+its policies are tested greedily (``jaxnav evaluate RUN --episodes N``: the oracle's and
+DWA's rows on the same test keys). A cell is a config: ``DIR/NAME/`` is its run,
+``DIR/NAME/command_s.json`` the command's seconds. A finished cell is reused (a run
+trained with other settings than the config's now is refused); a training that was
+interrupted is refused, as its time would not be one command's.
+
+Extra names on the command line pick configs (``jaxnav study driving drive_grid4 --out
+runs/drive``); the page's data folder keeps the other configs' rows, so one config can be
+run again alone. ``--doc docs/driving.md`` writes the committed page and its data,
+``docs/driving/``; ``jaxnav publish driving-page driving`` rewrites the page and the
+README's results lines from that data alone.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from jaxnav.core.config import CONFIG_DIR, Config
+from jaxnav.core.errors import ConfigError, JaxnavError
+from jaxnav.core.rundir import atomic_write_text, csv_text
+from jaxnav.core.values import flatten
+from jaxnav.experiments import runner, studyfile
+from jaxnav.report.driving_page import RUN_COLUMNS, RUNS, driving_markdown
+
+STUDY_KEYS = {
+    "kind": str,
+    "title": str,
+    "configs": list,
+    "test_episodes": int,
+    "settings": dict,
+}
+REQUIRED = ("kind", "title", "configs")
+TIMING = "command_s.json"  # in a cell's run: the whole training command's seconds
+
+
+@dataclass(frozen=True)
+class Study:
+    title: str
+    configs: tuple[str, ...]  # shipped configs' names
+    test_episodes: int
+    settings: dict[str, Any]  # over every config (a small form: settings.total_steps=2048)
+    text: str  # the study file, as read
+
+    def overrides(self) -> list[str]:
+        """The settings as ``jaxnav train``'s ``key=value`` arguments."""
+        return [f"{k}={json.dumps(v)}" for k, v in self.settings.items()]
+
+
+def parse_study(text: str, where: str) -> Study:
+    """A driving study from its YAML text; every config is built, so a wrong name or
+    setting is one line here, before any training."""
+    doc = studyfile.mapping(text, where)
+    studyfile.typed(doc, STUDY_KEYS, where)
+    studyfile.required(doc, REQUIRED, where)
+    studyfile.at_least_one(doc, ("test_episodes",), where)
+    configs = doc["configs"]
+    if not configs or not all(isinstance(c, str) for c in configs):
+        raise ConfigError(f"{where}: configs must list shipped configs' names")
+    for name in configs:
+        if not (CONFIG_DIR / f"{name}.yaml").is_file():
+            raise ConfigError(f"{where}: no shipped config {name!r} (jaxnav list shows them)")
+    if len(set(configs)) < len(configs):
+        raise ConfigError(f"{where}: configs names a config twice")
+    study = Study(
+        doc["title"],
+        tuple(configs),
+        doc.get("test_episodes", 10),
+        flatten(doc.get("settings", {})),
+        text,
+    )
+    for name in study.configs:
+        config_of(study, name, where)
+    return study
+
+
+def load_study(path: str, items: list[str] | tuple[str, ...] = ()) -> Study:
+    """The study of a file; ``items``: ``key=value`` overrides of its keys, and configs'
+    names, which replace its list (``drive_grid4``: that config alone)."""
+    names = [i for i in items if "=" not in i]
+    overrides = [i for i in items if "=" in i]
+    if names:
+        overrides.append(f"configs={json.dumps(names)}")
+    return studyfile.read_text(path, overrides, parse_study, STUDY_KEYS)
+
+
+def config_of(study: Study, name: str, where: str = "study") -> Config:
+    values = studyfile.base_values(name)
+    values.update(study.settings)
+    return studyfile.build(values, f"{where}: configs.{name}")
+
+
+def world_of(cfg: Config) -> str:
+    e = cfg.env
+    return (
+        f"{e.generator} {e.grid_rows}x{e.grid_cols}"
+        if e.generator == "grid"
+        else (e.generator or e.maze)
+    )
+
+
+def train_command(study: Study, name: str, run: Path) -> float:
+    """``jaxnav train NAME`` into ``run``, in its own process with an empty compilation
+    cache; the whole command's wall seconds."""
+    argv = [sys.executable, "-m", "jaxnav", "train", name, *study.overrides()]
+    argv += ["--out", str(run), "--yes", "--quiet"]
+    with tempfile.TemporaryDirectory() as cache:
+        t0 = time.perf_counter()
+        done = subprocess.run(argv, env={**os.environ, "JAXNAV_CACHE": cache})
+        seconds = time.perf_counter() - t0
+    if done.returncode != 0:
+        raise JaxnavError(f"jaxnav train {name} failed (exit status {done.returncode})")
+    return seconds
+
+
+def run_cell(study: Study, out: Path, name: str, say: runner.Say) -> dict:
+    """Train (the whole command, an empty compilation cache) and test one config unless
+    done; its row of the page's runs.csv."""
+    cfg = config_of(study, name)
+    cell = runner.Cell(name, cfg, out / name)
+    timing = cell.run / TIMING
+    if cell.run.exists():
+        runner.check_settings(cell)
+    if not (cell.run / "summary.json").is_file():
+        if cell.run.exists():
+            raise JaxnavError(
+                f"{cell.run} was interrupted: its time would not be one command's; "
+                "remove it and run again"
+            )
+        say(f"{name}: training (the whole command, an empty compilation cache)")
+        seconds = train_command(study, name, cell.run)
+        atomic_write_text(timing, json.dumps({"command_s": round(seconds, 1)}))
+    if not timing.is_file():
+        raise JaxnavError(f"{cell.run} has no {TIMING}: it was not trained by this study")
+    if not (cell.run / "eval" / "results.csv").is_file():
+        say(f"{name}: testing {cfg.n_runs} policies, {study.test_episodes} episodes per maze")
+        runner.test(cell, n_episodes=study.test_episodes)
+    summary = json.loads((cell.run / "summary.json").read_text())
+    return {
+        "config": name,
+        "world": world_of(cfg),
+        "command_s": json.loads(timing.read_text())["command_s"],
+        "env_steps": int(summary["env_steps"]) // cfg.n_runs,
+        "seeds": cfg.seeds,
+        "strategy": cfg.strategies[0],
+    }
+
+
+def run_study(study: Study, out: Path, resume_ok: bool, quiet: bool, command: str) -> Path:
+    """Every config, then ``DIR/data/``: each config's results (``NAME.csv``), their rows
+    of runs.csv and run.json (the command and the machine); returns the data folder."""
+    runner.check_out(out, resume_ok)  # a cell checks its own run's settings
+    out.mkdir(parents=True, exist_ok=True)
+    say = runner.sayer("study", quiet)
+    rows = []
+    for k, name in enumerate(study.configs):
+        say(f"config {k + 1} of {len(study.configs)}: {name}")
+        rows.append(run_cell(study, out, name, say))
+    data = out / "data"
+    data.mkdir(exist_ok=True)
+    for name in study.configs:
+        shutil.copyfile(out / name / "eval" / "results.csv", data / f"{name}.csv")
+    atomic_write_text(
+        data / RUNS, csv_text(RUN_COLUMNS, [[r[c] for c in RUN_COLUMNS] for r in rows])
+    )
+    meta = {"command": command, "machine": runner.machine_line()}
+    atomic_write_text(data / "run.json", json.dumps(meta) + "\n")
+    return data
+
+
+def _rows(path: Path) -> list[dict[str, str]]:
+    return list(csv.DictReader(io.StringIO(path.read_text()))) if path.is_file() else []
+
+
+def publish(study: Study, out: Path, page: Path) -> list[Path]:
+    """The page and its data folder ``STEM/`` beside it: this study's configs' results
+    and rows, the rows of configs it did not run kept from the folder."""
+    data, folder = out / "data", page.parent / page.stem
+    folder.mkdir(parents=True, exist_ok=True)
+    rows = {r["config"]: r for r in _rows(folder / RUNS)}
+    for r in _rows(data / RUNS):
+        rows[r["config"]] = r
+        shutil.copyfile(data / f"{r['config']}.csv", folder / f"{r['config']}.csv")
+    text = csv_text(RUN_COLUMNS, [[r[c] for c in RUN_COLUMNS] for r in rows.values()])
+    atomic_write_text(folder / RUNS, text)
+    shutil.copyfile(data / "run.json", folder / "run.json")
+    meta = json.loads((folder / "run.json").read_text())
+    atomic_write_text(page, driving_markdown(folder, meta["command"], meta["machine"]))
+    return [page, folder]

@@ -1,0 +1,175 @@
+"""The driving study (``jaxnav study driving``): its file names every shipped drive_*
+config, a run of one config replaces only its row of the page's data, the committed
+page is what the study writes from the committed data, and a finished config is reused
+while an interrupted one or one trained with other settings is refused."""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+import yaml
+
+from jaxnav.core.config import CONFIG_DIR, builtin_configs, config_to_dict, load_config
+from jaxnav.core.errors import ConfigError, JaxnavError
+from jaxnav.core.rundir import csv_text
+from jaxnav.experiments import driving, studies, studyfile
+from jaxnav.report.driving_page import RUN_COLUMNS, RUNS
+
+ROOT = Path(__file__).resolve().parents[1]
+SHIPPED = str(CONFIG_DIR / "studies" / "driving.yaml")
+DOCS = ROOT / "docs" / "driving"
+
+
+def test_the_shipped_study_is_every_drive_config_as_shipped():
+    assert studyfile.kind_of(SHIPPED) == "driving"
+    study = driving.load_study(SHIPPED)
+    assert set(study.configs) == {n for n in builtin_configs() if n.startswith("drive_")}
+    assert study.test_episodes == 10 and study.settings == {}
+    for name in study.configs:  # the cell's config is the shipped config, as jaxnav train's
+        assert driving.config_of(study, name) == load_config(name)
+    # the committed page lists the configs in the study's order
+    runs = [r["config"] for r in csv.DictReader(io.StringIO((DOCS / RUNS).read_text()))]
+    assert runs == list(study.configs)
+
+
+def test_names_on_the_command_line_pick_configs_and_settings_reach_them():
+    study = driving.load_study(SHIPPED, ["drive_grid4", "settings.total_steps=2048"])
+    assert study.configs == ("drive_grid4",)
+    assert driving.config_of(study, "drive_grid4").total_steps == 2048
+    assert study.overrides() == ["total_steps=2048"]
+    assert driving.load_study(SHIPPED).configs[0] == "drive_square4"  # the file is unchanged
+
+
+@pytest.mark.parametrize(
+    "items, message",
+    [
+        (["drive_nowhere"], "no shipped config 'drive_nowhere'"),
+        (["test_episodes=0"], "test_episodes must be at least 1"),
+        (["settings.env.max_stepz=3"], "unknown key 'env.max_stepz'"),
+        (["configz=[smoke]"], "unknown key 'configz'"),
+        (["smoke", "smoke"], "names a config twice"),
+    ],
+)
+def test_a_wrong_study_is_one_line_naming_the_problem(items, message):
+    with pytest.raises(ConfigError) as e:
+        driving.load_study(SHIPPED, items)
+    assert message in str(e.value) and "\n" not in str(e.value)
+
+
+def test_an_unknown_kind_is_one_line(tmp_path):
+    path = tmp_path / "s.yaml"
+    path.write_text("kind: drivng\ntitle: x\n")
+    with pytest.raises(ConfigError, match="unknown kind 'drivng'"):
+        studies.is_study(str(path))
+
+
+def _run_dir(study, name: str, out: Path, **settings) -> Path:
+    """A run directory started (config.yaml only) with the cell's config, or other settings."""
+    cfg = driving.config_of(study, name)
+    doc = config_to_dict(cfg)
+    doc.update(settings)
+    (out / name).mkdir(parents=True)
+    (out / name / "config.yaml").write_text(yaml.safe_dump(doc))
+    return out / name
+
+
+def test_an_interrupted_or_differently_trained_config_is_refused(tmp_path):
+    study = driving.load_study(SHIPPED, ["smoke"])
+    _run_dir(study, "smoke", tmp_path / "a")
+    with pytest.raises(JaxnavError, match="was interrupted: its time would not be one command's"):
+        driving.run_cell(study, tmp_path / "a", "smoke", lambda _: None)
+    _run_dir(study, "smoke", tmp_path / "b", seeds=7)
+    with pytest.raises(JaxnavError, match="was started with other settings"):
+        driving.run_cell(study, tmp_path / "b", "smoke", lambda _: None)
+
+
+def _data(out: Path, configs: list[str]) -> None:
+    """A finished study's data folder holding the committed data of ``configs``."""
+    data = out / "data"
+    data.mkdir(parents=True)
+    rows = [r for r in csv.DictReader(io.StringIO((DOCS / RUNS).read_text()))]
+    mine = [[r[c] for c in RUN_COLUMNS] for r in rows if r["config"] in configs]
+    (data / RUNS).write_text(csv_text(RUN_COLUMNS, mine))
+    for name in configs:
+        shutil.copyfile(DOCS / f"{name}.csv", data / f"{name}.csv")
+    shutil.copyfile(DOCS / "run.json", data / "run.json")
+
+
+def test_one_config_run_again_replaces_its_row_and_keeps_the_others(tmp_path, monkeypatch):
+    folder = tmp_path / "docs" / "driving"
+    shutil.copytree(DOCS, folder)
+    before = (folder / RUNS).read_text()
+    out = tmp_path / "runs"
+    _data(out, ["drive_grid4"])
+    row = (out / "data" / RUNS).read_text()
+    (out / "data" / RUNS).write_text(row.replace("grid 4x4", "grid 4x4 again"))
+    (out / "data" / "run.json").write_text(json.dumps({"command": "c", "machine": "m"}) + "\n")
+    drawn = []
+    monkeypatch.setattr(driving, "driving_markdown", lambda *a: drawn.append(a) or "page\n")
+    study = driving.load_study(SHIPPED, ["drive_grid4"])
+    written = driving.publish(study, out, tmp_path / "docs" / "driving.md")
+    assert written == [tmp_path / "docs" / "driving.md", folder]
+    assert (tmp_path / "docs" / "driving.md").read_text() == "page\n"
+    assert drawn == [(folder, "c", "m")]
+    after = (folder / RUNS).read_text()
+    assert after == before.replace("grid 4x4", "grid 4x4 again")  # its row, in its place
+    assert (folder / "gpu_h200_eval.csv").is_file()  # other files of the folder stay
+
+
+@pytest.mark.slow  # the page's bootstrap intervals
+def test_the_committed_page_is_what_the_study_writes_from_the_committed_data(tmp_path):
+    folder = tmp_path / "docs" / "driving"
+    shutil.copytree(DOCS, folder)
+    out = tmp_path / "runs"
+    study = driving.load_study(SHIPPED)
+    _data(out, list(study.configs))
+    page = tmp_path / "docs" / "driving.md"
+    driving.publish(study, out, page)
+    assert page.read_text() == (ROOT / "docs" / "driving.md").read_text()
+    for name in (RUNS, "run.json", *[f"{c}.csv" for c in study.configs]):
+        assert (folder / name).read_bytes() == (DOCS / name).read_bytes(), name
+
+
+TINY = """\
+kind: driving
+title: Tiny
+test_episodes: 1
+configs: [smoke]
+settings: {seeds: 1, episodes: 2, env: {max_steps: 20}, dqn: {batch_size: 16},
+           run: {test_mazes: [square2]}}
+"""
+
+
+@pytest.mark.slow
+def test_a_tiny_driving_study_end_to_end_and_its_resume(tmp_path):
+    path = tmp_path / "s.yaml"
+    path.write_text(TINY)
+    out, doc = tmp_path / "o", tmp_path / "docs" / "drive.md"
+    doc.parent.mkdir()
+    cmd = [sys.executable, "-m", "jaxnav", "study", str(path), "--out", str(out), "--quiet"]
+    done = subprocess.run([*cmd, "--doc", str(doc)], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    rows = list(csv.DictReader(io.StringIO((doc.parent / "drive" / RUNS).read_text())))
+    steps = json.loads((out / "smoke" / "summary.json").read_text())["env_steps"]
+    runs = load_config(str(out / "smoke" / "config.yaml")).n_runs
+    got = [(r["config"], r["world"], r["seeds"], r["env_steps"]) for r in rows]
+    assert got == [("smoke", "square4", "1", str(steps // runs))]  # per run
+    assert float(rows[0]["command_s"]) > 0
+    results = (doc.parent / "drive" / "smoke.csv").read_text()
+    assert {r["strategy"] for r in csv.DictReader(io.StringIO(results))} >= {"oracle", "dwa"}
+    assert "`smoke`" in doc.read_text() and "Written by `python -m jaxnav.study" in doc.read_text()
+    params = out / "smoke" / "params.npz"
+    before = params.stat().st_mtime_ns
+    again = subprocess.run([*cmd, "--resume"], capture_output=True, text=True)
+    assert again.returncode == 0, again.stderr
+    assert params.stat().st_mtime_ns == before  # a finished config is not trained again
+    path.write_text(TINY.replace("episodes: 2", "episodes: 3"))
+    refused = subprocess.run([*cmd, "--resume"], capture_output=True, text=True)
+    assert refused.returncode == 2 and "was trained with other settings" in refused.stderr
