@@ -14,11 +14,11 @@ from pathlib import Path
 from types import ModuleType
 from typing import Any, NamedTuple
 
-from jaxnav.experiments import driving, ladder, studyfile
+from jaxnav.experiments import campaign, driving, ladder, studyfile
 
 
 def kinds() -> dict[str, ModuleType]:
-    return {"ladder": ladder, "driving": driving}
+    return {"ladder": ladder, "driving": driving, "sim2sim": campaign}
 
 
 class StudyFile(NamedTuple):

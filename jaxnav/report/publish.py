@@ -144,6 +144,21 @@ def _baselines_page(root: Path) -> str:
     return baselines_markdown(text, meta["command"], meta["machine"], meta["notes"])
 
 
+def _campaign_page(stem: str) -> Callable[[Path], str]:
+    """A sim-to-sim campaign's page (``stem``.md) from ``stem``.csv and ``stem``.json."""
+
+    def render(root: Path) -> str:
+        from jaxnav.report.sim2sim_tables import campaign_markdown
+
+        made = json.loads((root / f"{stem}.json").read_text())
+        return campaign_markdown((root / f"{stem}.csv").read_text(), made)
+
+    return render
+
+
+REALISM = "docs/sim2sim_realism"
+WHEEL_LIMIT = "docs/sim2sim_wheel_limit"
+
 PUBLISHED: tuple[Published, ...] = (
     Published(
         "when-ebe-helps", ("README.md", "docs/studies.md"), _study_sentence(LADDER), slow=True
@@ -167,6 +182,20 @@ PUBLISHED: tuple[Published, ...] = (
         "worlds-study-page",
         (f"{WORLDS_STUDY}.md",),
         _study_page(WORLDS_STUDY),
+        block=False,
+        slow=True,
+    ),
+    Published(
+        "sim2sim-realism-page",
+        (f"{REALISM}.md",),
+        _campaign_page(REALISM),
+        block=False,
+        slow=True,
+    ),
+    Published(
+        "sim2sim-wheel-limit-page",
+        (f"{WHEEL_LIMIT}.md",),
+        _campaign_page(WHEEL_LIMIT),
         block=False,
         slow=True,
     ),

@@ -9,6 +9,8 @@ the return, the goals per episode, the collision rate and the length.
   bootstrap intervals over seeds (:mod:`jaxnav.report.stats`), then per maze.
 * :func:`realism_markdown`: which training options help in MuJoCo, from several
   runs' CSVs in one with an ``option`` column first (:data:`REALISM_COLUMNS`).
+* :func:`campaign_markdown`: a sim-to-sim campaign's page (``jaxnav study`` of a
+  ``kind: sim2sim`` file), that table and how it was made, from its CSV and its JSON.
 """
 
 from __future__ import annotations
@@ -205,3 +207,30 @@ def realism_markdown(text: str, baseline: str = "plain") -> str:
         "",
     ]
     return "\n".join(lines + markdown_table(header, rows)) + "\n"
+
+
+def campaign_markdown(text: str, made: dict) -> str:
+    """A sim-to-sim campaign's page from its CSV ``text`` (:data:`REALISM_COLUMNS`) and
+    ``made`` (its JSON: the title, the paragraph on how it was made, the header of the
+    arms' column and each arm's description, training and MuJoCo minutes)."""
+    rows = []
+    for arm in made["arms"]:
+        train = (
+            arm["reused"] if arm["train_min"] is None else f"{arm['train_min']:.1f} min of training"
+        )
+        rows.append(f"| {arm['arm']} | {arm['what']} | {train} | {arm['mujoco_min']:.1f} min |")
+    return "\n".join(
+        [
+            f"# {made['title']}",
+            "",
+            realism_markdown(text),
+            "## How it was made",
+            "",
+            made["how"],
+            "",
+            f"| option | {made['column']} | training | MuJoCo test |",
+            "|---|---|---|---|",
+            *rows,
+            "",
+        ]
+    )
