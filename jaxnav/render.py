@@ -6,8 +6,9 @@ the environment's own sensor). MAZE may also be a maze generator (``grid``,
 ``cylinders``, ``rooms``) or a config (``grid4``, a YAML file): then one maze of its
 family, drawn by ``reset`` from ``--seed``. ``--samples N`` draws a sheet of N panels
 instead: mazes of the family (or goals in a fixed maze), each with its start, goal and
-shortest path (:func:`jaxnav.experiments.mazes.render_sheet`). The drawing itself is
-:mod:`jaxnav.report.drawing`.
+shortest path (:func:`jaxnav.experiments.mazes.render_sheet`). ``--worlds DIR`` draws
+every picture of docs/worlds.md (:data:`jaxnav.experiments.mazes.WORLD_PICTURES`). The
+drawing itself is :mod:`jaxnav.report.drawing`.
 """
 
 from __future__ import annotations
@@ -23,8 +24,12 @@ from pathlib import Path
 
 from jaxnav.core import cli
 from jaxnav.core.errors import JaxnavError
-from jaxnav.experiments.mazes import family_config, render_sheet
-from jaxnav.experiments.scene import render_maze
+from jaxnav.experiments.mazes import (
+    render_named,
+    render_sheet,
+    render_world_pictures,
+    world_picture_paths,
+)
 
 
 def image_formats() -> list[str]:
@@ -58,6 +63,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     )
     parser.add_argument(
         "maze",
+        nargs="?",
         help="built-in maze name (e.g. square4_obstacles), a maze .yaml file, a maze "
         "generator (grid, cylinders, rooms) or a config (e.g. grid4): a maze it draws",
     )
@@ -79,9 +85,29 @@ def main(argv: Sequence[str] | None = None) -> int:
         help="instead, a sheet of N panels: mazes the family draws (or goals in a fixed "
         "maze), each with its start, goal and shortest path",
     )
+    parser.add_argument(
+        "--worlds",
+        metavar="DIR",
+        help="instead, draw every picture of docs/worlds.md into DIR (docs/worlds): the "
+        "built-in stages, a maze of each family and a sheet of grid mazes",
+    )
     args = parser.parse_args(argv)
 
     def work() -> None:
+        if args.worlds is not None:
+            if args.maze is not None or args.samples is not None:
+                raise JaxnavError("--worlds draws its own pictures: give no MAZE or --samples")
+            folder = Path(args.worlds)
+            if not folder.is_dir():  # made: its parent must be there
+                cli.check_output(folder, False, is_dir=True)
+            else:
+                for path in world_picture_paths(folder):
+                    cli.check_output(path, args.overwrite)
+            for path in render_world_pictures(folder):
+                print(f"wrote {path}")
+            return
+        if args.maze is None:
+            raise JaxnavError("give a MAZE to draw (or --worlds DIR)")
         if args.beams < 0:
             raise JaxnavError("--beams must be 0 or more")
         if args.samples is not None and args.samples < 1:
@@ -91,13 +117,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             render_sheet(args.maze, str(out), args.samples, args.seed)
             print(f"wrote {out}")
             return
-        cfg = family_config(args.maze)
-        if cfg is None:
-            render_maze(args.maze, str(out), args.beams, args.seed)
-        else:
-            env_kwargs = cfg.env_kwargs() if cfg.env.generator else None
-            name = args.maze if cfg.env.generator else cfg.env.maze
-            render_maze(name, str(out), args.beams, args.seed, env_kwargs=env_kwargs)
+        render_named(args.maze, str(out), args.beams, args.seed)
         print(f"wrote {out}")
 
     return cli.run(parser.prog, work)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -157,3 +158,43 @@ def test_render_refuses_fewer_than_one_sample_in_one_line(tmp_path, capsys, n):
     err = capsys.readouterr().err
     assert err == f"jaxnav.render: error: --samples must be at least 1 (got {n})\n"
     assert not out.exists()
+
+
+def test_worlds_draws_every_picture_of_the_worlds_page_and_refuses_in_one_line(
+    tmp_path, capsys, monkeypatch
+):
+    from jaxnav import render
+    from jaxnav.experiments.mazes import WORLD_PICTURES
+
+    page = (ROOT / "docs" / "worlds.md").read_text()
+    shown = set(re.findall(r"worlds/(\w+)\.png", page))
+    assert shown and shown <= set(WORLD_PICTURES)  # every picture the page shows is drawn
+    drawn = []
+    monkeypatch.setattr(
+        render,
+        "render_world_pictures",
+        lambda folder: drawn.append(folder) or render.world_picture_paths(folder),
+    )
+    folder = tmp_path / "worlds"
+    assert main(["--worlds", str(folder)]) == 0
+    assert drawn == [folder] and capsys.readouterr().out.count("wrote ") == len(WORLD_PICTURES)
+    folder.mkdir()
+    (folder / "stage3.png").write_bytes(b"earlier")
+    for argv, message in [
+        (["--worlds", str(folder)], "stage3.png exists already (--overwrite replaces it)"),
+        (["--worlds", str(tmp_path / "no" / "worlds")], "does not exist"),
+        (["square4", "--worlds", str(folder)], "give no MAZE or --samples"),
+        ([], "give a MAZE to draw (or --worlds DIR)"),
+    ]:
+        assert main(argv) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and message in err, err
+    assert main(["--worlds", str(folder), "--overwrite"]) == 0
+
+
+@pytest.mark.slow
+def test_the_worlds_pictures_are_what_render_worlds_draws(tmp_path):
+    from jaxnav.experiments.mazes import render_world_pictures
+
+    for path in render_world_pictures(tmp_path):
+        assert path.read_bytes() == (ROOT / "docs" / "worlds" / path.name).read_bytes(), path.name

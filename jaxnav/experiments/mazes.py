@@ -22,6 +22,7 @@ from jaxnav.core import families
 from jaxnav.core.config import CONFIG_DIR, Config, load_config, resolve_config_path
 from jaxnav.core.errors import JaxnavError, MazeError
 from jaxnav.env import NavEnv, make
+from jaxnav.experiments.scene import render_maze
 from jaxnav.report import drawing
 from jaxnav.world.maps import BUILTIN_MAZES, Maze, load_maze_file, make_maze
 from jaxnav.world.mazefiles import canonical_segments, maze_text
@@ -221,3 +222,46 @@ def render_sheet(spec: str, out: str, n: int, seed: int = 0, split: str | None =
     )
     fig.tight_layout()
     fig.savefig(out)
+
+
+def render_named(name: str, out: str, n_beams: int = 24, seed: int = 0) -> None:
+    """One maze drawn with the robot, a goal and its beams
+    (:func:`jaxnav.experiments.scene.render_maze`): a built-in maze or maze file, or the
+    maze a family or config (its maze, or its family's draw of ``seed``) stands for."""
+    cfg = family_config(name)
+    if cfg is None:
+        render_maze(name, out, n_beams, seed)
+    else:
+        env_kwargs = cfg.env_kwargs() if cfg.env.generator else None
+        shown = name if cfg.env.generator else cfg.env.maze
+        render_maze(shown, out, n_beams, seed, env_kwargs=env_kwargs)
+
+
+# The pictures of docs/worlds.md (``jaxnav render --worlds docs/worlds``): file stem ->
+# (what is drawn, the seed of its draw, a sheet of that many panels or None).
+WORLD_PICTURES: dict[str, tuple[str, int, int | None]] = {
+    "stage3": ("stage3", 0, None),
+    "stage4": ("stage4", 0, None),
+    "stage3_humble": ("stage3_humble", 0, None),
+    "stage4_humble": ("stage4_humble", 0, None),
+    "grid4": ("grid4", 3, None),
+    "cylinders": ("cylinders", 3, None),
+    "rooms": ("rooms", 3, None),
+    "grid4_samples": ("grid4", 0, 8),
+}
+
+
+def world_picture_paths(folder: Path) -> list[Path]:
+    return [folder / f"{stem}.png" for stem in WORLD_PICTURES]
+
+
+def render_world_pictures(folder: Path) -> list[Path]:
+    """Every picture of docs/worlds.md into ``folder``: the built-in stages and a maze
+    of each family, and a sheet of grid mazes with their shortest paths."""
+    folder.mkdir(parents=True, exist_ok=True)
+    for path, (name, seed, samples) in zip(world_picture_paths(folder), WORLD_PICTURES.values()):
+        if samples is None:
+            render_named(name, str(path), seed=seed)
+        else:
+            render_sheet(name, str(path), samples, seed)
+    return world_picture_paths(folder)
