@@ -24,7 +24,10 @@ COMMANDS: dict[str, tuple[str, bool]] = {
     "export": ("write one trained policy to a portable NumPy file for a robot", True),
     "reproduce": ("the paper's two experiments end to end, and report.md", True),
     "ablation": ("both experiments under each ROBOTIS-faithful switch", True),
-    "study": ("a config's sweep trained, tested and written up with computed verdicts", True),
+    "study": (
+        "a config's sweep or a study file trained, tested and written up from its data",
+        True,
+    ),
     "sim2sim": ("a run's policies driving a TurtleBot3 burger in MuJoCo physics", True),
     "list": ("the built-in mazes, the shipped configs and every setting", False),
     "publish": ("rewrite the docs' parts computed from committed data", False),

@@ -2,10 +2,12 @@
 
 A config's sweep trained, tested in both modes and written up in ``DIR/study.md``:
 the work is :func:`jaxnav.experiments.study.study` (its module describes the
-layout). A ladder study file (one with ``rungs:``, as
-``configs/studies/when_ebe_helps.yaml``) trains every world and agent it names
-and writes its page from its data: :mod:`jaxnav.experiments.ladder`. ``--help``
-lists the options.
+layout). A study file runs instead, of any kind (:mod:`jaxnav.experiments.studies`):
+a ladder (one with ``rungs:``, as ``configs/studies/when_ebe_helps.yaml``) trains
+every world and agent it names, ``kind: driving`` each ``drive_*`` config
+(``configs/studies/driving.yaml``), ``kind: sim2sim`` a sim-to-sim campaign's arms
+(``configs/studies/sim2sim_realism.yaml``); each writes its page from its data.
+``--help`` lists the options.
 """
 
 from __future__ import annotations
@@ -32,9 +34,11 @@ def main(argv: list[str] | None = None) -> int:
     p = cli.Parser(
         prog="python -m jaxnav.study",
         description="Train a config's sweep, test every arm in both test modes and write "
-        "DIR/study.md with the sweep's tables, computed answers and figures.",
+        "DIR/study.md with the sweep's tables, computed answers and figures; or run a study "
+        "file (a ladder, the driving study, a sim-to-sim campaign: jaxnav list shows the "
+        "shipped ones) and write its page from its data.",
     )
-    p.add_argument("items", nargs="+", metavar="CONFIG [key=value ...]")
+    p.add_argument("items", nargs="+", metavar="CONFIG|STUDY [key=value ...]")
     p.add_argument("--out", required=True, metavar="DIR", help="output directory")
     p.add_argument("--title", help="the study's title (default: the config's name)")
     p.add_argument("--doc", metavar="PATH", help="also write the study here, figures beside it")

@@ -63,11 +63,17 @@ def test_a_wrong_study_is_one_line_naming_the_problem(items, message):
     assert message in str(e.value) and "\n" not in str(e.value)
 
 
-def test_an_unknown_kind_is_one_line(tmp_path):
+def test_an_unknown_kind_is_one_line_and_exit_2(tmp_path, capsys):
+    from jaxnav.study import main
+
     path = tmp_path / "s.yaml"
     path.write_text("kind: drivng\ntitle: x\n")
     with pytest.raises(ConfigError, match="unknown kind 'drivng'"):
         studies.is_study(str(path))
+    assert main([str(path), "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "unknown kind 'drivng' (known: ladder, driving, sim2sim)" in err
+    assert not (tmp_path / "o").exists()
 
 
 def _run_dir(study, name: str, out: Path, **settings) -> Path:

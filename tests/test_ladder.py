@@ -184,6 +184,20 @@ def test_the_shipped_studies_are_package_data_and_listed():
     assert "  when_ebe_helps  " in catalog()
 
 
+def test_every_shipped_study_file_of_every_kind_loads_whole():
+    from jaxnav.core.config import STUDY_DIR, shipped_studies
+    from jaxnav.experiments import studies, studyfile
+
+    kinds = {}
+    for name in shipped_studies():
+        path = str(STUDY_DIR / f"{name}.yaml")
+        loaded = studies.load(path)
+        kinds[name] = studyfile.kind_of(path)
+        assert loaded.kind is studies.kinds()[kinds[name]]
+        assert loaded.study.title == shipped_studies()[name]
+    assert set(kinds.values()) == set(studyfile.KINDS)
+
+
 def _synthetic(folder: Path, n: int = 16, oracle: bool = True) -> None:
     """A data folder: on rung a, EBE reaches every goal and the others half; on rung b
     all three draw from the same distribution; the oracle reaches every goal on a and
