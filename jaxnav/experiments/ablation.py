@@ -71,7 +71,9 @@ TRAIN_MAZE = {"paper_no_obstacles": "square4", "paper_obstacles": "square4_obsta
 CSV_COLUMNS = ("variant", "source", "statement", "mode", "strategy", "seed", "task", "score")
 
 
-def variant_cells(variant: str, out: Path, sizes: dict, experiments: list[str]) -> list:
+def variant_cells(
+    variant: str, out: Path, sizes: dict, experiments: list[str]
+) -> list[runner.Cell]:
     """The runner's cells of one variant: each experiment with the variant's switches,
     in ``DIR/<variant>/<experiment>/``."""
     return [
