@@ -421,4 +421,5 @@ register(
     ),
     text=lambda e: f"{e.rooms_rows} x {e.rooms_cols} rooms mazes ({e.rooms_door:g} m doors)",
     about="a grid of square rooms joined by doors along a random spanning tree",
+    shortest_paths=True,
 )

@@ -4,7 +4,9 @@ run (ROS 1 move_base's ``dwa_local_planner``, ROS 2 Nav2's DWB), as a reference 
 the learned policies.
 
 It sees what a policy sees: the LiDAR scan and the goal's heading and distance in the
-observation, nothing of the map. Every step it takes each velocity the action set can
+observation, nothing of the map (with ``env.waypoint``, the heading and distance of the
+shortest path's next point in the goal's place: DWA under a global planner, as Nav2
+runs it). Every step it takes each velocity the action set can
 command (with the paper's actions, the five yaw rates at 0.15 m/s; with a richer set,
 its (v, omega) pairs: the robot has no acceleration limit here, so every one is within
 the window), simulates the arc for ``horizon`` seconds, and drops those that would

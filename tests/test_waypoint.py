@@ -1,0 +1,203 @@
+"""The shortest paths of rooms mazes and the waypoint observation, against a NumPy
+breadth-first search over the rooms' doors read from the maze's own segments."""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import jaxnav
+from jaxnav.core.config import ConfigError, load_config
+from jaxnav.world import generators as gen
+
+ROOMS = dict(generator="rooms", rooms_rows=3, rooms_cols=3, rooms_size=2.0, rooms_door=0.6)
+NORMALISED = dict(observation="normalised", reward="progress")
+
+
+def _doors(maze, grid) -> tuple[np.ndarray, np.ndarray]:
+    """(bool[E] walls with a door, f32[E, 2] the door's middle), from the segment rows
+    by geometry: a wall with a door is two segments, the door the gap between them."""
+    e = grid.n_walls
+    seg, mask = np.asarray(maze.segments), np.asarray(maze.segment_mask)
+    has_door = mask[e : 2 * e]
+    middle = (seg[:e, 2:] + seg[e : 2 * e, :2]) / 2
+    return has_door, middle
+
+
+def _bfs(grid, has_door: np.ndarray, src: int) -> np.ndarray:
+    a, b = gen.wall_cells(grid)
+    dist = np.full(grid.n_cells, -1)
+    dist[src] = 0
+    queue = deque([src])
+    while queue:
+        u = queue.popleft()
+        for w in np.flatnonzero(has_door):
+            for p, q in ((a[w], b[w]), (b[w], a[w])):
+                if p == u and dist[q] < 0:
+                    dist[q] = dist[u] + 1
+                    queue.append(q)
+    return dist
+
+
+def _room_of(p, grid) -> int:
+    col = int(np.clip(math.floor(p[0] / grid.cell + grid.cols / 2), 0, grid.cols - 1))
+    row = int(np.clip(math.floor(p[1] / grid.cell + grid.rows / 2), 0, grid.rows - 1))
+    return row * grid.cols + col
+
+
+def _reference_length(maze, grid, pos, goal) -> float:
+    """The length of the path from ``pos`` through the doors of the rooms between to
+    ``goal``, in a rooms maze without loops (one path: a tree of rooms)."""
+    has_door, middle = _doors(maze, grid)
+    here, there = _room_of(pos, grid), _room_of(goal, grid)
+    dist = _bfs(grid, has_door, there)
+    a, b = gen.wall_cells(grid)
+    point, length = np.asarray(pos, np.float64), 0.0
+    while here != there:
+        (w, nxt), *_ = [
+            (w, q)
+            for w in np.flatnonzero(has_door)
+            for p, q in ((a[w], b[w]), (b[w], a[w]))
+            if p == here and dist[q] == dist[here] - 1
+        ]
+        length += np.linalg.norm(middle[w] - point)
+        point, here = middle[w], nxt
+    return length + float(np.linalg.norm(np.asarray(goal) - point))
+
+
+def _reference_targets(maze, grid, pos, goal) -> list[np.ndarray]:
+    """Every point the shortest path from ``pos`` may head for next: the goal in its
+    room, else the door into any neighbouring room one door nearer the goal's."""
+    has_door, middle = _doors(maze, grid)
+    here, there = _room_of(pos, grid), _room_of(goal, grid)
+    if here == there:
+        return [np.asarray(goal)]
+    dist = _bfs(grid, has_door, there)
+    a, b = gen.wall_cells(grid)
+    out = []
+    for w in np.flatnonzero(has_door):
+        for p, q in ((a[w], b[w]), (b[w], a[w])):
+            if p == here and dist[q] == dist[here] - 1:
+                out.append(middle[w])
+    return out
+
+
+@pytest.fixture(scope="module")
+def rooms_states():
+    env, params = jaxnav.make(**ROOMS, **NORMALISED, waypoint=True)
+    keys = jax.random.split(jax.random.PRNGKey(7), 12)
+    obs, state = jax.jit(jax.vmap(env.reset, in_axes=(0, None)))(keys, params)
+    return env, params, obs, state
+
+
+def _one(tree, i):
+    return jax.tree.map(lambda x: np.asarray(x[i]), tree)
+
+
+def test_rooms_cell_distances_are_the_bfs_over_their_doors(rooms_states):
+    env, _, _, state = rooms_states
+    grid = env.family.grid
+    for i in range(state.pos.shape[0]):
+        maze = _one(state.maze, i)
+        has_door, _ = _doors(maze, grid)
+        want = np.stack([_bfs(grid, has_door, s) for s in range(grid.n_cells)])
+        np.testing.assert_array_equal(np.asarray(state.cell_dist[i]), want)
+
+
+def test_the_rooms_path_heads_for_a_door_one_room_nearer_the_goal(rooms_states):
+    env, _, _, state = rooms_states
+    grid = env.family.grid
+    rng = np.random.default_rng(0)
+    half = np.array([grid.cols, grid.rows]) * grid.cell / 2
+    checked_doors = 0
+    for i in range(state.pos.shape[0]):
+        maze, dist, goal = _one(state.maze, i), state.cell_dist[i], np.asarray(state.goal[i])
+        for p in rng.uniform(-half + 0.1, half - 0.1, (20, 2)).astype(np.float32):
+            target, along = env.family.geodesic_target(
+                jax.tree.map(jnp.asarray, maze), dist, jnp.asarray(p), jnp.asarray(goal)
+            )
+            options = _reference_targets(maze, grid, p, goal)
+            assert any(np.allclose(target, o, atol=1e-5) for o in options), (p, target, options)
+            want = _reference_length(maze, grid, p, goal)
+            assert float(along) == pytest.approx(want, abs=1e-4)
+            assert float(along) >= np.linalg.norm(goal - p) - 1e-4  # never below the line
+            checked_doors += _room_of(p, grid) != _room_of(goal, grid)
+    assert checked_doors > 100
+
+
+def test_the_waypoint_observation_is_the_targets_heading_and_distance(rooms_states):
+    env, params, obs, state = rooms_states
+    step = jax.jit(jax.vmap(env.step_env, in_axes=(0, 0, None, None)))
+    keys = jax.random.split(jax.random.PRNGKey(8), state.pos.shape[0])
+    obs2, state2, *_ = step(keys, state, jnp.int32(3), params)
+    n = env.n_beams
+    assert obs.shape[-1] == env.obs_size == n + 6
+    for o, s in ((obs, state), (obs2, state2)):
+        for i in range(s.pos.shape[0]):
+            maze, pos, yaw = _one(s.maze, i), np.asarray(s.pos[i]), float(s.yaw[i])
+            options = _reference_targets(maze, env.family.grid, pos, np.asarray(s.goal[i]))
+            seen = []
+            for t in options:
+                rel = t - pos
+                heading = math.remainder(math.atan2(rel[1], rel[0]) - yaw, 2 * math.pi)
+                seen.append([heading / math.pi, min(np.linalg.norm(rel), 3.5) / 3.5])
+            assert any(np.allclose(o[i, n + 4 :], want, atol=2e-5) for want in seen)
+            # the goal's heading and distance stay where they were
+            rel = np.asarray(s.goal[i]) - pos
+            heading = math.remainder(math.atan2(rel[1], rel[0]) - yaw, 2 * math.pi)
+            assert o[i, n] == pytest.approx(heading / math.pi, abs=2e-5)
+
+
+def test_on_a_fixed_maze_the_waypoint_is_the_goal():
+    env, params = jaxnav.make("square4", **NORMALISED, waypoint=True)
+    obs, _ = env.reset(jax.random.PRNGKey(0), params)
+    n = env.n_beams
+    np.testing.assert_allclose(obs[n + 4 : n + 6], obs[n : n + 2], atol=1e-6)
+
+
+def test_a_grid_maze_has_a_waypoint_too():
+    grid = dict(generator="grid", grid_rows=3, grid_cols=3)
+    env, params = jaxnav.make(**grid, **NORMALISED, waypoint=True)
+    obs, state = env.reset(jax.random.PRNGKey(3), params)
+    target, _ = env.family.geodesic_target(state.maze, state.cell_dist, state.pos, state.goal)
+    rel = np.asarray(target - state.pos)
+    assert float(obs[-1]) == pytest.approx(min(np.linalg.norm(rel), 3.5) / 3.5, abs=1e-6)
+
+
+@pytest.mark.parametrize(
+    "overrides, says",
+    [
+        (["env.generator=rooms", "env.waypoint=true"], "env.waypoint is part of the normalised"),
+        (
+            ["preset=modern", "env.waypoint=true"],
+            "env.waypoint follows the maze's shortest paths: it needs env.generator grid or rooms",
+        ),
+        (
+            ["preset=modern", "env.generator=cylinders", "env.waypoint=true"],
+            "needs env.generator grid or rooms",
+        ),
+    ],
+)
+def test_a_waypoint_without_its_needs_is_one_line(overrides, says):
+    with pytest.raises(ConfigError, match=says):
+        load_config("smoke", overrides)
+
+
+def test_progress_along_the_shortest_path_works_in_rooms_now():
+    cfg = load_config("drive_rooms", ["env.progress_path=geodesic", "env.waypoint=true"])
+    env, params = jaxnav.env.from_config(cfg)
+    assert env.uses_cell_distances and env.obs_size == env.n_beams + 6
+
+
+def test_dwa_reads_the_waypoint_in_the_goals_place(rooms_states):
+    env, params, obs, _ = rooms_states
+    n = env.n_beams
+    ranges, heading, distance = env.read_observation(obs[0], params)
+    assert float(heading) == pytest.approx(float(obs[0, n + 4]) * math.pi, abs=1e-6)
+    assert float(distance) == pytest.approx(float(obs[0, n + 5]) * 3.5, abs=1e-6)
+    np.testing.assert_allclose(ranges, obs[0, :n] * 3.5, atol=1e-6)
