@@ -3,6 +3,7 @@ breadth-first search over the rooms' doors read from the maze's own segments."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections import deque
 
@@ -13,6 +14,7 @@ import pytest
 
 import jaxnav
 from jaxnav.core.config import ConfigError, load_config
+from jaxnav.planners.dwa import DWA
 from jaxnav.world import generators as gen
 
 ROOMS = dict(generator="rooms", rooms_rows=3, rooms_cols=3, rooms_size=2.0, rooms_door=0.6)
@@ -50,14 +52,14 @@ def _room_of(p, grid) -> int:
     return row * grid.cols + col
 
 
-def _reference_length(maze, grid, pos, goal) -> float:
-    """The length of the path from ``pos`` through the doors of the rooms between to
-    ``goal``, in a rooms maze without loops (one path: a tree of rooms)."""
+def _reference_path(maze, grid, pos, goal) -> list[np.ndarray]:
+    """The doors the path from ``pos`` to ``goal`` passes, in order, then the goal, in a
+    rooms maze without loops (one path: a tree of rooms)."""
     has_door, middle = _doors(maze, grid)
     here, there = _room_of(pos, grid), _room_of(goal, grid)
     dist = _bfs(grid, has_door, there)
     a, b = gen.wall_cells(grid)
-    point, length = np.asarray(pos, np.float64), 0.0
+    points = []
     while here != there:
         (w, nxt), *_ = [
             (w, q)
@@ -65,9 +67,26 @@ def _reference_length(maze, grid, pos, goal) -> float:
             for p, q in ((a[w], b[w]), (b[w], a[w]))
             if p == here and dist[q] == dist[here] - 1
         ]
-        length += np.linalg.norm(middle[w] - point)
-        point, here = middle[w], nxt
-    return length + float(np.linalg.norm(np.asarray(goal) - point))
+        points.append(middle[w])
+        here = nxt
+    return [*points, np.asarray(goal)]
+
+
+def _reference_length(maze, grid, pos, goal) -> float:
+    line = [np.asarray(pos, np.float64), *_reference_path(maze, grid, pos, goal)]
+    return float(sum(np.linalg.norm(q - p) for p, q in zip(line, line[1:])))
+
+
+def _reference_carrot(maze, grid, pos, goal, lookahead: float) -> np.ndarray:
+    """Walk ``lookahead`` metres along the path, piece by piece."""
+    line = [np.asarray(pos, np.float64), *_reference_path(maze, grid, pos, goal)]
+    left = lookahead
+    for p, q in zip(line, line[1:]):
+        piece = np.linalg.norm(q - p)
+        if piece >= left and piece > 0:
+            return p + (q - p) * (left / piece)
+        left -= piece
+    return line[-1]
 
 
 def _reference_targets(maze, grid, pos, goal) -> list[np.ndarray]:
@@ -130,7 +149,7 @@ def test_the_rooms_path_heads_for_a_door_one_room_nearer_the_goal(rooms_states):
     assert checked_doors > 100
 
 
-def test_the_waypoint_observation_is_the_targets_heading_and_distance(rooms_states):
+def test_the_waypoint_observation_is_the_next_doors_heading_and_distance(rooms_states):
     env, params, obs, state = rooms_states
     step = jax.jit(jax.vmap(env.step_env, in_axes=(0, 0, None, None)))
     keys = jax.random.split(jax.random.PRNGKey(8), state.pos.shape[0])
@@ -140,17 +159,31 @@ def test_the_waypoint_observation_is_the_targets_heading_and_distance(rooms_stat
     for o, s in ((obs, state), (obs2, state2)):
         for i in range(s.pos.shape[0]):
             maze, pos, yaw = _one(s.maze, i), np.asarray(s.pos[i]), float(s.yaw[i])
-            options = _reference_targets(maze, env.family.grid, pos, np.asarray(s.goal[i]))
-            seen = []
-            for t in options:
-                rel = t - pos
-                heading = math.remainder(math.atan2(rel[1], rel[0]) - yaw, 2 * math.pi)
-                seen.append([heading / math.pi, min(np.linalg.norm(rel), 3.5) / 3.5])
-            assert any(np.allclose(o[i, n + 4 :], want, atol=2e-5) for want in seen)
+            goal = np.asarray(s.goal[i])
+            want = _reference_path(maze, env.family.grid, pos, goal)[0]
+            rel = want - pos
+            heading = math.remainder(math.atan2(rel[1], rel[0]) - yaw, 2 * math.pi)
+            seen = [heading / math.pi, min(np.linalg.norm(rel), 3.5) / 3.5]
+            np.testing.assert_allclose(o[i, n + 4 :], seen, atol=3e-5)
             # the goal's heading and distance stay where they were
-            rel = np.asarray(s.goal[i]) - pos
+            rel = goal - pos
             heading = math.remainder(math.atan2(rel[1], rel[0]) - yaw, 2 * math.pi)
             assert o[i, n] == pytest.approx(heading / math.pi, abs=2e-5)
+
+
+def test_the_carrot_walks_along_the_path_at_many_points(rooms_states):
+    env, _, _, state = rooms_states
+    grid = env.family.grid
+    rng = np.random.default_rng(1)
+    half = np.array([grid.cols, grid.rows]) * grid.cell / 2
+    for i in range(state.pos.shape[0]):
+        maze, dist, goal = _one(state.maze, i), state.cell_dist[i], np.asarray(state.goal[i])
+        jmaze = jax.tree.map(jnp.asarray, maze)
+        for p in rng.uniform(-half + 0.1, half - 0.1, (10, 2)).astype(np.float32):
+            for lookahead in (0.2, 0.5, 2.5, 50.0):
+                got = env.family.waypoint(jmaze, dist, jnp.asarray(p), jnp.asarray(goal), lookahead)
+                want = _reference_carrot(maze, grid, p, goal, lookahead)
+                np.testing.assert_allclose(got, want, atol=2e-5)
 
 
 def test_on_a_fixed_maze_the_waypoint_is_the_goal():
@@ -167,6 +200,16 @@ def test_a_grid_maze_has_a_waypoint_too():
     target, _ = env.family.geodesic_target(state.maze, state.cell_dist, state.pos, state.goal)
     rel = np.asarray(target - state.pos)
     assert float(obs[-1]) == pytest.approx(min(np.linalg.norm(rel), 3.5) / 3.5, abs=1e-6)
+    # the path's first point is that opening (a grid's openings: its walls' middles)
+    points = gen.path_points(
+        state.cell_dist,
+        env.family,
+        state.pos,
+        state.goal,
+        state.maze.segment_mask[: env.family.n_walls],
+        gen.wall_middles(env.family),
+    )
+    np.testing.assert_allclose(points[0], target, atol=1e-6)
 
 
 @pytest.mark.parametrize(
@@ -194,10 +237,21 @@ def test_progress_along_the_shortest_path_works_in_rooms_now():
     assert env.uses_cell_distances and env.obs_size == env.n_beams + 6
 
 
-def test_dwa_reads_the_waypoint_in_the_goals_place(rooms_states):
-    env, params, obs, _ = rooms_states
+def test_dwa_heads_for_the_paths_carrot_where_the_policies_see_the_path(rooms_states):
+    """Given the path, DWA's choice is its choice for a goal at the path's carrot."""
+    env, params, obs, state = rooms_states
+    plain = dataclasses.replace(env, waypoint=False)
     n = env.n_beams
-    ranges, heading, distance = env.read_observation(obs[0], params)
-    assert float(heading) == pytest.approx(float(obs[0, n + 4]) * math.pi, abs=1e-6)
-    assert float(distance) == pytest.approx(float(obs[0, n + 5]) * 3.5, abs=1e-6)
-    np.testing.assert_allclose(ranges, obs[0, :n] * 3.5, atol=1e-6)
+    for i in range(state.pos.shape[0]):
+        s = _one(state, i)
+        s = jax.tree.map(jnp.asarray, s)
+        carrot = env.family.waypoint(s.maze, s.cell_dist, s.pos, s.goal, 0.5)
+        want = _reference_carrot(_one(state.maze, i), env.family.grid, s.pos, s.goal, 0.5)
+        np.testing.assert_allclose(carrot, want, atol=2e-5)
+        mine, _ = DWA(env).plan(None, obs[i], s, params)
+        o = obs[i, : n + 4]
+        rel = np.asarray(carrot - s.pos)
+        heading = math.remainder(math.atan2(rel[1], rel[0]) - float(s.yaw), 2 * math.pi)
+        o = o.at[n].set(heading / math.pi).at[n + 1].set(min(np.linalg.norm(rel), 3.5) / 3.5)
+        theirs, _ = DWA(plain).plan(None, o, s.replace(goal=carrot), params)
+        assert int(mine) == int(theirs)

@@ -208,6 +208,17 @@ class Rooms(NamedTuple):
             maze, cell_dist, self.grid, pos, goal, closed=closed, portals=doors
         )
 
+    def waypoint(
+        self, maze: Maze, cell_dist: chex.Array, pos: chex.Array, goal: chex.Array, lookahead
+    ) -> chex.Array:
+        """f32[2]: the point ``lookahead`` m along the shortest path from ``pos`` to
+        ``goal`` through the doors (:func:`jaxnav.world.generators.carrot`)."""
+        e = self.grid.n_walls
+        doors = 0.5 * (maze.segments[:e, 2:] + maze.segments[e : 2 * e, :2])
+        closed = ~maze.segment_mask[e : 2 * e]
+        points = generators.path_points(cell_dist, self.grid, pos, goal, closed, doors)
+        return generators.carrot(pos, points, lookahead)
+
     def settings_text(self) -> str:
         """The settings that make its mazes, for a refusal."""
         return "env.rooms_rows, env.rooms_cols, env.rooms_size and env.rooms_door"

@@ -43,7 +43,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from jaxnav.world.geometry import norm2
+from jaxnav.world.geometry import hypot, norm2
 from jaxnav.world.maps import _FAR, ROBOTIS_ARENA, Maze
 
 SPLITS = ("train", "test")
@@ -105,6 +105,15 @@ class Grid(NamedTuple):
         """Where the shortest path from ``pos`` to ``goal`` heads next, and its length
         (:func:`geodesic_target`)."""
         return geodesic_target(maze, cell_dist, self, pos, goal)
+
+    def waypoint(
+        self, maze: Maze, cell_dist: chex.Array, pos: chex.Array, goal: chex.Array, lookahead
+    ) -> chex.Array:
+        """f32[2]: the point ``lookahead`` m along the shortest path from ``pos`` to
+        ``goal`` through the openings in the walls' middles (:func:`carrot`)."""
+        closed = maze.segment_mask[: self.n_walls]
+        points = path_points(cell_dist, self, pos, goal, closed, wall_middles(self))
+        return carrot(pos, points, lookahead)
 
 
 def grid_family(env) -> Grid:
@@ -433,12 +442,60 @@ def geodesic_target(
     return target, jnp.where(in_goal_cell, norm2(goal - pos), along)
 
 
+def path_points(
+    cell_dist: chex.Array,
+    grid: Grid,
+    pos: chex.Array,
+    goal: chex.Array,
+    closed: chex.Array,
+    portals: chex.Array,
+) -> chex.Array:
+    """f32[RC, 2]: the points the shortest path from ``pos`` to ``goal`` runs through,
+    in order: the openings (``portals`` f32[E, 2]) from each cell into the next one
+    nearer the goal's cell (the first of right, left, up, down when several are), then
+    the goal, repeated to fill the rows."""
+    r, c = _cell_of(pos, grid)
+    gr, gc = _cell_of(goal, grid)
+    there = gr * grid.cols + gc
+
+    def onward(carry, _):
+        row, col = carry
+        move, wall, row2, col2 = _next_cell(row, col, there, cell_dist, closed, grid)
+        going = move >= 0
+        point = jnp.where(going, portals[jnp.maximum(wall, 0)], goal)
+        return (jnp.where(going, row2, row), jnp.where(going, col2, col)), point
+
+    _, points = jax.lax.scan(onward, (r, c), None, grid.n_cells)
+    return points
+
+
+def carrot(pos: chex.Array, points: chex.Array, lookahead: float) -> chex.Array:
+    """f32[2]: the point ``lookahead`` metres along the polyline from ``pos`` through
+    ``points`` (f32[K, 2]), or its last point where the polyline is shorter: the
+    pure-pursuit carrot of a path follower."""
+    starts = jnp.concatenate([pos[None], points[:-1]])
+    lengths = hypot(points[:, 0] - starts[:, 0], points[:, 1] - starts[:, 1])
+    before = jnp.cumsum(lengths) - lengths  # along the polyline to each piece's start
+    on = (before + lengths >= lookahead) & (lengths > 0)
+    i = jnp.argmax(on)
+    t = jnp.clip((lookahead - before[i]) / jnp.maximum(lengths[i], 1e-9), 0.0, 1.0)
+    point = starts[i] + t * (points[i] - starts[i])
+    return jnp.where(jnp.any(on), point, points[-1])
+
+
+def wall_middles(grid: Grid) -> chex.Array:
+    """f32[E, 2]: the middle of every internal wall of a grid (an open wall's opening)."""
+    inner = _geometry(grid)[0]
+    return jnp.asarray((inner[:, :2] + inner[:, 2:]) / 2)
+
+
 __all__ = [
     "SPLITS",
     "Draw",
     "Grid",
     "carve",
     "carve_split",
+    "carrot",
     "cell_distances",
     "cell_neighbours",
     "draw",
@@ -448,5 +505,7 @@ __all__ = [
     "geodesic_target",
     "layout_split",
     "maze_cell_distances",
+    "path_points",
     "wall_cells",
+    "wall_middles",
 ]

@@ -128,14 +128,11 @@ class Observer:
         self, obs: chex.Array, params: EnvParams
     ) -> tuple[chex.Array, chex.Array, chex.Array]:
         """(ranges m f32[n_beams], heading rad f32[], distance m f32[]) of an observation:
-        what a driver that sees only the scan and the goal reads (:mod:`jaxnav.planners.dwa`);
-        with ``waypoint``, the waypoint's heading and distance in the goal's place (the
-        local planner follows the path, as Nav2 runs one under a global planner). The
-        normalised observation's distance is capped at the sensor's range."""
+        what a driver that sees only the scan and the goal reads (:mod:`jaxnav.planners.dwa`).
+        The normalised observation's distance is capped at the sensor's range."""
         n = self.n_beams
         if self.normalised:
-            at = n + 4 if self.waypoint else n  # the waypoint follows the last command
-            return obs[:n] * params.max_range, obs[at] * jnp.pi, obs[at + 1] * params.max_range
+            return obs[:n] * params.max_range, obs[n] * jnp.pi, obs[n + 1] * params.max_range
         return obs[:n], obs[n], obs[n + 1]
 
     def _first_scans(self, state: EnvState, obs: chex.Array) -> EnvState:
