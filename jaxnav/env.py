@@ -169,6 +169,10 @@ class NavEnv(GoalSampler, DrawnLayouts, Observer):
       scan_history: with the normalised observation, the k scans before this one follow
         it (newest first; at an episode's start copies of its first scan), so the policy
         can see what moves.
+      waypoint: with the normalised observation, the heading and distance to where the
+        shortest path through a drawn maze heads next follow the last command
+        (``family.geodesic_target``: the next opening on it, or the goal in its cell);
+        on a fixed maze, which has no table of shortest paths, the goal itself.
       scan_beams: 0 (the scan has n_beams beams) or a multiple of n_beams: that many
         beams are cast and each observed beam is the least range of its sector
         (:func:`jaxnav.world.sensor.pooled_ranges`), so thin obstacles between the
@@ -208,6 +212,7 @@ class NavEnv(GoalSampler, DrawnLayouts, Observer):
     observation: str = "robotis"
     scan_beams: int = 0
     scan_history: int = 0
+    waypoint: bool = False
 
     def __post_init__(self):
         for f in dataclasses.fields(self):  # the rules of the config's env settings
@@ -263,6 +268,8 @@ class NavEnv(GoalSampler, DrawnLayouts, Observer):
     def uses_cell_distances(self) -> bool:
         """Whether an episode carries its grid maze's cell distances (the geodesic
         shaping, or progress along the shortest path)."""
+        if self.waypoint and self.generates:
+            return True
         return self.reward == "geodesic" or (
             self.reward == "progress" and self.progress_path == "geodesic"
         )
@@ -303,7 +310,7 @@ class NavEnv(GoalSampler, DrawnLayouts, Observer):
         scale = jnp.asarray(scale, jnp.float32)
         state = new_episode(pos, yaw, goal, scale, self.action_delay, maze, maze_episodes)
         state = self._with_world(state, params, cell_dist)
-        obs = self.observe(k_obs, pos, yaw, goal, params, scale)
+        obs = self.observe(k_obs, pos, yaw, goal, params, scale, cell_dist=state.cell_dist)
         return obs, self._first_scans(state, obs)
 
     def _with_world(self, state: EnvState, params: EnvParams, cell_dist=None) -> EnvState:
@@ -335,7 +342,9 @@ class NavEnv(GoalSampler, DrawnLayouts, Observer):
         t = state.t + 1
         time = t * params.dt  # the scan after the step sees the cylinders at this time
         if self.collision == "lidar":  # the scan after the step, as ROBOTIS reads it
-            ranges = self.observe(k_obs, pos, yaw, state.goal, params, state.scale, time)
+            ranges = self.observe(
+                k_obs, pos, yaw, state.goal, params, state.scale, time, cell_dist=state.cell_dist
+            )
             nearest = jnp.min(ranges[: self.n_beams])
             collided = (nearest < params.robot_radius) | (clearance < BURGER_RADIUS)
         else:
@@ -384,7 +393,9 @@ class NavEnv(GoalSampler, DrawnLayouts, Observer):
         if self.normalised:  # the command just driven is part of the next observation
             last = jnp.stack([jnp.asarray(v, jnp.float32), omega]).astype(jnp.float32)
             new_state = new_state.replace(last_command=last)
-        obs = self.observe(k_obs, pos, yaw, goal, params, state.scale, time, last, state.scans)
+        obs = self.observe(
+            k_obs, pos, yaw, goal, params, state.scale, time, last, state.scans, state.cell_dist
+        )
         if self.scan_history:  # this scan joins the history, the oldest leaves
             new_state = new_state.replace(scans=self._newer_scans(state.scans, obs))
         info = {"goal_reached": reached, "collision": collided}

@@ -668,3 +668,10 @@ def test_export_best_picks_the_seed_with_the_best_greedy_success(tmp_path):
         and "median over 3 seeds 0.700" in line
     )
     assert export.default_strategy(run) == "epsilon_greedy"
+
+
+def test_a_policy_with_a_waypoint_is_refused_by_export(tmp_path):
+    overrides = ("preset=modern", "env.generator=rooms", "env.waypoint=true")
+    run = _fake_run(tmp_path, "square4", overrides)
+    with pytest.raises(deploy.PolicyError, match="env.waypoint"):
+        export.export_policy(run, "ebe", 0)

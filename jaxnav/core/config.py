@@ -264,6 +264,16 @@ def env_bank_problem(env: Any) -> str | None:
     return None
 
 
+def env_waypoint_problem(env: Any) -> str | None:
+    """What is wrong with the waypoint setting given the maze settings, or None (a
+    config's check: a run's test on a fixed maze observes the goal as its waypoint)."""
+    paths = families.with_shortest_paths()
+    if env.waypoint and env.generator not in paths:
+        which = families.listing(paths)
+        return f"env.waypoint follows the maze's shortest paths: it needs env.generator {which}"
+    return None
+
+
 def env_scan_problem(env: Any) -> str | None:
     """What is wrong with the pooled scan's setting given the beams, or None."""
     if env.scan_beams and (env.scan_beams % env.n_beams or env.scan_beams < env.n_beams):
@@ -273,6 +283,11 @@ def env_scan_problem(env: Any) -> str | None:
         )
     if env.scan_beams and env.beam_layout != "even":
         return "env.scan_beams pools an even scan: it needs env.beam_layout even"
+    if env.waypoint and env.observation != "normalised":
+        return (
+            "env.waypoint is part of the normalised observation: it needs "
+            "env.observation normalised"
+        )
     if env.scan_history and env.observation != "normalised":
         return (
             "env.scan_history is part of the normalised observation: it needs "
@@ -316,7 +331,12 @@ def _check(cfg: Config) -> Config:
         says = env_family_problem(cfg.env)
         if says:
             raise ConfigError(f"config: {says}")
-    says = env_reward_problem(cfg.env) or env_scan_problem(cfg.env) or env_bank_problem(cfg.env)
+    says = (
+        env_reward_problem(cfg.env)
+        or env_scan_problem(cfg.env)
+        or env_bank_problem(cfg.env)
+        or env_waypoint_problem(cfg.env)
+    )
     if says:
         raise ConfigError(f"config: {says}")
     if cfg.env.attempt_limit > cfg.env.max_steps:

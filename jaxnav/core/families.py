@@ -15,8 +15,9 @@ function of the settings giving the family's static, hashable shape, whose
 
     families.register("empty", "my_module:empty_room", about="an empty square room")
 
-A family with ``shortest_paths`` also gives ``cell_distances(maze)`` and
-``geodesic_target(maze, cell_dist, pos, goal)`` (:mod:`jaxnav.world.generators`).
+A family with ``shortest_paths`` also gives ``cell_distances(maze)``,
+``geodesic_target(maze, cell_dist, pos, goal)`` and ``waypoint(maze, cell_dist, pos,
+goal, lookahead)`` (:mod:`jaxnav.world.generators`).
 ``env.generator: ""`` (the fixed maze ``env.maze``) is no family. A family registered
 after the config is built (a test's, a plug-in's) can declare no settings of its own:
 they could no longer become config keys.
@@ -421,4 +422,5 @@ register(
     ),
     text=lambda e: f"{e.rooms_rows} x {e.rooms_cols} rooms mazes ({e.rooms_door:g} m doors)",
     about="a grid of square rooms joined by doors along a random spanning tree",
+    shortest_paths=True,
 )

@@ -108,7 +108,7 @@ class EnvConfig:
     reward: str = setting(
         "dense",
         "dense (the paper's heading shaping), sparse (goal and collision only), geodesic "
-        "(grid: the shaping follows the shortest path through the maze) or progress "
+        "(grid, rooms: the shaping follows the shortest path through the maze) or progress "
         "(env.progress_scale per metre the robot comes closer to its goal)",
         rule=one_of("dense", "sparse", "geodesic", "progress"),
     )
@@ -118,7 +118,7 @@ class EnvConfig:
     progress_path: str = setting(
         "straight",
         "progress reward: closer along the straight line to the goal, or (geodesic, grid "
-        "mazes) along the shortest path through the maze, so no dead end pays",
+        "and rooms mazes) along the shortest path through the maze, so no dead end pays",
         rule=one_of("straight", "geodesic"),
     )
     step_penalty: float = setting(
@@ -155,6 +155,12 @@ class EnvConfig:
         "normalised observation: the scans of the last k steps follow this one's (newest "
         "first), so the policy can see what moves",
         rule=NON_NEGATIVE,
+    )
+    waypoint: bool = setting(
+        False,
+        "normalised observation: also the heading and distance to where the shortest path "
+        "through the maze heads next (the next opening on it, or the goal), as a global "
+        "planner's path guides a local controller (grid, rooms; a fixed test maze: the goal)",
     )
     observation: str = setting(
         "robotis",

@@ -4,12 +4,18 @@ run (ROS 1 move_base's ``dwa_local_planner``, ROS 2 Nav2's DWB), as a reference 
 the learned policies.
 
 It sees what a policy sees: the LiDAR scan and the goal's heading and distance in the
-observation, nothing of the map. Every step it takes each velocity the action set can
-command (with the paper's actions, the five yaw rates at 0.15 m/s; with a richer set,
-its (v, omega) pairs: the robot has no acceleration limit here, so every one is within
-the window), simulates the arc for ``horizon`` seconds, and drops those that would
-come within the robot's radius (plus ``margin``) of the obstacles it sees: the scan's
-returns, joined into wall pieces where neighbouring beams hit nearly the same range.
+observation, nothing of the map. Where the policies are given the path (``env.waypoint``
+in a drawn maze) DWA is given it too, the way Nav2 runs a local planner under a global
+one: it heads for a carrot ``lookahead`` metres along the maze's shortest path from the
+robot's true pose (:meth:`waypoint` of the family) instead of the goal, so that it is
+drawn through a door rather than stopping at it.
+
+Every step it takes each velocity the action set can command (with the paper's actions,
+the five yaw rates at 0.15 m/s; with a richer set, its (v, omega) pairs: the robot has
+no acceleration limit here, so every one is within the window), simulates the arc for
+``horizon`` seconds, and drops those that would come within the robot's radius (plus
+``margin``) of the obstacles it sees: the scan's returns, joined into wall pieces where
+neighbouring beams hit nearly the same range.
 Among the rest it maximises
 
     G(v, omega) = alpha heading + beta clearance + gamma velocity,
@@ -46,6 +52,8 @@ class DWA:
         wall piece (m); beams farther apart leave a gap (a door, or an edge).
       clearance_cap: the clearance term counts distances up to this (m).
       alpha, beta, gamma: the weights of heading, clearance and velocity.
+      lookahead: with ``env.waypoint`` in a drawn maze, how far along the shortest path
+        the carrot it heads for lies (m).
     """
 
     env: NavEnv
@@ -57,6 +65,7 @@ class DWA:
     alpha: float = 2.0
     beta: float = 0.2
     gamma: float = 0.2
+    lookahead: float = 0.5
 
     def start(self, params: EnvParams, state: EnvState) -> Any:
         """DWA keeps no memory between steps."""
@@ -65,11 +74,16 @@ class DWA:
     def plan(
         self, memory: Any, obs: chex.Array, state: EnvState, params: EnvParams
     ) -> tuple[chex.Array, Any]:
-        """(action i32[], None): the best admissible velocity for this scan and goal."""
-        del state  # a scan and a goal are all it sees
+        """(action i32[], None): the best admissible velocity for this scan and goal (or
+        the path's carrot, where the policies are given the path)."""
         env = self.env
         n = env.n_beams
         ranges, heading, distance = env.read_observation(obs, params)
+        if env.waypoint and env.generates:  # the global planner's carrot on the path
+            carrot = env.family.waypoint(
+                state.maze, state.cell_dist, state.pos, state.goal, self.lookahead
+            )
+            heading, distance = sensor.goal_heading_distance(state.pos, state.yaw, carrot)
         angles = sensor.beam_angles(n, env.beam_layout == "gazebo")
         returned = ranges < params.max_range - 1e-3  # a max-range reading hit nothing
         qx, qy = ranges * jnp.cos(angles), ranges * jnp.sin(angles)  # the robot's frame

@@ -62,6 +62,11 @@ def export_policy(
             f"{run_dir}: a policy trained with env.scan_history cannot be exported yet "
             "(the robot side keeps no scan history)"
         )
+    if env.waypoint:
+        raise PolicyError(
+            f"{run_dir}: a policy trained with env.waypoint cannot be exported yet "
+            "(the robot side has no path to take the next waypoint from)"
+        )
     net = fold_dueling(rundir.load_params(params_path, strategy, seed).get("params", {}))
     names = _dense_layers(net, env.obs_size, len(np.asarray(params.omegas)), params_path)
     norms = _norms(net, len(names) - 1, params_path)

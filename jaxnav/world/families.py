@@ -188,6 +188,37 @@ class Rooms(NamedTuple):
     def candidate(self, key: chex.PRNGKey, split: str) -> _Doors:
         return _rooms_candidate(key, self, split)
 
+    def cell_distances(self, maze: Maze) -> chex.Array:
+        """i16[RC, RC]: doors between every two rooms of a drawn rooms maze, read from
+        its segment rows (a wall's second row is real where it has a door)."""
+        e = self.grid.n_walls
+        return generators.cell_distances(maze.segment_mask[e : 2 * e], self.grid).astype(jnp.int16)
+
+    def geodesic_target(
+        self, maze: Maze, cell_dist: chex.Array, pos: chex.Array, goal: chex.Array
+    ) -> tuple[chex.Array, chex.Array]:
+        """Where the shortest path from ``pos`` to ``goal`` heads next (the door into
+        the next room on it, or the goal in its room), and its length
+        (:func:`jaxnav.world.generators.geodesic_target`, rooms for cells, doors for
+        openings)."""
+        e = self.grid.n_walls
+        doors = 0.5 * (maze.segments[:e, 2:] + maze.segments[e : 2 * e, :2])
+        closed = ~maze.segment_mask[e : 2 * e]
+        return generators.geodesic_target(
+            maze, cell_dist, self.grid, pos, goal, closed=closed, portals=doors
+        )
+
+    def waypoint(
+        self, maze: Maze, cell_dist: chex.Array, pos: chex.Array, goal: chex.Array, lookahead
+    ) -> chex.Array:
+        """f32[2]: the point ``lookahead`` m along the shortest path from ``pos`` to
+        ``goal`` through the doors (:func:`jaxnav.world.generators.carrot`)."""
+        e = self.grid.n_walls
+        doors = 0.5 * (maze.segments[:e, 2:] + maze.segments[e : 2 * e, :2])
+        closed = ~maze.segment_mask[e : 2 * e]
+        points = generators.path_points(cell_dist, self.grid, pos, goal, closed, doors)
+        return generators.carrot(pos, points, lookahead)
+
     def settings_text(self) -> str:
         """The settings that make its mazes, for a refusal."""
         return "env.rooms_rows, env.rooms_cols, env.rooms_size and env.rooms_door"

@@ -43,7 +43,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from jaxnav.world.geometry import norm2
+from jaxnav.world.geometry import hypot, norm2
 from jaxnav.world.maps import _FAR, ROBOTIS_ARENA, Maze
 
 SPLITS = ("train", "test")
@@ -105,6 +105,15 @@ class Grid(NamedTuple):
         """Where the shortest path from ``pos`` to ``goal`` heads next, and its length
         (:func:`geodesic_target`)."""
         return geodesic_target(maze, cell_dist, self, pos, goal)
+
+    def waypoint(
+        self, maze: Maze, cell_dist: chex.Array, pos: chex.Array, goal: chex.Array, lookahead
+    ) -> chex.Array:
+        """f32[2]: the point ``lookahead`` m along the shortest path from ``pos`` to
+        ``goal`` through the openings in the walls' middles (:func:`carrot`)."""
+        closed = maze.segment_mask[: self.n_walls]
+        points = path_points(cell_dist, self, pos, goal, closed, wall_middles(self))
+        return carrot(pos, points, lookahead)
 
 
 def grid_family(env) -> Grid:
@@ -349,24 +358,14 @@ def _centre(row, col, grid: Grid) -> chex.Array:
     return jnp.stack([(col + 0.5 - grid.cols / 2), (row + 0.5 - grid.rows / 2)]) * grid.cell
 
 
-def geodesic_target(
-    maze: Maze, cell_dist: chex.Array, grid: Grid, pos: chex.Array, goal: chex.Array
-) -> tuple[chex.Array, chex.Array]:
-    """(target f32[2], distance f32[]): where the shortest path from ``pos`` to ``goal``
-    through the maze heads next, and how long it is.
-
-    In the goal's cell the target is the goal and the distance the straight line.
-    Elsewhere the target is the middle of the opening into the neighbouring cell one
-    step nearer the goal (the first of right, left, up, down when several are), and the
-    distance runs from ``pos`` to that opening, on to the goal cell's centre through
-    the centres of the cells between, then to the goal.
-    """
-    r, c = _cell_of(pos, grid)
-    gr, gc = _cell_of(goal, grid)
+def _next_cell(
+    r, c, there, cell_dist: chex.Array, closed: chex.Array, grid: Grid
+) -> tuple[chex.Array, chex.Array, chex.Array, chex.Array]:
+    """(move, wall, row, col) of the step from cell (r, c) to the neighbour one step
+    nearer the cell ``there``: the first of right, left, up, down (move 0-3) through an
+    open wall; move -1 where there is none (in ``there``, or cut off)."""
     cols, rows = grid.cols, grid.rows
-    here, there = r * cols + c, gr * cols + gc
-    d = cell_dist[here, there].astype(jnp.int32)
-    closed = maze.segment_mask[: grid.n_walls]
+    d = cell_dist[r * cols + c, there].astype(jnp.int32)
     h0 = 0  # walls between (r, c) and (r, c + 1) start here, then the vertical ones
     v0 = rows * (cols - 1)
     # (row step, col step, wall index, exists) for right, left, up, down
@@ -376,19 +375,118 @@ def geodesic_target(
         (1, 0, v0 + r * cols + c, r < rows - 1),
         (-1, 0, v0 + (r - 1) * cols + c, r > 0),
     )
-    best = jnp.asarray(-1)
+    best = best_wall = jnp.asarray(-1)
     for i, (dr, dc, wall, exists) in enumerate(moves):
         wall = jnp.clip(wall, 0, max(grid.n_walls - 1, 0))
         n = jnp.clip(r + dr, 0, rows - 1) * cols + jnp.clip(c + dc, 0, cols - 1)
         ok = exists & ~closed[wall] & (cell_dist[n, there].astype(jnp.int32) == d - 1)
+        best_wall = jnp.where((best < 0) & ok, wall, best_wall)
         best = jnp.where((best < 0) & ok, i, best)
-    step = jnp.asarray([[0.0, 1.0], [0.0, -1.0], [1.0, 0.0], [-1.0, 0.0]])[jnp.maximum(best, 0)]
-    portal = _centre(r, c, grid) + 0.5 * grid.cell * step[::-1]
-    goal_offset = norm2(goal - _centre(gr, gc, grid))
-    along = norm2(portal - pos) + (d - 0.5) * grid.cell + goal_offset
+    row_step = jnp.asarray([0, 0, 1, -1])[jnp.maximum(best, 0)]
+    col_step = jnp.asarray([1, -1, 0, 0])[jnp.maximum(best, 0)]
+    return best, best_wall, r + row_step, c + col_step
+
+
+def geodesic_target(
+    maze: Maze,
+    cell_dist: chex.Array,
+    grid: Grid,
+    pos: chex.Array,
+    goal: chex.Array,
+    closed: chex.Array | None = None,
+    portals: chex.Array | None = None,
+) -> tuple[chex.Array, chex.Array]:
+    """(target f32[2], distance f32[]): where the shortest path from ``pos`` to ``goal``
+    through the maze heads next, and how long it is.
+
+    In the goal's cell the target is the goal and the distance the straight line.
+    Elsewhere the target is the opening into the neighbouring cell one step nearer the
+    goal (the first of right, left, up, down when several are). ``closed`` (bool[E],
+    default: the grid maze's wall rows) says which walls are shut.
+
+    A grid maze's openings are its walls' middles, and the distance runs from ``pos``
+    to the opening, on to the goal cell's centre through the centres of the cells
+    between, then to the goal. With ``portals`` (f32[E, 2]: where each wall's opening
+    is, a rooms maze's doors) the distance runs from ``pos`` through the openings of
+    the path, one after the other, to the goal: a path's true length where the rooms
+    are convex.
+    """
+    r, c = _cell_of(pos, grid)
+    gr, gc = _cell_of(goal, grid)
+    there = gr * grid.cols + gc
+    d = cell_dist[r * grid.cols + c, there].astype(jnp.int32)
+    if closed is None:
+        closed = maze.segment_mask[: grid.n_walls]
+    best, best_wall, r1, c1 = _next_cell(r, c, there, cell_dist, closed, grid)
     in_goal_cell = (d == 0) | (best < 0)
+    if portals is None:
+        step = jnp.asarray([[0.0, 1.0], [0.0, -1.0], [1.0, 0.0], [-1.0, 0.0]])
+        portal = _centre(r, c, grid) + 0.5 * grid.cell * step[jnp.maximum(best, 0)][::-1]
+        goal_offset = norm2(goal - _centre(gr, gc, grid))
+        along = norm2(portal - pos) + (d - 0.5) * grid.cell + goal_offset
+    else:
+        portal = portals[jnp.maximum(best_wall, 0)]
+
+        def onward(carry, _):  # from the opening into (row, col) to the next one
+            row, col, point, length = carry
+            move, wall, row2, col2 = _next_cell(row, col, there, cell_dist, closed, grid)
+            going = move >= 0
+            nxt = jnp.where(going, portals[jnp.maximum(wall, 0)], point)
+            length = length + jnp.where(going, norm2(nxt - point), 0.0)
+            return (jnp.where(going, row2, row), jnp.where(going, col2, col), nxt, length), None
+
+        start = (r1, c1, portal, norm2(portal - pos))
+        (_, _, last, length), _ = jax.lax.scan(onward, start, None, grid.n_cells - 1)
+        along = length + norm2(goal - last)
     target = jnp.where(in_goal_cell, goal, portal)
     return target, jnp.where(in_goal_cell, norm2(goal - pos), along)
+
+
+def path_points(
+    cell_dist: chex.Array,
+    grid: Grid,
+    pos: chex.Array,
+    goal: chex.Array,
+    closed: chex.Array,
+    portals: chex.Array,
+) -> chex.Array:
+    """f32[RC, 2]: the points the shortest path from ``pos`` to ``goal`` runs through,
+    in order: the openings (``portals`` f32[E, 2]) from each cell into the next one
+    nearer the goal's cell (the first of right, left, up, down when several are), then
+    the goal, repeated to fill the rows."""
+    r, c = _cell_of(pos, grid)
+    gr, gc = _cell_of(goal, grid)
+    there = gr * grid.cols + gc
+
+    def onward(carry, _):
+        row, col = carry
+        move, wall, row2, col2 = _next_cell(row, col, there, cell_dist, closed, grid)
+        going = move >= 0
+        point = jnp.where(going, portals[jnp.maximum(wall, 0)], goal)
+        return (jnp.where(going, row2, row), jnp.where(going, col2, col)), point
+
+    _, points = jax.lax.scan(onward, (r, c), None, grid.n_cells)
+    return points
+
+
+def carrot(pos: chex.Array, points: chex.Array, lookahead: float) -> chex.Array:
+    """f32[2]: the point ``lookahead`` metres along the polyline from ``pos`` through
+    ``points`` (f32[K, 2]), or its last point where the polyline is shorter: the
+    pure-pursuit carrot of a path follower."""
+    starts = jnp.concatenate([pos[None], points[:-1]])
+    lengths = hypot(points[:, 0] - starts[:, 0], points[:, 1] - starts[:, 1])
+    before = jnp.cumsum(lengths) - lengths  # along the polyline to each piece's start
+    on = (before + lengths >= lookahead) & (lengths > 0)
+    i = jnp.argmax(on)
+    t = jnp.clip((lookahead - before[i]) / jnp.maximum(lengths[i], 1e-9), 0.0, 1.0)
+    point = starts[i] + t * (points[i] - starts[i])
+    return jnp.where(jnp.any(on), point, points[-1])
+
+
+def wall_middles(grid: Grid) -> chex.Array:
+    """f32[E, 2]: the middle of every internal wall of a grid (an open wall's opening)."""
+    inner = _geometry(grid)[0]
+    return jnp.asarray((inner[:, :2] + inner[:, 2:]) / 2)
 
 
 __all__ = [
@@ -397,6 +495,7 @@ __all__ = [
     "Grid",
     "carve",
     "carve_split",
+    "carrot",
     "cell_distances",
     "cell_neighbours",
     "draw",
@@ -406,5 +505,7 @@ __all__ = [
     "geodesic_target",
     "layout_split",
     "maze_cell_distances",
+    "path_points",
     "wall_cells",
+    "wall_middles",
 ]

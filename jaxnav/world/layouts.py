@@ -108,9 +108,10 @@ class DrawnLayouts:
         goal = jnp.where(fresh, new_goal, kept)
         pos, yaw = self._start_pose(key, params, goal, scale)
         scale = jnp.asarray(scale, jnp.float32)
-        obs = self.observe(key, pos, yaw, goal, params, scale)
         state = new_episode(pos, yaw, goal, scale, self.action_delay, maze, episodes)
-        return obs, self._first_scans(self._with_world(state, params, cell_dist), obs)
+        state = self._with_world(state, params, cell_dist)
+        obs = self.observe(key, pos, yaw, goal, params, scale, cell_dist=state.cell_dist)
+        return obs, self._first_scans(state, obs)
 
 
 __all__ = ["BANK_BATCH", "DrawnLayouts", "bank_key"]

@@ -26,6 +26,8 @@ class Observer:
     observation: str
     scan_beams: int
     scan_history: int
+    waypoint: bool
+    generates: bool
     beam_layout: str
     beam_dropout: float
     odom_noise: tuple[float, float]
@@ -39,12 +41,13 @@ class Observer:
     @property
     def obs_size(self) -> int:
         if self.normalised:
-            return self.n_beams * (1 + self.scan_history) + 4
+            return self.n_beams * (1 + self.scan_history) + 4 + (2 if self.waypoint else 0)
         return self.n_beams + 2 + (2 if self.obstacle_obs else 0)
 
     def observation_space(self, params: EnvParams) -> Box:
         if self.normalised:
             low = [0.0] * self.n_beams + [-1.0, 0.0, -1.0, -1.0]
+            low += [-1.0, 0.0] if self.waypoint else []
             low += [0.0] * (self.n_beams * self.scan_history)
             high = [1.0] * self.obs_size
             return Box(np.asarray(low, np.float32), np.asarray(high, np.float32), (self.obs_size,))
@@ -68,10 +71,13 @@ class Observer:
         time: chex.Array = 0.0,
         last_command: chex.Array | None = None,
         scans: chex.Array | None = None,
+        cell_dist: chex.Array | None = None,
     ) -> chex.Array:
         """The observation f32[obs_size], the moving cylinders (if any) where they are at
         ``time`` (s into the episode): the ROBOTIS state [ranges, heading, distance(, min
-        range, argmin beam)], or the normalised one with ``last_command`` (v, omega)."""
+        range, argmin beam)], or the normalised one with ``last_command`` (v, omega)
+        and, with ``waypoint``, the next point of the shortest path (a drawn maze's, from
+        its ``cell_dist``; on a fixed maze the goal)."""
         maze = self.maze_at(params, scale, time)
         if self.scan_beams:  # a finer scan, the least range of each sector observed
             fine = sensor.beam_ranges(maze, pos, yaw, self.scan_beams)
@@ -80,6 +86,11 @@ class Observer:
             ranges = sensor.beam_ranges(maze, pos, yaw, self.n_beams, self.beam_layout == "gazebo")
         if self.normalised:
             last = jnp.zeros(2, jnp.float32) if last_command is None else last_command
+            waypoint = None
+            if self.waypoint:
+                waypoint = goal
+                if self.generates:
+                    waypoint, _ = self.family.geodesic_target(params.maze, cell_dist, pos, goal)
             obs = sensor.normalised_observation(
                 key,
                 ranges,
@@ -92,6 +103,7 @@ class Observer:
                 max_range=params.max_range,
                 dropout=self.beam_dropout,
                 odom_std=self.odom_noise,
+                waypoint=waypoint,
             )
             if self.scan_history:  # the scans before (at an episode's start: this one)
                 if scans is None:

@@ -201,11 +201,20 @@ def normalised_observation(
     max_range,
     dropout: float = 0.0,
     odom_std: tuple[float, float] = (0.0, 0.0),
+    waypoint: chex.Array | None = None,
 ) -> chex.Array:
     """The normalised state (:func:`normalised_state`) seen from true ranges at the true
     pose, with the same noise as :func:`observation`'s; ``last``: the command driven
-    last (v, omega)."""
+    last (v, omega). ``waypoint`` (f32[2]): its heading over pi and its distance over
+    the sensor's range (capped at 1), seen from the same odometry pose, follow."""
     ranges, heading, distance = _seen(
         key, ranges, pos, yaw, goal, noise_std, min_range, max_range, dropout, odom_std
     )
-    return normalised_state(ranges, heading, distance, last, max_range)
+    state = normalised_state(ranges, heading, distance, last, max_range)
+    if waypoint is None:
+        return state
+    if odom_std != (0.0, 0.0):  # the odometry pose of _seen (the same key)
+        pos, yaw = odometry_noise(jax.random.fold_in(key, 2), pos, yaw, odom_std)
+    w_heading, w_distance = goal_heading_distance(pos, yaw, waypoint)
+    extra = jnp.stack([w_heading / jnp.pi, jnp.minimum(w_distance, max_range) / max_range])
+    return jnp.concatenate([state, extra.astype(jnp.float32)])
