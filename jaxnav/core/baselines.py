@@ -32,7 +32,8 @@ BASELINES = {
             "dwa",
             "DWA",
             "the dynamic window approach (Fox et al. 1997), the local planner of ROS "
-            "move_base and Nav2: the scan and the goal only, no map",
+            "move_base and Nav2: the scan and the goal only, no map (where the policies "
+            "are given the maze's shortest path, env.waypoint, it follows that path too)",
         ),
     )
 }
