@@ -5,12 +5,12 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections import deque
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from test_env_grid import _bfs
 
 import jaxnav
 from jaxnav.core.config import ConfigError, load_config
@@ -31,21 +31,6 @@ def _doors(maze, grid) -> tuple[np.ndarray, np.ndarray]:
     return has_door, middle
 
 
-def _bfs(grid, has_door: np.ndarray, src: int) -> np.ndarray:
-    a, b = gen.wall_cells(grid)
-    dist = np.full(grid.n_cells, -1)
-    dist[src] = 0
-    queue = deque([src])
-    while queue:
-        u = queue.popleft()
-        for w in np.flatnonzero(has_door):
-            for p, q in ((a[w], b[w]), (b[w], a[w])):
-                if p == u and dist[q] < 0:
-                    dist[q] = dist[u] + 1
-                    queue.append(q)
-    return dist
-
-
 def _room_of(p, grid) -> int:
     col = int(np.clip(math.floor(p[0] / grid.cell + grid.cols / 2), 0, grid.cols - 1))
     row = int(np.clip(math.floor(p[1] / grid.cell + grid.rows / 2), 0, grid.rows - 1))
@@ -57,7 +42,7 @@ def _reference_path(maze, grid, pos, goal) -> list[np.ndarray]:
     rooms maze without loops (one path: a tree of rooms)."""
     has_door, middle = _doors(maze, grid)
     here, there = _room_of(pos, grid), _room_of(goal, grid)
-    dist = _bfs(grid, has_door, there)
+    dist = _bfs(grid, *gen.wall_cells(grid), has_door, there)
     a, b = gen.wall_cells(grid)
     points = []
     while here != there:
@@ -96,7 +81,7 @@ def _reference_targets(maze, grid, pos, goal) -> list[np.ndarray]:
     here, there = _room_of(pos, grid), _room_of(goal, grid)
     if here == there:
         return [np.asarray(goal)]
-    dist = _bfs(grid, has_door, there)
+    dist = _bfs(grid, *gen.wall_cells(grid), has_door, there)
     a, b = gen.wall_cells(grid)
     out = []
     for w in np.flatnonzero(has_door):
@@ -124,7 +109,8 @@ def test_rooms_cell_distances_are_the_bfs_over_their_doors(rooms_states):
     for i in range(state.pos.shape[0]):
         maze = _one(state.maze, i)
         has_door, _ = _doors(maze, grid)
-        want = np.stack([_bfs(grid, has_door, s) for s in range(grid.n_cells)])
+        a, b = gen.wall_cells(grid)
+        want = np.stack([_bfs(grid, a, b, has_door, s) for s in range(grid.n_cells)])
         np.testing.assert_array_equal(np.asarray(state.cell_dist[i]), want)
 
 

@@ -188,11 +188,19 @@ class Rooms(NamedTuple):
     def candidate(self, key: chex.PRNGKey, split: str) -> _Doors:
         return _rooms_candidate(key, self, split)
 
+    def doors(self, maze: Maze) -> tuple[chex.Array, chex.Array]:
+        """(bool[E] the walls without a door, f32[E, 2] each door's middle) of a drawn
+        rooms maze, read from its segment rows: a wall with a door is two rows, the door
+        the gap between them."""
+        e = self.grid.n_walls
+        middle = 0.5 * (maze.segments[:e, 2:] + maze.segments[e : 2 * e, :2])
+        return ~maze.segment_mask[e : 2 * e], middle
+
     def cell_distances(self, maze: Maze) -> chex.Array:
         """i16[RC, RC]: doors between every two rooms of a drawn rooms maze, read from
-        its segment rows (a wall's second row is real where it has a door)."""
-        e = self.grid.n_walls
-        return generators.cell_distances(maze.segment_mask[e : 2 * e], self.grid).astype(jnp.int16)
+        its segment rows (:meth:`doors`)."""
+        closed, _ = self.doors(maze)
+        return generators.cell_distances(~closed, self.grid).astype(jnp.int16)
 
     def geodesic_target(
         self, maze: Maze, cell_dist: chex.Array, pos: chex.Array, goal: chex.Array
@@ -201,9 +209,7 @@ class Rooms(NamedTuple):
         the next room on it, or the goal in its room), and its length
         (:func:`jaxnav.world.generators.geodesic_target`, rooms for cells, doors for
         openings)."""
-        e = self.grid.n_walls
-        doors = 0.5 * (maze.segments[:e, 2:] + maze.segments[e : 2 * e, :2])
-        closed = ~maze.segment_mask[e : 2 * e]
+        closed, doors = self.doors(maze)
         return generators.geodesic_target(
             maze, cell_dist, self.grid, pos, goal, closed=closed, portals=doors
         )
@@ -213,9 +219,7 @@ class Rooms(NamedTuple):
     ) -> chex.Array:
         """f32[2]: the point ``lookahead`` m along the shortest path from ``pos`` to
         ``goal`` through the doors (:func:`jaxnav.world.generators.carrot`)."""
-        e = self.grid.n_walls
-        doors = 0.5 * (maze.segments[:e, 2:] + maze.segments[e : 2 * e, :2])
-        closed = ~maze.segment_mask[e : 2 * e]
+        closed, doors = self.doors(maze)
         points = generators.path_points(cell_dist, self.grid, pos, goal, closed, doors)
         return generators.carrot(pos, points, lookahead)
 
