@@ -3,13 +3,16 @@
 Three measurements, each printed as a table (medians of several repetitions; every
 case compiled once, compilation reported beside the steady state):
 
-1. Environment steps/s at 4096 environments, random actions, 24 beams: a new 4x4 or
-   6x6 grid maze every episode (``env.generator: grid``) beside the same family's
+1. Environment steps/s at 4096 environments, random actions, 24 beams: a new 4x4,
+   6x6 or 8x8 grid maze (or cylinder field, or rooms) every episode
+   (``env.generator``), drawn when needed or picked from a bank (``env.maze_bank``),
+   grids with each LiDAR broad phase (``env.broad_phase``), beside the same family's
    one maze held fixed (drawn once, passed as the maze), beside square4, stage 3 and
    stage 4 (moving cylinders). Cases alternate A B A B within one process so a noisy
    machine slows them alike; the ratio is the figure to read.
 2. LiDAR cost against the number of wall segments: 24-beam scans of 4096 poses in
-   closed grid mazes of 2x2 to 8x8 cells (12 to 144 segments).
+   closed grid mazes of 2x2 to 16x16 cells (12 to 544 segments), every wall tested
+   beside the lattice walked (``jaxnav.world.lattice``), and square4's.
 3. Training transitions/s of the whole ``jaxnav train`` command at 64 runs (32 seeds
    x 2 strategies), square4 against 6x6 grids drawn every episode, in the same
    alternating order; each figure is the trainer's own steady-state rate, printed
@@ -17,6 +20,7 @@ case compiled once, compilation reported beside the steady state):
 
     python bench/worlds.py            # about 15 minutes on 2 cores
     python bench/worlds.py --quick    # smoke run
+    python bench/worlds.py --part lidar   # one part (env, lidar, train; repeatable)
 """
 
 from __future__ import annotations
@@ -58,6 +62,7 @@ def env_cases(n_envs: int, n_steps: int, reps: int) -> list[dict]:
     families = {
         "4x4 grid": {"generator": "grid", "grid_rows": 4, "grid_cols": 4, "min_path_cells": 2},
         "6x6 grid": {"generator": "grid", "grid_rows": 6, "grid_cols": 6, "min_path_cells": 2},
+        "8x8 grid": {"generator": "grid", "grid_rows": 8, "grid_cols": 8, "min_path_cells": 2},
         "cylinder field": {"generator": "cylinders", "cyl_min_path": 1.5, "max_steps": 200},
         "2x2 rooms": {"generator": "rooms", "max_steps": 200},
     }
@@ -69,6 +74,12 @@ def env_cases(n_envs: int, n_steps: int, reps: int) -> list[dict]:
         with_bank = jax.block_until_ready(jax.jit(banked.with_bank)(params, jax.random.PRNGKey(0)))
         bank_s[family] = time.perf_counter() - t0
         cases[f"{family}, a new maze every episode, bank"] = fns(banked, with_bank)
+        if kwargs["generator"] == "grid":  # the LiDAR's other broad phase beside auto's
+            other = "none" if banked.walks_lattice else "lattice"
+            name = "every wall" if other == "none" else "lattice"
+            cases[f"{family}, a new maze every episode, bank, {name}"] = fns(
+                dataclasses.replace(banked, broad_phase=other), with_bank
+            )
         fixed_maze = env.draw_maze(jax.random.PRNGKey(0))[0]
         keep = {k: v for k, v in kwargs.items() if k == "max_steps"}
         cases[f"{family}, one maze held fixed"] = fns(*jaxnav.make(fixed_maze, **keep))
@@ -97,35 +108,55 @@ def env_cases(n_envs: int, n_steps: int, reps: int) -> list[dict]:
 
 
 def lidar_cases(n_poses: int, reps: int) -> list[dict]:
+    """us per 24-beam scan of closed grids (every wall standing, 1 m cells) of 2x2 to
+    16x16 cells, every wall tested beside the lattice walked, and of square4, the cases
+    taking turns."""
     import jax
     import jax.numpy as jnp
 
     from jaxnav.world import generators as gen
-    from jaxnav.world.sensor import beam_ranges
+    from jaxnav.world.maps import make_maze
+    from jaxnav.world.sensor import beam_directions, beam_ranges
 
-    out = []
-    for size in (2, 4, 6, 8):
-        grid = gen.Grid(size, size, 0.6)
+    cases = {}
+    for size in (2, 4, 6, 8, 16):
+        grid = gen.Grid(size, size, 1.0)
         closed = jnp.zeros(grid.n_walls, bool)  # every wall standing: the most segments
         maze = gen.layout_maze(closed, grid, jnp.int32(0), jnp.float32(0.0))
-        half = size * 0.3
         key = jax.random.PRNGKey(size)
-        pos = jax.random.uniform(key, (n_poses, 2), minval=-half, maxval=half)
+        pos = jax.random.uniform(key, (n_poses, 2), minval=-size / 2, maxval=size / 2)
         yaw = jax.random.uniform(jax.random.fold_in(key, 1), (n_poses,), minval=-3.0, maxval=3.0)
-        scan = jax.jit(jax.vmap(lambda p, y, m=maze: beam_ranges(m, p, y, 24)))
-        jax.block_until_ready(scan(pos, yaw))
-        ts = []
-        for _ in range(reps):
+        segments = int(maze.segment_mask.sum())
+        every = jax.vmap(lambda p, y, m=maze: beam_ranges(m, p, y, 24))
+        walk = jax.vmap(lambda p, y, m=maze, g=grid: g.beam_ranges(m, p, beam_directions(24, y)))
+        cases[(f"{size}x{size} grid", segments, "every wall")] = (jax.jit(every), pos, yaw)
+        cases[(f"{size}x{size} grid", segments, "lattice")] = (jax.jit(walk), pos, yaw)
+    square4 = make_maze("square4")
+    key = jax.random.PRNGKey(4)
+    pos = jax.random.uniform(key, (n_poses, 2), minval=-1.8, maxval=1.8)
+    yaw = jax.random.uniform(jax.random.fold_in(key, 1), (n_poses,), minval=-3.0, maxval=3.0)
+    scan = jax.jit(jax.vmap(lambda p, y: beam_ranges(square4, p, y, 24)))
+    cases[("square4", int(square4.segment_mask.sum()), "every wall")] = (scan, pos, yaw)
+    for fn, pos, yaw in cases.values():
+        jax.block_until_ready(fn(pos, yaw))
+    times = {k: [] for k in cases}
+    for _ in range(reps):  # A B C ... A B C ..., each case 5 calls in a row (warm buffers)
+        for k, (fn, pos, yaw) in cases.items():
+            jax.block_until_ready(fn(pos, yaw))
             t = time.perf_counter()
-            jax.block_until_ready(scan(pos, yaw))
-            ts.append(time.perf_counter() - t)
-        out.append(
-            {
-                "segments": int(maze.segment_mask.sum()),
-                "us_per_scan": statistics.median(ts) / n_poses * 1e6,
-            }
-        )
-    return out
+            for _ in range(5):
+                out = fn(pos, yaw)
+            jax.block_until_ready(out)
+            times[k].append((time.perf_counter() - t) / 5)
+    return [
+        {
+            "maze": k[0],
+            "segments": k[1],
+            "caster": k[2],
+            "us_per_scan": statistics.median(ts) / n_poses * 1e6,
+        }
+        for k, ts in times.items()
+    ]
 
 
 TRAINED = re.compile(r"trained (\d+) env steps in ([\d.]+) s \((\d+) steps/s\)")
@@ -175,8 +206,22 @@ def train_cases(seeds: int, episodes: int, reps: int) -> list[dict]:
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--quick", action="store_true")
+    p.add_argument(
+        "--part", choices=("env", "lidar", "train"), action="append", help="only these parts"
+    )
     a = p.parse_args(argv)
-    n_envs, n_steps, reps = (256, 20, 2) if a.quick else (4096, 20, 3)
+    parts = a.part or ("env", "lidar", "train")
+    if "env" in parts:
+        env_part(a.quick)
+    if "lidar" in parts:
+        lidar_part(a.quick)
+    if "train" in parts:
+        train_part(a.quick)
+    return 0
+
+
+def env_part(quick: bool) -> None:
+    n_envs, n_steps, reps = (256, 20, 2) if quick else (4096, 20, 3)
     rows, bank_s = env_cases(n_envs, n_steps, reps)
     base = {r["case"]: r["steps_per_s"] for r in rows}
     print(f"\nenvironment steps/s, {n_envs} envs, random actions, median of {reps}")
@@ -192,11 +237,27 @@ def main(argv=None) -> int:
             f"{banked / fixed:.0%} from a bank of {BANK} (drawn in {seconds:.1f} s, "
             "compilation included)"
         )
-    print(f"\nLiDAR, 24 beams, {512 if a.quick else 4096} poses, closed grids")
-    print(f"  {'segments':>8} {'us/scan':>8}")
-    for r in lidar_cases(512 if a.quick else 4096, reps):
-        print(f"  {r['segments']:>8} {r['us_per_scan']:>8.2f}")
-    seeds, episodes, treps = (2, 5, 1) if a.quick else (32, 5, 2)
+        for name in ("lattice", "every wall"):
+            other = base.get(f"{family}, a new maze every episode, bank, {name}")
+            if other:
+                print(f"    from the bank with the LiDAR's {name}: {other / fixed:.0%}")
+
+
+def lidar_part(quick: bool) -> None:
+    n_poses, reps = (512, 3) if quick else (4096, 7)
+    rows = lidar_cases(n_poses, reps)
+    print(f"\nLiDAR, 24 beams, {n_poses} poses, closed grids of 1 m cells, median of {reps}")
+    print(f"  {'maze':<12} {'segments':>8} {'caster':<11} {'us/scan':>8} {'x square4':>10}")
+    square4 = next(r["us_per_scan"] for r in rows if r["maze"] == "square4")
+    for r in rows:
+        print(
+            f"  {r['maze']:<12} {r['segments']:>8} {r['caster']:<11} {r['us_per_scan']:>8.2f} "
+            f"{r['us_per_scan'] / square4:>10.1f}"
+        )
+
+
+def train_part(quick: bool) -> None:
+    seeds, episodes, treps = (2, 5, 1) if quick else (32, 5, 2)
     rows = train_cases(seeds, episodes, treps)
     print(
         f"\ntraining, {2 * seeds} runs, {episodes} episodes of up to 300 steps, median of {treps}"
@@ -207,7 +268,6 @@ def main(argv=None) -> int:
     for r in rows[1:]:
         ratio = r["transitions_per_s"] / rows[0]["transitions_per_s"]
         print(f"  {r['case']} keep {ratio:.0%} of square4's transitions/s")
-    return 0
 
 
 if __name__ == "__main__":

@@ -37,7 +37,14 @@ from jaxnav.core.sections import (
     PQNConfig,
     RunConfig,
 )
-from jaxnav.core.settings import AT_LEAST_1, PRESETS, SEED, problem, setting
+from jaxnav.core.settings import (
+    AT_LEAST_1,
+    MAX_LATTICE_CELLS,
+    PRESETS,
+    SEED,
+    problem,
+    setting,
+)
 from jaxnav.core.values import coerce, flatten, parse_override
 
 # The strategies the paper compares; jaxnav.core.strategies has every registered one.
@@ -264,6 +271,21 @@ def env_bank_problem(env: Any) -> str | None:
     return None
 
 
+def env_broad_phase_problem(env: Any) -> str | None:
+    """What is wrong with the LiDAR's broad phase given the maze settings, or None."""
+    if env.broad_phase != "lattice":
+        return None
+    lattice = families.with_lattice()
+    if env.generator not in lattice:
+        which = families.listing(lattice)
+        return f"env.broad_phase lattice walks a maze's lattice: it needs env.generator {which}"
+    if tuple(env.maze_scale) != (1.0, 1.0):
+        return "env.broad_phase lattice walks the lattice of unscaled mazes: env.maze_scale is on"
+    if families.get(env.generator).lattice(env) > MAX_LATTICE_CELLS:
+        return f"env.broad_phase lattice walks lattices of at most {MAX_LATTICE_CELLS} cells a side"
+    return None
+
+
 def env_waypoint_problem(env: Any) -> str | None:
     """What is wrong with the waypoint setting given the maze settings, or None (a
     config's check: a run's test on a fixed maze observes the goal as its waypoint)."""
@@ -335,6 +357,7 @@ def _check(cfg: Config) -> Config:
         env_reward_problem(cfg.env)
         or env_scan_problem(cfg.env)
         or env_bank_problem(cfg.env)
+        or env_broad_phase_problem(cfg.env)
         or env_waypoint_problem(cfg.env)
     )
     if says:

@@ -64,6 +64,10 @@ class Family:
     title: Callable[[Any], str]  # env -> the family in a figure's title
     about: str
     shortest_paths: bool  # the geodesic reward can follow its shortest paths
+    # env -> the most cells along a side of the lattice its walls stand on, for a family
+    # whose LiDAR can walk that lattice (its shape gives beam_ranges(maze, origin, dirs)
+    # and n_segments, jaxnav.world.lattice); None: the LiDAR tests every wall.
+    lattice: Callable[[Any], int] | None = None
 
     def shape(self, env: Any) -> Any:
         """The family's static shape from ``env``'s settings (an EnvConfig or a
@@ -84,6 +88,7 @@ def register(
     title: Callable[[Any], str] | None = None,
     about: str = "",
     shortest_paths: bool = False,
+    lattice: Callable[[Any], int] | None = None,
 ) -> Family:
     """Add a family named ``name`` (the value of ``env.generator``); ``text`` defaults to
     "NAME mazes", ``title`` to ``text``, ``problem`` to none."""
@@ -106,6 +111,7 @@ def register(
         title or text,
         about,
         shortest_paths,
+        lattice,
     )
     return _REGISTRY[name]
 
@@ -139,6 +145,11 @@ def get(name: str) -> Family:
 def with_shortest_paths() -> tuple[str, ...]:
     """The families whose shortest paths the geodesic reward can follow."""
     return tuple(n for n, f in _REGISTRY.items() if f.shortest_paths)
+
+
+def with_lattice() -> tuple[str, ...]:
+    """The families whose LiDAR can walk the lattice their walls stand on."""
+    return tuple(n for n, f in _REGISTRY.items() if f.lattice is not None)
 
 
 def family_text(env: Any) -> str:
@@ -243,6 +254,7 @@ register(
     title=lambda e: f"{e.grid_rows} x {e.grid_cols} grid, {e.grid_cell:g} m cells",
     about="a perfect maze on a grid of square cells, loops opened (randomised Kruskal)",
     shortest_paths=True,
+    lattice=lambda e: max(e.grid_rows, e.grid_cols),
 )
 
 

@@ -83,6 +83,12 @@ class EnvConfig:
         rule=one_of("even", "gazebo"),
     )
     action_delay: bool = setting(False, "each action applied one step late (ROBOTIS' loop)")
+    broad_phase: str = setting(
+        "auto",
+        "LiDAR: auto (drawn grid mazes walk their lattice, unless scaled), lattice (walk "
+        "it, refused where it cannot), or none (every beam tests every wall)",
+        rule=one_of("auto", "lattice", "none"),
+    )
     # Procedural mazes, off by default: env.maze is the maze. Each family's own settings
     # (grid_*, cyl_*, rooms_*, ...) follow this one, declared with the family in
     # jaxnav.core.families.

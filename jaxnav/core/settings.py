@@ -150,6 +150,9 @@ SCALE_RANGE = (
 # The burger's teleop limits (turtlebot3_teleop: BURGER_MAX_LIN_VEL, BURGER_MAX_ANG_VEL):
 # every action set stays within them, and the normalised observation scales by them.
 BURGER_MAX_V, BURGER_MAX_OMEGA = 0.22, 2.84
+# The LiDAR's lattice walk (jaxnav.world.lattice, env.broad_phase): its int32 bit fields
+# hold a lattice line's cell sides (bits 1 to 30), so at most this many cells a side.
+MAX_LATTICE_CELLS = 30
 
 # Action sets: name -> ((v m/s, omega rad/s), ...) per action, or None for the paper's
 # (EnvParams.omegas at the constant EnvParams.v). Every command is within the burger's

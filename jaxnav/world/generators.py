@@ -44,6 +44,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from jaxnav.world.geometry import hypot, norm2
+from jaxnav.world.lattice import lattice_ranges
 from jaxnav.world.maps import _FAR, ROBOTIS_ARENA, Maze
 
 SPLITS = ("train", "test")
@@ -105,6 +106,11 @@ class Grid(NamedTuple):
         """Where the shortest path from ``pos`` to ``goal`` heads next, and its length
         (:func:`geodesic_target`)."""
         return geodesic_target(maze, cell_dist, self, pos, goal)
+
+    def beam_ranges(self, maze: Maze, origin: chex.Array, dirs: chex.Array) -> chex.Array:
+        """f32[B]: the exact ranges of rays ``dirs`` f32[B, 2] from ``origin`` in a maze
+        of this shape, walking its lattice (:func:`jaxnav.world.lattice.lattice_ranges`)."""
+        return lattice_ranges(maze, origin, dirs, self)
 
     def waypoint(
         self, maze: Maze, cell_dist: chex.Array, pos: chex.Array, goal: chex.Array, lookahead

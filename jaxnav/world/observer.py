@@ -32,6 +32,7 @@ class Observer:
     beam_dropout: float
     odom_noise: tuple[float, float]
     maze_scale: tuple[float, float]
+    walks_lattice: bool
 
     @property
     def normalised(self) -> bool:
@@ -80,10 +81,10 @@ class Observer:
         its ``cell_dist``; on a fixed maze the goal)."""
         maze = self.maze_at(params, scale, time)
         if self.scan_beams:  # a finer scan, the least range of each sector observed
-            fine = sensor.beam_ranges(maze, pos, yaw, self.scan_beams)
+            fine = self.beam_ranges(maze, pos, yaw, self.scan_beams)
             ranges = sensor.pooled_ranges(fine, self.n_beams)
         else:
-            ranges = sensor.beam_ranges(maze, pos, yaw, self.n_beams, self.beam_layout == "gazebo")
+            ranges = self.beam_ranges(maze, pos, yaw, self.n_beams, self.beam_layout == "gazebo")
         if self.normalised:
             last = jnp.zeros(2, jnp.float32) if last_command is None else last_command
             waypoint = None
@@ -123,6 +124,17 @@ class Observer:
             odom_std=self.odom_noise,
             obstacle_obs=self.obstacle_obs,
         )
+
+    def beam_ranges(
+        self, maze, pos: chex.Array, yaw: chex.Array, n_beams: int, inclusive: bool = False
+    ) -> chex.Array:
+        """True, unclipped ranges f32[n_beams] from pose (pos, yaw): every wall tested
+        (:func:`jaxnav.world.sensor.beam_ranges`), or the drawn maze's lattice walked
+        (:attr:`walks_lattice`)."""
+        if self.walks_lattice:
+            dirs = sensor.beam_directions(n_beams, yaw, inclusive)
+            return self.family.beam_ranges(maze, pos, dirs)
+        return sensor.beam_ranges(maze, pos, yaw, n_beams, inclusive)
 
     def read_observation(
         self, obs: chex.Array, params: EnvParams
