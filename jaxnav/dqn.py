@@ -188,6 +188,7 @@ def make_trainer(config: Config) -> Trainer:
             buffer=buffer,
             metrics=metrics,
             diverged_at=diverged_at,
+            bank=env.refreshed_bank(ts.bank, ts.key, ts.step, jnp.where(run, n_steps, ts.step)),
         )
         log = StepLog(
             explore=jnp.where(run, explore, jnp.nan),

@@ -159,6 +159,8 @@ class NavEnv(GoalSampler, DrawnLayouts, Observer):
         :meth:`with_bank` draws that many layouts (maze, start and goal) ahead into
         ``EnvParams.bank``, and a new layout is then picked from it at random instead
         of drawn (training does; a test draws each of its layouts).
+        ``maze_bank_refresh`` > 0: a training run draws a new bank each time its env
+        steps pass a multiple of it (:meth:`refreshed_bank`).
 
     Reward (:mod:`jaxnav.world.reward`):
       reward: "dense" (the paper's: R+, R-, else the heading shaping towards the goal),
@@ -217,6 +219,7 @@ class NavEnv(GoalSampler, DrawnLayouts, Observer):
     generator: str = ""  # the families' own settings follow (families.settings_after)
     new_maze_every: int = 1
     maze_bank: int = 0
+    maze_bank_refresh: int = 0
     split: str = "train"
     reward: str = "dense"
     progress_path: str = "straight"

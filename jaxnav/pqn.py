@@ -273,6 +273,7 @@ def make_trainer(config: Config) -> Trainer:
             episode=jnp.where(run, episode, ts.episode),
             metrics=select(run, metrics, ts.metrics),
             diverged_at=jnp.where(diverged, n_steps, ts.diverged_at),
+            bank=env.refreshed_bank(ts.bank, ts.key, ts.step, jnp.where(run, n_steps, ts.step)),
         )
         nan = jnp.float32(jnp.nan)
         log = StepLog(

@@ -160,11 +160,63 @@ def test_draw_where_passes_shared_inputs_whole_and_equals_where():
         np.testing.assert_array_equal(np.asarray(a), np.asarray(b))
 
 
+def test_a_train_bank_and_a_test_bank_share_no_layout():
+    """2048 layouts of 3 x 3 grids (a few hundred distinct perfect mazes exist, so each
+    bank repeats many) in a train bank and a test bank: no closed-wall set in both."""
+    walls = {}
+    for split in ("train", "test"):
+        env, params = _banked(2048, split=split)
+        closed = np.asarray(params.bank[0].segment_mask)
+        walls[split] = {row.tobytes() for row in closed}
+    assert len(walls["train"]) > 50 and len(walls["test"]) > 50
+    assert not walls["train"] & walls["test"]
+
+
+def test_a_bank_is_redrawn_exactly_where_a_runs_steps_pass_a_multiple_of_the_refresh():
+    """Three runs, vmapped as the trainers run them: the two whose steps pass a
+    multiple of 10 get the bank drawn from their key's refresh key, the third keeps its
+    own; with no refresh set nothing changes."""
+    env, params = _banked(4)
+    env = dataclasses.replace(env, maze_bank_refresh=10)
+    keys = jax.random.split(jax.random.PRNGKey(3), 3)
+    banks = jax.vmap(env.draw_bank)(keys)
+    before, after = jnp.asarray([9, 10, 19]), jnp.asarray([10, 11, 20])
+    got = jax.jit(jax.vmap(env.refreshed_bank))(banks, keys, before, after)
+    for i, due in enumerate((True, False, True)):
+        salt = jax.random.fold_in(keys[i], 0x72656672)
+        want = env.draw_bank(salt) if due else _rows(banks, i)
+        for a, b in zip(jax.tree.leaves(_rows(got, i)), jax.tree.leaves(want), strict=True):
+            np.testing.assert_array_equal(a, np.asarray(b))
+    plain = dataclasses.replace(env, maze_bank_refresh=0)
+    assert plain.refreshed_bank(banks, keys, before, after) is banks
+
+
+def test_a_training_run_plays_a_new_bank_after_a_refresh():
+    """A DQN run refreshing every 40 env steps: after one chunk of 80 steps its bank is
+    another (and one with no refresh keeps the bank it began with)."""
+    from jaxnav.run.training import Run
+
+    banks = {}
+    for refresh in (0, 40):
+        items = ["env.generator=grid", "env.maze_bank=16", f"env.maze_bank_refresh={refresh}"]
+        items += ["seeds=1", "strategies=[ebe]", "episodes=4", "env.max_steps=40"]
+        items += ["run.chunk_steps=80", "run.test_mazes=[]"]
+        run = Run(load_config("smoke", items), None, quiet=True)
+        ts = run.fresh_state()
+        first = np.asarray(jax.tree.leaves(ts.bank)[0])
+        ts, _ = run.chunk(ts, np.int32(80))
+        banks[refresh] = (first, np.asarray(jax.tree.leaves(ts.bank)[0]))
+    np.testing.assert_array_equal(*banks[0])
+    assert not np.array_equal(*banks[40])
+
+
 def test_a_bank_needs_drawn_mazes_and_a_non_negative_size():
     with pytest.raises(ConfigError, match="env.maze_bank .*needs drawn mazes"):
         load_config("smoke", ["env.maze_bank=16"])
     with pytest.raises(ConfigError, match="env.maze_bank"):
         load_config("grid4", ["env.maze_bank=-1"])
+    with pytest.raises(ConfigError, match="env.maze_bank_refresh draws new banks: it needs"):
+        load_config("grid4", ["env.maze_bank_refresh=1000"])
     with pytest.raises(ValueError, match="maze_bank"):
         jaxnav.make("square4", maze_bank=4)
     assert load_config("grid4", ["env.maze_bank=64"]).env.maze_bank == 64
@@ -189,6 +241,7 @@ def test_a_run_with_a_bank_trains_the_same_twice_and_resumes_the_same(agent, tmp
     from jaxnav.run.training import Run
 
     items = ["env.generator=grid", "env.maze_bank=32", "seeds=2", "strategies=[ebe]"]
+    items += ["env.maze_bank_refresh=100"]  # the resumed run passes refreshes too
     if agent == "pqn":
         items += ["pqn.num_envs=8", "pqn.rollout=8", "pqn.minibatches=2", "episodes=null"]
         items += ["total_steps=1024", "run.chunk_steps=512", "env.max_steps=40"]

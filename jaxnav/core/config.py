@@ -268,6 +268,8 @@ def env_bank_problem(env: Any) -> str | None:
     """What is wrong with the maze bank's setting given the maze settings, or None."""
     if env.maze_bank and not env.generator:
         return "env.maze_bank draws layouts ahead: it needs drawn mazes (env.generator)"
+    if env.maze_bank_refresh and not env.maze_bank:
+        return "env.maze_bank_refresh draws new banks: it needs env.maze_bank"
     return None
 
 

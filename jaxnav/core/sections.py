@@ -38,6 +38,12 @@ class EnvConfig:
         "metrics (0: the episode's step limit, env.max_steps); the dynamics do not change",
         rule=NON_NEGATIVE,
     )
+    maze_bank_refresh: int = setting(
+        0,
+        "drawn mazes with a bank: a training run draws a new bank each time its env steps "
+        "(all its environments together) pass a multiple of this (0: one bank all run)",
+        rule=NON_NEGATIVE,
+    )
     lidar_noise_std: float = setting(
         0.0, "std of Gaussian range noise, m (0.01: Gazebo's)", rule=NON_NEGATIVE, sweep=True
     )

@@ -23,8 +23,11 @@ def confirm_memory(cfg: Config, yes: bool, quiet: bool) -> None:
     if not quiet:
         print(
             f"maze bank: {cfg.env.maze_bank} layouts of {per / 1024:.1f} KiB, "
-            f"{bank / 2**20:.1f} MiB per run, {bank * cfg.n_runs / 2**20:.1f} MiB in all",
+            f"{bank / 2**20:.1f} MiB per run, {bank * cfg.n_runs / 2**20:.1f} MiB in all"
+            + (", twice that while a new bank is drawn" if cfg.env.maze_bank_refresh else ""),
             file=sys.stderr,
         )
+    if cfg.env.maze_bank_refresh:  # the old bank and the new one while it is drawn
+        bank *= 2
     what = "replay and maze-bank memory"
     cli.confirm_memory(cfg.memory_estimate() + bank * cfg.n_runs, yes, what=what)

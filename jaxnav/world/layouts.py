@@ -17,6 +17,7 @@ from jaxnav.world.maps import Maze
 from jaxnav.world.state import EnvParams, EnvState, new_episode
 
 BANK_BATCH = 256  # layouts of a bank drawn side by side (draw_bank)
+_REFRESH_SALT = 0x72656672  # a refreshed bank's key from the run's (refreshed_bank)
 
 
 def bank_key(key: chex.PRNGKey) -> chex.PRNGKey:
@@ -31,6 +32,7 @@ class DrawnLayouts:
     generator: str
     split: str
     maze_bank: int
+    maze_bank_refresh: int
     new_maze_every: int
     scales_maze: bool
     action_delay: bool
@@ -67,6 +69,20 @@ class DrawnLayouts:
         if not (self.generates and self.maze_bank):
             return params
         return params.replace(bank=self.draw_bank(key))
+
+    def refreshed_bank(self, bank, key: chex.PRNGKey, before: chex.Array, after: chex.Array):
+        """A training run's bank once its env steps went from ``before`` to ``after``
+        (i32[]): a new bank drawn from ``fold_in(key, _REFRESH_SALT)`` where they passed
+        a multiple of ``maze_bank_refresh``, else ``bank`` itself. The trainers vmap
+        their runs, and under vmap only the runs that passed one draw
+        (:func:`jaxnav.world.lazy.draw_where`): a step without a refresh costs a sort of
+        the runs' flags, no draw."""
+        if not (self.generates and self.maze_bank and self.maze_bank_refresh):
+            return bank
+        every = self.maze_bank_refresh
+        due = (after // every) > (before // every)
+        k = jax.random.fold_in(key, _REFRESH_SALT)
+        return draw_where(self.draw_bank, due, k, bank, chunk=1)
 
     def _layout(self, key: chex.PRNGKey, params: EnvParams):
         """A new layout (maze, goal, cell distances or None): drawn from ``key``, or with
