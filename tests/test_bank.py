@@ -293,7 +293,7 @@ def test_train_says_the_banks_memory_and_refuses_one_larger_than_the_machine(tmp
     run = subprocess.run([sys.executable, "-m", *big], capture_output=True, text=True, timeout=120)
     assert run.returncode == 2, run.stderr
     lines = run.stderr.splitlines()
-    assert lines[0].startswith("maze bank: 10000000 layouts of 14.7 KiB"), lines
+    assert lines[0].startswith("maze bank: 10000000 layouts of 12.7 KiB"), lines
     assert lines[-1].startswith("jaxnav.train: error: this run needs about ")
     assert "of replay and maze-bank memory" in lines[-1] and len(lines) == 2
     assert not out.exists()

@@ -13,11 +13,9 @@ from jaxnav.world import lazy
 
 
 def _setup(n):
-    env, params = jaxnav.make(generator="grid", grid_rows=3, grid_cols=4, min_path_cells=2)
-    _, st = jax.vmap(env.reset, in_axes=(0, None))(
-        jax.random.split(jax.random.PRNGKey(3), n), params
-    )
-    return env, (st.maze, st.goal), jax.random.split(jax.random.PRNGKey(5), n)
+    env, _ = jaxnav.make(generator="grid", grid_rows=3, grid_cols=4, min_path_cells=2)
+    old = jax.vmap(env.draw_maze)(jax.random.split(jax.random.PRNGKey(3), n))
+    return env, old, jax.random.split(jax.random.PRNGKey(5), n)
 
 
 @pytest.mark.slow

@@ -33,6 +33,7 @@ class DrawnLayouts:
     split: str
     maze_bank: int
     maze_bank_refresh: int
+    goal_sampler: str
     new_maze_every: int
     scales_maze: bool
     action_delay: bool
@@ -94,8 +95,14 @@ class DrawnLayouts:
         return jax.tree.map(lambda b: b[i], params.bank)
 
     def _draw(self, key: chex.PRNGKey):
-        """(maze, goal, its cell distances for the geodesic reward or None)."""
+        """(maze, goal, its cell distances for the geodesic reward or None). The maze
+        keeps one row of its ROBOTIS goal table unless the goals are drawn from it
+        (``goal_sampler`` robotis): every environment carries its layout in its state
+        and every bank holds thousands, and the 256-row table, read by nothing else,
+        was most of a grid layout's bytes."""
         maze, goal = self.draw_maze(key)
+        if self.goal_sampler != "robotis":
+            maze = maze.replace(robotis_goals=maze.robotis_goals[:1])
         dist = None
         if self.uses_cell_distances:
             dist = self.family.cell_distances(maze)
