@@ -3,6 +3,7 @@ summed per XLA operation and grouped by the part of the step it comes from.
 
     python bench/profile_train.py                 # 64 runs, 24 beams, 1000-step chunks
     python bench/profile_train.py --runs 32 --top 25
+    python bench/profile_train.py --set env.generator=grid --set env.maze_bank=64  # any config key
 
 Runs the paper config's chunk (EBE, full-run replay capacity) on one CPU device per
 core, as ``jaxnav.train`` does, compiles it, then traces ``--reps`` chunks and reads
@@ -49,6 +50,9 @@ def main(argv=None) -> int:
     ap.add_argument("--steps", type=int, default=1000, help="steps per traced chunk")
     ap.add_argument("--reps", type=int, default=2, help="traced chunks")
     ap.add_argument("--top", type=int, default=15, help="operations listed")
+    ap.add_argument(
+        "--set", action="append", default=[], metavar="KEY=VALUE", help="config overrides"
+    )
     ap.add_argument("--child", action="store_true", help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
     if not args.child:
@@ -105,6 +109,7 @@ def profile(args) -> int:
             "strategies=[ebe]",
             f"env.n_beams={args.beams}",
             f"run.chunk_steps={args.steps}",
+            *args.set,
         ],
     )
     run = Run(cfg, None, quiet=True)  # jaxnav.train's own programs, no files

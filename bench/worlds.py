@@ -13,10 +13,11 @@ case compiled once, compilation reported beside the steady state):
 2. LiDAR cost against the number of wall segments: 24-beam scans of 4096 poses in
    closed grid mazes of 2x2 to 16x16 cells (12 to 544 segments), every wall tested
    beside the lattice walked (``jaxnav.world.lattice``), and square4's.
-3. Training transitions/s of the whole ``jaxnav train`` command at 64 runs (32 seeds
-   x 2 strategies), square4 against 6x6 grids drawn every episode, in the same
-   alternating order; each figure is the trainer's own steady-state rate, printed
-   beside the command's wall time.
+3. Training env steps/s of whole ``jaxnav train`` commands, square4 against drawn
+   grids (drawn when needed, from a bank, each LiDAR broad phase): DQN at 64 runs (32
+   seeds x 2 strategies) and PQN at 4 runs of 128 environments, the cases taking
+   turns; each figure is the trainer's own steady-state rate, printed beside its
+   compilation (no compilation cache) and the command's wall time.
 
     python bench/worlds.py            # about 15 minutes on 2 cores
     python bench/worlds.py --quick    # smoke run
@@ -27,6 +28,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import os
 import re
 import statistics
 import subprocess
@@ -74,6 +76,10 @@ def env_cases(n_envs: int, n_steps: int, reps: int) -> list[dict]:
         with_bank = jax.block_until_ready(jax.jit(banked.with_bank)(params, jax.random.PRNGKey(0)))
         bank_s[family] = time.perf_counter() - t0
         cases[f"{family}, a new maze every episode, bank"] = fns(banked, with_bank)
+        if kwargs["generator"] != "grid":  # its layout carried in the state, none drawn
+            cases[f"{family}, bank, a layout kept 1000 episodes"] = fns(
+                dataclasses.replace(banked, new_maze_every=1000), with_bank
+            )
         if kwargs["generator"] == "grid":  # the LiDAR's other broad phase beside auto's
             other = "none" if banked.walks_lattice else "lattice"
             name = "every wall" if other == "none" else "lattice"
@@ -160,43 +166,69 @@ def lidar_cases(n_poses: int, reps: int) -> list[dict]:
 
 
 TRAINED = re.compile(r"trained (\d+) env steps in ([\d.]+) s \((\d+) steps/s\)")
+COMPILED = re.compile(r"\(compilation ([\d.]+) s\)")
+GRID6 = ["env.generator=grid", "env.grid_rows=6", "env.grid_cols=6", "env.min_path_cells=2"]
+GRID4 = ["env.generator=grid", "env.grid_rows=4", "env.grid_cols=4", "env.min_path_cells=2"]
 
 
-def train_cases(seeds: int, episodes: int, reps: int) -> list[dict]:
-    cmds = {
-        "square4": ["smoke", "env.max_steps=300"],
-        "6x6 grids, new every episode": [
-            "grid4",
-            "env.grid_rows=6",
-            "env.grid_cols=6",
-            "env.max_steps=300",
-        ],
-        "6x6 grids, new every episode, bank": [
-            "grid4",
-            "env.grid_rows=6",
-            "env.grid_cols=6",
-            "env.max_steps=300",
-            "env.maze_bank=8",  # a run plays 5 episodes: a bank of their size
-        ],
+def train_groups(quick: bool) -> dict[str, dict[str, list[str]]]:
+    """Whole ``jaxnav train`` commands, by group; each group's first case (square4) is
+    the one the others are compared with."""
+    seeds = 2 if quick else 32
+    # The same env steps per run for every case (episodes end at different times), the
+    # learner running from learning_starts on as in a real run.
+    dqn_steps = 1000 if quick else 4000
+    dqn = ["smoke", "env.max_steps=300", f"seeds={seeds}", "episodes=null"]
+    dqn += [f"total_steps={dqn_steps}", f"run.chunk_steps={dqn_steps}"]
+    pqn_steps = 16384 if quick else 409600
+    pqn = ["pqn", "env.max_steps=200", "seeds=2", f"total_steps={pqn_steps}"]
+    pqn += ["pqn.num_envs=128", f"run.chunk_steps={pqn_steps}", "run.test_mazes=[]"]
+    return {
+        f"DQN, {2 * seeds} runs (one environment each), {dqn_steps} env steps each": {
+            "square4": dqn,
+            "6x6 grids, drawn": [*dqn, *GRID6],
+            "6x6 grids, bank": [*dqn, *GRID6, "env.maze_bank=64"],
+            "6x6 grids, bank, every wall": [
+                *dqn,
+                *GRID6,
+                "env.maze_bank=64",
+                "env.broad_phase=none",
+            ],
+        },
+        f"PQN, 4 runs of 128 environments, {pqn_steps} env steps each": {
+            "square4": pqn,
+            "4x4 grids, drawn": [*pqn, *GRID4],
+            "4x4 grids, bank": [*pqn, *GRID4, "env.maze_bank=4096"],
+            "6x6 grids, bank": [*pqn, *GRID6, "env.maze_bank=4096"],
+        },
     }
+
+
+def train_cases(cmds: dict[str, list[str]], reps: int) -> list[dict]:
+    """Each command ``reps`` times, the cases taking turns, with no compilation cache
+    (so each compiles: its compilation seconds are reported)."""
     rates = {k: [] for k in cmds}
     walls = {k: [] for k in cmds}
+    compiles = {k: [] for k in cmds}
+    env = {**os.environ, "JAXNAV_CACHE": "off"}
     for rep in range(reps):
         for name, args in cmds.items():
             out = f"/tmp/jaxnav-bench-worlds-{rep}"
             argv = [sys.executable, "-m", "jaxnav", "train", args[0], "--out", out, "--overwrite"]
-            argv += [*args[1:], f"seeds={seeds}", f"episodes={episodes}", "run.test_mazes=[]"]
+            argv += [*args[1:], "run.test_mazes=[]"]
             t = time.perf_counter()
-            proc = subprocess.run(argv, capture_output=True, text=True, cwd=ROOT)
+            proc = subprocess.run(argv, capture_output=True, text=True, cwd=ROOT, env=env)
             walls[name].append(time.perf_counter() - t)
-            m = TRAINED.search(proc.stdout + proc.stderr)
-            if not m:
+            m, c = TRAINED.search(proc.stdout), COMPILED.search(proc.stdout)
+            if not (m and c):
                 raise SystemExit(f"bench/worlds.py: {name} failed:\n{proc.stderr[-2000:]}")
             rates[name].append(int(m.group(3)))
+            compiles[name].append(float(c.group(1)))
     return [
         {
             "case": k,
             "transitions_per_s": statistics.median(rates[k]),
+            "compile_s": statistics.median(compiles[k]),
             "command_s": statistics.median(walls[k]),
         }
         for k in cmds
@@ -209,6 +241,7 @@ def main(argv=None) -> int:
     p.add_argument(
         "--part", choices=("env", "lidar", "train"), action="append", help="only these parts"
     )
+    p.add_argument("--agent", choices=("dqn", "pqn"), help="the training part for one agent")
     a = p.parse_args(argv)
     parts = a.part or ("env", "lidar", "train")
     if "env" in parts:
@@ -216,7 +249,7 @@ def main(argv=None) -> int:
     if "lidar" in parts:
         lidar_part(a.quick)
     if "train" in parts:
-        train_part(a.quick)
+        train_part(a.quick, a.agent)
     return 0
 
 
@@ -241,6 +274,9 @@ def env_part(quick: bool) -> None:
             other = base.get(f"{family}, a new maze every episode, bank, {name}")
             if other:
                 print(f"    from the bank with the LiDAR's {name}: {other / fixed:.0%}")
+        kept = base.get(f"{family}, bank, a layout kept 1000 episodes")
+        if kept:
+            print(f"    a layout kept 1000 episodes (none drawn or picked): {kept / fixed:.0%}")
 
 
 def lidar_part(quick: bool) -> None:
@@ -256,18 +292,23 @@ def lidar_part(quick: bool) -> None:
         )
 
 
-def train_part(quick: bool) -> None:
-    seeds, episodes, treps = (2, 5, 1) if quick else (32, 5, 2)
-    rows = train_cases(seeds, episodes, treps)
-    print(
-        f"\ntraining, {2 * seeds} runs, {episodes} episodes of up to 300 steps, median of {treps}"
-    )
-    print(f"  {'case':<32} {'transitions/s':>14} {'command s':>10}")
-    for r in rows:
-        print(f"  {r['case']:<32} {r['transitions_per_s']:>14.0f} {r['command_s']:>10.1f}")
-    for r in rows[1:]:
-        ratio = r["transitions_per_s"] / rows[0]["transitions_per_s"]
-        print(f"  {r['case']} keep {ratio:.0%} of square4's transitions/s")
+def train_part(quick: bool, agent: str | None = None) -> None:
+    reps = 1 if quick else 2
+    for group, cmds in train_groups(quick).items():
+        if agent and not group.startswith(agent.upper()):
+            continue
+        rows = train_cases(cmds, reps)
+        print(f"\ntraining: {group}, median of {reps} whole commands")
+        head = f"{'steps/s':>9} {'x square4':>10} {'compile s':>10} {'x':>5} {'command s':>10}"
+        print(f"  {'case':<30} {head}")
+        base = rows[0]
+        for r in rows:
+            print(
+                f"  {r['case']:<30} {r['transitions_per_s']:>9.0f} "
+                f"{r['transitions_per_s'] / base['transitions_per_s']:>10.0%} "
+                f"{r['compile_s']:>10.1f} {r['compile_s'] / base['compile_s']:>5.2f} "
+                f"{r['command_s']:>10.1f}"
+            )
 
 
 if __name__ == "__main__":
