@@ -47,12 +47,9 @@ from jaxnav.core.config import (
     env_reward_problem,
     env_scan_problem,
     env_setting_problem,
+    lattice_problem,
 )
-from jaxnav.core.settings import (
-    ACTION_SETS,
-    MAX_LATTICE_CELLS,
-    PRESETS,
-)
+from jaxnav.core.settings import ACTION_SETS, PRESETS
 from jaxnav.world import motion
 from jaxnav.world.geometry import (
     displacement,
@@ -143,7 +140,7 @@ class NavEnv(GoalSampler, DrawnLayouts, Observer):
       broad_phase: "none" (every beam tests every wall), "lattice" (a family whose
         walls stand on a lattice, ``grid``, walks it: :mod:`jaxnav.world.lattice`,
         equal to testing every wall up to float32 rounding) or "auto" (the lattice
-        wherever a family has one and the mazes are not scaled: 1.2 to 2.3 times the
+        wherever a family has one and the mazes are not scaled: 1.2 to 2.0 times the
         environment steps/s of testing every wall on 4x4 to 8x8 grids, bench/worlds.py).
 
     Procedural mazes (off by default):
@@ -285,10 +282,7 @@ class NavEnv(GoalSampler, DrawnLayouts, Observer):
         """Whether the LiDAR walks the drawn mazes' lattice (``broad_phase`` "lattice" or
         "auto"): mazes of a family with a lattice, unscaled, at most
         ``MAX_LATTICE_CELLS`` a side."""
-        if self.broad_phase == "none" or not self.generates:
-            return False
-        lattice = families.get(self.generator).lattice
-        return not (lattice is None or self.scales_maze or lattice(self) > MAX_LATTICE_CELLS)
+        return self.broad_phase != "none" and lattice_problem(self) is None
 
     @property
     def uses_cell_distances(self) -> bool:

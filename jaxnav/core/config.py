@@ -275,8 +275,12 @@ def env_bank_problem(env: Any) -> str | None:
 
 def env_broad_phase_problem(env: Any) -> str | None:
     """What is wrong with the LiDAR's broad phase given the maze settings, or None."""
-    if env.broad_phase != "lattice":
-        return None
+    return lattice_problem(env) if env.broad_phase == "lattice" else None
+
+
+def lattice_problem(env: Any) -> str | None:
+    """Why ``env``'s LiDAR cannot walk its mazes' lattice, or None where it can (drawn
+    mazes of a family with a lattice, unscaled, at most MAX_LATTICE_CELLS a side)."""
     lattice = families.with_lattice()
     if env.generator not in lattice:
         which = families.listing(lattice)

@@ -72,8 +72,13 @@ def load_run(run_dir: str | Path) -> LoadedRun:
         # paths, so a geodesic run's test there scores the dense reward (progress
         # along the straight line).
         reward = "dense" if env.reward == "geodesic" else env.reward
-        fixed = {"generator": "", "maze_bank": 0, "maze_bank_refresh": 0}
-        fixed["progress_path"] = "straight"
+        fixed = {
+            "generator": "",
+            "maze_bank": 0,
+            "maze_bank_refresh": 0,
+            "broad_phase": "auto",  # a fixed maze has no lattice
+            "progress_path": "straight",
+        }
         env = dataclasses.replace(env, reward=reward, **fixed)
     network = agents.get(cfg.agent).network_of(cfg, env)
     template = network.init(jax.random.PRNGKey(0), jnp.zeros(env.obs_size))

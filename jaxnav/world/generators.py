@@ -44,7 +44,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from jaxnav.world.geometry import hypot, norm2
-from jaxnav.world.lattice import lattice_ranges
+from jaxnav.world.lattice import lattice_lines, lattice_ranges
 from jaxnav.world.maps import _FAR, ROBOTIS_ARENA, Maze
 
 SPLITS = ("train", "test")
@@ -269,7 +269,7 @@ def _geometry(grid: Grid) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         np.stack([x_right, y_bottom, x_right, y_top], 1),
         np.stack([x_left, y_top, x_right, y_top], 1),
     )
-    xs, ys = x0 + s * np.arange(c + 1), y0 + s * np.arange(r + 1)
+    xs, ys = lattice_lines(r, c, s)  # the lines the LiDAR's lattice walk reads
     bottom = np.stack([xs[:-1], np.full(c, ys[0]), xs[1:], np.full(c, ys[0])], 1)
     top = np.stack([xs[:-1], np.full(c, ys[-1]), xs[1:], np.full(c, ys[-1])], 1)
     left = np.stack([np.full(r, xs[0]), ys[:-1], np.full(r, xs[0]), ys[1:]], 1)

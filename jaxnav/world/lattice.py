@@ -8,8 +8,8 @@ multiplication gives (the beam's reciprocal direction is computed once); where i
 crosses, the cell side it meets is a row of a bit field, one integer per line, read
 with a shift. So a scan costs O(R + C) per beam, with no division and no gather, and
 the answer is the one testing every wall gives: the first crossing whose cell side
-stands. (``python bench/worlds.py --part lidar``: an 8 x 8 grid's scan 3 times an empty
-room's, not 60; a 16 x 16 grid's 6 times.)
+stands. (``python bench/worlds.py --part lidar``: an 8 x 8 grid's scan 3.5 times an
+empty room's, not 64; a 16 x 16 grid's 5.3 times.)
 
 As :func:`jaxnav.world.geometry.ray_segment` does, a crossing counts within 1e-6 of a
 wall's length beyond either end (a beam through a corner where only one of two cell
