@@ -33,7 +33,6 @@ class DrawnLayouts:
     split: str
     maze_bank: int
     maze_bank_refresh: int
-    goal_sampler: str
     new_maze_every: int
     scales_maze: bool
     action_delay: bool
@@ -96,13 +95,15 @@ class DrawnLayouts:
 
     def _draw(self, key: chex.PRNGKey):
         """(maze, goal, its cell distances for the geodesic reward or None). The maze
-        keeps one row of its ROBOTIS goal table unless the goals are drawn from it
-        (``goal_sampler`` robotis): every environment carries its layout in its state
-        and every bank holds thousands, and the 256-row table, read by nothing else,
-        was most of a grid layout's bytes."""
+        keeps one row of its ROBOTIS goal table: drawn mazes never draw goals from it
+        (``goal_sampler`` robotis is refused with them), every environment carries its
+        layout in its state and every bank holds thousands, and the 256-row table was
+        most of a grid layout's bytes."""
         maze, goal = self.draw_maze(key)
-        if self.goal_sampler != "robotis":
-            maze = maze.replace(robotis_goals=maze.robotis_goals[:1])
+        maze = maze.replace(
+            robotis_goals=maze.robotis_goals[:1],
+            n_robotis_goals=jnp.minimum(maze.n_robotis_goals, 1),
+        )
         dist = None
         if self.uses_cell_distances:
             dist = self.family.cell_distances(maze)
