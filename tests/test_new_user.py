@@ -96,7 +96,7 @@ def test_list_gives_each_shipped_config_its_whole_first_sentence():
     assert about["paper_no_obstacles"].startswith("Paper, Sec. 6.1 / Table 3")
     assert about["pqn"].startswith("PQN (Gallici et al. 2024) beside the paper's DQN")
     # a sentence that a digit or a path follows ends there too
-    assert about["drive_obstacles"].endswith("with four times the budget")
+    assert about["drive_obstacles"].endswith("with ten times the budget")
     assert about["pqn"].endswith("under a minute on 2 CPU cores")
 
 
