@@ -59,7 +59,7 @@ MODERN = {  # maze -> its drive config (the modern recipe)
     "square4_obstacles": "configs/drive_obstacles.yaml",
 }
 MODERN_AGENT = "PQN, modern"
-MODERN_EVAL_EVERY = 40_960  # ten updates of 128 environments x 32 steps
+MODERN_EVAL_EVERY = 40_960  # whole updates of 8 to 32 environments x 32 steps
 
 
 def agents(maze: str) -> dict[str, list[str]]:
