@@ -40,13 +40,13 @@ import jax
 import jax.numpy as jnp
 
 from jaxnav.core import families
-from jaxnav.core.config import (
+from jaxnav.core.config import env_setting_problem
+from jaxnav.core.env_rules import (
     env_bank_problem,
     env_broad_phase_problem,
     env_family_problem,
     env_reward_problem,
     env_scan_problem,
-    env_setting_problem,
     lattice_problem,
 )
 from jaxnav.core.settings import ACTION_SETS, PRESETS

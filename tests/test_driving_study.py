@@ -20,7 +20,7 @@ from jaxnav.core.config import CONFIG_DIR, builtin_configs, config_to_dict, load
 from jaxnav.core.errors import ConfigError, JaxnavError
 from jaxnav.core.rundir import csv_text
 from jaxnav.experiments import driving, studies, studyfile
-from jaxnav.report.driving_page import RUN_COLUMNS, RUNS
+from jaxnav.report.driving_page import RUN_COLUMNS, RUNS, commands_of, written_by
 
 ROOT = Path(__file__).resolve().parents[1]
 SHIPPED = str(CONFIG_DIR / "studies" / "driving.yaml")
@@ -116,14 +116,19 @@ def test_one_config_run_again_replaces_its_row_and_keeps_the_others(tmp_path, mo
     _data(out, ["drive_grid4"])
     row = (out / "data" / RUNS).read_text()
     (out / "data" / RUNS).write_text(row.replace("grid 4x4", "grid 4x4 again"))
-    (out / "data" / "run.json").write_text(json.dumps({"command": "c", "machine": "m"}) + "\n")
+    ran = {"commands": {"drive_grid4": "c"}, "machine": "m"}
+    (out / "data" / "run.json").write_text(json.dumps(ran) + "\n")
+    kept = json.loads((folder / "run.json").read_text())
     drawn = []
     monkeypatch.setattr(driving, "driving_markdown", lambda *a: drawn.append(a) or "page\n")
     study = driving.load_study(SHIPPED, ["drive_grid4"])
     written = driving.publish(study, out, tmp_path / "docs" / "driving.md")
     assert written == [tmp_path / "docs" / "driving.md", folder]
     assert (tmp_path / "docs" / "driving.md").read_text() == "page\n"
-    assert drawn == [(folder, "c", "m")]
+    configs = [r["config"] for r in csv.DictReader(io.StringIO(before))]
+    was = commands_of(kept, configs)  # each other row keeps the command that wrote it
+    assert drawn == [(folder, {**was, "drive_grid4": "c"}, "m")]
+    assert json.loads((folder / "run.json").read_text())["commands"]["drive_grid4"] == "c"
     after = (folder / RUNS).read_text()
     assert after == before.replace("grid 4x4", "grid 4x4 again")  # its row, in its place
     assert (folder / "gpu_h200_eval.csv").is_file()  # other files of the folder stay
@@ -179,3 +184,15 @@ def test_a_tiny_driving_study_end_to_end_and_its_resume(tmp_path):
     path.write_text(TINY.replace("episodes: 2", "episodes: 3"))
     refused = subprocess.run([*cmd, "--resume"], capture_output=True, text=True)
     assert refused.returncode == 2 and "was trained with other settings" in refused.stderr
+
+
+def test_the_page_names_each_command_with_the_configs_it_wrote():
+    one = {"drive_square4": "jaxnav study driving", "drive_rooms": "jaxnav study driving"}
+    assert written_by(one, "M") == "Written by `jaxnav study driving` on M."
+    two = {**one, "drive_rooms": "jaxnav study driving drive_rooms --resume"}
+    assert written_by(two, "M") == (
+        "Written by `jaxnav study driving` (`drive_square4`); "
+        "`jaxnav study driving drive_rooms --resume` (`drive_rooms`), on M."
+    )
+    # a folder written before rows kept their own command: its one command for every row
+    assert commands_of({"command": "c", "machine": "M"}, ["a", "b"]) == {"a": "c", "b": "c"}

@@ -26,9 +26,17 @@ from typing import Any
 
 import yaml
 
-from jaxnav.core import agents, families
+from jaxnav.core import agents
 from jaxnav.core import strategies as registry
 from jaxnav.core import sweep as sweeps
+from jaxnav.core.env_rules import (
+    env_bank_problem,
+    env_broad_phase_problem,
+    env_family_problem,
+    env_reward_problem,
+    env_scan_problem,
+    env_waypoint_problem,
+)
 from jaxnav.core.errors import ConfigError
 from jaxnav.core.sections import (
     DQNConfig,
@@ -39,7 +47,6 @@ from jaxnav.core.sections import (
 )
 from jaxnav.core.settings import (
     AT_LEAST_1,
-    MAX_LATTICE_CELLS,
     PRESETS,
     SEED,
     problem,
@@ -242,86 +249,6 @@ def env_setting_problem(name: str, value: Any) -> str | None:
     rule a config applies to ``env.NAME``, applied by ``jaxnav.env.NavEnv`` too."""
     s = SETTINGS.get(f"env.{name}")
     return problem(s.rule if s else _ENV_ONLY_RULES.get(name), value)
-
-
-def env_family_problem(env: Any) -> str | None:
-    """What is wrong with a maze family's settings together (one line naming the
-    setting), or None; ``env`` is an EnvConfig or a ``jaxnav.env.NavEnv`` whose
-    ``generator`` names a family (:mod:`jaxnav.core.families`)."""
-    if env.goal_sampler == "robotis":
-        return "env.goal_sampler robotis needs a fixed maze (env.generator empty)"
-    return families.get(env.generator).problem(env)
-
-
-def env_reward_problem(env: Any) -> str | None:
-    """What is wrong with the reward setting given the maze settings, or None."""
-    paths = families.with_shortest_paths()
-    which = families.listing(paths)
-    if env.reward == "geodesic" and env.generator not in paths:
-        return f"env.reward geodesic needs env.generator {which} (its shortest paths)"
-    if env.progress_path == "geodesic" and (env.reward != "progress" or env.generator not in paths):
-        return f"env.progress_path geodesic needs env.reward progress and env.generator {which}"
-    return None
-
-
-def env_bank_problem(env: Any) -> str | None:
-    """What is wrong with the maze bank's setting given the maze settings, or None."""
-    if env.maze_bank and not env.generator:
-        return "env.maze_bank draws layouts ahead: it needs drawn mazes (env.generator)"
-    if env.maze_bank_refresh and not env.maze_bank:
-        return "env.maze_bank_refresh draws new banks: it needs env.maze_bank"
-    return None
-
-
-def env_broad_phase_problem(env: Any) -> str | None:
-    """What is wrong with the LiDAR's broad phase given the maze settings, or None."""
-    return lattice_problem(env) if env.broad_phase == "lattice" else None
-
-
-def lattice_problem(env: Any) -> str | None:
-    """Why ``env``'s LiDAR cannot walk its mazes' lattice, or None where it can (drawn
-    mazes of a family with a lattice, unscaled, at most MAX_LATTICE_CELLS a side)."""
-    lattice = families.with_lattice()
-    if env.generator not in lattice:
-        which = families.listing(lattice)
-        return f"env.broad_phase lattice walks a maze's lattice: it needs env.generator {which}"
-    if tuple(env.maze_scale) != (1.0, 1.0):
-        return "env.broad_phase lattice walks the lattice of unscaled mazes: env.maze_scale is on"
-    if families.get(env.generator).lattice(env) > MAX_LATTICE_CELLS:
-        return f"env.broad_phase lattice walks lattices of at most {MAX_LATTICE_CELLS} cells a side"
-    return None
-
-
-def env_waypoint_problem(env: Any) -> str | None:
-    """What is wrong with the waypoint setting given the maze settings, or None (a
-    config's check: a run's test on a fixed maze observes the goal as its waypoint)."""
-    paths = families.with_shortest_paths()
-    if env.waypoint and env.generator not in paths:
-        which = families.listing(paths)
-        return f"env.waypoint follows the maze's shortest paths: it needs env.generator {which}"
-    return None
-
-
-def env_scan_problem(env: Any) -> str | None:
-    """What is wrong with the pooled scan's setting given the beams, or None."""
-    if env.scan_beams and (env.scan_beams % env.n_beams or env.scan_beams < env.n_beams):
-        return (
-            f"env.scan_beams ({env.scan_beams}) must be 0 or a multiple of env.n_beams "
-            f"({env.n_beams})"
-        )
-    if env.scan_beams and env.beam_layout != "even":
-        return "env.scan_beams pools an even scan: it needs env.beam_layout even"
-    if env.waypoint and env.observation != "normalised":
-        return (
-            "env.waypoint is part of the normalised observation: it needs "
-            "env.observation normalised"
-        )
-    if env.scan_history and env.observation != "normalised":
-        return (
-            "env.scan_history is part of the normalised observation: it needs "
-            "env.observation normalised"
-        )
-    return None
 
 
 def sweep_refusal(key: str) -> str | None:

@@ -37,7 +37,7 @@ from jaxnav.core.errors import ConfigError, JaxnavError
 from jaxnav.core.rundir import atomic_write_text, csv_text
 from jaxnav.core.values import flatten
 from jaxnav.experiments import runner, studyfile
-from jaxnav.report.driving_page import RUN_COLUMNS, RUNS, driving_markdown
+from jaxnav.report.driving_page import RUN_COLUMNS, RUNS, commands_of, driving_markdown
 
 STUDY_KEYS = {
     "kind": str,
@@ -179,7 +179,7 @@ def run_study(study: Study, out: Path, resume_ok: bool, quiet: bool, command: st
     atomic_write_text(
         data / RUNS, csv_text(RUN_COLUMNS, [[r[c] for c in RUN_COLUMNS] for r in rows])
     )
-    meta = {"command": command, "machine": runner.machine_line()}
+    meta = {"commands": dict.fromkeys(study.configs, command), "machine": runner.machine_line()}
     atomic_write_text(data / "run.json", json.dumps(meta) + "\n")
     return data
 
@@ -199,7 +199,13 @@ def publish(study: Study, out: Path, page: Path) -> list[Path]:
         shutil.copyfile(data / f"{r['config']}.csv", folder / f"{r['config']}.csv")
     text = csv_text(RUN_COLUMNS, [[r[c] for c in RUN_COLUMNS] for r in rows.values()])
     atomic_write_text(folder / RUNS, text)
-    shutil.copyfile(data / "run.json", folder / "run.json")
-    meta = json.loads((folder / "run.json").read_text())
-    atomic_write_text(page, driving_markdown(folder, meta["command"], meta["machine"]))
+    # each row keeps the command that wrote it: the folder's for the rows kept
+    kept = json.loads((folder / "run.json").read_text()) if (folder / "run.json").is_file() else {}
+    new = json.loads((data / "run.json").read_text())
+    configs, ran = list(rows), [r["config"] for r in _rows(data / RUNS)]
+    commands = {**(commands_of(kept, configs) if kept else {}), **commands_of(new, ran)}
+    commands = {c: commands[c] for c in configs}
+    meta = {"commands": commands, "machine": new["machine"]}
+    atomic_write_text(folder / "run.json", json.dumps(meta) + "\n")
+    atomic_write_text(page, driving_markdown(folder, commands, meta["machine"]))
     return [page, folder]

@@ -34,6 +34,31 @@ def _runs(folder: Path) -> list[dict[str, str]]:
     return list(csv.DictReader(io.StringIO((folder / RUNS).read_text())))
 
 
+def configs_of(folder: Path) -> list[str]:
+    """The configs of a data folder's rows, in their order."""
+    return [r["config"] for r in _runs(folder)]
+
+
+def commands_of(meta: dict, configs: list[str]) -> dict[str, str]:
+    """config -> the command that wrote its row, from a data folder's ``run.json``:
+    ``{"commands": {config: command}, "machine": ...}``, or an earlier folder's one
+    ``"command"`` for every config."""
+    if "commands" in meta:
+        return {c: meta["commands"][c] for c in configs if c in meta["commands"]}
+    return dict.fromkeys(configs, meta["command"])
+
+
+def written_by(commands: dict[str, str], machine: str) -> str:
+    """The page's line naming each command and, when there are several, its configs."""
+    by: dict[str, list[str]] = {}
+    for config, command in commands.items():
+        by.setdefault(command, []).append(config)
+    if len(by) == 1:
+        return f"Written by `{next(iter(by))}` on {machine}."
+    parts = [f"`{c}` ({', '.join(f'`{n}`' for n in names)})" for c, names in by.items()]
+    return f"Written by {'; '.join(parts)}, on {machine}."
+
+
 def world_table(folder: Path) -> list[dict]:
     """One entry per (config, test maze): each driver's per-seed metrics and the run."""
     out = []
@@ -82,8 +107,9 @@ def sentences(folder: Path) -> list[str]:
     return out
 
 
-def driving_markdown(folder: Path, command: str, machine: str) -> str:
-    """The page from its data folder, the command that wrote it and the machine."""
+def driving_markdown(folder: Path, commands: dict[str, str], machine: str) -> str:
+    """The page from its data folder, the commands that wrote its rows (config ->
+    command, :func:`commands_of`) and the machine."""
     rows = []
     for e in world_table(folder):
         run, d = e["run"], e["drivers"]
@@ -124,7 +150,7 @@ def driving_markdown(folder: Path, command: str, machine: str) -> str:
         "*Command*: the whole `jaxnav train` command, compilation included (an empty "
         "compilation cache), on the machine below.",
         "",
-        f"Written by `{command}` on {machine}.",
+        written_by(commands, machine),
         "",
         *markdown_table(header, rows),
         "",
@@ -168,4 +194,15 @@ def readme_block(folder: Path) -> str:
     return "\n".join(f"- {s}" for s in sentences(folder))
 
 
-__all__ = ["BEGIN", "END", "RUNS", "RUN_COLUMNS", "driving_markdown", "readme_block", "sentences"]
+__all__ = [
+    "BEGIN",
+    "END",
+    "RUNS",
+    "RUN_COLUMNS",
+    "commands_of",
+    "configs_of",
+    "driving_markdown",
+    "readme_block",
+    "sentences",
+    "written_by",
+]

@@ -128,11 +128,11 @@ def _driving_readme(root: Path) -> str:
 
 
 def _driving_page(root: Path) -> str:
-    from jaxnav.report.driving_page import driving_markdown
+    from jaxnav.report.driving_page import commands_of, configs_of, driving_markdown
 
     folder = root / "docs" / "driving"
     meta = json.loads((folder / "run.json").read_text())
-    return driving_markdown(folder, meta["command"], meta["machine"])
+    return driving_markdown(folder, commands_of(meta, configs_of(folder)), meta["machine"])
 
 
 def _baselines_page(root: Path) -> str:

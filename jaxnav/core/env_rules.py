@@ -1,0 +1,96 @@
+"""The environment's settings checked together: one line naming the setting where a
+combination cannot make a valid world (a reward that follows shortest paths in mazes
+that have none, a bank of layouts for a fixed maze, ...), or None.
+
+A config applies them when it is built (:mod:`jaxnav.core.config`) and
+``jaxnav.env.NavEnv`` applies them again to its own fields, so an environment made in
+code is held to the same rules. Each takes anything with the environment's fields
+(an ``EnvConfig`` or a ``NavEnv``).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from jaxnav.core import families
+from jaxnav.core.settings import MAX_LATTICE_CELLS
+
+
+def env_family_problem(env: Any) -> str | None:
+    """What is wrong with a maze family's settings together (one line naming the
+    setting), or None; ``env`` is an EnvConfig or a ``jaxnav.env.NavEnv`` whose
+    ``generator`` names a family (:mod:`jaxnav.core.families`)."""
+    if env.goal_sampler == "robotis":
+        return "env.goal_sampler robotis needs a fixed maze (env.generator empty)"
+    return families.get(env.generator).problem(env)
+
+
+def env_reward_problem(env: Any) -> str | None:
+    """What is wrong with the reward setting given the maze settings, or None."""
+    paths = families.with_shortest_paths()
+    which = families.listing(paths)
+    if env.reward == "geodesic" and env.generator not in paths:
+        return f"env.reward geodesic needs env.generator {which} (its shortest paths)"
+    if env.progress_path == "geodesic" and (env.reward != "progress" or env.generator not in paths):
+        return f"env.progress_path geodesic needs env.reward progress and env.generator {which}"
+    return None
+
+
+def env_bank_problem(env: Any) -> str | None:
+    """What is wrong with the maze bank's setting given the maze settings, or None."""
+    if env.maze_bank and not env.generator:
+        return "env.maze_bank draws layouts ahead: it needs drawn mazes (env.generator)"
+    if env.maze_bank_refresh and not env.maze_bank:
+        return "env.maze_bank_refresh draws new banks: it needs env.maze_bank"
+    return None
+
+
+def env_broad_phase_problem(env: Any) -> str | None:
+    """What is wrong with the LiDAR's broad phase given the maze settings, or None."""
+    return lattice_problem(env) if env.broad_phase == "lattice" else None
+
+
+def lattice_problem(env: Any) -> str | None:
+    """Why ``env``'s LiDAR cannot walk its mazes' lattice, or None where it can (drawn
+    mazes of a family with a lattice, unscaled, at most MAX_LATTICE_CELLS a side)."""
+    lattice = families.with_lattice()
+    if env.generator not in lattice:
+        which = families.listing(lattice)
+        return f"env.broad_phase lattice walks a maze's lattice: it needs env.generator {which}"
+    if tuple(env.maze_scale) != (1.0, 1.0):
+        return "env.broad_phase lattice walks the lattice of unscaled mazes: env.maze_scale is on"
+    if families.get(env.generator).lattice(env) > MAX_LATTICE_CELLS:
+        return f"env.broad_phase lattice walks lattices of at most {MAX_LATTICE_CELLS} cells a side"
+    return None
+
+
+def env_waypoint_problem(env: Any) -> str | None:
+    """What is wrong with the waypoint setting given the maze settings, or None (a
+    config's check: a run's test on a fixed maze observes the goal as its waypoint)."""
+    paths = families.with_shortest_paths()
+    if env.waypoint and env.generator not in paths:
+        which = families.listing(paths)
+        return f"env.waypoint follows the maze's shortest paths: it needs env.generator {which}"
+    return None
+
+
+def env_scan_problem(env: Any) -> str | None:
+    """What is wrong with the pooled scan's setting given the beams, or None."""
+    if env.scan_beams and (env.scan_beams % env.n_beams or env.scan_beams < env.n_beams):
+        return (
+            f"env.scan_beams ({env.scan_beams}) must be 0 or a multiple of env.n_beams "
+            f"({env.n_beams})"
+        )
+    if env.scan_beams and env.beam_layout != "even":
+        return "env.scan_beams pools an even scan: it needs env.beam_layout even"
+    if env.waypoint and env.observation != "normalised":
+        return (
+            "env.waypoint is part of the normalised observation: it needs "
+            "env.observation normalised"
+        )
+    if env.scan_history and env.observation != "normalised":
+        return (
+            "env.scan_history is part of the normalised observation: it needs "
+            "env.observation normalised"
+        )
+    return None
