@@ -38,3 +38,27 @@ def test_a_command_starts_jax_with_the_cache_unless_told_otherwise(tmp_path):
     assert _cache_seen_by_jax({**env, "JAXNAV_CACHE": "off"}) in ("", "None")
     theirs = {**env, "JAXNAV_CACHE": str(tmp_path), "JAX_COMPILATION_CACHE_DIR": "/elsewhere"}
     assert _cache_seen_by_jax(theirs) == "/elsewhere"
+
+
+def test_a_command_started_by_a_command_uses_its_own_cache(tmp_path):
+    """A study times each training command with an empty cache of its own
+    (JAXNAV_CACHE), though the study itself set JAX_COMPILATION_CACHE_DIR, which the
+    command inherits: a parent's directory is not the user's choice."""
+    env = {k: v for k, v in os.environ.items() if not k.startswith(("JAX_", "JAXNAV_"))}
+    code = (
+        "import os, subprocess, sys; from jaxnav.core.startup import before_jax; before_jax(); "
+        "child = {**os.environ, 'JAXNAV_CACHE': sys.argv[1]}; "
+        "sys.exit(subprocess.run([sys.executable, '-c', sys.argv[2]], env=child).returncode)"
+    )
+    seen = (
+        "from jaxnav.core.startup import before_jax; before_jax(); import jax; "
+        "print(jax.config.jax_compilation_cache_dir)"
+    )
+    parent = {**env, "JAXNAV_CACHE": str(tmp_path / "parent")}
+    for child, want in ((str(tmp_path / "child"), str(tmp_path / "child")), ("off", ("", "None"))):
+        out = subprocess.run(
+            [sys.executable, "-c", code, child, seen],
+            env=parent, cwd=ROOT, capture_output=True, text=True, check=True,
+        )  # fmt: skip
+        got = out.stdout.strip()
+        assert got in want if isinstance(want, tuple) else got == want

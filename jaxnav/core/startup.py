@@ -50,6 +50,9 @@ from pathlib import Path
 from jaxnav.core.cpu import use_all_cores
 
 _IMPORTED = time.monotonic()  # fallback start where /proc is missing
+# The JAX_COMPILATION_CACHE_DIR a jaxnav command set itself, not the user: a command
+# started by another (a study's training commands, a benchmark's) inherits both.
+_SET_BY_JAXNAV = "JAXNAV_CACHE_SET"
 
 
 def process_age() -> float:
@@ -78,12 +81,20 @@ def cache_dir() -> Path | None:
 def use_compilation_cache() -> None:
     """Point JAX's persistent compilation cache at :func:`cache_dir`, unless JAX
     already started, the user chose a directory for JAX, or it is off."""
-    if "jax" in sys.modules or "JAX_COMPILATION_CACHE_DIR" in os.environ:
+    if "jax" in sys.modules:
         return
+    chosen = os.environ.get("JAX_COMPILATION_CACHE_DIR")
+    if chosen is not None and chosen != os.environ.get(_SET_BY_JAXNAV):
+        return  # the user's directory
+    # Unset, or set by a jaxnav process this one was started from (a child inherits
+    # the variable; a study times its commands with a cache of their own): this
+    # command's own choice.
     path = cache_dir()
     if path is None:
+        os.environ.pop("JAX_COMPILATION_CACHE_DIR", None)
+        os.environ.pop(_SET_BY_JAXNAV, None)
         return
-    os.environ["JAX_COMPILATION_CACHE_DIR"] = str(path)
+    os.environ["JAX_COMPILATION_CACHE_DIR"] = os.environ[_SET_BY_JAXNAV] = str(path)
 
 
 def before_jax() -> None:
