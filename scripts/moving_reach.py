@@ -32,15 +32,19 @@ import sys
 import numpy as np
 from scipy import ndimage
 
+from jaxnav.core.errors import MazeError
 from jaxnav.world.maps import ROBOT_RADIUS, make_maze
 
 BURGER_SPEED = 0.22  # m/s, the burger's largest linear command
 
 
-def spinning(name: str) -> tuple[np.ndarray, np.ndarray, float, float]:
-    """(cylinder centres at time 0 [K, 2], radii [K], spin rad/s, arena half side) of a
-    stage whose cylinders all spin about the origin at one rate."""
-    maze = make_maze(name)
+def spinning(name: str) -> tuple[np.ndarray, np.ndarray, float, float, np.ndarray]:
+    """(cylinder centres at time 0 [K, 2], radii [K], spin rad/s, arena half side, the
+    robot's start [2]) of a stage whose cylinders all spin about the origin at one rate."""
+    try:
+        maze = make_maze(name)
+    except MazeError as e:
+        raise SystemExit(f"moving_reach: {e}") from None
     m = maze.motion
     if m is None:
         raise SystemExit(f"{name}: no moving obstacles")
@@ -48,11 +52,12 @@ def spinning(name: str) -> tuple[np.ndarray, np.ndarray, float, float]:
     centre = np.asarray(m.centre, np.float64)
     if np.any(spin != spin[0]) or np.any(centre != 0.0) or spin[0] == 0.0:
         raise SystemExit(f"{name}: its cylinders do not all spin about the origin at one rate")
-    points = np.asarray(m.points, np.float64)[:, 0]
-    if np.any(np.asarray(m.points)[:, :, :] != np.asarray(m.points)[:, :1, :]):
+    loops = np.asarray(m.points, np.float64)  # [K, waypoints, 2]
+    if np.any(loops != loops[:, :1]):
         raise SystemExit(f"{name}: its cylinders also move along paths")
     half = float(np.max(np.abs(np.asarray(maze.bounds))))
-    return points, np.asarray(m.radius, np.float64), float(spin[0]), half
+    start = np.asarray(maze.start[:2], np.float64)
+    return loops[:, 0], np.asarray(m.radius, np.float64), float(spin[0]), half, start
 
 
 def farthest_reach(
@@ -60,7 +65,7 @@ def farthest_reach(
 ) -> tuple[float, float, float, float]:
     """(farthest radius of the over-approximated reachable set, the ring's inner and
     outer edge for the robot's centre, the time the set stopped growing or the horizon)."""
-    centres, radii, spin, half = spinning(name)
+    centres, radii, spin, half, start = spinning(name)
     n = int(math.ceil(2 * half / cell))
     xs = (np.arange(n) + 0.5) * cell - half
     X, Y = np.meshgrid(xs, xs, indexing="ij")
@@ -77,7 +82,6 @@ def farthest_reach(
     k = int(math.ceil(grow / cell))
     g = np.arange(-k, k + 1) * cell
     disc = np.hypot(*np.meshgrid(g, g, indexing="ij")) <= grow
-    start = np.asarray(make_maze(name).start[:2], np.float64)
     reach = np.zeros((n, n), bool)
     reach[tuple(np.clip(((start + half) / cell).astype(int), 0, n - 1))] = True
     c, s = math.cos(-spin * dt), math.sin(-spin * dt)  # the frame turns with the body
@@ -108,7 +112,11 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--horizon", type=float, default=120.0, help="s")
     args = ap.parse_args(argv)
     for name in args.stages:
-        far, lo, hi, t = farthest_reach(name, args.speed, args.cell, args.dt, args.horizon)
+        try:
+            far, lo, hi, t = farthest_reach(name, args.speed, args.cell, args.dt, args.horizon)
+        except SystemExit as e:  # a stage the bound does not apply to: one line, status 2
+            print(e, file=sys.stderr)
+            return 2
         verdict = (
             "cannot leave the ring: no goal beyond it is reachable"
             if far < hi

@@ -44,3 +44,5 @@ def test_a_robot_faster_than_the_rim_gets_out_of_stage3():
 def test_a_stage_whose_cylinders_follow_paths_is_refused():
     with pytest.raises(SystemExit, match="stage4: its cylinders do not all spin"):
         reach.spinning("stage4")
+    with pytest.raises(SystemExit, match="unknown maze 'nowhere'"):
+        reach.spinning("nowhere")

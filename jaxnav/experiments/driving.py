@@ -37,7 +37,13 @@ from jaxnav.core.errors import ConfigError, JaxnavError
 from jaxnav.core.rundir import atomic_write_text, csv_text
 from jaxnav.core.values import flatten
 from jaxnav.experiments import runner, studyfile
-from jaxnav.report.driving_page import RUN_COLUMNS, RUNS, commands_of, driving_markdown
+from jaxnav.report.driving_page import (
+    RUN_COLUMNS,
+    RUNS,
+    commands_of,
+    configs_of,
+    driving_markdown,
+)
 
 STUDY_KEYS = {
     "kind": str,
@@ -202,7 +208,7 @@ def publish(study: Study, out: Path, page: Path) -> list[Path]:
     # each row keeps the command that wrote it: the folder's for the rows kept
     kept = json.loads((folder / "run.json").read_text()) if (folder / "run.json").is_file() else {}
     new = json.loads((data / "run.json").read_text())
-    configs, ran = list(rows), [r["config"] for r in _rows(data / RUNS)]
+    configs, ran = list(rows), configs_of(data)
     commands = {**(commands_of(kept, configs) if kept else {}), **commands_of(new, ran)}
     commands = {c: commands[c] for c in configs}
     meta = {"commands": commands, "machine": new["machine"]}
