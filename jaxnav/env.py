@@ -42,6 +42,7 @@ import jax.numpy as jnp
 from jaxnav.core import families
 from jaxnav.core.config import env_setting_problem
 from jaxnav.core.env_rules import (
+    env_action_problem,
     env_bank_problem,
     env_broad_phase_problem,
     env_family_problem,
@@ -49,7 +50,14 @@ from jaxnav.core.env_rules import (
     env_scan_problem,
     lattice_problem,
 )
-from jaxnav.core.settings import ACTION_SETS, PRESETS
+from jaxnav.core.settings import (
+    ACTION_SETS,
+    BURGER_MAX_OMEGA,
+    BURGER_MAX_V,
+    CONTINUOUS,
+    CONTINUOUS_TWIN,
+    PRESETS,
+)
 from jaxnav.world import motion
 from jaxnav.world.geometry import (
     displacement,
@@ -69,7 +77,7 @@ from jaxnav.world.maps import (
 from jaxnav.world.observer import Observer
 from jaxnav.world.reward import progress_reward, reward_fn, sparse_reward
 from jaxnav.world.sensor import goal_heading_distance
-from jaxnav.world.spaces import Discrete
+from jaxnav.world.spaces import Box, Discrete
 from jaxnav.world.state import (
     PAPER_OMEGAS,
     STRAIGHT,
@@ -226,6 +234,9 @@ class NavEnv(GoalSampler, DrawnLayouts, Observer):
     scan_beams: int = 0
     scan_history: int = 0
     waypoint: bool = False
+    speed_range: tuple[float, float] = (0.0, BURGER_MAX_V)
+    max_yaw_rate: float = BURGER_MAX_OMEGA
+    beyond_limits: bool = False
 
     def __post_init__(self):
         for f in dataclasses.fields(self):  # the rules of the config's env settings
@@ -235,6 +246,7 @@ class NavEnv(GoalSampler, DrawnLayouts, Observer):
         problem = env_family_problem(self) if self.generator else None
         problem = problem or env_reward_problem(self) or env_scan_problem(self)
         problem = problem or env_bank_problem(self) or env_broad_phase_problem(self)
+        problem = problem or env_action_problem(self)
         if problem:
             raise ValueError(problem)
         for f in dataclasses.fields(self):  # pairs (a list works too) as tuples of floats
@@ -253,9 +265,17 @@ class NavEnv(GoalSampler, DrawnLayouts, Observer):
     def command(self, params: EnvParams, action: chex.Array) -> tuple[chex.Array, chex.Array]:
         """(v m/s, omega rad/s) the robot drives for ``action`` (any shape): the action's
         yaw rate at its speed (the forward speed ``v`` for the paper's actions), as the
-        firmware clips them if ``wheel_limit``."""
-        omega = jnp.asarray(params.omegas)[action]
-        v = params.v if params.speeds is None else jnp.asarray(params.speeds)[action]
+        firmware clips them if ``wheel_limit``. A continuous action (f32[..., 2] in
+        [-1, 1], clipped there) sets the speed across ``speed_range`` and the yaw rate
+        across +-``max_yaw_rate``."""
+        if self.continuous:
+            a = jnp.clip(jnp.asarray(action, jnp.float32), -1.0, 1.0)
+            low, high = self.speed_range
+            v = low + (a[..., 0] + 1.0) * (0.5 * (high - low))
+            omega = a[..., 1] * self.max_yaw_rate
+        else:
+            omega = jnp.asarray(params.omegas)[action]
+            v = params.v if params.speeds is None else jnp.asarray(params.speeds)[action]
         if self.wheel_limit:  # the arc the robot drives, not the one commanded
             v, omega = firmware_limit(jnp.asarray(v, jnp.float32), omega)
         return v, omega
@@ -273,9 +293,35 @@ class NavEnv(GoalSampler, DrawnLayouts, Observer):
         return int(self.attempt_limit) or int(params.max_steps)
 
     @property
+    def continuous(self) -> bool:
+        """Whether an action is a continuous command (``actions`` continuous)."""
+        return self.actions == CONTINUOUS
+
+    @property
     def num_actions(self) -> int:
+        """The discrete actions' count (continuous actions have none: ``action_size``)."""
+        if self.continuous:
+            raise ValueError("continuous actions are not counted: see NavEnv.action_size")
         table = ACTION_SETS[self.actions]
         return len(PAPER_OMEGAS) if table is None else len(table)
+
+    @property
+    def action_size(self) -> int:
+        """Numbers per action: 2 for a continuous command (speed, yaw rate), else 1."""
+        return 2 if self.continuous else 1
+
+    def discrete_twin(self, params: EnvParams) -> tuple[NavEnv, EnvParams]:
+        """This environment and ``params`` with the discrete commands the reference
+        drivers plan over: the ``vw`` set (:data:`jaxnav.core.settings.CONTINUOUS_TWIN`)
+        for continuous actions, unchanged otherwise. The world, its goals and its keys
+        are the same, so a planner's test meets the goals a continuous policy meets."""
+        if not self.continuous:
+            return self, params
+        table = ACTION_SETS[CONTINUOUS_TWIN]
+        twin = dataclasses.replace(self, actions=CONTINUOUS_TWIN)
+        speeds = jnp.asarray([v for v, _ in table], jnp.float32)
+        omegas = jnp.asarray([w for _, w in table], jnp.float32)
+        return twin, params.replace(speeds=speeds, omegas=omegas)
 
     @property
     def walks_lattice(self) -> bool:
@@ -294,7 +340,9 @@ class NavEnv(GoalSampler, DrawnLayouts, Observer):
             self.reward == "progress" and self.progress_path == "geodesic"
         )
 
-    def action_space(self, params: EnvParams | None = None) -> Discrete:
+    def action_space(self, params: EnvParams | None = None) -> Discrete | Box:
+        if self.continuous:
+            return Box(-1.0, 1.0, (2,))
         return Discrete(self.num_actions)
 
     # -- observation ---------------------------------------------------------
@@ -508,7 +556,7 @@ def make(
     if "omegas" in values:
         values["omegas"] = jnp.asarray(values["omegas"], jnp.float32)
     env = NavEnv(**env_kwargs)
-    table = ACTION_SETS[env.actions]
+    table = ACTION_SETS.get(env.actions)
     if table is not None:  # the set's commands: speeds and yaw rates as data
         values["speeds"] = jnp.asarray([v for v, _ in table], jnp.float32)
         values["omegas"] = jnp.asarray([w for _, w in table], jnp.float32)

@@ -176,7 +176,7 @@ def test_a_toy_agent_registered_here_trains_evaluates_and_exports(toy, tmp_path)
 
 
 def test_an_agent_setting_names_the_registered_agents(toy):
-    with pytest.raises(ConfigError, match="agent must be one of dqn, pqn, toy, got 'ppo'"):
+    with pytest.raises(ConfigError, match="agent must be one of dqn, pqn, sac, toy, got 'ppo'"):
         load_config(None, ["agent=ppo"])
     # A section the agent does not read keeps its defaults.
     with pytest.raises(ConfigError, match="pqn.rollout is a PQN setting: it needs agent pqn"):
@@ -195,6 +195,6 @@ def test_an_agent_is_refused_a_clash_or_a_bad_declaration(toy):
         agents.register("toy", trainer=toy_trainer, network=toy_network)
     with pytest.raises(ConfigError, match="not an agent settings section"):
         agents.register("toy2", trainer=toy_trainer, network=toy_network, reads=("env",))
-    with pytest.raises(ConfigError, match="only discrete-action agents"):
-        agents.register("toy3", trainer=toy_trainer, network=toy_network, actions="continuous")
+    with pytest.raises(ConfigError, match="actions must be discrete or continuous"):
+        agents.register("toy3", trainer=toy_trainer, network=toy_network, actions="hybrid")
     assert "toy2" not in agents.names() and "toy3" not in agents.names()

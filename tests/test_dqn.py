@@ -25,7 +25,7 @@ from jaxnav.core.config import ExplorationConfig, load_config
 from jaxnav.core.errors import ConfigError
 from jaxnav.dqn import make_trainer, network_of
 
-STRATEGIES = registry.names()
+STRATEGIES = registry.names("discrete")
 
 # -- TD target and loss -------------------------------------------------------
 

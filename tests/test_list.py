@@ -21,7 +21,7 @@ ROOT = Path(__file__).resolve().parents[1]
 def test_the_top_level_holds_env_the_agents_and_the_commands_only():
     """Every other top-level module is a command, and ``jaxnav`` lists each one."""
     modules = {p.stem for p in (ROOT / "jaxnav").glob("*.py")}
-    assert modules - {"__init__", "__main__", "env", "dqn", "pqn"} == set(COMMANDS)
+    assert modules - {"__init__", "__main__", "env", "dqn", "pqn", "sac"} == set(COMMANDS)
 
 
 def test_help_lists_every_command_with_one_line(capsys):

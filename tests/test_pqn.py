@@ -21,7 +21,7 @@ from jaxnav.run import training
 from jaxnav.run.training import Run, train_new
 from jaxnav.train import main
 
-STRATEGIES = registry.names()
+STRATEGIES = registry.names("discrete")
 TINY = [
     "agent=pqn",
     "seeds=2",
@@ -292,7 +292,7 @@ def test_a_pqn_policy_exports_with_its_layer_norms(tiny_pqn_run):
             ["agent=dqn", "pqn.rollout=8"],
             "pqn.rollout is a PQN setting: it needs agent pqn",
         ),
-        (["agent=ppo"], "agent must be one of dqn, pqn, got 'ppo'"),
+        (["agent=ppo"], "agent must be one of dqn, pqn, sac, got 'ppo'"),
     ],
 )
 def test_bad_pqn_input_is_one_line_and_exit_2(argv, message, capsys, tmp_path):

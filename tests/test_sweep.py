@@ -97,7 +97,7 @@ class _Reads:
         return getattr(load_config(None).exploration, name)
 
 
-@pytest.mark.parametrize("strategy", registry.names())
+@pytest.mark.parametrize("strategy", registry.names("discrete"))
 def test_each_strategy_reads_exactly_its_listed_settings(strategy):
     reads = _Reads()
     q = jnp.asarray([0.1, 0.5, 0.2, 0.0, 0.3])

@@ -93,6 +93,14 @@ def act_boltzmann(key, q, episode, x):
     return boltzmann(key, q, x.boltzmann_temperature)
 
 
+def act_policy(key, q, episode, x):
+    """The ``policy`` strategy's act over Q-values: greedy. It is a continuous agent's
+    own exploration (SAC samples its policy), which a config never gives a Q-learner
+    (:func:`jaxnav.core.config.action_problem`); a Q-learner handed it does not explore."""
+    del key, episode, x
+    return jnp.argmax(q, axis=-1).astype(jnp.int32), jnp.float32(0.0)
+
+
 def explore_action(
     strategy: chex.Array,
     key: chex.PRNGKey,

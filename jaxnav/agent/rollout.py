@@ -53,7 +53,7 @@ class Trajectory(NamedTuple):
     yaw: chex.Array  # f32[..., T]
     goal: chex.Array  # f32[..., T, 2]
     ranges: chex.Array  # f32[..., T, n_beams] the scan the policy saw
-    action: chex.Array  # i32[..., T]
+    action: chex.Array  # i32[..., T]; f32[..., T, 2] for continuous actions
     reward: chex.Array  # f32[..., T]
     reached: chex.Array  # bool[..., T] the goal was reached in this step
     collided: chex.Array  # bool[..., T] the robot collided in this step
@@ -123,7 +123,8 @@ def make_rollout(
     Each episode lasts at most ``max_steps`` steps, so a scan of
     ``n_episodes * max_steps`` steps always completes them; later steps are ignored.
 
-    Greedy (``exploring`` None): dropout off, action = argmax Q. Exploring
+    Greedy (``exploring`` None): dropout off, action = argmax Q (a continuous agent:
+    its mean command; exploring, its sampled one). Exploring
     (``exploring`` = the episodes trained): each strategy explores
     as at the end of its training, through the trainer's own
     :func:`jaxnav.agent.exploration.explore_action` (EBE with probability H(s), epsilon-greedy with
@@ -138,6 +139,10 @@ def make_rollout(
     # One scan body over one explicit carry, read top to bottom: ACT, STEP ENV, RECORD.
 
     def act(params, obs, key, strategy, hyper):
+        if env.continuous:  # the actor's mean command, or its sample when exploring
+            if exploring is None:
+                return network.apply(params, obs)
+            return network.apply(params, obs, jax.random.fold_in(key, 1))[0]
         q = network.apply(params, obs)  # dropout off (Keras predict)
         if exploring is None:
             return jnp.argmax(q, axis=-1).astype(jnp.int32)

@@ -66,4 +66,32 @@ def pqn_memory(cfg: Config) -> int:
     return cfg.n_runs * cfg.pqn.num_envs * cfg.pqn.rollout * (2 * obs + 64)
 
 
-__all__ = ["dqn_memory", "dqn_problem", "pqn_memory", "pqn_problem"]
+def sac_problem(cfg: Config) -> str | None:
+    """SAC's settings together: a batch fits the replay memory."""
+    s = cfg.sac
+    capacity = sac_capacity(cfg)
+    if s.batch_size > capacity:
+        return (
+            f"sac.batch_size ({s.batch_size}) is larger than the replay memory, {capacity} "
+            "transitions (the smaller of sac.buffer_size and the most steps a run takes)"
+        )
+    return None
+
+
+def sac_capacity(cfg: Config) -> int:
+    """SAC's replay capacity per run: sac.buffer_size, at most the run's env steps (a
+    whole step of every environment more)."""
+    s = cfg.sac
+    most = cfg.max_total_steps + s.num_envs if cfg.total_steps is not None else s.buffer_size
+    return max(s.num_envs, min(s.buffer_size, most))
+
+
+def sac_memory(cfg: Config) -> int:
+    """Bytes of SAC's replay memories: per transition an observation and the next one
+    (f32, n_beams + 4 values, more with a scan history or a waypoint), a 2-number
+    action and three scalars."""
+    obs = 4 * (cfg.env.n_beams * (1 + cfg.env.scan_history) + 6)
+    return cfg.n_runs * sac_capacity(cfg) * (2 * obs + 20)
+
+
+__all__ = ["dqn_memory", "dqn_problem", "pqn_memory", "pqn_problem", "sac_memory", "sac_problem"]

@@ -20,10 +20,11 @@ after which ``agent=toy`` trains it, ``jaxnav evaluate`` tests it and ``jaxnav e
 writes its policy. ``trainer`` and ``network`` may be callables or ``"module:function"``
 strings, imported when first used, so this module imports no JAX.
 
-The policy a trained agent is tested and deployed with is greedy over its network's
-outputs (``argmax``): every registered agent is a discrete-action Q-learner today
-(``actions="discrete"``); the field is declared so that a continuous agent is refused
-where its policy cannot be run yet.
+The policy a trained agent is tested and deployed with is its network's output: the
+greedy action (``argmax``) of a discrete-action Q-learner (``actions="discrete"``), or
+the command itself for a continuous agent (``actions="continuous"``: the network maps an
+observation to its mean action in [-1, 1]^2, and ``network.sample(obs, key)`` draws
+the exploring one), which needs ``env.actions continuous``.
 """
 
 from __future__ import annotations
@@ -37,7 +38,9 @@ from jaxnav.core.refs import resolve
 
 # The settings sections an agent may read (besides env, exploration and run, which
 # every agent reads).
-AGENT_SECTIONS = ("dqn", "pqn")
+AGENT_SECTIONS = ("dqn", "pqn", "sac")
+# What an agent's network gives: action values to take the argmax of, or a command.
+ACTION_KINDS = ("discrete", "continuous")
 
 
 @dataclass(frozen=True)
@@ -48,7 +51,7 @@ class Agent:
     reads: tuple[str, ...]  # the settings sections it reads (AGENT_SECTIONS)
     replay: bool  # keeps a replay memory (its slots go to checkpoints)
     target_network: bool
-    actions: str  # "discrete" (argmax of the network's outputs)
+    actions: str  # "discrete" (argmax of the network's outputs) or "continuous"
     about: str
     # (config) -> str | None: what is wrong with its settings together, one line;
     # a callable or "module:function" (JAX-free: it runs when a config loads).
@@ -96,10 +99,9 @@ def register(
     bad = [s for s in reads if s not in AGENT_SECTIONS]
     if bad:
         raise ConfigError(f"agent {name!r}: {bad[0]} is not an agent settings section")
-    if actions != "discrete":
+    if actions not in ACTION_KINDS:
         raise ConfigError(
-            f"agent {name!r}: actions {actions!r}: only discrete-action agents can be "
-            "evaluated, exported and deployed"
+            f"agent {name!r}: actions must be {' or '.join(ACTION_KINDS)}, got {actions!r}"
         )
     _REGISTRY[name] = Agent(
         name,
@@ -160,5 +162,18 @@ register(
     "lr, hidden, dropout, dueling, loss and optimizer)",
 )
 
+register(
+    "sac",
+    trainer="jaxnav.sac:make_trainer",
+    network="jaxnav.sac:network_of",
+    reads=("sac",),
+    actions="continuous",
+    target_network=True,
+    problem="jaxnav.core.agent_settings:sac_problem",
+    memory="jaxnav.core.agent_settings:sac_memory",
+    about="SAC: continuous (speed, yaw rate), twin critics, replay, automatic entropy "
+    "temperature (sac.*; env.actions continuous, strategies [policy])",
+)
 
-__all__ = ["AGENT_SECTIONS", "Agent", "get", "names", "register", "unregister"]
+
+__all__ = ["ACTION_KINDS", "AGENT_SECTIONS", "Agent", "get", "names", "register", "unregister"]

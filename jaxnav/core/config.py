@@ -30,6 +30,7 @@ from jaxnav.core import agents
 from jaxnav.core import strategies as registry
 from jaxnav.core import sweep as sweeps
 from jaxnav.core.env_rules import (
+    env_action_problem,
     env_bank_problem,
     env_broad_phase_problem,
     env_family_problem,
@@ -44,9 +45,11 @@ from jaxnav.core.sections import (
     ExplorationConfig,
     PQNConfig,
     RunConfig,
+    SACConfig,
 )
 from jaxnav.core.settings import (
     AT_LEAST_1,
+    CONTINUOUS,
     PRESETS,
     SEED,
     problem,
@@ -92,11 +95,13 @@ class Config:
     agent: str = setting(
         "dqn",
         "the agent that learns (jaxnav list): dqn (the paper's: replay and a target "
-        "network) or pqn (parallel envs, lambda-returns, LayerNorm; pqn.*)",
+        "network), pqn (parallel envs, lambda-returns, LayerNorm; pqn.*) or sac (continuous "
+        "actions, twin critics, entropy temperature; sac.*)",
     )
     env: EnvConfig = setting(factory=EnvConfig)
     dqn: DQNConfig = setting(factory=DQNConfig)
     pqn: PQNConfig = setting(factory=PQNConfig)
+    sac: SACConfig = setting(factory=SACConfig)
     exploration: ExplorationConfig = setting(factory=ExplorationConfig)
     run: RunConfig = setting(factory=RunConfig)
     # ((dotted key, (value, ...)), ...): the settings this run varies across its runs,
@@ -292,6 +297,7 @@ def _check(cfg: Config) -> Config:
         or env_bank_problem(cfg.env)
         or env_broad_phase_problem(cfg.env)
         or env_waypoint_problem(cfg.env)
+        or env_action_problem(cfg.env)
     )
     if says:
         raise ConfigError(f"config: {says}")
@@ -338,7 +344,30 @@ def agent_problem(cfg: Config) -> str | None:
                 return (
                     f"{key} is a {section.upper()} setting: it needs agent {' or '.join(readers)}"
                 )
-    return agent.settings_problem(cfg)
+    return action_problem(cfg, agent) or agent.settings_problem(cfg)
+
+
+def action_problem(cfg: Config, agent: agents.Agent) -> str | None:
+    """What is wrong with the agent's actions against the environment's and the
+    strategies, or None: a continuous agent drives continuous commands and explores by
+    sampling its own policy (strategy ``policy``); a discrete agent neither."""
+    continuous = cfg.env.actions == CONTINUOUS
+    own = [s for s in cfg.strategies if s in registry.names("continuous")]
+    if agent.actions == "continuous":
+        if not continuous:
+            return f"agent {agent.name} drives continuous commands: it needs env.actions continuous"
+        if len(cfg.strategies) != 1 or not own:
+            return (
+                f"strategies: agent {agent.name} explores by sampling its own policy, so "
+                f"strategies must be [{', '.join(registry.names('continuous'))}]"
+            )
+        return None
+    if continuous:
+        which = " or ".join(a for a in agents.names() if agents.get(a).actions == "continuous")
+        return f"env.actions continuous needs an agent with continuous actions ({which})"
+    if own:
+        return f"strategies: {own[0]} is a continuous agent's own exploration (agent sac)"
+    return None
 
 
 def _sweep(values: dict[str, Any]) -> tuple[tuple[str, tuple[Any, ...]], ...]:

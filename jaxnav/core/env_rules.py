@@ -13,7 +13,7 @@ from __future__ import annotations
 from typing import Any
 
 from jaxnav.core import families
-from jaxnav.core.settings import MAX_LATTICE_CELLS
+from jaxnav.core.settings import BURGER_MAX_OMEGA, BURGER_MAX_V, CONTINUOUS, MAX_LATTICE_CELLS
 
 
 def env_family_problem(env: Any) -> str | None:
@@ -92,5 +92,29 @@ def env_scan_problem(env: Any) -> str | None:
         return (
             "env.scan_history is part of the normalised observation: it needs "
             "env.observation normalised"
+        )
+    return None
+
+
+def env_action_problem(env: Any) -> str | None:
+    """What is wrong with continuous actions given the other settings, or None: the
+    paper's and the geodesic reward score a discrete action's turn, a delayed action
+    is held as a number, and the limits stay within the burger's unless overridden."""
+    if env.actions != CONTINUOUS:
+        return None
+    if env.reward not in ("progress", "sparse"):
+        return (
+            f"env.actions continuous needs env.reward progress or sparse (env.reward "
+            f"{env.reward} scores the turn of a discrete action)"
+        )
+    if env.action_delay:
+        return "env.action_delay holds a discrete action: it needs discrete env.actions"
+    if not env.beyond_limits and (
+        env.speed_range[1] > BURGER_MAX_V or env.max_yaw_rate > BURGER_MAX_OMEGA
+    ):
+        return (
+            f"env.speed_range and env.max_yaw_rate must stay within the burger's limits "
+            f"({BURGER_MAX_V} m/s, {BURGER_MAX_OMEGA} rad/s); set env.beyond_limits true to "
+            "go beyond them"
         )
     return None

@@ -12,8 +12,10 @@ from dataclasses import dataclass
 
 from jaxnav.core import families
 from jaxnav.core.settings import (
-    ACTION_SETS,
+    ACTION_KINDS,
     AT_LEAST_1,
+    BURGER_MAX_OMEGA,
+    BURGER_MAX_V,
     NON_NEGATIVE,
     PAIR_NON_NEGATIVE,
     POSITIVE,
@@ -152,9 +154,28 @@ class EnvConfig:
     )
     actions: str = setting(
         "paper",
-        "paper (5 yaw rates at 0.15 m/s), paper_stop (those and a stop) or vw (speeds 0, "
-        "0.11 and 0.22 m/s by the 5 yaw rates): the commands the agent picks from",
-        rule=one_of(*ACTION_SETS),
+        "paper (5 yaw rates at 0.15 m/s), paper_stop (those and a stop), vw (speeds 0, "
+        "0.11 and 0.22 m/s by the 5 yaw rates): the commands the agent picks from; or "
+        "continuous: (speed, yaw rate) within env.speed_range and env.max_yaw_rate (SAC)",
+        rule=one_of(*ACTION_KINDS),
+    )
+    speed_range: tuple[float, ...] = setting(
+        (0.0, BURGER_MAX_V),
+        "continuous actions: [lowest, highest] forward speed, m/s",
+        rule=(
+            lambda x: len(x) == 2 and 0.0 <= x[0] <= x[1] and x[1] > 0.0,
+            "must be [low, high] with 0 <= low <= high and high > 0",
+        ),
+    )
+    max_yaw_rate: float = setting(
+        BURGER_MAX_OMEGA,
+        "continuous actions: the largest yaw rate either way, rad/s",
+        rule=POSITIVE,
+    )
+    beyond_limits: bool = setting(
+        False,
+        "continuous actions: allow env.speed_range and env.max_yaw_rate beyond the burger's "
+        "0.22 m/s and 2.84 rad/s",
     )
     scan_beams: int = setting(
         0,
@@ -293,6 +314,46 @@ class PQNConfig:
         4, "minibatches per pass (must divide num_envs x rollout)", rule=AT_LEAST_1
     )
     max_grad_norm: float = setting(10.0, "gradients clipped to this global norm", rule=POSITIVE)
+
+
+@dataclass(frozen=True)
+class SACConfig:
+    """SAC (Haarnoja et al. 2018, automatic entropy temperature), read when agent is
+    sac; it needs env.actions continuous and explores by sampling its own policy
+    (strategies [policy])."""
+
+    num_envs: int = setting(16, "environments each run steps in parallel", rule=AT_LEAST_1)
+    gamma: float = setting(0.99, "discount", rule=UNIT)
+    lr: float = setting(
+        1e-3, "Adam's learning rate of the actor, critics and temperature", rule=POSITIVE
+    )
+    batch_size: int = setting(128, "transitions per gradient step", rule=AT_LEAST_1)
+    buffer_size: int = setting(
+        200_000, "replay capacity, transitions (capped at the run's env steps)", rule=AT_LEAST_1
+    )
+    learning_starts: int = setting(
+        4096,
+        "env steps (all environments together) of uniform random actions before learning",
+        rule=AT_LEAST_1,
+    )
+    updates: int = setting(
+        2, "gradient steps after each step of all num_envs environments", rule=AT_LEAST_1
+    )
+    tau: float = setting(
+        0.005, "Polyak rate of the target critics per gradient step", rule=UNIT_OPEN
+    )
+    hidden: tuple[int, ...] = setting(
+        (128, 128),
+        "hidden layer widths of the actor and each critic",
+        rule=(lambda v: len(v) > 0 and min(v) >= 1, "must be a non-empty list of positive widths"),
+    )
+    layer_norm: bool = setting(True, "LayerNorm before each hidden ReLU of the critics")
+    init_alpha: float = setting(0.1, "the entropy temperature at the start", rule=POSITIVE)
+    entropy_scale: float = setting(
+        1.0,
+        "the entropy target is -entropy_scale x the action's size (2)",
+        rule=(lambda v: v > 0, "must be positive: the entropy target is -scale x 2"),
+    )
 
 
 @dataclass(frozen=True)

@@ -166,6 +166,12 @@ ACTION_SETS: dict[str, tuple[tuple[float, float], ...] | None] = {
     # three speeds (stopped, half and the burger's full 0.22 m/s) by the five turns
     "vw": tuple((v, w) for v in (0.0, 0.11, 0.22) for w in PAPER_YAW_RATES),
 }
+# Continuous commands (env.actions continuous): an action is f32[2] in [-1, 1]^2, the
+# speed across env.speed_range and the yaw rate across +-env.max_yaw_rate. The
+# reference drivers, which search a finite set, plan over this discrete twin.
+CONTINUOUS = "continuous"
+CONTINUOUS_TWIN = "vw"
+ACTION_KINDS = (*ACTION_SETS, CONTINUOUS)
 
 
 def one_of(*choices: str):

@@ -36,6 +36,7 @@ class Strategy:
     keys: tuple[str, ...]  # the dotted exploration settings act reads
     about: str
     label: str  # how tables and figures name it
+    actions: str = "discrete"  # the agents it serves: "discrete" (over Q-values) or "continuous"
 
     def function(self) -> Callable[..., Any]:
         """``act`` as a callable."""
@@ -51,6 +52,7 @@ def register(
     keys: tuple[str, ...] = (),
     about: str = "",
     label: str | None = None,
+    actions: str = "discrete",
 ) -> Strategy:
     """Add a strategy; its index (the trainer's strategy number) is its place here;
     ``label`` (default: the name) is how tables and figures name it."""
@@ -61,7 +63,7 @@ def register(
     bad = [k for k in keys if not k.startswith("exploration.")]
     if bad:
         raise ConfigError(f"strategy {name!r}: {bad[0]} is not an exploration setting")
-    _REGISTRY[name] = Strategy(name, act, tuple(keys), about, label or name)
+    _REGISTRY[name] = Strategy(name, act, tuple(keys), about, label or name, actions)
     return _REGISTRY[name]
 
 
@@ -70,9 +72,10 @@ def unregister(name: str) -> None:
     _REGISTRY.pop(name, None)
 
 
-def names() -> tuple[str, ...]:
-    """Every strategy's name, in registration order (the built-in ones first)."""
-    return tuple(_REGISTRY)
+def names(actions: str | None = None) -> tuple[str, ...]:
+    """Every strategy's name, in registration order (the built-in ones first);
+    ``actions`` ("discrete" or "continuous"): only those serving such agents."""
+    return tuple(n for n, s in _REGISTRY.items() if actions in (None, s.actions))
 
 
 def get(name: str) -> Strategy:
@@ -110,4 +113,13 @@ register(
     ("exploration.boltzmann_temperature",),
     "the action sampled from softmax(Q / T) (EBE's control)",
     "Boltzmann",
+)
+register(
+    "policy",
+    f"{_EXPLORE}:act_policy",
+    (),
+    "a continuous agent's own exploration: its action sampled from its stochastic policy "
+    "(SAC; not a strategy over Q-values)",
+    "own policy",
+    actions="continuous",
 )

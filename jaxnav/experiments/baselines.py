@@ -72,17 +72,22 @@ def planner_of(name: str, env: NavEnv, mazes: Sequence[Maze]):
 def in_place_of(name: str, policies: Policies, mazes: Sequence[Maze]) -> Policies:
     """The reference driver ``name`` in the place of a run's ``policies``: one per
     distinct seed (its test key), with the settings of that seed's first run (its swept
-    environment settings apply as they do to the run)."""
+    environment settings apply as they do to the run). A run with continuous actions
+    gets drivers that plan over the discrete twin (``NavEnv.discrete_twin``: the vw
+    set) in the same world, on the same test keys."""
     first: dict[int, int] = {}
     for i, (_, seed) in enumerate(policies.labels):
         first.setdefault(seed, i)
     idx = np.asarray(list(first.values()))
     swept = len(policies.fields[0]) - 2  # (strategy, swept values..., seed)
+    env, env_params = policies.env.discrete_twin(policies.env_params)  # continuous: vw
     return policies._replace(
         labels=[(name, seed) for seed in first],
         fields=[(name, *[""] * swept, seed) for seed in first],
         params=np.zeros(len(idx), np.float32),
-        network=planner_of(name, policies.env, mazes),
+        env=env,
+        env_params=env_params,
+        network=planner_of(name, env, mazes),
         strategy=np.zeros(len(idx), np.int32),
         hyper=jax.tree.map(lambda a: np.asarray(a)[idx], policies.hyper),
     )
@@ -95,6 +100,7 @@ def world_policies(
     ``env_params``), one driver per seed of ``seeds``."""
     one = dataclasses.replace(cfg, strategies=cfg.strategies[:1], seeds=1, sweep=())
     hyper = run_inputs(one).hyper
+    env, env_params = env.discrete_twin(env_params)  # continuous actions: the vw set
     n = len(seeds)
     template = Policies(
         labels=[(name, s) for s in seeds],

@@ -59,6 +59,13 @@ How a raw LaserScan becomes the trained observation (:meth:`Policy.observe`):
 The network runs in float64 (exact ReLU MLP; dropout is off at inference; a PQN
 network normalises each hidden layer before its ReLU, as flax's LayerNorm).
 
+A continuous policy (``action_kind: continuous``, format version 4, SAC's actor) ends
+in 4 outputs, the mean and the log standard deviation of (speed, yaw rate) before the
+tanh; the robot drives the mean command: a = tanh(mean), speed = low + (a_0 + 1) / 2
+(high - low) over ``speed_range``, yaw rate = a_1 ``max_yaw_rate``. Its last command is
+that command as the firmware drives it where the run modelled the wheel limit
+(``wheel_limit``: the constants of :func:`jaxnav.world.kinematics.firmware_limit`).
+
 :class:`Controller` is what a ROS node does with the latest scan, odometry and goal
 (when to drive, when to stop, when a goal is reached), kept here so the ROS 1 and
 ROS 2 example nodes share it and it is tested without ROS.
@@ -90,8 +97,12 @@ NORMS_VERSION = 2
 # A policy with what version 2 cannot express (the normalised observation with the last
 # command, (v, omega) actions, a pooled scan) is written as version 3.
 DRIVE_VERSION = 3
-VERSIONS = (FORMAT_VERSION, NORMS_VERSION, DRIVE_VERSION)
+# A continuous policy (SAC: the network gives a command, not action values) is version 4.
+CONTINUOUS_VERSION = 4
+VERSIONS = (FORMAT_VERSION, NORMS_VERSION, DRIVE_VERSION, CONTINUOUS_VERSION)
 OBSERVATIONS = ("robotis", "normalised")
+# The wheel limit's constants a continuous policy's metadata gives (its "wheel_limit").
+WHEEL = ("max_linear", "max_angular", "max_wheel", "wheel_separation")
 # Value given to invalid readings (0, nan, negative): the sensor's "no return".
 INVALID_READING = "max_range"
 
@@ -267,6 +278,13 @@ class Policy:
             driven = meta.get("driven", np.stack([self.speeds, self.omegas], axis=-1))
             self.driven = np.asarray(driven, np.float64).reshape(len(self.omegas), 2)
             self.command_scale = np.asarray(meta.get("command_scale", (0.22, 2.84)), np.float64)
+            self.continuous = meta.get("action_kind", "discrete") == "continuous"
+            if self.continuous:
+                low, high = (float(x) for x in meta["speed_range"])
+                self.speed_range = (low, high)
+                self.max_yaw_rate = float(meta["max_yaw_rate"])
+                limit = meta.get("wheel_limit")
+                self.wheel_limit = None if limit is None else {k: float(limit[k]) for k in WHEEL}
         except (KeyError, TypeError, ValueError) as e:
             raise PolicyError(f"policy metadata is incomplete or wrong ({e})") from None
         if self.beam_layout not in ("even", "gazebo"):
@@ -292,8 +310,10 @@ class Policy:
             if not (np.isfinite(k).all() and np.isfinite(b).all()):
                 raise PolicyError(f"policy layer {i} has non-finite weights")
             width = k.shape[1]
-        if not self.layers or width != len(self.omegas):
-            raise PolicyError(f"policy network has {width} outputs for {len(self.omegas)} actions")
+        outputs = 4 if self.continuous else len(self.omegas)
+        if not self.layers or width != outputs:
+            what = "a continuous command" if self.continuous else f"{len(self.omegas)} actions"
+            raise PolicyError(f"policy network has {width} outputs for {what}")
         self.norms = [(np.asarray(g, np.float64), np.asarray(b, np.float64)) for g, b in norms]
         self.norm_epsilon = float(meta.get("norm_epsilon", 1e-6))
         if self.norms and len(self.norms) != len(self.layers) - 1:
@@ -368,7 +388,10 @@ class Policy:
         return x
 
     def act(self, obs: np.ndarray):
-        """Greedy action(s): argmax of the Q-values (first of equal maxima)."""
+        """Greedy action(s): argmax of the Q-values (first of equal maxima); for a
+        continuous policy its mean action f64[..., 2] in [-1, 1] (tanh of the mean)."""
+        if self.continuous:  # the network's outputs: mean, then log std
+            return np.tanh(self.q_values(obs)[..., :2])
         a = np.argmax(self.q_values(obs), axis=-1)
         return int(a) if a.ndim == 0 else a
 
@@ -437,11 +460,33 @@ class Policy:
         action's driven command becomes the next observation's last command."""
         return self.take(self.act(obs))
 
-    def take(self, action: int) -> tuple[float, float]:
-        """(linear m/s, angular rad/s) of one action; its driven command becomes the next
-        observation's last command."""
+    def take(self, action) -> tuple[float, float]:
+        """(linear m/s, angular rad/s) of one action (a continuous policy's: f[2] in
+        [-1, 1], clipped there); its driven command becomes the next observation's last
+        command."""
+        if self.continuous:
+            a = np.clip(np.asarray(action, np.float64).reshape(2), -1.0, 1.0)
+            low, high = self.speed_range
+            v, omega = low + (a[0] + 1.0) * 0.5 * (high - low), a[1] * self.max_yaw_rate
+            self.last_command = np.asarray(self.driven_command(v, omega), np.float64)
+            return float(v), float(omega)
         self.last_command = self.driven[action].copy()
         return float(self.speeds[action]), float(self.omegas[action])
+
+    def driven_command(self, v: float, omega: float) -> tuple[float, float]:
+        """(v, omega) the robot drives for a command: the firmware's clip of the command
+        and of each wheel where the policy's run modelled it (the arithmetic of
+        :func:`jaxnav.world.kinematics.firmware_limit`, with its constants from the
+        metadata), else the command itself."""
+        w = getattr(self, "wheel_limit", None)
+        if w is None:
+            return v, omega
+        v = min(max(v, -w["max_linear"]), w["max_linear"])
+        omega = min(max(omega, -w["max_angular"]), w["max_angular"])
+        half = omega * w["wheel_separation"] / 2
+        left = min(max(v - half, -w["max_wheel"]), w["max_wheel"])
+        right = min(max(v + half, -w["max_wheel"]), w["max_wheel"])
+        return (left + right) / 2, (right - left) / w["wheel_separation"]
 
     def rest(self) -> None:
         """The robot stopped: the next observation's last command is (0, 0)."""

@@ -22,12 +22,14 @@ from jaxnav.core.errors import PolicyError
 from jaxnav.core.settings import BURGER_MAX_OMEGA, BURGER_MAX_V
 from jaxnav.env import from_config
 from jaxnav.robot.deploy import (
+    CONTINUOUS_VERSION,
     DRIVE_VERSION,
     FORMAT,
     FORMAT_VERSION,
     INVALID_READING,
     NORMS_VERSION,
 )
+from jaxnav.world import kinematics
 
 NORM_EPSILON = 1e-6  # flax.linen.LayerNorm's default, as jaxnav.agent.networks.QNetwork uses it
 
@@ -68,13 +70,16 @@ def export_policy(
             "(the robot side has no path to take the next waypoint from)"
         )
     net = fold_dueling(rundir.load_params(params_path, strategy, seed).get("params", {}))
-    names = _dense_layers(net, env.obs_size, len(np.asarray(params.omegas)), params_path)
+    outputs = 2 * env.action_size if env.continuous else len(np.asarray(params.omegas))
+    names = _dense_layers(net, env.obs_size, outputs, params_path)
     norms = _norms(net, len(names) - 1, params_path)
     meta = _meta(cfg, env, params, strategy, seed, names, run_dir)
     if norms:  # PQN: read only by a reader that applies them
         meta.update(version=NORMS_VERSION, norms=norms, norm_epsilon=NORM_EPSILON)
     if env.normalised or params.speeds is not None or env.scan_beams:
         meta.update(version=DRIVE_VERSION, **_drive_meta(env, params))
+    if env.continuous:  # a command per observation, which an older reader cannot run
+        meta.update(version=CONTINUOUS_VERSION, **_continuous_meta(env))
     arrays: dict[str, np.ndarray] = {"meta": np.asarray(json.dumps(meta, indent=1))}
     for n in names:
         arrays[f"{n}/kernel"] = np.asarray(net[n]["kernel"], np.float32)
@@ -164,7 +169,7 @@ def _dense_layers(net: dict, obs_size: int, num_actions: int, params_path: Path)
             raise PolicyError(f"{params_path}: layer {n} does not fit the run's observation layout")
         width = k.shape[1]
     if not names or width != num_actions:
-        raise PolicyError(f"{params_path}: the network does not end in {num_actions} action values")
+        raise PolicyError(f"{params_path}: the network does not end in {num_actions} outputs")
     return names
 
 
@@ -216,22 +221,24 @@ def _meta(cfg, env, params, strategy: str, seed: int, names: list[str], run_dir:
 
 def _drive_meta(env, params) -> dict:
     """What a version-3 reader needs beyond version 2: the observation's kind and, per
-    action, its speed and the command the robot drives (the last-command part)."""
+    discrete action, its speed and the command the robot drives (the last-command
+    part)."""
     import jax.numpy as jnp
 
-    actions = jnp.arange(len(np.asarray(params.omegas)))
-    v, omega = env.command(params, actions)
-    v = np.broadcast_to(np.asarray(v, np.float64), np.asarray(omega).shape)
-    speeds = np.broadcast_to(
-        np.asarray(params.v if params.speeds is None else params.speeds, np.float64), v.shape
-    )
     out = {
         "observation_kind": env.observation,
         "scan_beams": int(env.scan_beams),
-        "speeds": [float(x) for x in speeds],
-        "driven": [[float(a), float(b)] for a, b in zip(v, np.asarray(omega, np.float64))],
         "command_scale": [BURGER_MAX_V, BURGER_MAX_OMEGA],
     }
+    if not env.continuous:
+        actions = jnp.arange(len(np.asarray(params.omegas)))
+        v, omega = env.command(params, actions)
+        v = np.broadcast_to(np.asarray(v, np.float64), np.asarray(omega).shape)
+        speeds = np.broadcast_to(
+            np.asarray(params.v if params.speeds is None else params.speeds, np.float64), v.shape
+        )
+        out["speeds"] = [float(x) for x in speeds]
+        out["driven"] = [[float(a), float(b)] for a, b in zip(v, np.asarray(omega, np.float64))]
     if env.normalised:
         out["observation"] = [f"range_{k}/max_range" for k in range(env.n_beams)] + [
             "heading/pi",
@@ -239,6 +246,30 @@ def _drive_meta(env, params) -> dict:
             "last_v/0.22",
             "last_omega/2.84",
         ]
+    return out
+
+
+def _continuous_meta(env) -> dict:
+    """What a version-4 reader needs for continuous commands: the last layer's outputs
+    (the mean, then the log standard deviation, of each of the action's 2 numbers; the
+    command is tanh(mean)), the command's ranges and, where the run modelled it, the
+    firmware's wheel limit with its constants (the driven command of the last-command
+    part, :func:`jaxnav.world.kinematics.firmware_limit`)."""
+    low, high = env.speed_range
+    out = {
+        "action_kind": "continuous",
+        "outputs": "mean of (speed, yaw rate) in tanh space, then their log std",
+        "speed_range": [float(low), float(high)],
+        "max_yaw_rate": float(env.max_yaw_rate),
+        "wheel_limit": None,
+    }
+    if env.wheel_limit:
+        out["wheel_limit"] = {
+            "max_linear": kinematics.MAX_LINEAR_VELOCITY,
+            "max_angular": kinematics.MAX_ANGULAR_VELOCITY,
+            "max_wheel": kinematics.MAX_WHEEL_SPEED,
+            "wheel_separation": kinematics.WHEEL_SEPARATION,
+        }
     return out
 
 

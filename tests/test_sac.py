@@ -1,0 +1,257 @@
+"""SAC and continuous actions against independent references: the squashed Gaussian's
+log-probability (NumPy, tanh correction included), the soft target by hand, the
+temperature's direction, Polyak averaging, the command against the wheel model, the
+refusals, and a tiny run."""
+
+import math
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from jaxnav import sac
+from jaxnav.agent.trainer import make_train, run_inputs
+from jaxnav.core.config import load_config
+from jaxnav.core.errors import ConfigError
+from jaxnav.env import make
+from jaxnav.world.kinematics import firmware_limit
+
+TINY = [
+    "preset=modern",
+    "agent=sac",
+    "strategies=[policy]",
+    "seeds=2",
+    "episodes=null",
+    "total_steps=256",
+    "env.maze=square4",
+    "env.actions=continuous",
+    "env.max_steps=40",
+    "sac.num_envs=4",
+    "sac.batch_size=16",
+    "sac.learning_starts=64",
+    "sac.hidden=[16, 16]",
+    "run.chunk_steps=128",
+]
+
+
+def test_squashed_log_probability_matches_numpy_with_the_tanh_correction():
+    key = jax.random.PRNGKey(4)
+    mean = jnp.asarray([[0.3, -1.2], [2.5, 0.0], [-4.0, 3.0]], jnp.float32)
+    log_std = jnp.asarray([[-0.5, 0.2], [-2.0, 0.7], [0.1, -1.0]], jnp.float32)
+    a, logp = sac.squashed_sample(key, mean, log_std)
+    eps = np.asarray(jax.random.normal(key, mean.shape), np.float64)
+    mu, ls = np.asarray(mean, np.float64), np.asarray(log_std, np.float64)
+    u = mu + np.exp(ls) * eps
+    gauss = -0.5 * ((u - mu) / np.exp(ls)) ** 2 - ls - 0.5 * math.log(2 * math.pi)
+    want = np.sum(gauss - np.log(1.0 - np.tanh(u) ** 2), axis=-1)
+    np.testing.assert_allclose(np.asarray(a), np.tanh(u), rtol=1e-5, atol=1e-6)
+    np.testing.assert_allclose(np.asarray(logp), want, rtol=1e-4, atol=1e-3)
+    # far in the tail, where tanh(u) rounds to 1 in f32, the log-probability stays finite
+    _, far = sac.squashed_sample(key, jnp.full((1, 2), 30.0), jnp.full((1, 2), -5.0))
+    assert np.all(np.isfinite(np.asarray(far)))
+
+
+def test_soft_target_by_hand():
+    reward = jnp.asarray([1.0, -10.0, 0.5])
+    terminated = jnp.asarray([False, True, False])
+    next_q = jnp.asarray([[2.0, 5.0, -1.0], [3.0, 4.0, -2.0]])  # twin critics
+    next_logp = jnp.asarray([-1.0, 0.5, 2.0])
+    got = sac.soft_target(reward, terminated, next_q, next_logp, alpha=0.2, gamma=0.9)
+    want = [
+        1.0 + 0.9 * (2.0 - 0.2 * -1.0),  # min(2, 3) = 2
+        -10.0,  # a collision: no bootstrap
+        0.5 + 0.9 * (-2.0 - 0.2 * 2.0),  # min(-1, -2) = -2
+    ]
+    np.testing.assert_allclose(np.asarray(got), want, rtol=1e-6)
+
+
+def test_temperature_rises_below_the_entropy_target_and_falls_above():
+    target = -2.0  # H_target = -1 x 2 actions
+    grad = jax.grad(sac.temperature_loss)
+    # log pi = 3: entropy about -3, below the target -> gradient descent raises log alpha
+    assert float(grad(jnp.float32(0.0), jnp.asarray([3.0, 3.0]), target)) < 0.0
+    # log pi = 0: entropy about 0, above the target -> log alpha falls
+    assert float(grad(jnp.float32(0.0), jnp.asarray([0.0, 0.0]), target)) > 0.0
+
+
+def test_one_gradient_step_moves_the_targets_by_polyak_averaging():
+    cfg = load_config("smoke", TINY + ["sac.tau=0.25"])
+    env, params = make(
+        "square4", "modern", actions="continuous", reward="progress", observation="normalised"
+    )
+    obs, _ = env.reset(jax.random.PRNGKey(0), params)
+    actor, critic = sac.network_of(cfg), sac.critic_of(cfg)
+    a_p = actor.init(jax.random.PRNGKey(1), obs)
+    c_p = critic.init(jax.random.PRNGKey(2), obs, jnp.zeros(2))
+    t_p = critic.init(jax.random.PRNGKey(3), obs, jnp.zeros(2))  # a target unlike the critic
+    opt = __import__("optax").adam(cfg.sac.lr)
+    n, d = 32, obs.shape[0]
+    rng = np.random.default_rng(0)
+    memory = sac.Memory(
+        obs=jnp.asarray(rng.normal(size=(n, d)), jnp.float32),
+        action=jnp.asarray(rng.uniform(-1, 1, size=(n, 2)), jnp.float32),
+        reward=jnp.asarray(rng.normal(size=n), jnp.float32),
+        next_obs=jnp.asarray(rng.normal(size=(n, d)), jnp.float32),
+        terminated=jnp.asarray(rng.uniform(size=n) < 0.2),
+        filled=jnp.int32(n),
+        cursor=jnp.int32(0),
+    )
+    learner = sac.Learner(
+        a_p, c_p, t_p, jnp.log(jnp.float32(0.1)), opt.init(a_p), opt.init(c_p), opt.init(0.0)
+    )
+    new, loss, finite = sac.make_learner(cfg)(learner, memory, jax.random.PRNGKey(5))
+    assert bool(finite) and float(loss) > 0.0
+    want = jax.tree.map(lambda c, t: 0.25 * c + 0.75 * t, new.critic, t_p)
+    for g, w in zip(jax.tree.leaves(new.target), jax.tree.leaves(want)):
+        np.testing.assert_allclose(np.asarray(g), np.asarray(w), rtol=1e-6, atol=1e-7)
+    # the critic moved and the target sits a quarter of the way towards it
+    moved = jax.tree.leaves(jax.tree.map(lambda a, b: jnp.max(jnp.abs(a - b)), new.critic, c_p))
+    assert max(float(x) for x in moved) > 0.0
+
+
+@pytest.mark.parametrize("wheel_limit", [False, True])
+def test_continuous_command_spans_the_limits_as_the_wheel_model_drives_it(wheel_limit):
+    env, params = make(
+        "square4",
+        "modern",
+        actions="continuous",
+        reward="progress",
+        speed_range=(0.05, 0.2),
+        max_yaw_rate=2.0,
+        wheel_limit=wheel_limit,
+    )
+    a = np.asarray([[-1, -1], [1, 1], [0, 0], [0.5, -0.25], [3.0, -7.0]], np.float32)
+    v, omega = env.command(params, jnp.asarray(a))
+    clipped = np.clip(a.astype(np.float64), -1, 1)
+    want_v = 0.05 + (clipped[:, 0] + 1) / 2 * 0.15
+    want_w = clipped[:, 1] * 2.0
+    if wheel_limit:
+        want_v, want_w = firmware_limit(want_v, want_w)
+    np.testing.assert_allclose(np.asarray(v), want_v, rtol=1e-5, atol=1e-6)
+    np.testing.assert_allclose(np.asarray(omega), want_w, rtol=1e-5, atol=1e-6)
+    # a step drives that arc: straight ahead at full speed for one period
+    obs, state = env.reset(jax.random.PRNGKey(0), params)
+    _, after, *_ = env.step(jax.random.PRNGKey(1), state, jnp.asarray([1.0, 0.0]), params)
+    v_full, _ = firmware_limit(np.float64(0.2), np.float64(0.0)) if wheel_limit else (0.2, 0)
+    travelled = np.linalg.norm(np.asarray(after.pos) - np.asarray(state.pos))
+    assert travelled == pytest.approx(float(v_full) * float(params.dt), rel=1e-5)
+
+
+def test_discrete_twin_plans_over_the_vw_set_in_the_same_world():
+    env, params = make("square4", "modern", actions="continuous", reward="progress")
+    twin, twin_params = env.discrete_twin(params)
+    assert twin.actions == "vw" and twin.num_actions == 15
+    key = jax.random.PRNGKey(3)
+    np.testing.assert_array_equal(env.reset(key, params)[0], twin.reset(key, twin_params)[0])
+    with pytest.raises(ValueError, match="continuous"):
+        env.num_actions  # noqa: B018
+
+
+@pytest.mark.parametrize(
+    "overrides, says",
+    [
+        (["env.actions=vw"], "agent sac drives continuous commands: it needs env.actions"),
+        (["strategies=[ebe]"], "strategies must be \\[policy\\]"),
+        (["env.max_yaw_rate=3.0"], "burger's limits"),
+        (["env.speed_range=[0, 0.3]"], "beyond_limits"),
+        (["env.speed_range=[0.2, 0.1]"], "low <= high"),
+        (["sac.entropy_scale=0"], "entropy_scale must be positive"),
+        (["env.reward=dense"], "progress or sparse"),
+        (["sac.batch_size=100000"], "larger than the replay"),
+        (["env.action_delay=true"], "action_delay holds a discrete action"),
+    ],
+)
+def test_bad_continuous_settings_are_one_line_refusals(overrides, says):
+    with pytest.raises(ConfigError, match=says) as err:
+        load_config("smoke", TINY + overrides)
+    assert "\n" not in str(err.value)
+
+
+@pytest.mark.parametrize(
+    "overrides, says",
+    [
+        (["env.actions=continuous", "env.reward=progress"], "needs an agent with continuous"),
+        (["env.actions=vw", "strategies=[policy]"], "policy is a continuous agent's own"),
+        (["sac.num_envs=4"], "sac.num_envs is a SAC setting: it needs agent sac"),
+    ],
+)
+@pytest.mark.parametrize("agent", ["dqn", "pqn"])
+def test_a_q_learner_is_refused_continuous_actions_and_the_policy_strategy(agent, overrides, says):
+    with pytest.raises(ConfigError, match=says):
+        load_config("smoke", [f"agent={agent}", *overrides])
+
+
+def test_beyond_limits_lets_faster_commands_through():
+    cfg = load_config("smoke", TINY + ["env.speed_range=[0, 0.3]", "env.beyond_limits=true"])
+    assert cfg.env.speed_range == (0.0, 0.3)
+
+
+def test_a_tiny_run_is_deterministic_and_acts_within_the_limits():
+    cfg = load_config("smoke", TINY)
+    train = jax.jit(jax.vmap(make_train(cfg)))
+    inputs = run_inputs(cfg)
+    a = train(*inputs)
+    b = train(*inputs)
+    assert np.asarray(a.step).tolist() == [256, 256]
+    assert np.all(np.asarray(a.diverged_at) == -1)
+    for x, y in zip(jax.tree.leaves(a.params), jax.tree.leaves(b.params)):
+        np.testing.assert_array_equal(np.asarray(x), np.asarray(y))
+    # the two seeds learned different policies; their mean commands lie in [-1, 1]^2
+    obs = np.asarray(a.obs)[:, 0]
+    actor = sac.network_of(cfg)
+    acts = [
+        np.asarray(actor.apply(jax.tree.map(lambda x, i=i: x[i], a.params), obs[i])) for i in (0, 1)
+    ]
+    assert all(np.all(np.abs(x) <= 1.0) for x in acts)
+    assert int(a.memory.filled[0]) == 256 and np.asarray(a.memory.action).max() <= 1.0
+
+
+@pytest.fixture(scope="module")
+def tiny_sac_run(tmp_path_factory):
+    from jaxnav.run.training import train_new
+
+    cfg = load_config("smoke", TINY + ["env.wheel_limit=true"])
+    out = tmp_path_factory.mktemp("sac") / "run"
+    train_new(cfg, out, quiet=True)
+    return cfg, out
+
+
+def test_the_exported_policy_drives_the_trained_mean_command(tiny_sac_run):
+    from jaxnav.core import rundir
+    from jaxnav.robot.deploy import CONTINUOUS_VERSION, Policy
+    from jaxnav.robot.export import export_policy
+
+    cfg, out = tiny_sac_run
+    policy = Policy.from_arrays(export_policy(out, "policy", 1))
+    assert policy.meta["version"] == CONTINUOUS_VERSION and policy.continuous
+    x = np.random.default_rng(5).uniform(-1, 1, (9, policy.obs_size)).astype(np.float32)
+    params = rundir.load_params(out / rundir.PARAMS, "policy", 1)
+    want = np.asarray(sac.network_of(cfg).apply(params, jnp.asarray(x)))
+    np.testing.assert_allclose(policy.act(x), want, rtol=1e-4, atol=1e-5)
+    # the command over the limits, the last command as the firmware drives it
+    env, env_params = make(
+        "square4",
+        "modern",
+        actions="continuous",
+        reward="progress",
+        observation="normalised",
+        wheel_limit=True,
+    )
+    for a in want[:4]:
+        v, omega = policy.take(a)
+        assert (v, omega) == pytest.approx((0.11 * (a[0] + 1), 2.84 * a[1]), rel=1e-5)
+        driven = env.command(env_params, jnp.asarray(a))
+        np.testing.assert_allclose(policy.last_command, np.asarray(driven), rtol=1e-5, atol=1e-6)
+
+
+def test_a_sac_run_is_evaluated_beside_planners_of_its_discrete_twin(tiny_sac_run):
+    import csv
+
+    from jaxnav import evaluate
+
+    cfg, out = tiny_sac_run
+    assert evaluate.main([str(out), "--episodes", "2"]) == 0
+    with open(out / "eval" / "results.csv") as f:
+        rows = list(csv.DictReader(f))
+    assert {r["strategy"] for r in rows} >= {"policy", "oracle", "dwa"}
