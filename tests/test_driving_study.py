@@ -20,7 +20,13 @@ from jaxnav.core.config import CONFIG_DIR, builtin_configs, config_to_dict, load
 from jaxnav.core.errors import ConfigError, JaxnavError
 from jaxnav.core.rundir import csv_text
 from jaxnav.experiments import driving, studies, studyfile
-from jaxnav.report.driving_page import RUN_COLUMNS, RUNS, commands_of, written_by
+from jaxnav.report.driving_page import (
+    RUN_COLUMNS,
+    RUNS,
+    commands_of,
+    machines_of,
+    written_by,
+)
 
 ROOT = Path(__file__).resolve().parents[1]
 SHIPPED = str(CONFIG_DIR / "studies" / "driving.yaml")
@@ -116,7 +122,7 @@ def test_one_config_run_again_replaces_its_row_and_keeps_the_others(tmp_path, mo
     _data(out, ["drive_grid4"])
     row = (out / "data" / RUNS).read_text()
     (out / "data" / RUNS).write_text(row.replace("grid 4x4", "grid 4x4 again"))
-    ran = {"commands": {"drive_grid4": "c"}, "machine": "m"}
+    ran = {"commands": {"drive_grid4": "c"}, "machines": {"drive_grid4": "m"}, "machine": "m"}
     (out / "data" / "run.json").write_text(json.dumps(ran) + "\n")
     kept = json.loads((folder / "run.json").read_text())
     drawn = []
@@ -127,7 +133,8 @@ def test_one_config_run_again_replaces_its_row_and_keeps_the_others(tmp_path, mo
     assert (tmp_path / "docs" / "driving.md").read_text() == "page\n"
     configs = [r["config"] for r in csv.DictReader(io.StringIO(before))]
     was = commands_of(kept, configs)  # each other row keeps the command that wrote it
-    assert drawn == [(folder, {**was, "drive_grid4": "c"}, "m")]
+    on = machines_of(kept, configs)  # and the machine it ran on
+    assert drawn == [(folder, {**was, "drive_grid4": "c"}, {**on, "drive_grid4": "m"})]
     assert json.loads((folder / "run.json").read_text())["commands"]["drive_grid4"] == "c"
     after = (folder / RUNS).read_text()
     assert after == before.replace("grid 4x4", "grid 4x4 again")  # its row, in its place
@@ -196,3 +203,10 @@ def test_the_page_names_each_command_with_the_configs_it_wrote():
     )
     # a folder written before rows kept their own command: its one command for every row
     assert commands_of({"command": "c", "machine": "M"}, ["a", "b"]) == {"a": "c", "b": "c"}
+    # rows measured on different machines name each command's machine
+    on = {"drive_square4": "M", "drive_rooms": "N"}
+    assert written_by(two, on) == (
+        "Written by `jaxnav study driving` (`drive_square4`) on M; "
+        "`jaxnav study driving drive_rooms --resume` (`drive_rooms`) on N."
+    )
+    assert machines_of({"machine": "M"}, ["a"]) == {"a": "M"}

@@ -43,6 +43,7 @@ from jaxnav.report.driving_page import (
     commands_of,
     configs_of,
     driving_markdown,
+    machines_of,
 )
 
 STUDY_KEYS = {
@@ -185,7 +186,12 @@ def run_study(study: Study, out: Path, resume_ok: bool, quiet: bool, command: st
     atomic_write_text(
         data / RUNS, csv_text(RUN_COLUMNS, [[r[c] for c in RUN_COLUMNS] for r in rows])
     )
-    meta = {"commands": dict.fromkeys(study.configs, command), "machine": runner.machine_line()}
+    machine = runner.machine_line()
+    meta = {
+        "commands": dict.fromkeys(study.configs, command),
+        "machines": dict.fromkeys(study.configs, machine),
+        "machine": machine,
+    }
     atomic_write_text(data / "run.json", json.dumps(meta) + "\n")
     return data
 
@@ -211,7 +217,9 @@ def publish(study: Study, out: Path, page: Path) -> list[Path]:
     configs, ran = list(rows), configs_of(data)
     commands = {**(commands_of(kept, configs) if kept else {}), **commands_of(new, ran)}
     commands = {c: commands[c] for c in configs}
-    meta = {"commands": commands, "machine": new["machine"]}
+    machines = {**(machines_of(kept, configs) if kept else {}), **machines_of(new, ran)}
+    machines = {c: machines[c] for c in configs}
+    meta = {"commands": commands, "machines": machines, "machine": new["machine"]}
     atomic_write_text(folder / "run.json", json.dumps(meta) + "\n")
-    atomic_write_text(page, driving_markdown(folder, commands, meta["machine"]))
+    atomic_write_text(page, driving_markdown(folder, commands, machines))
     return [page, folder]

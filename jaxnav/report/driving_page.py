@@ -48,15 +48,31 @@ def commands_of(meta: dict, configs: list[str]) -> dict[str, str]:
     return dict.fromkeys(configs, meta["command"])
 
 
-def written_by(commands: dict[str, str], machine: str) -> str:
-    """The page's line naming each command and, when there are several, its configs."""
-    by: dict[str, list[str]] = {}
+def machines_of(meta: dict, configs: list[str]) -> dict[str, str]:
+    """config -> the machine its row was measured on, from a data folder's ``run.json``
+    (``"machines"``), or its one ``"machine"`` for every config (folders written before
+    rows kept their own)."""
+    if "machines" in meta:
+        return {c: meta["machines"][c] for c in configs if c in meta["machines"]}
+    return dict.fromkeys(configs, meta["machine"])
+
+
+def written_by(commands: dict[str, str], machines: dict[str, str] | str) -> str:
+    """The page's line naming each command and, when there are several, its configs;
+    and the machine, or each command's machine when the rows were measured on several
+    (``machines``: config -> machine, or one machine for all)."""
+    if isinstance(machines, str):
+        machines = dict.fromkeys(commands, machines)
+    by: dict[tuple[str, str], list[str]] = {}
     for config, command in commands.items():
-        by.setdefault(command, []).append(config)
+        by.setdefault((command, machines[config]), []).append(config)
     if len(by) == 1:
-        return f"Written by `{next(iter(by))}` on {machine}."
-    parts = [f"`{c}` ({', '.join(f'`{n}`' for n in names)})" for c, names in by.items()]
-    return f"Written by {'; '.join(parts)}, on {machine}."
+        command, machine = next(iter(by))
+        return f"Written by `{command}` on {machine}."
+    parts = {k: f"`{k[0]}` ({', '.join(f'`{n}`' for n in names)})" for k, names in by.items()}
+    if len({m for _, m in by}) == 1:
+        return f"Written by {'; '.join(parts.values())}, on {next(iter(by))[1]}."
+    return "Written by " + "; ".join(f"{p} on {k[1]}" for k, p in parts.items()) + "."
 
 
 def world_table(folder: Path) -> list[dict]:
@@ -107,9 +123,10 @@ def sentences(folder: Path) -> list[str]:
     return out
 
 
-def driving_markdown(folder: Path, commands: dict[str, str], machine: str) -> str:
+def driving_markdown(folder: Path, commands: dict[str, str], machines: dict[str, str] | str) -> str:
     """The page from its data folder, the commands that wrote its rows (config ->
-    command, :func:`commands_of`) and the machine."""
+    command, :func:`commands_of`) and the machines they ran on (config -> machine,
+    :func:`machines_of`, or one for all)."""
     rows = []
     for e in world_table(folder):
         run, d = e["run"], e["drivers"]
@@ -148,9 +165,9 @@ def driving_markdown(folder: Path, commands: dict[str, str], machine: str) -> st
         "([navigation metrics](reproducing.md#navigation-metrics)). *Solved*: the policies' "
         f"mean success is within {SOLVED_TOLERANCE} of the oracle's on the same test. "
         "*Command*: the whole `jaxnav train` command, compilation included (an empty "
-        "compilation cache), on the machine below.",
+        "compilation cache), on the machine named below for its row.",
         "",
-        written_by(commands, machine),
+        written_by(commands, machines),
         "",
         *markdown_table(header, rows),
         "",
@@ -202,6 +219,7 @@ __all__ = [
     "commands_of",
     "configs_of",
     "driving_markdown",
+    "machines_of",
     "readme_block",
     "sentences",
     "written_by",

@@ -128,11 +128,12 @@ def _driving_readme(root: Path) -> str:
 
 
 def _driving_page(root: Path) -> str:
-    from jaxnav.report.driving_page import commands_of, configs_of, driving_markdown
+    from jaxnav.report.driving_page import commands_of, configs_of, driving_markdown, machines_of
 
     folder = root / "docs" / "driving"
     meta = json.loads((folder / "run.json").read_text())
-    return driving_markdown(folder, commands_of(meta, configs_of(folder)), meta["machine"])
+    configs = configs_of(folder)
+    return driving_markdown(folder, commands_of(meta, configs), machines_of(meta, configs))
 
 
 def _baselines_page(root: Path) -> str:
