@@ -280,12 +280,19 @@ class NavEnv(GoalSampler, DrawnLayouts, Observer):
             v, omega = firmware_limit(jnp.asarray(v, jnp.float32), omega)
         return v, omega
 
+    def driven(self, params: EnvParams, state: EnvState, action: chex.Array):
+        """(v, omega), f32[] each: the command the step from ``state`` drives for the
+        action chosen (or, with ``action_delay``, the one pending)."""
+        applied = state.pending_action if self.action_delay else action
+        v, omega = self.command(params, applied)
+        v = jnp.broadcast_to(jnp.asarray(v, jnp.float32), jnp.shape(omega))
+        return v, jnp.asarray(omega, jnp.float32)
+
     def travel(self, params: EnvParams, state: EnvState, action: chex.Array) -> chex.Array:
         """f32[]: the length of the path the step from ``state`` drives (|v| dt along its
         arc), for the action chosen (or, with ``action_delay``, the one pending)."""
-        applied = state.pending_action if self.action_delay else action
-        v, _ = self.command(params, applied)
-        return jnp.abs(jnp.asarray(v, jnp.float32)) * params.dt
+        v, _ = self.driven(params, state, action)
+        return jnp.abs(v) * params.dt
 
     def attempt_steps(self, params: EnvParams) -> int:
         """The attempt limit in steps (host side): ``attempt_limit``, or the episode's

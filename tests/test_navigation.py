@@ -11,10 +11,12 @@ from jaxnav.report.navigation import (
     COLLISION,
     CUT,
     METRICS,
+    SMOOTH_METRICS,
     SUCCESS,
     TIMEOUT,
     episode_counts,
     seed_metrics,
+    smoothness,
     split_attempts,
     training_outcomes,
 )
@@ -121,6 +123,39 @@ def test_an_attempts_path_is_what_its_steps_drove_when_they_say():
     counts = episode_counts(att, np.array([0.05]), STEP_M, DT, n_episodes=1)
     np.testing.assert_allclose(counts["path_m"], [0.074])
     np.testing.assert_allclose(counts["spl_sum"], [0.05 / 0.074])
+
+
+def test_smoothness_sums_the_command_changes_within_each_attempt_by_hand():
+    """Episode 0 of EPISODES has two attempts (3 steps, then 2); the change from the
+    reach step to the next goal's first step lies between attempts and is left out, as
+    is the change into the step after the test."""
+    command = np.array([[0.1, 0.5], [0.2, 0.5], [0.2, -1.0], [0.0, 2.0], [0.05, 2.0], [0.3, 0.3]])
+    att = split_attempts(*steps(*EPISODES[:1]), n_episodes=1, limit=LIMIT, command=command)
+    np.testing.assert_allclose(att.dv, [0.1 + 0.0, 0.05])
+    np.testing.assert_allclose(att.dw, [0.0 + 1.5, 0.0])
+    counts = episode_counts(att, np.array([1.0, 2.0]), STEP_M, DT, n_episodes=1)
+    assert counts["pairs"].tolist() == [3]  # (3 - 1) + (2 - 1)
+    got = smoothness(counts)
+    assert got["dv_per_step"] == pytest.approx(0.15 / 3)
+    assert got["dw_per_step"] == pytest.approx(1.5 / 3)
+    # files without the columns (or runs without commands) have no smoothness
+    assert np.isnan(smoothness({"attempts": np.ones(1)})["dv_per_step"])
+
+
+def test_smoothness_travels_through_results_csv_into_the_tables():
+    att = split_attempts(*steps(*EPISODES[:1]), n_episodes=1, limit=LIMIT, command=np.ones((6, 2)))
+    counts = episode_counts(att, np.array([1.0, 2.0]), STEP_M, DT, n_episodes=1)
+    row = {"strategy": "ebe", "seed": 0, "mode": "greedy", "maze": "square4", "episode": 0}
+    row |= {"return": 1.0, "goals": 1, "collided": 1, "length": 5}
+    row |= {c: float(counts[c][0]) for c in RESULT_COLUMNS[9:]}
+    text = csv_text(RESULT_COLUMNS, [tuple(row[c] for c in RESULT_COLUMNS)])
+    back = read_results(text)[("square4", "ebe", 0)]
+    assert back["pairs"].tolist() == [3] and back["dv_sum"].tolist() == [0.0]
+    tables = tables_markdown(text, "square4", 0)
+    header = next(ln for ln in tables.splitlines() if ln.startswith("| maze | strategy | success"))
+    cells = tables.splitlines()[tables.splitlines().index(header) + 2].split("|")
+    assert header.endswith("| dv_per_step | dw_per_step |")
+    assert cells[-3].strip().startswith("0.000 [") and cells[-2].strip().startswith("0.00 [")
 
 
 def test_rates_path_spl_and_time_by_hand():
@@ -249,7 +284,7 @@ def results_text(per_seed_counts):
         for e, (collided, att, succ, tout, path, spl, time, cut) in enumerate(episodes):
             rows.append(
                 ("ebe", seed, "greedy", "square4", e, "1.0", succ, collided, 10)
-                + (att, succ, tout, path, spl, time, collided, cut, 2.0)
+                + (att, succ, tout, path, spl, time, collided, cut, 2.0, "", "", "")
             )
     return csv_text(RESULT_COLUMNS, rows)
 
@@ -273,7 +308,7 @@ def test_seed_rates_pool_attempts_and_tables_show_them_with_intervals():
     seed1 = seed_metrics(res[("square4", "ebe", 1)])
     tables = tables_markdown(text, "square4", 0)
     header = next(ln for ln in tables.splitlines() if ln.startswith("| maze | strategy | success"))
-    assert header == "| maze | strategy | " + " | ".join(METRICS) + " |"
+    assert header == "| maze | strategy | " + " | ".join(METRICS + SMOOTH_METRICS) + " |"
     row = tables.splitlines()[tables.splitlines().index(header) + 2]
     cells = [c.strip() for c in row.strip("|").split("|")]
     assert cells[:2] == ["square4", "EBE"]

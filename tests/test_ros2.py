@@ -70,10 +70,26 @@ LOOPS = {
     "stamped": (ROUTE[:2], ROUTE[2], ["--cmd-type", "stamped", "--full"], {}),
     "twist": (ROUTE[:1], ROUTE[1], ["--cmd-type", "twist"], {"ROS_DISTRO": "humble"}),
     "mujoco": (ROUTE[:2], ROUTE[2], ["--cmd-type", "stamped", "--robot", "mujoco"], {}),
+    # a continuous policy (SAC): the node publishes its (v, omega) commands as they come
+    "continuous": (ROUTE[:2], ROUTE[2], ["--cmd-type", "stamped"], {}),
 }
 TRUE_GOAL_SLACK = 0.1  # m: a stop within the goal radius by odometry, by the true pose
 TRAIN_SEEDS = 3
 TRAIN = [f"seeds={TRAIN_SEEDS}", "strategies=[ebe]", "episodes=40"]
+# SAC with continuous commands in the same room (square4, the LiDAR's noise as above)
+TRAIN_CONTINUOUS = [
+    "preset=modern",
+    "env.maze=square4",
+    "env.lidar_noise_std=0.01",
+    "agent=sac",
+    "strategies=[policy]",
+    "env.actions=continuous",
+    "env.step_penalty=0.02",
+    f"seeds={TRAIN_SEEDS}",
+    "episodes=null",
+    "total_steps=24576",
+    "run.chunk_steps=24576",
+]
 DEADLINE_S = 150.0  # the loops together; they take about 40 s
 
 
@@ -267,7 +283,21 @@ def trained(ros2_sim, tmp_path_factory) -> Path:
 
 
 @pytest.fixture(scope="module")
-def policy_file(trained) -> Path:
+def trained_continuous(ros2_sim, tmp_path_factory) -> Path:
+    """A few trained continuous (SAC) policies, each exported to DIR/policy<seed>.npz."""
+    from jaxnav.core.config import load_config
+    from jaxnav.robot.export import export_policy, save_policy
+    from jaxnav.run.training import train_new
+
+    root = tmp_path_factory.mktemp("ros2_sac")
+    cfg = load_config(None, TRAIN_CONTINUOUS)
+    train_new(cfg, root / "run", quiet=True)
+    for seed in range(TRAIN_SEEDS):
+        save_policy(export_policy(root / "run", "policy", seed), root / f"policy{seed}.npz")
+    return root
+
+
+def _reaching(trained: Path) -> Path:
     """A trained policy that reaches ROUTE without ROS, exactly and with noise."""
     tried = {}
     for seed in range(TRAIN_SEEDS):
@@ -275,7 +305,19 @@ def policy_file(trained) -> Path:
         tried[seed] = [offline_mission(policy, ROUTE, noise=n, seed=1) for n in (0.0, NOISE_STD)]
         if all(outcome == "ok" for _, outcome in tried[seed]):
             return trained / f"policy{seed}.npz"
-    pytest.fail(f"no trained seed reaches {ROUTE} even without ROS: {tried}")
+    pytest.fail(f"no trained seed of {trained} reaches {ROUTE} even without ROS: {tried}")
+
+
+@pytest.fixture(scope="module")
+def policy_file(trained) -> Path:
+    return _reaching(trained)
+
+
+@pytest.fixture(scope="module")
+def continuous_policy_file(trained_continuous) -> Path:
+    policy = _reaching(trained_continuous)
+    assert deploy.Policy.load(policy).continuous
+    return policy
 
 
 def _mujoco_missing(ros2: dict) -> str | None:
@@ -357,12 +399,13 @@ class ClosedLoop(Ros1ClosedLoop):
 
 
 @pytest.fixture(scope="module")
-def loops(ros2_sim, policy_file, mujoco_policy_file, tmp_path_factory):
+def loops(ros2_sim, policy_file, mujoco_policy_file, continuous_policy_file, tmp_path_factory):
     """The loops, run side by side to their end; every process is gone afterwards."""
     started: dict[str, ClosedLoop] = {}
     domains = random.Random().sample(range(1, 101), len(LOOPS))  # 0..101: Fast DDS's ports
     policies = {name: policy_file for name in LOOPS}
     policies["mujoco"] = mujoco_policy_file
+    policies["continuous"] = continuous_policy_file
     try:
         for name, domain in zip(LOOPS, domains):
             if policies[name] is None:

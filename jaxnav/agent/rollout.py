@@ -74,6 +74,7 @@ class Steps(NamedTuple):
     collided: chex.Array  # bool[..., T]
     episode: chex.Array  # i32[..., T]
     travel: chex.Array  # f32[..., T] the path the step drove, m (|v| dt along its arc)
+    command: chex.Array | None = None  # f32[..., T, 2] the (v, omega) the step drove
 
 
 class EpisodeMazes(NamedTuple):
@@ -183,7 +184,11 @@ def make_rollout(
             steps = traj = None
             if navigation:
                 moved = env.travel(env_params, state, action)
-                steps = Steps(state.pos, state.goal, info["goal_reached"], terminated, ep, moved)
+                v, omega = env.driven(env_params, state, action)
+                command = jnp.stack([v, omega]).astype(jnp.float32)
+                steps = Steps(
+                    state.pos, state.goal, info["goal_reached"], terminated, ep, moved, command
+                )
             if record:
                 traj = Trajectory(
                     pos=state.pos,

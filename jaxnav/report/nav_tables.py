@@ -16,7 +16,9 @@ from jaxnav.report.navigation import (
     COUNT_COLUMNS,
     FIRST_COUNT_COLUMNS,
     METRICS,
+    SMOOTH_METRICS,
     seed_metrics,
+    smoothness,
     training_outcomes,
 )
 from jaxnav.report.results import arms_in, display_name
@@ -31,15 +33,19 @@ DIGITS = {
     "spl": 2,
     "time_to_goal_s": 1,
     "goals_per_min": 1,
+    "dv_per_step": 3,
+    "dw_per_step": 2,
 }
 
 
-def metric_cells(per_seed: Sequence[dict[str, float]]) -> list[str]:
+def metric_cells(
+    per_seed: Sequence[dict[str, float]], metrics: Sequence[str] = METRICS
+) -> list[str]:
     """One arm's cells, metric by metric: the mean over its seeds [95% CI]. A seed
     without a successful attempt has no time to the goal: that column averages the
     seeds that have one and says how many when some have not."""
     cells = []
-    for m in METRICS:
+    for m in metrics:
         x = np.asarray([s[m] for s in per_seed], np.float64)
         have = x[np.isfinite(x)]
         if not len(have):
@@ -72,18 +78,22 @@ def navigation_section(results: dict, mazes, strategies, seeds) -> list[str]:
         "mean path travelled (`path_length_m`), SPL (the mean of S l / max(p, l), l the "
         "shortest path of the robot's disc from the attempt's start to its goal, p the "
         "path travelled, S the success); the mean time of the successful attempts "
-        "(`time_to_goal_s`) and successes per minute of driving (`goals_per_min`). Then "
+        "(`time_to_goal_s`) and successes per minute of driving (`goals_per_min`); the "
+        "mean absolute change of the driven speed and yaw rate from one step to the next "
+        "within an attempt (`dv_per_step` m/s, `dw_per_step` rad/s: smoothness). Then "
         f"the mean over seeds [{int(stats.CONFIDENCE * 100)}% bootstrap CI].",
         "",
     ]
-    rows = [
-        [m, display_name(s), *metric_cells([seed_metrics(results[(m, s, k)]) for k in seeds])]
-        for m in mazes
-        for s in strategies
-    ]
+
+    def cells(m, s) -> list[str]:
+        seed_cells = metric_cells([seed_metrics(results[(m, s, k)]) for k in seeds])
+        smooth = [smoothness(results[(m, s, k)]) for k in seeds]
+        return seed_cells + metric_cells(smooth, SMOOTH_METRICS)
+
+    rows = [[m, display_name(s), *cells(m, s)] for m in mazes for s in strategies]
     return (
         L
-        + markdown_table(["maze", "strategy", *METRICS], rows)
+        + markdown_table(["maze", "strategy", *METRICS, *SMOOTH_METRICS], rows)
         + gap_section(results, mazes, strategies, seeds)
     )
 

@@ -38,6 +38,11 @@ they are exact over its attempts:
   NaN without one);
 * ``goals_per_min``: successful attempts per minute of driving (every test step).
 
+Smoothness (:func:`smoothness`, from the optional :data:`SMOOTH_COLUMNS`): the mean
+absolute change of the driven command between consecutive steps of an attempt,
+``dv_per_step`` (m/s) and ``dw_per_step`` (rad/s), over every attempt's step pairs:
+what users of continuous control compare controllers by.
+
 No JAX here: the per-step arrays come from the test rollout, the rest from files.
 """
 
@@ -64,6 +69,10 @@ METRICS = (
     "time_to_goal_s",
     "goals_per_min",
 )
+# results.csv's smoothness sums per episode (absent in files written before them), and
+# the metrics they give.
+SMOOTH_COLUMNS = ("dv_sum", "dw_sum", "pairs")
+SMOOTH_METRICS = ("dv_per_step", "dw_per_step")
 RATES = ("success", "collision", "timeout")  # shares of the decided attempts: sum 1
 SUCCESS, COLLISION, TIMEOUT, CUT = 0, 1, 2, 3  # how an attempt ends
 
@@ -78,6 +87,10 @@ class Attempts(NamedTuple):
     outcome: np.ndarray  # i[A] SUCCESS, COLLISION, TIMEOUT or CUT
     path: np.ndarray | None = None  # f[A] metres driven, where the steps' travel is known
     end: np.ndarray | None = None  # f[A, 2] where the robot stood at the attempt's last step
+    # f[A] sums of |v_t+1 - v_t| and |w_t+1 - w_t| over the attempt's consecutive steps,
+    # where the steps' commands are known
+    dv: np.ndarray | None = None
+    dw: np.ndarray | None = None
 
 
 def outcome_of(steps, reached, collided, limit: int) -> np.ndarray:
@@ -102,11 +115,13 @@ def split_attempts(
     n_episodes: int,
     limit: int,
     travel: np.ndarray | None = None,
+    command: np.ndarray | None = None,
 ) -> Attempts:
     """The goal attempts of one run's test from its steps, [T] each (``pos`` and
     ``goal`` [T, 2], before the step; ``reached`` and ``collided`` in the step;
     ``episode`` the step's test episode, ``n_episodes`` or more after the test;
-    ``travel``, if known, the metres each step drove).
+    ``travel``, if known, the metres each step drove; ``command``, if known, [T, 2]
+    the (v, omega) each step drove).
     ``limit``: the attempt limit in steps (the episode's step limit unless
     ``env.attempt_limit`` sets one). An attempt ends at a reach, or with its episode:
     by a collision or at the episode's step limit (then it is a time-out if it took
@@ -128,9 +143,15 @@ def split_attempts(
     starts = np.flatnonzero(first)
     ends = np.append(starts[1:] - 1, n - 1)  # attempts tile the steps
     taken = ends - starts + 1
-    path = None
+    path = dv = dw = None
     if travel is not None:
         path = np.add.reduceat(np.asarray(travel, np.float64)[keep], starts)
+    if command is not None:  # the change from each step to the next within its attempt
+        change = np.abs(np.diff(np.asarray(command, np.float64)[keep], axis=0))
+        inside = ~first[1:]
+        which = (np.cumsum(first) - 1)[1:][inside]
+        dv = np.bincount(which, weights=change[inside, 0], minlength=len(starts))
+        dw = np.bincount(which, weights=change[inside, 1], minlength=len(starts))
     return Attempts(
         episode=episode[starts].astype(np.int32),
         start=pos[starts].astype(np.float64),
@@ -139,6 +160,8 @@ def split_attempts(
         outcome=outcome_of(taken, reached[ends], collided[ends], limit),
         path=path,
         end=pos[ends].astype(np.float64),
+        dv=dv,
+        dw=dw,
     )
 
 
@@ -155,6 +178,7 @@ def run_attempts(steps, r: int, n_episodes: int, limit: int) -> Attempts:
         n_episodes,
         limit,
         steps.travel[r],
+        None if getattr(steps, "command", None) is None else steps.command[r],
     )
 
 
@@ -194,7 +218,14 @@ def episode_counts(
     def per_episode(values) -> np.ndarray:
         return np.bincount(att.episode, weights=values, minlength=n_episodes)[:n_episodes]
 
-    return {
+    smooth = {}
+    if att.dv is not None:
+        smooth = {
+            "dv_sum": per_episode(att.dv),
+            "dw_sum": per_episode(att.dw),
+            "pairs": per_episode(att.steps - 1),
+        }
+    return smooth | {
         "attempts": per_episode(np.ones(len(att.episode))),
         "successes": per_episode(success),
         "timeouts": per_episode(att.outcome == TIMEOUT),
@@ -253,6 +284,21 @@ def seed_metrics(episodes: dict[str, np.ndarray]) -> dict[str, float]:
             "spl": total["spl_sum"] / decided,
         }
     return {m: out[m] for m in METRICS}
+
+
+def smoothness(episodes: dict[str, np.ndarray]) -> dict[str, float]:
+    """A seed's :data:`SMOOTH_METRICS` from its episodes' :data:`SMOOTH_COLUMNS`: the
+    sums of the command's absolute changes over the sum of step pairs; NaN where the
+    columns are absent (files written before them) or there is no step pair."""
+    if not all(c in episodes for c in SMOOTH_COLUMNS):
+        return {m: float("nan") for m in SMOOTH_METRICS}
+    pairs = float(np.sum(episodes["pairs"]))
+    if pairs <= 0:
+        return {m: float("nan") for m in SMOOTH_METRICS}
+    return {
+        "dv_per_step": float(np.sum(episodes["dv_sum"])) / pairs,
+        "dw_per_step": float(np.sum(episodes["dw_sum"])) / pairs,
+    }
 
 
 # A world is solved by a policy whose mean success is within this of the oracle's, on

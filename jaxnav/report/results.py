@@ -20,7 +20,7 @@ from jaxnav.core import strategies as registry
 from jaxnav.core.errors import RunError
 from jaxnav.core.sweep import row_arm
 from jaxnav.report import stats
-from jaxnav.report.navigation import COUNT_COLUMNS, FIRST_COUNT_COLUMNS
+from jaxnav.report.navigation import COUNT_COLUMNS, FIRST_COUNT_COLUMNS, SMOOTH_COLUMNS
 
 EPISODE_COLUMNS = (
     "strategy",
@@ -33,8 +33,9 @@ EPISODE_COLUMNS = (
     "collided",
     "length",
 )
-# results.csv: each episode, then its sums over its goal attempts (jaxnav.report.navigation).
-RESULT_COLUMNS = EPISODE_COLUMNS + COUNT_COLUMNS
+# results.csv: each episode, then its sums over its goal attempts (jaxnav.report.navigation),
+# then its smoothness sums (empty where the commands were not recorded).
+RESULT_COLUMNS = EPISODE_COLUMNS + COUNT_COLUMNS + SMOOTH_COLUMNS
 # Test modes: "greedy" (argmax Q) or "exploring" (each strategy's own exploration at
 # the end of its training); see jaxnav.experiments.rollout.
 MODE_NAMES = {
@@ -97,8 +98,14 @@ def episode_rows(fields, names, results, n_episodes, tag: str, counts=None):
 
 
 def _count_cells(counts: dict[str, np.ndarray], e: int) -> tuple:
-    """Episode e's attempt counts as results.csv writes them (COUNT_COLUMNS)."""
+    """Episode e's attempt counts as results.csv writes them (COUNT_COLUMNS, then
+    SMOOTH_COLUMNS, empty where absent)."""
     c = {k: float(v[e]) for k, v in counts.items()}
+    smooth = (
+        (f"{c['dv_sum']:.6f}", f"{c['dw_sum']:.6f}", int(c["pairs"]))
+        if all(k in c for k in SMOOTH_COLUMNS)
+        else ("", "", "")
+    )
     return (
         int(c["attempts"]),
         int(c["successes"]),
@@ -109,6 +116,7 @@ def _count_cells(counts: dict[str, np.ndarray], e: int) -> tuple:
         int(c["collisions"]),
         int(c["cut"]),
         f"{c['drive_s']:.4f}",
+        *smooth,
     )
 
 
@@ -141,6 +149,8 @@ def _read_episodes(
             columns += COUNT_COLUMNS
         elif all(row.get(c) not in (None, "") for c in FIRST_COUNT_COLUMNS):
             columns += FIRST_COUNT_COLUMNS  # written before cut attempts were told apart
+        if all(row.get(c) not in (None, "") for c in SMOOTH_COLUMNS):
+            columns += SMOOTH_COLUMNS
         d = out.setdefault(key, {c: [] for c in columns})
         for c in d:
             d[c].append(float(row[c]))
