@@ -180,3 +180,18 @@ def test_make_of_the_package_and_the_wrapper_agree():
     np.testing.assert_array_equal(
         w.observation_space.high, np.asarray(env.observation_space(params).high)
     )
+
+
+def test_continuous_commands_are_a_box_and_pass_the_checker():
+    from gymnasium.utils.env_checker import check_env
+
+    env = gym.make(
+        "jaxnav/Square4-v0", actions="continuous", reward="progress", observation="normalised"
+    )
+    assert isinstance(env.action_space, gym.spaces.Box) and env.action_space.shape == (2,)
+    check_env(env.unwrapped, skip_render_check=True)
+    env.reset(seed=0)
+    obs, reward, terminated, truncated, info = env.step(np.array([1.0, 0.0], np.float32))
+    assert obs.shape == env.observation_space.shape and not terminated
+    with pytest.raises(ValueError, match=r"2 finite numbers in \[-1, 1\]"):
+        env.step(np.array([2.0, 0.0], np.float32))

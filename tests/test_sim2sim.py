@@ -168,7 +168,7 @@ def test_the_numpy_reward_is_jaxnavs(preset):
         want = reward_fn(
             params, a, jnp.float32(heading), jnp.float32(dist), jnp.float32(d0), reached, collided
         )
-        got = mujoco_rollout.reward(task, a, heading, dist, d0, reached, collided)
+        got = mujoco_rollout.reward(task, task.omegas[a], heading, dist, d0, reached, collided)
         assert got == pytest.approx(float(want), rel=1e-4, abs=1e-3)
 
 
@@ -364,3 +364,35 @@ def test_the_reproduction_says_at_once_when_mujoco_is_missing(monkeypatch, tmp_p
     assert reproduce.main(["--quick", "--out", str(out), "--sim2sim", "1", "--quiet"]) == 2
     assert "--sim2sim needs MuJoCo" in capsys.readouterr().err
     assert not out.exists() or not any(out.iterdir())
+
+
+def test_a_continuous_policy_drives_the_burger_in_mujoco(tmp_path):
+    """A SAC run's policies (continuous commands) through the same command."""
+    from jaxnav.run.training import train_new
+
+    cfg = load_config(
+        "smoke",
+        [
+            "preset=modern",
+            "agent=sac",
+            "strategies=[policy]",
+            "env.actions=continuous",
+            "seeds=1",
+            "episodes=null",
+            "total_steps=128",
+            "env.max_steps=30",
+            "sac.num_envs=4",
+            "sac.batch_size=16",
+            "sac.learning_starts=32",
+            "sac.hidden=[16, 16]",
+        ],
+    )
+    train_new(cfg, tmp_path / "run", quiet=True)
+    out = tmp_path / "gap.csv"
+    argv = [str(tmp_path / "run"), "--mazes", "square2", "--episodes", "1", "--out", str(out)]
+    assert sim2sim.main(argv) == 0
+    rows = list(csv.DictReader(io.StringIO(out.read_text())))
+    assert sorted((r["simulator"], r["strategy"]) for r in rows) == [
+        ("jaxnav", "policy"),
+        ("mujoco", "policy"),
+    ]

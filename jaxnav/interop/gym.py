@@ -108,7 +108,10 @@ class NavGymEnv(gymnasium.Env):
             shape=box.shape,
             dtype=np.float32,
         )
-        self.action_space = spaces.Discrete(env.num_actions)
+        if env.continuous:  # (speed, yaw rate) in [-1, 1] each (env.actions continuous)
+            self.action_space = spaces.Box(-1.0, 1.0, shape=(2,), dtype=np.float32)
+        else:
+            self.action_space = spaces.Discrete(env.num_actions)
         self.state: EnvState | None = None
         self._key = None
 
@@ -159,6 +162,11 @@ class NavGymEnv(gymnasium.Env):
         if self.state is None:
             raise RuntimeError("call reset() before step()")
         a = np.asarray(action)
+        if self.jax_env.continuous:
+            if a.shape != (2,) or not np.all(np.isfinite(a)) or np.any(np.abs(a) > 1.0):
+                raise ValueError(f"action must be 2 finite numbers in [-1, 1], got {action!r}")
+            self._key, self.state, out = self._step(self._key, self.state, a.astype(np.float32))
+            return self._split(out)
         if (
             a.size != 1
             or not np.issubdtype(a.dtype, np.integer)
@@ -168,6 +176,10 @@ class NavGymEnv(gymnasium.Env):
                 f"action must be an integer in [0, {self.action_space.n}), got {action!r}"
             )
         self._key, self.state, out = self._step(self._key, self.state, np.int32(a.item()))
+        return self._split(out)
+
+    def _split(self, out) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+        """A step's packed output as Gymnasium's (obs, reward, terminated, truncated, info)."""
         out = np.asarray(out)
         d = self.observation_space.shape[0]
         terminated, truncated, reached, collided = (bool(f) for f in out[d + 1 :])

@@ -202,7 +202,7 @@ def _wrap(a: float) -> float:
 
 def reward(
     task: Task,
-    action: int,
+    omega: float,
     heading: float,
     distance: float,
     goal_distance0: float,
@@ -210,12 +210,14 @@ def reward(
     collided: bool,
 ) -> float:
     """jaxnav's reward (:func:`jaxnav.world.reward.reward_fn`) of one step, in NumPy: R- on a
-    collision, R+ on the goal, else 5 psi(heading - phi_a) D."""
+    collision, R+ on the goal, else 5 psi(heading - phi) D, phi the direction the step's
+    commanded yaw rate ``omega`` turns towards (``task.omegas[action]`` for a discrete
+    action, as jaxnav's; a continuous policy's command scored on the same scale)."""
     if collided:
         return task.R_minus
     if reached:
         return task.R_plus
-    phi = task.omegas[action] / np.max(np.abs(task.omegas)) * task.reward_span
+    phi = omega / np.max(np.abs(task.omegas)) * task.reward_span
     psi = 1.0 - (2.0 / math.pi) * abs(_wrap(heading - phi))
     D = 2.0 ** (distance / max(goal_distance0, 1e-6)) if task.reward_distance_exp else distance
     return float(5.0 * psi * D)
@@ -281,12 +283,12 @@ def play(
             pose = robot.pose()
             scan = robot.scan(rng, noise_std)
             obs = policy.observe(scan, 0.0, robot.angle_increment, pose, goal)
-            action = policy.act(obs)
-            collided = robot.drive(*policy.take(action), policy.dt)
+            linear, angular = policy.take(policy.act(obs))
+            collided = robot.drive(linear, angular, policy.dt)
             pose = robot.pose()
             heading, distance = goal_heading_distance(pose, goal)
             reached = distance < task.goal_radius and not collided
-            ret += reward(task, action, heading, distance, d0, reached, collided)
+            ret += reward(task, angular, heading, distance, d0, reached, collided)
             t += 1
             if reached:
                 goal = draw_goal(rng, goal, goals)
