@@ -288,6 +288,18 @@ class NavEnv(GoalSampler, DrawnLayouts, Observer):
         v = jnp.broadcast_to(jnp.asarray(v, jnp.float32), jnp.shape(omega))
         return v, jnp.asarray(omega, jnp.float32)
 
+    def _change(self, state: EnvState, v: chex.Array, omega: chex.Array) -> chex.Array | None:
+        """The step's change of the driven command from the last step's, each over the
+        burger's limits (for ``change_penalty``); None without the normalised
+        observation, which is what keeps the last command."""
+        if not self.normalised:
+            return None
+        last = state.last_command
+        return (
+            jnp.abs(jnp.asarray(v, jnp.float32) - last[0]) / BURGER_MAX_V
+            + jnp.abs(omega - last[1]) / BURGER_MAX_OMEGA
+        )
+
     def travel(self, params: EnvParams, state: EnvState, action: chex.Array) -> chex.Array:
         """f32[]: the length of the path the step from ``state`` drives (|v| dt along its
         arc), for the action chosen (or, with ``action_delay``, the one pending)."""
@@ -441,10 +453,12 @@ class NavEnv(GoalSampler, DrawnLayouts, Observer):
                 params.maze, state.cell_dist, state.pos, state.goal
             )
             _, after = self.family.geodesic_target(params.maze, state.cell_dist, pos, state.goal)
-            reward = progress_reward(params, before, after, clearance, reached, collided)
+            change = self._change(state, v, omega)
+            reward = progress_reward(params, before, after, clearance, reached, collided, change)
         elif self.reward == "progress":  # closer to the goal, kept clear of surfaces
             before = norm2(state.goal - state.pos)
-            reward = progress_reward(params, before, distance, clearance, reached, collided)
+            change = self._change(state, v, omega)
+            reward = progress_reward(params, before, distance, clearance, reached, collided, change)
         else:
             heading, _ = goal_heading_distance(pos, yaw, state.goal)
             reward = reward_fn(

@@ -255,3 +255,26 @@ def test_a_sac_run_is_evaluated_beside_planners_of_its_discrete_twin(tiny_sac_ru
     with open(out / "eval" / "results.csv") as f:
         rows = list(csv.DictReader(f))
     assert {r["strategy"] for r in rows} >= {"policy", "oracle", "dwa"}
+
+
+def test_the_change_penalty_takes_the_command_change_by_hand():
+    kw = dict(actions="continuous", reward="progress", observation="normalised")
+    env, params = make("square4", "modern", step_penalty=0.02, change_penalty=0.3, **kw)
+    plain_env, plain = make("square4", "modern", step_penalty=0.02, **kw)
+    obs, state = env.reset(jax.random.PRNGKey(0), params)
+    a1, a2 = jnp.asarray([1.0, 0.5]), jnp.asarray([0.0, -0.5])
+    k = jax.random.PRNGKey(1)
+    _, s1, r1, *_ = env.step(k, state, a1, params)
+    _, p1, q1, *_ = plain_env.step(k, state, a1, plain)
+    # from rest to (0.22, 1.42): the change is 0.22 / 0.22 + 1.42 / 2.84 = 1.5
+    assert float(q1 - r1) == pytest.approx(0.3 * 1.5, rel=1e-5)
+    _, _, r2, *_ = env.step(k, s1, a2, params)
+    _, _, q2, *_ = plain_env.step(k, p1, a2, plain)
+    # then to (0.11, -1.42): 0.11 / 0.22 + 2.84 / 2.84 = 1.5 again
+    assert float(q2 - r2) == pytest.approx(0.3 * 1.5, rel=1e-5)
+
+
+def test_the_change_penalty_needs_the_progress_reward_and_the_normalised_observation():
+    with pytest.raises(ConfigError, match="env.change_penalty needs env.reward progress"):
+        load_config("smoke", TINY + ["env.change_penalty=0.3", "env.observation=robotis"])
+    assert load_config("smoke", TINY + ["env.change_penalty=0.3"]).env.change_penalty == 0.3

@@ -301,6 +301,14 @@ def _check(cfg: Config) -> Config:
     )
     if says:
         raise ConfigError(f"config: {says}")
+    if cfg.env.change_penalty and (
+        cfg.env.reward != "progress" or cfg.env.observation != "normalised"
+    ):
+        fail(
+            "env.change_penalty",
+            "needs env.reward progress and env.observation normalised (which keeps the last "
+            "command)",
+        )
     if cfg.env.attempt_limit > cfg.env.max_steps:
         fail(
             "env.attempt_limit",

@@ -147,6 +147,13 @@ class EnvConfig:
         "its radius)",
         rule=NON_NEGATIVE,
     )
+    change_penalty: float = setting(
+        0.0,
+        "progress reward: taken times the change of the driven command from the last "
+        "step's, |dv| / 0.22 m/s + |d omega| / 2.84 rad/s (needs env.observation normalised, "
+        "which holds the last command): smoother driving",
+        rule=NON_NEGATIVE,
+    )
     proximity_distance: float = setting(
         0.3,
         "progress reward: the clearance below which the proximity penalty applies, m",

@@ -69,6 +69,7 @@ def progress_reward(
     clearance: chex.Array,
     reached: chex.Array,
     collided: chex.Array,
+    change: chex.Array | None = None,
 ) -> chex.Array:
     """R+ on reaching the goal, R- on collision, else the step's progress and penalties:
     ``progress_scale`` (before - after), the metres the step brought the robot closer
@@ -77,7 +78,9 @@ def progress_reward(
     within ``proximity_distance`` of a surface, c its clearance beyond the robot's
     radius (``clearance``: the path's least distance to any surface, as the collision
     test measures it). The field's shaping: progress towards the goal (turtlebot3_drlnav,
-    JaxMARL's JaxNav), a penalty near obstacles (ROBOTIS' stage code)."""
+    JaxMARL's JaxNav), a penalty near obstacles (ROBOTIS' stage code). ``change`` (given
+    with the normalised observation): the step's change of command, |dv| / 0.22 +
+    |d omega| / 2.84, taken times ``change_penalty``."""
     c = clearance - params.robot_radius
     near = jnp.clip(1.0 - c / params.proximity_distance, 0.0, 1.0)
     shaping = (
@@ -85,4 +88,6 @@ def progress_reward(
         - params.step_penalty
         - params.proximity_penalty * near
     )
+    if change is not None:  # a smoother command (the field's action-rate penalty)
+        shaping = shaping - params.change_penalty * change
     return jnp.where(collided, params.R_minus, jnp.where(reached, params.R_plus, shaping))

@@ -46,6 +46,9 @@ class EnvParams:
     step_penalty: float = 0.0  # taken from every step that neither reaches nor collides
     proximity_penalty: float = 0.0  # taken, scaled, where the path comes near a surface
     proximity_distance: float = 0.3  # m of clearance (beyond the radius) where it starts
+    # taken times the change of the driven command from the last step's (each over the
+    # burger's limits), with the progress reward and the normalised observation
+    change_penalty: float = 0.0
     # Drawn mazes only: layouts drawn ahead (NavEnv.with_bank), (maze, goal, cell
     # distances or None) with a leading axis of NavEnv.maze_bank; None: each new layout
     # is drawn when it is needed.
