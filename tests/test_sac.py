@@ -278,3 +278,33 @@ def test_the_change_penalty_needs_the_progress_reward_and_the_normalised_observa
     with pytest.raises(ConfigError, match="env.change_penalty needs env.reward progress"):
         load_config("smoke", TINY + ["env.change_penalty=0.3", "env.observation=robotis"])
     assert load_config("smoke", TINY + ["env.change_penalty=0.3"]).env.change_penalty == 0.3
+
+
+@pytest.mark.slow
+def test_resume_after_sigkill_gives_identical_results(tmp_path):
+    """The replay ring travels in the checkpoint with the rest of SAC's state."""
+    import signal
+    import subprocess
+    import sys
+    import time
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parent.parent
+    tiny = [o for o in TINY if not o.startswith(("total_steps", "run.chunk_steps"))]
+    tiny += ["total_steps=8192", "run.chunk_steps=512"]
+    ref, killed = tmp_path / "ref", tmp_path / "killed"
+    cmd = [sys.executable, "-m", "jaxnav.train", "smoke", *tiny, "--quiet"]
+    subprocess.run(cmd + ["--out", str(ref)], check=True, cwd=root)
+    proc = subprocess.Popen(cmd + ["--out", str(killed)], cwd=root)
+    ckpt = killed / "checkpoints" / "last.npz"
+    deadline = time.time() + 120
+    while not ckpt.exists() and time.time() < deadline and proc.poll() is None:
+        time.sleep(0.01)
+    proc.send_signal(signal.SIGKILL)
+    proc.wait()
+    assert not (killed / "params.npz").exists(), "the run finished before it could be killed"
+    resume = [sys.executable, "-m", "jaxnav.train", "--resume", str(killed), "--quiet"]
+    subprocess.run(resume, check=True, cwd=root)
+    assert (killed / "metrics.csv").read_bytes() == (ref / "metrics.csv").read_bytes()
+    a, b = np.load(ref / "params.npz"), np.load(killed / "params.npz")
+    assert a.files == b.files and all(np.array_equal(a[k], b[k]) for k in a.files)
