@@ -39,7 +39,16 @@ from jaxnav.agent.exploration import explore_action
 from jaxnav.agent.hyper import Hyper
 from jaxnav.agent.networks import QNetwork
 from jaxnav.agent.qlearning import lr_decay_steps, optimizer_of, td_loss
-from jaxnav.agent.trainer import StepLog, Trainer, all_finite, run_limits, select, still_training
+from jaxnav.agent.trainer import (
+    StepLog,
+    Trainer,
+    all_finite,
+    file_episodes,
+    run_limits,
+    select,
+    still_training,
+    update_chunk,
+)
 from jaxnav.core.config import Config
 from jaxnav.env import EnvParams, EnvState, NavEnv, bank_key, from_config
 
@@ -165,13 +174,10 @@ def make_rollouts(config: Config) -> Rollouts:
             jax.random.split(k_env, envs), env_state, action, h.env_params(base_params, ts.bank)
         )
         done = terminated | truncated
-        number = episode + jnp.cumsum(done.astype(jnp.int32)) - 1  # in environment order
-        filed = run & done & (number < limit)
-        slot = jnp.where(filed, number % slots, slots)  # out of range: not filed
-        metrics = metrics.record(
-            slot, reward, info["goal_reached"], terminated, done, explore, env.attempt_limit
-        )
-        episode = jnp.minimum(episode + jnp.sum(done, dtype=jnp.int32), limit)
+        metrics, episode = file_episodes(
+            metrics, episode, run, reward, info["goal_reached"], terminated, done, explore,
+            limit, slots, env.attempt_limit,
+        )  # fmt: skip
         row = Rollout(
             obs,
             action,
@@ -283,22 +289,9 @@ def make_trainer(config: Config) -> Trainer:
         )
         return held, log
 
-    def chunk(ts: PQNState, n_steps: chex.Array | None = None):
-        """Up to ``chunk_length`` env steps (whole updates) of one run in one compiled
-        loop; ``n_steps`` (i32[], the same for every run) ends it after the updates that
-        cover that many env steps. Returns (state, :class:`StepLog` of f32[chunk_length],
-        per env step, steps of all environments at each rollout step together, NaN where
-        no step was taken; an update's loss sits at its last env step)."""
-        n = updates if n_steps is None else jnp.minimum(-(-n_steps // per_update), updates)
-
-        def body(i, carry):
-            ts, logs = carry
-            ts, log = update(ts, None)
-            at = (i * per_update,)
-            return ts, jax.tree.map(lambda a, x: jax.lax.dynamic_update_slice(a, x, at), logs, log)
-
-        logs = StepLog(*(jnp.full(length, jnp.nan, jnp.float32) for _ in StepLog._fields))
-        return jax.lax.fori_loop(0, n, body, (ts, logs))
+    # Up to chunk_length env steps (whole updates) of one run in one compiled loop; an
+    # update's loss sits at its last env step.
+    chunk = update_chunk(update, per_update, updates)
 
     return Trainer(env, base_params, slots, init, update, chunk, active, per_update, length)
 

@@ -38,7 +38,16 @@ from flax import struct
 from jaxnav.agent.episodes import Episodes
 from jaxnav.agent.hyper import Hyper
 from jaxnav.agent.qlearning import soft_update
-from jaxnav.agent.trainer import StepLog, Trainer, all_finite, run_limits, select, still_training
+from jaxnav.agent.trainer import (
+    StepLog,
+    Trainer,
+    all_finite,
+    file_episodes,
+    run_limits,
+    select,
+    still_training,
+    update_chunk,
+)
 from jaxnav.core.agent_settings import sac_capacity
 from jaxnav.core.config import Config
 from jaxnav.env import EnvState, NavEnv, bank_key, from_config
@@ -350,14 +359,11 @@ def make_trainer(config: Config) -> Trainer:
             jax.random.split(k_env, envs), ts.env_state, action, env_params
         )
         done = terminated | truncated
-        number = ts.episode + jnp.cumsum(done.astype(jnp.int32)) - 1
-        filed = run & done & (number < limit)
-        slot = jnp.where(filed, number % slots, slots)
         explore = jnp.full(envs, alpha)
-        metrics = ts.metrics.record(
-            slot, reward, info["goal_reached"], terminated, done, explore, env.attempt_limit
-        )
-        episode = jnp.minimum(ts.episode + jnp.sum(done, dtype=jnp.int32), limit)
+        metrics, episode = file_episodes(
+            ts.metrics, ts.episode, run, reward, info["goal_reached"], terminated, done,
+            explore, limit, slots, env.attempt_limit,
+        )  # fmt: skip
 
         # STORE the step's transitions in the ring (a finished run writes nothing: its
         # rows fall outside the ring and are dropped, so the ring is never copied).
@@ -423,20 +429,8 @@ def make_trainer(config: Config) -> Trainer:
         )
         return held, log
 
-    def chunk(ts: SACState, n_steps: chex.Array | None = None):
-        """Up to ``chunk_length`` env steps (whole steps of every environment) of one
-        run in one compiled loop; ``n_steps`` (i32[], the same for every run) ends it
-        after the steps that cover that many env steps. Logs as PQN's chunk."""
-        n = per_chunk if n_steps is None else jnp.minimum(-(-n_steps // envs), per_chunk)
-
-        def body(i, carry):
-            ts, logs = carry
-            ts, log = step(ts, None)
-            at = (i * envs,)
-            return ts, jax.tree.map(lambda a, x: jax.lax.dynamic_update_slice(a, x, at), logs, log)
-
-        logs = StepLog(*(jnp.full(length, jnp.nan, jnp.float32) for _ in StepLog._fields))
-        return jax.lax.fori_loop(0, n, body, (ts, logs))
+    # Up to chunk_length env steps (whole steps of every environment), logged as PQN's.
+    chunk = update_chunk(step, envs, per_chunk)
 
     return Trainer(env, base_params, slots, init, step, chunk, active, envs, length)
 

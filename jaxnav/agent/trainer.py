@@ -93,6 +93,52 @@ def step_chunk(step: Callable[[Any, None], tuple[Any, StepLog]], length: int):
     return chunk
 
 
+def update_chunk(update: Callable[[Any, None], tuple[Any, StepLog]], per_update: int, updates: int):
+    """The ``chunk`` of a trainer whose ``step`` takes ``per_update`` env steps at once
+    (PQN's update, SAC's step of all its environments): up to ``updates`` of them in one
+    compiled loop. ``n_steps`` (i32[], the same for every run) ends it after the updates
+    that cover that many env steps. Returns (state, :class:`StepLog` of
+    f32[updates * per_update], per env step, NaN where no step was taken)."""
+    length = updates * per_update
+
+    def chunk(ts, n_steps: chex.Array | None = None):
+        n = updates if n_steps is None else jnp.minimum(-(-n_steps // per_update), updates)
+
+        def body(i, carry):
+            ts, logs = carry
+            ts, log = update(ts, None)
+            at = (i * per_update,)
+            return ts, jax.tree.map(lambda a, x: jax.lax.dynamic_update_slice(a, x, at), logs, log)
+
+        logs = StepLog(*(jnp.full(length, jnp.nan, jnp.float32) for _ in StepLog._fields))
+        return jax.lax.fori_loop(0, n, body, (ts, logs))
+
+    return chunk
+
+
+def file_episodes(
+    metrics,
+    episode: chex.Array,
+    run: chex.Array,
+    reward: chex.Array,
+    reached: chex.Array,
+    terminated: chex.Array,
+    done: chex.Array,
+    explore: chex.Array,
+    limit: int,
+    slots: int,
+    attempt_limit: int,
+):
+    """(metrics, episode) after one step of many environments ([E] each): the episodes
+    they finished numbered from ``episode`` in environment order, filed where ``run``
+    and below ``limit`` (slot ``number % slots``), the count capped at ``limit``."""
+    number = episode + jnp.cumsum(done.astype(jnp.int32)) - 1
+    filed = run & done & (number < limit)
+    slot = jnp.where(filed, number % slots, slots)  # out of range: not filed
+    metrics = metrics.record(slot, reward, reached, terminated, done, explore, attempt_limit)
+    return metrics, jnp.minimum(episode + jnp.sum(done, dtype=jnp.int32), limit)
+
+
 def all_finite(tree) -> chex.Array:
     """bool[]: every element of every leaf is finite."""
     return jnp.all(jnp.stack([jnp.all(jnp.isfinite(leaf)) for leaf in jax.tree.leaves(tree)]))
@@ -163,10 +209,12 @@ __all__ = [
     "StepLog",
     "Trainer",
     "all_finite",
+    "file_episodes",
     "make_train",
     "run_inputs",
     "run_limits",
     "select",
     "step_chunk",
     "still_training",
+    "update_chunk",
 ]
