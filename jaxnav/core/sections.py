@@ -23,6 +23,7 @@ from jaxnav.core.settings import (
     SCALE_RANGE,
     UNIT,
     UNIT_OPEN,
+    WIDTHS,
     one_of,
     setting,
 )
@@ -231,7 +232,7 @@ class DQNConfig:
     hidden: tuple[int, ...] = setting(
         (64, 64),
         "hidden layer widths",
-        rule=(lambda v: len(v) > 0 and min(v) >= 1, "must be a non-empty list of positive widths"),
+        rule=WIDTHS,
     )
     dropout: float = setting(0.2, "dropout after the hidden layers", rule=UNIT_OPEN, sweep=True)
     # "periodic": hard copy every target_update_every env steps (paper).
@@ -352,7 +353,7 @@ class SACConfig:
     hidden: tuple[int, ...] = setting(
         (128, 128),
         "hidden layer widths of the actor and each critic",
-        rule=(lambda v: len(v) > 0 and min(v) >= 1, "must be a non-empty list of positive widths"),
+        rule=WIDTHS,
     )
     layer_norm: bool = setting(True, "LayerNorm before each hidden ReLU of the critics")
     init_alpha: float = setting(0.1, "the entropy temperature at the start", rule=POSITIVE)
