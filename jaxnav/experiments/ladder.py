@@ -31,10 +31,10 @@ from typing import Any
 
 import numpy as np
 
-from jaxnav.core import baselines
+from jaxnav.core import agents, baselines
 from jaxnav.core.config import CONFIG_DIR, Config, config_to_dict
 from jaxnav.core.errors import ConfigError, JaxnavError
-from jaxnav.core.rundir import METRICS, CsvLog, atomic_write_text, csv_text
+from jaxnav.core.rundir import EVAL, METRICS, CsvLog, atomic_write_text, csv_text
 from jaxnav.core.settings import SEED, problem
 from jaxnav.core.values import flatten
 from jaxnav.experiments import runner, studyfile
@@ -64,9 +64,10 @@ STUDY_KEYS = {
     "agents": dict,
     "rungs": dict,
     "generalise_to": list,
+    "eval_points": int,  # greedy evaluations along each cell's budget (0: none)
 }
 REQUIRED = ("title", "seeds", "total_steps", "strategies", "agents", "rungs")
-AGENT_KEYS = {"label": str, "settings": dict}
+AGENT_KEYS = {"label": str, "settings": dict, "rungs": list}
 RUNG_KEYS = {"label": str, "config": str, "settings": dict, "larger": dict, "total_steps": int}
 CURVE_POINTS = 41  # learning-curve points per cell, over the share of the step budget
 CURVE_WINDOW = 20  # episodes in a curve's moving mean
@@ -83,7 +84,11 @@ SCORE_COLUMNS = (
     "spl",
     "collision",
     "cut",  # attempts cut by an episode's end, per episode (left out of the rates)
+    "goals_per_min",
 )
+# One row per seed and greedy evaluation while it trains (eval_points): the learning curve
+# the study's measures of learning speed come from (jaxnav.report.learning).
+EVAL_COLUMNS = ("rung", "agent", "strategy", "seed", "env_step", "wall_s", "success", "collision")
 
 
 @dataclass(frozen=True)
@@ -101,6 +106,7 @@ class Agent:
     name: str
     label: str
     settings: dict[str, Any]
+    rungs: tuple[str, ...] | None = None  # the rungs it trains on (None: every rung)
 
 
 @dataclass(frozen=True)
@@ -116,9 +122,12 @@ class Study:
     rungs: tuple[Rung, ...]
     generalise_to: tuple[str, ...]
     text: str  # the study file, as read
+    eval_points: int = 0  # greedy evaluations along each cell's budget
 
     def cells(self) -> list[tuple[Rung, Agent]]:
-        return [(r, a) for r in self.rungs for a in self.agents]
+        return [
+            (r, a) for r in self.rungs for a in self.agents if a.rungs is None or r.name in a.rungs
+        ]
 
 
 def parse_study(text: str, where: str) -> Study:
@@ -137,7 +146,15 @@ def parse_study(text: str, where: str) -> Study:
         if not isinstance(a, dict):
             raise ConfigError(f"{at} must be a mapping (label, settings)")
         studyfile.typed(a, AGENT_KEYS, at)
-        agents.append(Agent(name, a.get("label", name), flatten(a.get("settings", {}))))
+        only = a.get("rungs")
+        if only is not None:
+            unknown = [r for r in only if r not in doc["rungs"]]
+            if unknown or not only:
+                raise ConfigError(
+                    f"{at}.rungs: no rung {unknown[0]!r}" if unknown else f"{at}.rungs is empty"
+                )
+            only = tuple(only)
+        agents.append(Agent(name, a.get("label", name), flatten(a.get("settings", {})), only))
     for name, r in doc["rungs"].items():
         at = f"{where}: rungs.{studyfile.name_of(name, where)}"
         if not isinstance(r, dict) or "config" not in r:
@@ -170,7 +187,10 @@ def parse_study(text: str, where: str) -> Study:
         rungs=tuple(rungs),
         generalise_to=tuple(doc.get("generalise_to", [])),
         text=text,
+        eval_points=doc.get("eval_points", 0),
     )
+    if study.eval_points < 0:
+        raise ConfigError(f"{where}: eval_points must be 0 (none) or more")
     for name in study.generalise_to:  # tested after training: known before it
         try:
             make_maze(name)
@@ -197,19 +217,39 @@ def cell_config(study: Study, rung: Rung, agent: Agent) -> Config:
     the rung's, then the study's size (seeds, budget in env steps, tests)."""
     values = studyfile.base_values(rung.config)
     values.update(study.settings)
+    if "agent" in agent.settings:  # another agent than the config's: not its sections
+        reads = (
+            agents.get(agent.settings["agent"]).reads
+            if agent.settings["agent"] in agents.names()
+            else ()
+        )
+        values = {
+            k: v
+            for k, v in values.items()
+            if k.split(".")[0] not in agents.AGENT_SECTIONS or k.split(".")[0] in reads
+        }
     values.update(agent.settings)
     values.update(rung.settings)
     values.pop("run.test_mazes", None)
+    budget = rung.total_steps or study.total_steps
     values.update(
         {
             "seed": study.seed,
             "seeds": study.seeds,
             "strategies": list(study.strategies),
             "episodes": None,
-            "total_steps": rung.total_steps or study.total_steps,
+            "total_steps": budget,
             "run.test_episodes": study.test_episodes,
         }
     )
+    if study.eval_points:  # evaluations at equal shares of the budget, each a chunk's end
+        every = budget // study.eval_points
+        if every * study.eval_points != budget:
+            raise ConfigError(
+                f"rungs.{rung.name}: its budget of {budget} env steps does not split into "
+                f"eval_points={study.eval_points} equal parts"
+            )
+        values.update({"run.eval_every": every, "run.chunk_steps": every})
     cfg = studyfile.build(values, f"rungs.{rung.name} with agents.{agent.name}")
     mazes = [] if cfg.env.generator else [cfg.env.maze]
     mazes += [m for m in study.generalise_to if m not in mazes]
@@ -270,6 +310,7 @@ def seed_scores(results_text: str, cfg: Config, rung: Rung, agent: Agent) -> lis
                     "spl": f"{m['spl']:.6g}",
                     "collision": f"{m['collision']:.6g}",
                     "cut": f"{m['cut']:.6g}",
+                    "goals_per_min": f"{m['goals_per_min']:.6g}",
                 }
             )
     return rows
@@ -312,6 +353,29 @@ def curve_rows(metrics: list[dict[str, str]], rung: Rung, agent: Agent) -> list[
     return rows
 
 
+def eval_rows(run: Path, rung: Rung, agent: Agent) -> list[dict]:
+    """The cell's greedy evaluations while it trained (its ``eval.csv``), one row of
+    :data:`EVAL_COLUMNS` per seed and evaluation; collision is the collisions' share of
+    the decided attempts, as success is."""
+    rows = []
+    for r in CsvLog(run / EVAL, ()).read():
+        decided = float(r["attempts"]) - float(r["cut"])
+        collision = float(r["collisions"]) / decided if decided > 0 else float("nan")
+        rows.append(
+            {
+                "rung": rung.name,
+                "agent": agent.name,
+                "strategy": r["strategy"],
+                "seed": r["seed"],
+                "env_step": r["env_step"],
+                "wall_s": r["wall_s"],
+                "success": r["success"],
+                "collision": f"{collision:.6g}",
+            }
+        )
+    return rows
+
+
 def run_cell(study: Study, out: Path, rung: Rung, agent: Agent, quiet: bool, say) -> None:
     """Train and test one cell unless it is done: its seeds.csv, curves.csv and
     cell.json (its row of cells.csv)."""
@@ -347,6 +411,11 @@ def run_cell(study: Study, out: Path, rung: Rung, agent: Agent, quiet: bool, say
     atomic_write_text(
         run / "curves.csv", csv_text(list(curves[0]), [list(r.values()) for r in curves])
     )
+    if study.eval_points:
+        evals = eval_rows(run, rung, agent)
+        atomic_write_text(
+            run / "evals.csv", csv_text(EVAL_COLUMNS, [list(r.values()) for r in evals])
+        )
     atomic_write_text(run / "cell.json", json.dumps(row))
     atomic_write_text(done, csv_text(SCORE_COLUMNS, [[r[c] for c in SCORE_COLUMNS] for r in rows]))
 
@@ -381,6 +450,8 @@ def write_data(study: Study, out: Path, command: str) -> Path:
     atomic_write_text(data / "study.yaml", study.text)
     atomic_write_text(data / "scores.csv", _concat([d / "seeds.csv" for d in dirs]))
     atomic_write_text(data / "curves.csv", _concat([d / "curves.csv" for d in dirs]))
+    if study.eval_points:
+        atomic_write_text(data / "evals.csv", _concat([d / "evals.csv" for d in dirs]))
     cells = [json.loads((d / "cell.json").read_text()) for d in dirs]
     atomic_write_text(
         data / "cells.csv", csv_text(list(cells[0]), [list(c.values()) for c in cells])
