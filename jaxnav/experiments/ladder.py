@@ -65,6 +65,10 @@ STUDY_KEYS = {
     "rungs": dict,
     "generalise_to": list,
     "eval_points": int,  # greedy evaluations along each cell's budget (0: none)
+    # for the page only: lines under its setup, what the study leaves out, an earlier page
+    "notes": list,
+    "left_out": list,
+    "previous": str,
 }
 REQUIRED = ("title", "seeds", "total_steps", "strategies", "agents", "rungs")
 AGENT_KEYS = {"label": str, "settings": dict, "rungs": list}
@@ -189,6 +193,9 @@ def parse_study(text: str, where: str) -> Study:
         text=text,
         eval_points=doc.get("eval_points", 0),
     )
+    for key in ("notes", "left_out"):
+        if not all(isinstance(x, str) for x in doc.get(key, [])):
+            raise ConfigError(f"{where}: {key} must be a list of lines of text")
     if study.eval_points < 0:
         raise ConfigError(f"{where}: eval_points must be 0 (none) or more")
     for name in study.generalise_to:  # tested after training: known before it

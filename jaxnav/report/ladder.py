@@ -64,6 +64,13 @@ class Data:
         self.curves = _rows(folder / "curves.csv")
         self.cells = _rows(folder / "cells.csv")
         self.run = json.loads((folder / "run.json").read_text())
+        # greedy evaluations while training (a study with eval_points): None without
+        evals = folder / "evals.csv"
+        self.evals = _rows(evals) if evals.is_file() else None
+
+    def has(self, rung: str, agent: str) -> bool:
+        """Whether the agent trained on the rung (a study may give an agent some rungs)."""
+        return any(k[0] == rung and k[1] == agent for k in self.scores)
 
     def tests(self, rung: str) -> list[str]:
         return list(dict.fromkeys(k[2] for k in self.scores if k[0] == rung))
@@ -125,6 +132,7 @@ def solved_by(data: Data, rung: str) -> list[tuple[str, str]] | None:
     return [
         (a, s)
         for a in data.agents
+        if data.has(rung, a)
         for s in data.strategies
         if solved(float(np.mean(data.per_seed(rung, a, "own", s, "success"))), reference)
     ]
@@ -137,7 +145,7 @@ def trajectory_cell(data: Data) -> tuple[str, str] | None:
     for rung in reversed(data.rungs):
         if "test" in data.tests(rung):
             continue
-        arms = [(a, s) for a in data.agents for s in data.strategies]
+        arms = [(a, s) for a in data.agents if data.has(rung, a) for s in data.strategies]
         mean = {arm: np.mean(data.per_seed(rung, arm[0], "own", arm[1], "success")) for arm in arms}
         best = max(arms, key=lambda arm: mean[arm])
         if mean[best] >= TRAJECTORY_SUCCESS:
@@ -193,7 +201,7 @@ def _success_table(data: Data) -> list[str]:
     rows = []
     oracle = any(oracle_success(data, r) is not None for r in data.rungs)
     for rung in data.rungs:
-        for agent in data.agents:
+        for agent in (a for a in data.agents if data.has(rung, a)):
             cells = [data.rung_label[rung], data.agent_label[agent]]
             for s in data.strategies + ([ORACLE] if oracle else []):
                 x = data.per_seed(rung, agent, "own", s, "success")
@@ -233,7 +241,7 @@ def _gap_table(data: Data) -> list[str]:
     more = list(dict.fromkeys(t for r in family for t in data.tests(r) if t not in ("own", "test")))
     for rung in family:
         tests = data.tests(rung)
-        for agent in data.agents:
+        for agent in (a for a in data.agents if data.has(rung, a)):
             for s in data.strategies:
                 own = data.per_seed(rung, agent, "own", s, "success")
                 unseen = data.per_seed(rung, agent, "test", s, "success")
@@ -256,7 +264,7 @@ def _generalisation_verdicts(data: Data) -> list[str]:
         for t in data.tests(rung):
             if t == "own":
                 continue
-            for agent in data.agents:
+            for agent in (a for a in data.agents if data.has(rung, a)):
                 p, word = compare(data, rung, agent, t, EPS, "success")
                 cells = [data.rung_label[rung], TEST_NAMES.get(t, t), data.agent_label[agent]]
                 rows.append(cells + [interval(p, 2), word])
@@ -315,17 +323,20 @@ def _solved_lines(data: Data) -> list[str]:
         )
         return [why]
     first, last = data.rungs[0], data.rungs[-1]
-    arms = len(data.agents) * len(data.strategies)
+
+    def arms(rung: str) -> int:
+        return sum(data.has(rung, a) for a in data.agents) * len(data.strategies)
+
     out = []
     for rung in data.rungs:
         s = solved_by(data, rung)
         names = ", ".join(f"{NAMES[b]} ({data.agent_label[a]})" for a, b in s) or "none"
-        out.append(f"- {data.rung_label[rung]}: {len(s)} of {arms} arms ({names}).")
+        out.append(f"- {data.rung_label[rung]}: {len(s)} of {arms(rung)} arms ({names}).")
     if len(data.rungs) > 1:
         out.append("")
         out.append(
             f"The easiest world ({data.rung_label[first]}) is solved by "
-            f"{len(solved_by(data, first))} of {arms} arms; the hardest "
+            f"{len(solved_by(data, first))} of {arms(first)} arms; the hardest "
             f"({data.rung_label[last]}) by {len(solved_by(data, last))}."
         )
     return out
