@@ -44,12 +44,31 @@ def _parse(text: str):
 
 def test_the_shipped_study_parses_and_every_cell_builds():
     study = ladder.load_study(str(ladder.CONFIG_DIR / "studies" / "when_ebe_helps.yaml"))
+    assert study.eval_points == 10
+    dqn_rungs = next(a for a in study.agents if a.name == "dqn").rungs
+    assert dqn_rungs == ("square4",)
+    assert len(study.cells()) == len(study.rungs) + len(dqn_rungs)
+    for rung, agent in study.cells():
+        cfg = ladder.cell_config(study, rung, agent)
+        assert cfg.total_steps == rung.total_steps and cfg.episodes is None
+        assert cfg.run.eval_every * study.eval_points == rung.total_steps
+        assert cfg.run.chunk_steps == cfg.run.eval_every
+        assert cfg.strategies == study.strategies and cfg.seeds == study.seeds
+        assert cfg.exploration.ebe_temperature == 0.03
+        # the drive config's recipe, or the paper's DQN without the recipe's PQN settings
+        assert cfg.agent == ("dqn" if agent.name == "dqn" else "pqn")
+        if rung.larger:
+            big = ladder.larger_config(cfg, rung)
+            assert big.env.split == "test"
+
+
+def test_the_first_ladder_study_is_kept_with_its_budget_and_temperature():
+    study = ladder.load_study(str(ladder.CONFIG_DIR / "studies" / "when_ebe_helps_40k.yaml"))
     assert len(study.cells()) == len(study.rungs) * len(study.agents)
     for rung, agent in study.cells():
         cfg = ladder.cell_config(study, rung, agent)
         assert cfg.total_steps == study.total_steps and cfg.episodes is None
-        assert cfg.strategies == study.strategies and cfg.seeds == study.seeds
-        assert cfg.exploration.ebe_temperature == 3.0
+        assert cfg.exploration.ebe_temperature == 3.0 and cfg.run.eval_every == 0
         if rung.larger:
             big = ladder.larger_config(cfg, rung)
             assert big.env.split == "test" and big.env.grid_rows > cfg.env.grid_rows
@@ -67,6 +86,9 @@ def test_the_shipped_study_parses_and_every_cell_builds():
         (("total_steps: 512", "total_steps: many"), "total_steps must be an integer"),
         (("generalise_to: [square2]", "generalise_to: [nomaze]"), "unknown maze 'nomaze'"),
         (("  dqn: {label: DQN}", "  dqn: {label: DQN, settings: {dqn: {double: 3}}}"), "double"),
+        (("  dqn: {label: DQN}", "  dqn: {label: DQN, rungs: [nope]}"), "no rung 'nope'"),
+        (("seeds: 2", "seeds: 2\neval_points: 3"), "does not split into eval_points=3"),
+        (("seeds: 2", "seeds: 2\nnotes: [1]"), "notes must be a list of lines"),
     ],
 )
 def test_a_wrong_study_file_is_one_line_naming_the_problem(change, message):
@@ -214,15 +236,15 @@ def _synthetic(folder: Path, n: int = 16, oracle: bool = True) -> None:
                 for test in ("own",) if rung == "a" else ("own", "test"):
                     good = rung == "a" and strategy == "ebe"
                     s = 1.0 if good else float(rng.uniform(0.3, 0.7))
-                    rows.append([rung, "dqn", strategy, seed, test, 2, 4, s * 100, s, s, 0, 0])
+                    rows.append([rung, "dqn", strategy, seed, test, 2, 4, s * 100, s, s, 0, 0, s])
             if oracle:
                 for seed in range(n):
                     s = 1.0 if rung == "a" else 0.99
-                    rows.append([rung, "dqn", "oracle", seed, "own", 2, 4, 0, s, s, 0, 0])
+                    rows.append([rung, "dqn", "oracle", seed, "own", 2, 4, 0, s, s, 0, 0, s])
     columns = list(ladder.SCORE_COLUMNS)
     if not oracle:
-        columns.remove("cut")
-        rows = [r[:-1] for r in rows]
+        columns = columns[: columns.index("cut")]  # nor goals per minute
+        rows = [r[: len(columns)] for r in rows]
     with open(folder / "scores.csv", "w", newline="") as f:
         w = csv.writer(f, lineterminator="\n")
         w.writerow(columns)

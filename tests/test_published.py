@@ -36,9 +36,10 @@ def test_each_published_part_is_its_data_byte_for_byte(item):
 def test_the_ladder_pages_figures_are_beside_it():
     from jaxnav.report import ladder
 
-    page = ROOT / f"{publish.LADDER}.md"
-    for name in ladder.FIGURES[:2]:
-        assert (page.parent / f"{page.stem}-{name}").is_file()
+    for folder in (publish.LADDER, publish.LADDER_40K):
+        page = ROOT / f"{folder}.md"
+        for name in ladder.figure_names(ROOT / folder)[:2]:
+            assert (page.parent / f"{page.stem}-{name}").is_file()
 
 
 def test_publish_rewrites_a_stale_block_and_check_finds_it(tmp_path, capsys):

@@ -42,8 +42,9 @@ from jaxnav.experiments.evaluation import drawn_name
 from jaxnav.report import stats
 from jaxnav.report.ladder import (
     DATA_FILES,
-    FIGURES,
+    LEARNING_FILES,
     Data,
+    figure_names,
     ladder_figures,
     ladder_markdown,
     trajectory_cell,
@@ -477,12 +478,13 @@ def publish(study: Study, out: Path, page: Path) -> list[Path]:
     prefix = page.stem
     folder = page.parent / prefix
     folder.mkdir(parents=True, exist_ok=True)
-    for name in DATA_FILES:
+    for name in DATA_FILES + tuple(n for n in LEARNING_FILES if (data / n).is_file()):
         shutil.copyfile(data / name, folder / name)
     written = ladder_figures(folder, page.parent, prefix)
     traj = trajectory_cell(Data(folder))
     if traj is not None:
-        written.append(_trajectories(study, out, *traj, page.parent / f"{prefix}-{FIGURES[2]}"))
+        path = page.parent / f"{prefix}-{figure_names(folder)[2]}"
+        written.append(_trajectories(study, out, *traj, path))
     atomic_write_text(page, ladder_markdown(folder, prefix))
     return [page, *written, folder]
 

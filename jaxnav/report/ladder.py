@@ -17,10 +17,9 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from jaxnav.core.values import flatten
 from jaxnav.report import stats
 from jaxnav.report.claims import verdict
-from jaxnav.report.markdown import interval, markdown_table
+from jaxnav.report.markdown import interval, markdown_table, settings_text
 from jaxnav.report.navigation import SOLVED_TOLERANCE, solved
 
 ORACLE = "oracle"  # the reference driver whose success on the same test defines "solved"
@@ -33,7 +32,17 @@ DRIVERS = {ORACLE: "oracle", "dwa": "DWA"}  # the reference drivers, as tables n
 NO_GOALS = "neither reaches a goal"  # a success verdict where every seed of both scores 0
 FIGURES = ("ladder.png", "curves.png", "trajectories.png")
 DATA_FILES = ("study.yaml", "scores.csv", "curves.csv", "cells.csv", "run.json")
+LEARNING_FILES = ("evals.csv",)  # a study with evaluations while training (eval_points)
 TEST_NAMES = {"own": "own world", "test": "unseen layouts", "larger": "larger size"}
+
+
+def figure_names(folder: Path) -> tuple[str, ...]:
+    """The figures of a study's page, by its data."""
+    if (Path(folder) / LEARNING_FILES[0]).is_file():
+        from jaxnav.report import learning
+
+        return learning.FIGURES
+    return FIGURES
 
 
 def _rows(path: Path) -> list[dict[str, str]]:
@@ -59,7 +68,7 @@ class Data:
         for r in rows:
             key = (r["rung"], r["agent"], r["test"], r["strategy"])
             self.scores.setdefault(key, {})[int(r["seed"])] = {
-                m: float(r[m]) for m in (*MEASURES, *DRIVE_MEASURES) if m in r
+                m: float(r[m]) for m in (*MEASURES, *DRIVE_MEASURES, "goals_per_min") if m in r
             }
         self.curves = _rows(folder / "curves.csv")
         self.cells = _rows(folder / "cells.csv")
@@ -145,6 +154,17 @@ def trajectory_cell(data: Data) -> tuple[str, str] | None:
     for rung in reversed(data.rungs):
         if "test" in data.tests(rung):
             continue
+        if data.evals is not None:  # a study of learning: the hardest world an arm solves
+            arms = solved_by(data, rung) or []
+            if arms:
+                best = max(
+                    arms,
+                    key=lambda arm: np.mean(
+                        data.per_seed(rung, *arm[:1], "own", arm[1], "success")
+                    ),
+                )
+                return rung, best[0]
+            continue
         arms = [(a, s) for a in data.agents if data.has(rung, a) for s in data.strategies]
         mean = {arm: np.mean(data.per_seed(rung, arm[0], "own", arm[1], "success")) for arm in arms}
         best = max(arms, key=lambda arm: mean[arm])
@@ -158,7 +178,12 @@ def _count(rows: list[dict], other: str, measure: str) -> Counter:
 
 
 def summary_sentence(data: Data) -> str:
-    """The study in one sentence, from its verdict table (success on each rung's own world)."""
+    """The study in one sentence, from its verdict table (success on each rung's own world;
+    for a study of learning, :func:`jaxnav.report.learning.summary_sentence`)."""
+    if data.evals is not None:
+        from jaxnav.report import learning
+
+        return learning.summary_sentence(data)
     c = _count(verdicts(data), EPS, "success")
     n = sum(c.values())
     tail = f", and neither reaches a goal in {c[NO_GOALS]}" if c[NO_GOALS] else ""
@@ -364,14 +389,19 @@ def _timing(data: Data) -> tuple[list[str], float]:
 
 def ladder_markdown(folder: Path, prefix: str) -> str:
     """The page from the data in ``folder``; ``prefix`` names its figures
-    (``PREFIX-ladder.png``, beside the page)."""
+    (``PREFIX-ladder.png``, beside the page). A study with evaluations while training
+    has its own page (:func:`jaxnav.report.learning.learning_markdown`)."""
     data = Data(folder)
+    if data.evals is not None:
+        from jaxnav.report import learning
+
+        return learning.learning_markdown(folder, prefix)
     command, machine = data.run["command"], data.run["machine"]
     doc = data.doc
     timing, total = _timing(data)
     n = data.n_seeds()
     rung_rows = [
-        [data.rung_label[r], f"`{v['config']}`", _settings_text(v)] for r, v in doc["rungs"].items()
+        [data.rung_label[r], f"`{v['config']}`", settings_text(v)] for r, v in doc["rungs"].items()
     ]
     own_budgets = any("total_steps" in v for v in doc["rungs"].values())
     budget = f"{int(doc['total_steps']):,} environment steps per seed"
@@ -381,7 +411,7 @@ def ladder_markdown(folder: Path, prefix: str) -> str:
         rung_head.append("env steps per seed")
         for row, v in zip(rung_rows, doc["rungs"].values()):
             row.append(f"{int(v.get('total_steps', doc['total_steps'])):,}")
-    agent_rows = [[data.agent_label[a], _settings_text(v)] for a, v in doc["agents"].items()]
+    agent_rows = [[data.agent_label[a], settings_text(v)] for a, v in doc["agents"].items()]
     traj = trajectory_cell(data)
     L = [
         f"# {doc['title']}",
@@ -399,7 +429,7 @@ def ladder_markdown(folder: Path, prefix: str) -> str:
         f"- Every arm trains {budget}, "
         f"{n} seeds per arm, every strategy and seed of a world and agent in one compiled "
         f"program; strategies {', '.join(NAMES[s] for s in data.strategies)}; "
-        f"settings over every world: {_settings_text(doc)}.",
+        f"settings over every world: {settings_text(doc)}.",
         f"- Test: {doc.get('test_episodes', 10)} greedy episodes (argmax Q) per policy on "
         "each test world. A world's own test is its maze, or for a drawn family fresh "
         "layouts of its train split; unseen layouts are the family's test split, which "
@@ -506,25 +536,15 @@ def ladder_markdown(folder: Path, prefix: str) -> str:
     return "\n".join(L)
 
 
-def _settings_text(doc: dict) -> str:
-    s = doc.get("settings") or {}
-    flat = flatten(s)
-    return ", ".join(f"`{k}={_value(v)}`" for k, v in flat.items()) or "none"
-
-
-def _value(v) -> str:
-    if isinstance(v, bool):
-        return str(v).lower()
-    if isinstance(v, list):
-        return "[" + ",".join(_value(x) for x in v) + "]"
-    return str(v)
-
-
 def ladder_figures(folder: Path, out: Path, prefix: str) -> list[Path]:
     """The P-along-the-ladder figure and the learning curves, into ``out``."""
     from jaxnav.report.fig_common import plt, save_fig
 
     data = Data(folder)
+    if data.evals is not None:
+        from jaxnav.report import learning
+
+        return learning.figures(data, out, prefix)
     fig, ax = plt.subplots(figsize=(max(6.0, 0.9 * len(data.rungs)), 3.8))
     xs = np.arange(len(data.rungs))
     width = 0.8 / len(data.agents)

@@ -8,6 +8,7 @@ import math
 from collections.abc import Sequence
 from typing import Any
 
+from jaxnav.core.values import flatten
 from jaxnav.report.stats import Interval
 
 
@@ -38,3 +39,18 @@ def aligned_table(table: Sequence[Sequence[str]]) -> str:
         )
         for row in table
     )
+
+
+def settings_text(doc: dict) -> str:
+    """A study entry's ``settings:`` as `` `key=value` `` items (``none`` without)."""
+    s = doc.get("settings") or {}
+    flat = flatten(s)
+    return ", ".join(f"`{k}={_value(v)}`" for k, v in flat.items()) or "none"
+
+
+def _value(v) -> str:
+    if isinstance(v, bool):
+        return str(v).lower()
+    if isinstance(v, list):
+        return "[" + ",".join(_value(x) for x in v) + "]"
+    return str(v)

@@ -95,6 +95,7 @@ def select(names: tuple[str, ...]) -> list[Published]:
 # ----------------------------------------------------------------------------
 
 LADDER = "docs/studies/when-ebe-helps"
+LADDER_40K = "docs/studies/when-ebe-helps-40k"  # the first ladder: 40,960 env steps per seed
 AGENTS_STUDY = "docs/studies/agents"
 WORLDS_STUDY = "docs/studies/worlds"
 
@@ -166,6 +167,13 @@ PUBLISHED: tuple[Published, ...] = (
     ),
     Published(
         "when-ebe-helps-page", (f"{LADDER}.md",), _study_page(LADDER), block=False, slow=True
+    ),
+    Published(
+        "when-ebe-helps-40k-page",
+        (f"{LADDER_40K}.md",),
+        _study_page(LADDER_40K),
+        block=False,
+        slow=True,
     ),
     Published("agents-study", ("docs/agents.md",), _study_sentence(AGENTS_STUDY), slow=True),
     Published(

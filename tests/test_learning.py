@@ -1,0 +1,114 @@
+"""A study of learning (a ladder with ``eval_points``): each seed's steps to 90% of the
+oracle's success and the area under its success curve, against hand-computed values and
+rliable's own statistic, and its page from its data alone."""
+
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+
+import numpy as np
+import pytest
+from rliable import metrics
+
+from jaxnav.experiments import ladder
+from jaxnav.report import ladder as page
+from jaxnav.report import learning
+from tests.test_ladder import STUDY, _synthetic
+
+STEPS = (100, 200, 300, 400)  # the evaluations along a budget of 400 env steps
+CURVES = {  # rung a's greedy success at each evaluation, the same for every seed
+    "ebe": (0.5, 0.95, 1.0, 1.0),  # reaches 90% of the oracle's 1.0 at 200 steps
+    "epsilon_greedy": (0.2, 0.5, 0.92, 1.0),  # at 300
+    "boltzmann": (0.1, 0.2, 0.3, 0.4),  # never
+}
+
+
+def _with_evals(folder: Path, n: int = 16) -> None:
+    """:func:`tests.test_ladder._synthetic` with evaluations while training: on rung a
+    :data:`CURVES`; on rung b, every strategy's seeds drawn from one distribution."""
+    _synthetic(folder, n)
+    rng = np.random.default_rng(1)
+    with open(folder / "evals.csv", "w", newline="") as f:
+        w = csv.writer(f, lineterminator="\n")
+        w.writerow(ladder.EVAL_COLUMNS)
+        for rung in ("a", "b"):
+            for strategy, curve in CURVES.items():
+                for seed in range(n):
+                    for k, step in enumerate(STEPS):
+                        s = curve[k] if rung == "a" else float(rng.uniform(0.0, 1.0))
+                        w.writerow([rung, "dqn", strategy, seed, step, step / 10, s, 0.0])
+
+
+def test_steps_to_90_percent_of_the_oracle_and_the_area_by_hand(tmp_path):
+    _with_evals(tmp_path / "d")
+    L = learning.Learning(page.Data(tmp_path / "d"))
+    assert L.target("a") == pytest.approx(0.9)  # 90% of the oracle's 1.0
+    steps, secs = L.reached("a", "dqn", "ebe")
+    # the cell's 60 s of training ended at its last evaluation, 40 s on the evaluations'
+    # clock: it began at -20 s, and 20 s on that clock is 40 s into training
+    assert np.all(steps == 200) and np.all(secs == 40)
+    assert np.all(L.reached("a", "dqn", "epsilon_greedy")[0] == 300)
+    assert np.all(np.isinf(L.reached("a", "dqn", "boltzmann")[0]))
+    # never ranks below every seed that reaches it: twice the budget, negated
+    assert np.all(L.per_seed("a", "dqn", "boltzmann", "reach") == -800)
+    for strategy, curve in CURVES.items():
+        auc = L.per_seed("a", "dqn", strategy, "auc")
+        assert auc == pytest.approx(np.full(16, sum(curve) / 4))
+    # collisions: less is better, so the score is negated
+    x = L.per_seed("a", "dqn", "ebe", "collision")
+    assert np.all(x == -page.Data(tmp_path / "d").per_seed("a", "dqn", "own", "ebe", "collision"))
+
+
+def test_verdicts_are_rliables_probability_of_improvement_on_each_measure(tmp_path):
+    _with_evals(tmp_path / "d")
+    L = learning.Learning(page.Data(tmp_path / "d"))
+    for other in ("epsilon_greedy", "boltzmann"):
+        for measure in learning.MEASURES:
+            x = L.per_seed("a", "dqn", "ebe", measure)
+            y = L.per_seed("a", "dqn", other, measure)
+            p, word = L.compare("a", "dqn", other, measure)
+            want = float(metrics.probability_of_improvement(x[:, None], y[:, None]))
+            assert p.value == pytest.approx(want)
+        assert L.compare("a", "dqn", other, "reach")[1] == "EBE better"
+        assert L.compare("a", "dqn", other, "auc")[1] == "EBE better"
+    # every strategy's seeds from one distribution: no detectable difference
+    p, word = L.compare("b", "dqn", "epsilon_greedy", "auc")
+    assert word == "no detectable difference" and p.low < 0.5 < p.high
+
+
+def test_the_page_and_its_sentence_come_from_the_data(tmp_path):
+    folder = tmp_path / "d"
+    _with_evals(folder)
+    data = page.Data(folder)
+    sentence = page.summary_sentence(data)
+    assert sentence == learning.summary_sentence(data)
+    assert sentence.startswith("On the 1 of 2 worlds that an arm drives within 0.02 of the oracle")
+    assert "sooner than epsilon-greedy in 1 of 1 world and agent cell, later in 0" in sentence
+    text = page.ladder_markdown(folder, "x")
+    assert text == learning.learning_markdown(folder, "x")
+    for part in ("## How fast each arm learns", "## EBE against epsilon-greedy",
+                 "## EBE against Boltzmann", "16 of 16", "x-success.png"):  # fmt: skip
+        assert part in text
+    # the trajectory figure's world: the hardest with a fixed maze that an arm solves
+    assert page.trajectory_cell(data) == ("a", "dqn")
+    assert page.figure_names(folder) == learning.FIGURES
+    written = page.ladder_figures(folder, tmp_path, "x")
+    assert [p.name for p in written] == ["x-success.png", "x-measures.png"]
+
+
+def test_an_agent_may_train_on_some_rungs_only():
+    two = "  dqn: {label: DQN}\n  two: {rungs: [grid4_dense]}"
+    text = STUDY.replace("  dqn: {label: DQN}", two)
+    study = ladder.parse_study(text, "x")
+    assert [(r.name, a.name) for r, a in study.cells()] == [
+        ("square4_dense", "dqn"),
+        ("grid4_dense", "dqn"),
+        ("grid4_dense", "two"),
+    ]
+
+
+def test_evaluations_along_the_budget_are_chunk_ends():
+    study = ladder.parse_study(STUDY.replace("seeds: 2", "seeds: 2\neval_points: 2"), "x")
+    cfg = ladder.cell_config(study, *study.cells()[0])
+    assert cfg.run.eval_every == 256 == cfg.run.chunk_steps
