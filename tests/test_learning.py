@@ -13,7 +13,7 @@ from rliable import metrics
 
 from jaxnav.experiments import ladder
 from jaxnav.report import ladder as page
-from jaxnav.report import learning
+from jaxnav.report import learning, study_pages
 from tests.test_ladder import STUDY, _synthetic
 
 STEPS = (100, 200, 300, 400)  # the evaluations along a budget of 400 env steps
@@ -81,19 +81,19 @@ def test_the_page_and_its_sentence_come_from_the_data(tmp_path):
     folder = tmp_path / "d"
     _with_evals(folder)
     data = page.Data(folder)
-    sentence = page.summary_sentence(data)
+    sentence = study_pages.sentence(folder)
     assert sentence == learning.summary_sentence(data)
     assert sentence.startswith("On the 1 of 2 worlds that an arm drives within 0.02 of the oracle")
     assert "sooner than epsilon-greedy in 1 of 1 world and agent cell, later in 0" in sentence
-    text = page.ladder_markdown(folder, "x")
+    text = study_pages.page(folder, "x")
     assert text == learning.learning_markdown(folder, "x")
     for part in ("## How fast each arm learns", "## EBE against epsilon-greedy",
                  "## EBE against Boltzmann", "16 of 16", "x-success.png"):  # fmt: skip
         assert part in text
     # the trajectory figure's world: the hardest with a fixed maze that an arm solves
     assert page.trajectory_cell(data) == ("a", "dqn")
-    assert page.figure_names(folder) == learning.FIGURES
-    written = page.ladder_figures(folder, tmp_path, "x")
+    assert study_pages.figure_names(folder) == learning.FIGURES
+    written = study_pages.figures(folder, tmp_path, "x")
     assert [p.name for p in written] == ["x-success.png", "x-measures.png"]
 
 

@@ -34,11 +34,11 @@ def test_each_published_part_is_its_data_byte_for_byte(item):
 
 @pytest.mark.slow  # the ladder page's bootstrap intervals
 def test_the_ladder_pages_figures_are_beside_it():
-    from jaxnav.report import ladder
+    from jaxnav.report import study_pages
 
     for folder in (publish.LADDER, publish.LADDER_40K):
         page = ROOT / f"{folder}.md"
-        for name in ladder.figure_names(ROOT / folder)[:2]:
+        for name in study_pages.figure_names(ROOT / folder)[:2]:
             assert (page.parent / f"{page.stem}-{name}").is_file()
 
 

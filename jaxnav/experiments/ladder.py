@@ -39,14 +39,11 @@ from jaxnav.core.settings import SEED, problem
 from jaxnav.core.values import flatten
 from jaxnav.experiments import runner, studyfile
 from jaxnav.experiments.evaluation import drawn_name
-from jaxnav.report import stats
+from jaxnav.report import stats, study_pages
 from jaxnav.report.ladder import (
     DATA_FILES,
     LEARNING_FILES,
     Data,
-    figure_names,
-    ladder_figures,
-    ladder_markdown,
     trajectory_cell,
 )
 from jaxnav.report.navigation import seed_metrics
@@ -480,12 +477,12 @@ def publish(study: Study, out: Path, page: Path) -> list[Path]:
     folder.mkdir(parents=True, exist_ok=True)
     for name in DATA_FILES + tuple(n for n in LEARNING_FILES if (data / n).is_file()):
         shutil.copyfile(data / name, folder / name)
-    written = ladder_figures(folder, page.parent, prefix)
+    written = study_pages.figures(folder, page.parent, prefix)
     traj = trajectory_cell(Data(folder))
     if traj is not None:
-        path = page.parent / f"{prefix}-{figure_names(folder)[2]}"
+        path = page.parent / f"{prefix}-{study_pages.figure_names(folder)[2]}"
         written.append(_trajectories(study, out, *traj, path))
-    atomic_write_text(page, ladder_markdown(folder, prefix))
+    atomic_write_text(page, study_pages.page(folder, prefix))
     return [page, *written, folder]
 
 

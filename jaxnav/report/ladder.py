@@ -36,15 +36,6 @@ LEARNING_FILES = ("evals.csv",)  # a study with evaluations while training (eval
 TEST_NAMES = {"own": "own world", "test": "unseen layouts", "larger": "larger size"}
 
 
-def figure_names(folder: Path) -> tuple[str, ...]:
-    """The figures of a study's page, by its data."""
-    if (Path(folder) / LEARNING_FILES[0]).is_file():
-        from jaxnav.report import learning
-
-        return learning.FIGURES
-    return FIGURES
-
-
 def _rows(path: Path) -> list[dict[str, str]]:
     return list(csv.DictReader(io.StringIO(path.read_text())))
 
@@ -178,12 +169,7 @@ def _count(rows: list[dict], other: str, measure: str) -> Counter:
 
 
 def summary_sentence(data: Data) -> str:
-    """The study in one sentence, from its verdict table (success on each rung's own world;
-    for a study of learning, :func:`jaxnav.report.learning.summary_sentence`)."""
-    if data.evals is not None:
-        from jaxnav.report import learning
-
-        return learning.summary_sentence(data)
+    """The study in one sentence, from its verdict table (success on each rung's own world)."""
     c = _count(verdicts(data), EPS, "success")
     n = sum(c.values())
     tail = f", and neither reaches a goal in {c[NO_GOALS]}" if c[NO_GOALS] else ""
@@ -389,13 +375,8 @@ def _timing(data: Data) -> tuple[list[str], float]:
 
 def ladder_markdown(folder: Path, prefix: str) -> str:
     """The page from the data in ``folder``; ``prefix`` names its figures
-    (``PREFIX-ladder.png``, beside the page). A study with evaluations while training
-    has its own page (:func:`jaxnav.report.learning.learning_markdown`)."""
+    (``PREFIX-ladder.png``, beside the page)."""
     data = Data(folder)
-    if data.evals is not None:
-        from jaxnav.report import learning
-
-        return learning.learning_markdown(folder, prefix)
     command, machine = data.run["command"], data.run["machine"]
     doc = data.doc
     timing, total = _timing(data)
@@ -541,10 +522,6 @@ def ladder_figures(folder: Path, out: Path, prefix: str) -> list[Path]:
     from jaxnav.report.fig_common import plt, save_fig
 
     data = Data(folder)
-    if data.evals is not None:
-        from jaxnav.report import learning
-
-        return learning.figures(data, out, prefix)
     fig, ax = plt.subplots(figsize=(max(6.0, 0.9 * len(data.rungs)), 3.8))
     xs = np.arange(len(data.rungs))
     width = 0.8 / len(data.agents)

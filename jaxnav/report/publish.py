@@ -104,9 +104,9 @@ def _study_sentence(folder: str) -> Callable[[Path], str]:
     """A committed study's one-sentence summary, from its data folder."""
 
     def render(root: Path) -> str:
-        from jaxnav.report import ladder
+        from jaxnav.report import study_pages
 
-        return ladder.summary_sentence(ladder.Data(root / folder))
+        return study_pages.sentence(root / folder)
 
     return render
 
@@ -115,9 +115,9 @@ def _study_page(folder: str) -> Callable[[Path], str]:
     """A committed study's page (``folder``.md), from its data folder."""
 
     def render(root: Path) -> str:
-        from jaxnav.report import ladder
+        from jaxnav.report import study_pages
 
-        return ladder.ladder_markdown(root / folder, Path(folder).name)
+        return study_pages.page(root / folder, Path(folder).name)
 
     return render
 

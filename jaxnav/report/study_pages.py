@@ -1,0 +1,35 @@
+"""A ladder study's page, its one sentence and its figures, by its data: a study with
+greedy evaluations while training (``evals.csv``, ``eval_points``) is a study of learning
+(:mod:`jaxnav.report.learning`), any other a ladder (:mod:`jaxnav.report.ladder`)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from jaxnav.report import ladder, learning
+
+
+def of_learning(folder: Path) -> bool:
+    return (Path(folder) / ladder.LEARNING_FILES[0]).is_file()
+
+
+def figure_names(folder: Path) -> tuple[str, ...]:
+    """The figures of a study's page, ``PREFIX-NAME`` beside it."""
+    return learning.FIGURES if of_learning(folder) else ladder.FIGURES
+
+
+def page(folder: Path, prefix: str) -> str:
+    if of_learning(folder):
+        return learning.learning_markdown(folder, prefix)
+    return ladder.ladder_markdown(folder, prefix)
+
+
+def sentence(folder: Path) -> str:
+    data = ladder.Data(folder)
+    return (learning if data.evals is not None else ladder).summary_sentence(data)
+
+
+def figures(folder: Path, out: Path, prefix: str) -> list[Path]:
+    if of_learning(folder):
+        return learning.figures(ladder.Data(folder), out, prefix)
+    return ladder.ladder_figures(folder, out, prefix)
