@@ -65,7 +65,7 @@ from common import (
 from peers_rejax import dqn_rmsprop, gymnax_env
 
 WORLDS = {"square4": "paper_no_obstacles", "grid4": "grid4"}
-PQN = [  # the ladder study's PQN (configs/studies/when_ebe_helps.yaml)
+PQN = [  # the ladder study's PQN (configs/studies/when_ebe_helps_40k.yaml)
     "agent=pqn",
     "dqn.lr=0.001",
     "dqn.optimizer=radam",
