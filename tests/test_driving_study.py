@@ -20,7 +20,9 @@ from jaxnav.core.config import CONFIG_DIR, builtin_configs, config_to_dict, load
 from jaxnav.core.errors import ConfigError, JaxnavError
 from jaxnav.core.rundir import csv_text
 from jaxnav.experiments import driving, studies, studyfile
+from jaxnav.report.agents_sac import FIGURE
 from jaxnav.report.driving_page import (
+    EVALS,
     RUN_COLUMNS,
     RUNS,
     commands_of,
@@ -109,8 +111,10 @@ def _data(out: Path, configs: list[str]) -> None:
     rows = [r for r in csv.DictReader(io.StringIO((DOCS / RUNS).read_text()))]
     mine = [[r[c] for c in RUN_COLUMNS] for r in rows if r["config"] in configs]
     (data / RUNS).write_text(csv_text(RUN_COLUMNS, mine))
+    (data / EVALS).mkdir()
     for name in configs:
         shutil.copyfile(DOCS / f"{name}.csv", data / f"{name}.csv")
+        shutil.copyfile(DOCS / EVALS / f"{name}.csv", data / EVALS / f"{name}.csv")
     shutil.copyfile(DOCS / "run.json", data / "run.json")
 
 
@@ -129,7 +133,8 @@ def test_one_config_run_again_replaces_its_row_and_keeps_the_others(tmp_path, mo
     monkeypatch.setattr(driving, "driving_markdown", lambda *a: drawn.append(a) or "page\n")
     study = driving.load_study(SHIPPED, ["drive_grid4"])
     written = driving.publish(study, out, tmp_path / "docs" / "driving.md")
-    assert written == [tmp_path / "docs" / "driving.md", folder]
+    # the page, its data, and the figure of SAC beside PQN, whose configs are in it
+    assert written == [tmp_path / "docs" / "driving.md", folder, tmp_path / "docs" / FIGURE]
     assert (tmp_path / "docs" / "driving.md").read_text() == "page\n"
     configs = [r["config"] for r in csv.DictReader(io.StringIO(before))]
     was = commands_of(kept, configs)  # each other row keeps the command that wrote it
@@ -151,7 +156,8 @@ def test_the_committed_page_is_what_the_study_writes_from_the_committed_data(tmp
     page = tmp_path / "docs" / "driving.md"
     driving.publish(study, out, page)
     assert page.read_text() == (ROOT / "docs" / "driving.md").read_text()
-    for name in (RUNS, "run.json", *[f"{c}.csv" for c in study.configs]):
+    evals = [f"{EVALS}/{c}.csv" for c in study.configs]
+    for name in (RUNS, "run.json", *[f"{c}.csv" for c in study.configs], *evals):
         assert (folder / name).read_bytes() == (DOCS / name).read_bytes(), name
 
 
@@ -210,3 +216,47 @@ def test_the_page_names_each_command_with_the_configs_it_wrote():
         "`jaxnav study driving drive_rooms --resume` (`drive_rooms`) on N."
     )
     assert machines_of({"machine": "M"}, ["a"]) == {"a": "M"}
+
+
+def _rate(rows: list[dict], maze: str, driver: str) -> list[float]:
+    """Per seed, the successes over the decided goal attempts of the greedy test on ``maze``."""
+    rows = [r for r in rows if r["mode"] == "greedy"]
+    out = []
+    for seed in sorted({r["seed"] for r in rows if r["strategy"] == driver}, key=int):
+        mine = [r for r in rows if (r["strategy"], r["seed"], r["maze"]) == (driver, seed, maze)]
+        decided = sum(float(r["attempts"]) - float(r["cut"]) for r in mine)
+        out.append(sum(float(r["successes"]) for r in mine) / decided)
+    return out
+
+
+def test_sac_beside_pqn_comes_from_the_committed_data():
+    """docs/agents.md's SAC table: each number against the committed files read here
+    with the csv module and the statistics library alone."""
+    import statistics
+
+    from jaxnav.report import agents_sac
+
+    text = agents_sac.block(DOCS)
+    for sac, pqn in agents_sac.PAIRS:
+        for config in (sac, pqn):
+            rows = list(csv.DictReader(io.StringIO((DOCS / f"{config}.csv").read_text())))
+            maze = rows[0]["maze"]
+            policy = "policy" if config == sac else "epsilon_greedy"
+
+            success = statistics.mean(_rate(rows, maze, policy))
+            oracle = statistics.mean(_rate(rows, maze, "oracle"))
+            assert f"`{config}` ({'SAC' if config == sac else 'PQN'})" in text
+            assert f"| {success:.3f} [" in text and f"({oracle:.3f})" in text
+            # the first evaluation whose mean success over seeds is within 0.02 of the oracle
+            evals = list(csv.DictReader(io.StringIO((DOCS / EVALS / f"{config}.csv").read_text())))
+            steps = sorted({int(r["env_step"]) for r in evals})
+            first = next(
+                (s for s in steps
+                 if statistics.mean(float(r["success"]) for r in evals if int(r["env_step"]) == s)
+                 >= oracle - 0.02),
+                None,
+            )  # fmt: skip
+            e = agents_sac.entry(DOCS, config)
+            assert (e["solved_at"] is None) == (first is None)
+            if first is not None:
+                assert e["solved_at"][0] == first

@@ -13,8 +13,11 @@ interrupted is refused, as its time would not be one command's.
 Extra names on the command line pick configs (``jaxnav study driving drive_grid4 --out
 runs/drive``); the page's data folder keeps the other configs' rows, so one config can be
 run again alone. ``--doc docs/driving.md`` writes the committed page and its data,
-``docs/driving/``; ``jaxnav publish driving-page driving`` rewrites the page and the
-README's results lines from that data alone.
+``docs/driving/`` (each config's test results, its row, and its greedy evaluations while
+it trained, ``evals/NAME.csv``), with the figure of SAC beside PQN
+(:mod:`jaxnav.report.agents_sac`); ``jaxnav publish driving-page driving agents-sac``
+rewrites the page, the README's results lines and docs/agents.md's SAC table from that
+data alone.
 """
 
 from __future__ import annotations
@@ -34,10 +37,12 @@ from typing import Any
 
 from jaxnav.core.config import CONFIG_DIR, Config
 from jaxnav.core.errors import ConfigError, JaxnavError
-from jaxnav.core.rundir import atomic_write_text, csv_text
+from jaxnav.core.rundir import EVAL, atomic_write_text, csv_text
 from jaxnav.core.values import flatten
 from jaxnav.experiments import runner, studyfile
+from jaxnav.report import agents_sac
 from jaxnav.report.driving_page import (
+    EVALS,
     RUN_COLUMNS,
     RUNS,
     commands_of,
@@ -181,8 +186,11 @@ def run_study(study: Study, out: Path, resume_ok: bool, quiet: bool, command: st
         rows.append(run_cell(study, out, name, say))
     data = out / "data"
     data.mkdir(exist_ok=True)
+    (data / EVALS).mkdir(exist_ok=True)
     for name in study.configs:
         shutil.copyfile(out / name / "eval" / "results.csv", data / f"{name}.csv")
+        if (out / name / EVAL).is_file():  # the greedy evaluations while it trained
+            shutil.copyfile(out / name / EVAL, data / EVALS / f"{name}.csv")
     atomic_write_text(
         data / RUNS, csv_text(RUN_COLUMNS, [[r[c] for c in RUN_COLUMNS] for r in rows])
     )
@@ -206,9 +214,14 @@ def publish(study: Study, out: Path, page: Path) -> list[Path]:
     data, folder = out / "data", page.parent / page.stem
     folder.mkdir(parents=True, exist_ok=True)
     rows = {r["config"]: r for r in _rows(folder / RUNS)}
+    (folder / EVALS).mkdir(exist_ok=True)
     for r in _rows(data / RUNS):
         rows[r["config"]] = r
         shutil.copyfile(data / f"{r['config']}.csv", folder / f"{r['config']}.csv")
+        if (data / EVALS / f"{r['config']}.csv").is_file():
+            shutil.copyfile(
+                data / EVALS / f"{r['config']}.csv", folder / EVALS / f"{r['config']}.csv"
+            )
     text = csv_text(RUN_COLUMNS, [[r[c] for c in RUN_COLUMNS] for r in rows.values()])
     atomic_write_text(folder / RUNS, text)
     # each row keeps the command that wrote it: the folder's for the rows kept
@@ -222,4 +235,7 @@ def publish(study: Study, out: Path, page: Path) -> list[Path]:
     meta = {"commands": commands, "machines": machines, "machine": new["machine"]}
     atomic_write_text(folder / "run.json", json.dumps(meta) + "\n")
     atomic_write_text(page, driving_markdown(folder, commands, machines))
-    return [page, folder]
+    written = [page, folder]
+    if agents_sac.pairs(folder):  # SAC beside PQN: docs/agents.md's figure
+        written.append(agents_sac.figure(folder, page.parent / agents_sac.FIGURE))
+    return written

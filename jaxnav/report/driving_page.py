@@ -25,6 +25,7 @@ from jaxnav.report.navigation import SOLVED_TOLERANCE, seed_metrics, solved
 from jaxnav.report.results import ordered_unique, read_results
 
 RUNS = "runs.csv"
+EVALS = "evals"  # each config's greedy evaluations while it trained (eval.csv), NAME.csv
 RUN_COLUMNS = ("config", "world", "command_s", "env_steps", "seeds", "strategy")
 SHOWN = ("success", "collision", "timeout", "spl", "goals_per_min")
 BEGIN, END = "<!-- driving: begin -->", "<!-- driving: end -->"

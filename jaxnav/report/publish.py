@@ -137,6 +137,12 @@ def _driving_page(root: Path) -> str:
     return driving_markdown(folder, commands_of(meta, configs), machines_of(meta, configs))
 
 
+def _agents_sac(root: Path) -> str:
+    from jaxnav.report.agents_sac import block
+
+    return block(root / "docs" / "driving")
+
+
 def _baselines_page(root: Path) -> str:
     from jaxnav.report.baselines_page import baselines_markdown
 
@@ -185,6 +191,7 @@ PUBLISHED: tuple[Published, ...] = (
     ),
     Published("driving", ("README.md",), _driving_readme, slow=True),
     Published("driving-page", ("docs/driving.md",), _driving_page, block=False, slow=True),
+    Published("agents-sac", ("docs/agents.md",), _agents_sac, slow=True),
     Published("baselines-page", ("docs/baselines.md",), _baselines_page, block=False, slow=True),
     Published("worlds-study", ("docs/worlds.md",), _study_sentence(WORLDS_STUDY), slow=True),
     Published(
