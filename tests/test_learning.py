@@ -112,3 +112,17 @@ def test_evaluations_along_the_budget_are_chunk_ends():
     study = ladder.parse_study(STUDY.replace("seeds: 2", "seeds: 2\neval_points: 2"), "x")
     cfg = ladder.cell_config(study, *study.cells()[0])
     assert cfg.run.eval_every == 256 == cfg.run.chunk_steps
+
+
+def test_a_resumed_cells_seconds_are_not_given(tmp_path):
+    folder = tmp_path / "d"
+    _with_evals(folder)
+    text = (folder / "evals.csv").read_text().splitlines()
+    # the clock of rung a's last evaluation restarted (a resumed command)
+    rows = [r.replace(",400,40.0,", ",400,3.0,") if r.startswith("a,") else r for r in text]
+    (folder / "evals.csv").write_text("\n".join(rows) + "\n")
+    L = learning.Learning(page.Data(folder))
+    assert L.resumed("a", "dqn") and not L.resumed("b", "dqn")
+    steps, secs = L.reached("a", "dqn", "ebe")
+    assert np.all(steps == 200) and np.all(np.isnan(secs))
+    assert "n/a (resumed)" in learning.learning_table(page.Data(folder))[2]

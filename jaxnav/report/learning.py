@@ -96,15 +96,26 @@ class Learning:
         last = max(c[-1, 1] for s in self.data.strategies for c in self._seeds(rung, agent, s))
         return last - float(cell["train_s"])
 
+    def resumed(self, rung, agent) -> bool:
+        """Whether the cell's training was resumed: its evaluations' clock restarted (the
+        seconds since a command started), so their seconds are not one training's."""
+        return any(
+            np.any(np.diff(c[:, 1]) < 0)
+            for s in self.data.strategies
+            for c in self._seeds(rung, agent, s)
+        )
+
     def reached(self, rung, agent, strategy) -> tuple[np.ndarray, np.ndarray]:
         """Per seed, the env steps and the wall seconds since its cell began to train
-        (:meth:`start_s`) at which it first reaches the target (inf where it never does)."""
+        (:meth:`start_s`) at which it first reaches the target (inf where it never does;
+        the seconds NaN for a :meth:`resumed` cell)."""
         steps, secs = [], []
         start = self.start_s(rung, agent) if self._seeds(rung, agent, strategy) else 0.0
+        lost = self.resumed(rung, agent)
         for c in self._seeds(rung, agent, strategy):
             hit = np.flatnonzero(c[:, 2] >= self.target(rung) - 1e-9)
             steps.append(c[hit[0], 0] if hit.size else math.inf)
-            secs.append(c[hit[0], 1] - start if hit.size else math.inf)
+            secs.append(math.nan if lost else c[hit[0], 1] - start if hit.size else math.inf)
         return np.asarray(steps), np.asarray(secs)
 
     def per_seed(self, rung, agent, strategy, measure) -> np.ndarray:
@@ -187,6 +198,8 @@ def _cells(n: int) -> str:
 def _median(x: np.ndarray, digits: str) -> str:
     """The median of per-seed values with inf for never: a number where more than half
     are finite, else '-'."""
+    if x.size and np.isnan(x).all():
+        return "n/a (resumed)"
     if not x.size or np.sum(np.isfinite(x)) * 2 <= x.size:
         return "-"
     v = float(np.median(x))
