@@ -134,7 +134,7 @@ def test_one_config_run_again_replaces_its_row_and_keeps_the_others(tmp_path, mo
     study = driving.load_study(SHIPPED, ["drive_grid4"])
     written = driving.publish(study, out, tmp_path / "docs" / "driving.md")
     # the page, its data, and the figure of SAC beside PQN, whose configs are in it
-    assert written == [tmp_path / "docs" / "driving.md", folder, tmp_path / "docs" / FIGURE]
+    assert written == [tmp_path / "docs" / "driving.md", tmp_path / "docs" / FIGURE, folder]
     assert (tmp_path / "docs" / "driving.md").read_text() == "page\n"
     configs = [r["config"] for r in csv.DictReader(io.StringIO(before))]
     was = commands_of(kept, configs)  # each other row keeps the command that wrote it

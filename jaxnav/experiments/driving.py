@@ -235,7 +235,7 @@ def publish(study: Study, out: Path, page: Path) -> list[Path]:
     meta = {"commands": commands, "machines": machines, "machine": new["machine"]}
     atomic_write_text(folder / "run.json", json.dumps(meta) + "\n")
     atomic_write_text(page, driving_markdown(folder, commands, machines))
-    written = [page, folder]
+    written = [page]
     if agents_sac.pairs(folder):  # SAC beside PQN: docs/agents.md's figure
         written.append(agents_sac.figure(folder, page.parent / agents_sac.FIGURE))
-    return written
+    return [*written, folder]  # the data folder last, as every study's publish

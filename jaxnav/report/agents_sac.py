@@ -151,6 +151,7 @@ def figure(folder: Path, path: Path) -> Path:
                 ax.fill_between(x, mean - half, mean + half, color=COLORS[e["agent"]], alpha=0.2)
                 ax.axhline(e["oracle"], color="k", lw=1)
         axes[i, 0].set_xscale("log")
+        axes[i, 0].minorticks_off()  # the minor ticks' labels overlap
         axes[i, 0].set_ylabel(f"{entry(folder, pair[0])['maze']}\ngreedy success", fontsize=8)
         for ax in axes[i]:
             ax.set_ylim(0, 1.05)
