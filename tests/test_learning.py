@@ -125,4 +125,4 @@ def test_a_resumed_cells_seconds_are_not_given(tmp_path):
     assert L.resumed("a", "dqn") and not L.resumed("b", "dqn")
     steps, secs = L.reached("a", "dqn", "ebe")
     assert np.all(steps == 200) and np.all(np.isnan(secs))
-    assert "n/a (resumed)" in learning.learning_table(page.Data(folder))[2]
+    assert "n/a (resumed)" in learning.learning_table(L)[2]

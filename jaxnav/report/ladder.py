@@ -113,10 +113,10 @@ def verdicts(data: Data, test: str = "own") -> list[dict]:
     return out
 
 
-def oracle_success(data: Data, rung: str) -> float | None:
-    """The oracle's mean greedy success on the rung's own test (over every cell that
-    drove it); None where the data has no oracle rows."""
-    x = [data.per_seed(rung, a, "own", ORACLE, "success") for a in data.agents]
+def oracle_success(data: Data, rung: str, who: str = ORACLE) -> float | None:
+    """The oracle's (or another reference driver's, ``who``) mean greedy success on the
+    rung's own test (over every cell that drove it); None where the data has no rows of it."""
+    x = [data.per_seed(rung, a, "own", who, "success") for a in data.agents]
     x = np.concatenate([v for v in x if v.size]) if any(v.size for v in x) else np.empty(0)
     return float(np.mean(x)) if x.size else None
 
@@ -373,6 +373,48 @@ def _timing(data: Data) -> tuple[list[str], float]:
     return markdown_table(head, rows), total
 
 
+def results_sections(data: Data, solved_intro: str, gap_note: str = "") -> list[str]:
+    """The sections every ladder page shares, from "Which worlds are solved" to the
+    generalisation verdicts; ``solved_intro`` opens the first, ``gap_note`` ends the
+    generalisation section's first paragraph."""
+    return [
+        "## Which worlds are solved",
+        "",
+        solved_intro,
+        "",
+        *_success_table(data),
+        "",
+        *_solved_lines(data),
+        "",
+        "## How they drive",
+        "",
+        "How each arm's goal attempts end on its own world, beside the reference drivers' "
+        "on the same test: the shares of successes, collisions and time-outs (they sum to "
+        "1) and SPL (success weighted by the shortest path over the path driven); mean "
+        "over seeds [95% CI]."
+        + (
+            ""
+            if data.counted_cut
+            else " This data counts an attempt cut by its episode's end as a time-out."
+        ),
+        "",
+        *_drive_table(data),
+        "",
+        "## Does it generalise?",
+        "",
+        "Per seed, success on the family's train layouts minus success on its unseen "
+        "layouts; mean over seeds [95% CI]. A gap whose interval covers 0 is not "
+        "detectable at this seed count." + gap_note,
+        "",
+        *_gap_table(data),
+        "",
+        "EBE against epsilon-greedy on the worlds the policies never trained on:",
+        "",
+        *_generalisation_verdicts(data),
+        "",
+    ]
+
+
 def ladder_markdown(folder: Path, prefix: str) -> str:
     """The page from the data in ``folder``; ``prefix`` names its figures
     (``PREFIX-ladder.png``, beside the page)."""
@@ -436,46 +478,16 @@ def ladder_markdown(folder: Path, prefix: str) -> str:
         "",
         *_in_words(data),
         "",
-        "## Which worlds are solved",
-        "",
-        "Mean greedy success over seeds [95% CI] on each world"
-        + (
-            "; an arm solves a world when its mean success is within "
-            f"{SOLVED_TOLERANCE} of the oracle's on the same test."
-            if all(solved_by(data, r) is not None for r in data.rungs)
-            else "."
+        *results_sections(
+            data,
+            "Mean greedy success over seeds [95% CI] on each world"
+            + (
+                "; an arm solves a world when its mean success is within "
+                f"{SOLVED_TOLERANCE} of the oracle's on the same test."
+                if all(solved_by(data, r) is not None for r in data.rungs)
+                else "."
+            ),
         ),
-        "",
-        *_success_table(data),
-        "",
-        *_solved_lines(data),
-        "",
-        "## How they drive",
-        "",
-        "How each arm's goal attempts end on its own world, beside the reference drivers' "
-        "on the same test: the shares of successes, collisions and time-outs (they sum to "
-        "1) and SPL (success weighted by the shortest path over the path driven); mean "
-        "over seeds [95% CI]."
-        + (
-            ""
-            if data.counted_cut
-            else " This data counts an attempt cut by its episode's end as a time-out."
-        ),
-        "",
-        *_drive_table(data),
-        "",
-        "## Does it generalise?",
-        "",
-        "Per seed, success on the family's train layouts minus success on its unseen "
-        "layouts; mean over seeds [95% CI]. A gap whose interval covers 0 is not "
-        "detectable at this seed count.",
-        "",
-        *_gap_table(data),
-        "",
-        "EBE against epsilon-greedy on the worlds the policies never trained on:",
-        "",
-        *_generalisation_verdicts(data),
-        "",
         "## Figures",
         "",
         f"![P(EBE > epsilon-greedy) along the ladder]({prefix}-{FIGURES[0]})",

@@ -19,6 +19,7 @@ for a measure where less is better (steps, collisions) "EBE > X" means EBE has l
 
 from __future__ import annotations
 
+import functools
 import math
 from collections import Counter
 
@@ -38,6 +39,7 @@ from jaxnav.report.ladder import (
     solved_by,
 )
 from jaxnav.report.markdown import interval, markdown_table, settings_text
+from jaxnav.report.navigation import SOLVED_TOLERANCE
 
 REACH = 0.9  # the share of the oracle's success a seed must reach
 # measure: (how a table names it, higher is better)
@@ -81,10 +83,11 @@ class Learning:
         return REACH * (1.0 if ref is None else ref)
 
     def budget(self, rung: str, agent: str) -> float:
-        ends = [c[-1, 0] for s in self.data.strategies for c in self._seeds(rung, agent, s)]
+        ends = [c[-1, 0] for s in self.data.strategies for c in self.seeds(rung, agent, s)]
         return max(ends) if ends else math.nan
 
-    def _seeds(self, rung, agent, strategy) -> list[np.ndarray]:
+    def seeds(self, rung, agent, strategy) -> list[np.ndarray]:
+        """Each seed's evaluations, f[evaluations, 4], in seed order."""
         by = self.curves.get((rung, agent, strategy), {})
         return [by[s] for s in sorted(by)]
 
@@ -93,7 +96,7 @@ class Learning:
         command started, which in a study ran the cells before it): its last evaluation,
         at the end of training, less its training's seconds (compilation included)."""
         cell = next(c for c in self.data.cells if c["rung"] == rung and c["agent"] == agent)
-        last = max(c[-1, 1] for s in self.data.strategies for c in self._seeds(rung, agent, s))
+        last = max(c[-1, 1] for s in self.data.strategies for c in self.seeds(rung, agent, s))
         return last - float(cell["train_s"])
 
     def resumed(self, rung, agent) -> bool:
@@ -102,7 +105,7 @@ class Learning:
         return any(
             np.any(np.diff(c[:, 1]) < 0)
             for s in self.data.strategies
-            for c in self._seeds(rung, agent, s)
+            for c in self.seeds(rung, agent, s)
         )
 
     def reached(self, rung, agent, strategy) -> tuple[np.ndarray, np.ndarray]:
@@ -110,9 +113,9 @@ class Learning:
         (:meth:`start_s`) at which it first reaches the target (inf where it never does;
         the seconds NaN for a :meth:`resumed` cell)."""
         steps, secs = [], []
-        start = self.start_s(rung, agent) if self._seeds(rung, agent, strategy) else 0.0
+        start = self.start_s(rung, agent) if self.seeds(rung, agent, strategy) else 0.0
         lost = self.resumed(rung, agent)
-        for c in self._seeds(rung, agent, strategy):
+        for c in self.seeds(rung, agent, strategy):
             hit = np.flatnonzero(c[:, 2] >= self.target(rung) - 1e-9)
             steps.append(c[hit[0], 0] if hit.size else math.inf)
             secs.append(math.nan if lost else c[hit[0], 1] - start if hit.size else math.inf)
@@ -125,7 +128,7 @@ class Learning:
             never = 2.0 * self.budget(rung, agent)  # below every seed that reaches it
             return -np.where(np.isfinite(steps), steps, never)
         if measure == "auc":
-            return np.asarray([c[:, 2].mean() for c in self._seeds(rung, agent, strategy)])
+            return np.asarray([c[:, 2].mean() for c in self.seeds(rung, agent, strategy)])
         x = self.data.per_seed(rung, agent, "own", strategy, measure)
         return x if MEASURES[measure][1] else -x
 
@@ -148,7 +151,9 @@ class Learning:
     def others(self) -> list[str]:
         return [o for o in (EPS, BOLTZMANN) if o in self.data.strategies]
 
-    def verdicts(self) -> list[dict]:
+    @functools.cached_property
+    def rows(self) -> list[dict]:
+        """Every verdict, once: (rung, agent, opponent, measure), P and the word."""
         return [
             dict(rung=r, agent=a, other=o, measure=m, p=p, verdict=w)
             for r, a in self.cells()
@@ -173,16 +178,21 @@ def solved_rungs(data: Data) -> list[str]:
 def summary_sentence(data: Data) -> str:
     """The study in one sentence: EBE against epsilon-greedy on reaching 90% of the oracle
     sooner, on the worlds some arm solves, from the verdict table."""
-    L = Learning(data)
-    rows = L.verdicts()
+    return _sentence(Learning(data))
+
+
+def _sentence(L: Learning) -> str:
+    data = L.data
+    rows = L.rows
     solved = solved_rungs(data)
     cells = [(r, a) for r, a in L.cells() if r in solved]
     c = _count(rows, EPS, "reach", solved)
     a = _count(rows, EPS, "auc", solved)
     s = _count(rows, EPS, "success", solved)
     return (
-        f"On the {len(solved)} of {len(data.rungs)} worlds that an arm drives within 0.02 "
-        f"of the oracle, with {data.n_seeds()} seeds per arm, entropy-based exploration "
+        f"On the {len(solved)} of {len(data.rungs)} worlds that an arm drives within "
+        f"{SOLVED_TOLERANCE} of the oracle, with {data.n_seeds()} seeds per arm, "
+        "entropy-based exploration "
         f"reaches 90% of the oracle's success sooner than epsilon-greedy in "
         f"{c['EBE better']} of {_cells(len(cells))}, later in {c['EBE worse']} and with no "
         f"detectable difference in {c['no detectable difference']}; on the area under the "
@@ -206,14 +216,14 @@ def _median(x: np.ndarray, digits: str) -> str:
     return f"{round(v):,}" if digits == "," else format(v, digits)
 
 
-def learning_table(data: Data) -> list[str]:
-    L = Learning(data)
+def learning_table(L: Learning) -> list[str]:
+    data = L.data
     rows = []
     for rung, agent in L.cells():
         for s in data.strategies:
             steps, secs = L.reached(rung, agent, s)
             auc = L.per_seed(rung, agent, s, "auc")
-            final = [c[-1, 2] for c in L._seeds(rung, agent, s)]
+            final = [c[-1, 2] for c in L.seeds(rung, agent, s)]
             rows.append(
                 [
                     data.rung_label[rung],
@@ -239,9 +249,9 @@ def learning_table(data: Data) -> list[str]:
     return markdown_table(head, rows)
 
 
-def verdict_table(data: Data, other: str) -> list[str]:
-    L = Learning(data)
-    by = {(r["rung"], r["agent"], r["measure"]): r for r in L.verdicts() if r["other"] == other}
+def verdict_table(L: Learning, other: str) -> list[str]:
+    data = L.data
+    by = {(r["rung"], r["agent"], r["measure"]): r for r in L.rows if r["other"] == other}
     rows = []
     for rung, agent in L.cells():
         cells = [data.rung_label[rung], data.agent_label[agent]]
@@ -252,9 +262,9 @@ def verdict_table(data: Data, other: str) -> list[str]:
     return markdown_table(["world", "agent", *(v[0] for v in MEASURES.values())], rows)
 
 
-def in_words(data: Data) -> list[str]:
-    L = Learning(data)
-    rows = L.verdicts()
+def in_words(L: Learning) -> list[str]:
+    data = L.data
+    rows = L.rows
     solved = set(solved_rungs(data))
     out = []
     for other in L.others():
@@ -290,11 +300,8 @@ def rung_table(data: Data) -> list[str]:
     """Each world: its config, budget, the reference drivers' success and who solves it."""
     rows = []
     for rung, v in data.doc["rungs"].items():
-        ref = []
-        for who in DRIVERS:
-            x = [data.per_seed(rung, a, "own", who, "success") for a in data.agents]
-            x = np.concatenate([y for y in x if y.size]) if any(y.size for y in x) else x[0]
-            ref.append(f"{float(np.mean(x)):.3f}" if x.size else "")
+        ref = [oracle_success(data, rung, who) for who in DRIVERS]
+        ref = ["" if x is None else f"{x:.3f}" for x in ref]
         solved = solved_by(data, rung) or []
         arms = sum(data.has(rung, a) for a in data.agents) * len(data.strategies)
         rows.append(
@@ -310,12 +317,12 @@ def rung_table(data: Data) -> list[str]:
     return markdown_table(head, rows)
 
 
-def figures(data: Data, out, prefix: str) -> list:
+def figures(L: Learning, out, prefix: str) -> list:
     """Success against env steps on every world (mean over seeds, 95% band, the oracle's
     success and its 90% as lines), and P(EBE > X) on each measure along the ladder."""
     from jaxnav.report.fig_common import plt, save_fig
 
-    L = Learning(data)
+    data = L.data
     colors = {EBE: "tab:blue", EPS: "tab:orange", BOLTZMANN: "tab:green"}
     styles = ["-", "--", ":"]
     n = len(data.rungs)
@@ -326,7 +333,7 @@ def figures(data: Data, out, prefix: str) -> list:
         ax = axes[k // cols, k % cols]
         for j, agent in enumerate(a for a in data.agents if data.has(rung, a)):
             for s in data.strategies:
-                seeds = L._seeds(rung, agent, s)
+                seeds = L.seeds(rung, agent, s)
                 if not seeds:
                     continue
                 m = min(len(c) for c in seeds)
@@ -359,7 +366,12 @@ def figures(data: Data, out, prefix: str) -> list:
     for k, (m, (name, _)) in enumerate(MEASURES.items()):
         ax = axes[k // 3, k % 3]
         for j, other in enumerate(L.others()):
-            ps = [L.compare(r, a, other, m)[0] for r, a in cells]
+            by = {
+                (r["rung"], r["agent"]): r["p"]
+                for r in L.rows
+                if (r["other"], r["measure"]) == (other, m)
+            }
+            ps = [by[c] for c in cells]
             y = np.asarray([p.value for p in ps])
             err = np.nan_to_num(np.asarray([[p.value - p.low, p.high - p.value] for p in ps]).T)
             x = xs + (j - 0.5) * 0.25
@@ -386,17 +398,10 @@ def learning_markdown(folder, prefix: str) -> str:
     """The page of a study with evaluations while training, from the data in ``folder``;
     ``prefix`` names its figures (``PREFIX-success.png``, beside the page)."""
     from jaxnav.core.values import flatten
-    from jaxnav.report.ladder import (
-        _drive_table,
-        _gap_table,
-        _generalisation_verdicts,
-        _solved_lines,
-        _success_table,
-        _timing,
-        trajectory_cell,
-    )
+    from jaxnav.report.ladder import _timing, results_sections, trajectory_cell
 
     data = Data(folder)
+    learned = Learning(data)  # its verdicts' bootstraps, once for the whole page
     doc = data.doc
     command, machine = data.run["command"], data.run["machine"]
     timing, total = _timing(data)
@@ -417,7 +422,7 @@ def learning_markdown(folder, prefix: str) -> str:
         "",
         "## In one sentence",
         "",
-        summary_sentence(data),
+        _sentence(learned),
         "",
         "## Setup",
         "",
@@ -435,8 +440,8 @@ def learning_markdown(folder, prefix: str) -> str:
         f"- Final test: {doc.get('test_episodes', 10)} greedy episodes per policy on each "
         "test world. A world's own test is its maze, or for a drawn family fresh layouts of "
         "its train split; unseen layouts are the family's test split, which training never "
-        "draws. An arm solves a world when its mean success is within 0.02 of the oracle's "
-        "on the same test.",
+        "draws. An arm solves a world when its mean success is within "
+        f"{SOLVED_TOLERANCE} of the oracle's on the same test.",
         "- P(EBE > X) is rliable's probability of improvement with a 95% percentile "
         "bootstrap interval over seeds; for steps and collisions, where less is better, it "
         "is the chance that EBE has less. The verdict names the better strategy when the "
@@ -459,55 +464,31 @@ def learning_markdown(folder, prefix: str) -> str:
         "compilation and the evaluations included: every strategy and seed of a world and "
         "agent trains in one program, so the strategies of a cell share one clock.",
         "",
-        *learning_table(data),
+        *learning_table(learned),
         "",
     ]
-    for other in Learning(data).others():
+    for other in learned.others():
         L += [
             f"## EBE against {NAMES[other]}",
             "",
             f"P(EBE > {NAMES[other]}) [95% CI] and the verdict, on each measure; the last "
             "four from the final greedy test on the world each policy trained on.",
             "",
-            *verdict_table(data, other),
+            *verdict_table(learned, other),
             "",
         ]
     L += [
         "In words (cells on worlds no arm solves are marked):",
         "",
-        *in_words(data),
+        *in_words(learned),
         "",
-        "## Which worlds are solved",
-        "",
-        "Mean greedy success over seeds [95% CI] on each world's own final test; an arm "
-        "solves a world when its mean success is within 0.02 of the oracle's on the same "
-        "test.",
-        "",
-        *_success_table(data),
-        "",
-        *_solved_lines(data),
-        "",
-        "## How they drive",
-        "",
-        "How each arm's goal attempts end on its own world, beside the reference drivers' "
-        "on the same test: the shares of successes, collisions and time-outs (they sum to "
-        "1) and SPL (success weighted by the shortest path over the path driven); mean "
-        "over seeds [95% CI].",
-        "",
-        *_drive_table(data),
-        "",
-        "## Does it generalise?",
-        "",
-        "Per seed, success on the family's train layouts minus success on its unseen "
-        "layouts; mean over seeds [95% CI]. A gap whose interval covers 0 is not "
-        "detectable at this seed count. The larger size is drawn from the test split.",
-        "",
-        *_gap_table(data),
-        "",
-        "EBE against epsilon-greedy on the worlds the policies never trained on:",
-        "",
-        *_generalisation_verdicts(data),
-        "",
+        *results_sections(
+            data,
+            "Mean greedy success over seeds [95% CI] on each world's own final test; an arm "
+            f"solves a world when its mean success is within {SOLVED_TOLERANCE} of the "
+            "oracle's on the same test.",
+            " The larger size is drawn from the test split.",
+        ),
         "## Figures",
         "",
         f"![success against env steps]({prefix}-{FIGURES[0]})",

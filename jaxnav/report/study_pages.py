@@ -31,5 +31,5 @@ def sentence(folder: Path) -> str:
 
 def figures(folder: Path, out: Path, prefix: str) -> list[Path]:
     if of_learning(folder):
-        return learning.figures(ladder.Data(folder), out, prefix)
+        return learning.figures(learning.Learning(ladder.Data(folder)), out, prefix)
     return ladder.ladder_figures(folder, out, prefix)
