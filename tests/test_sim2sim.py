@@ -31,7 +31,7 @@ from jaxnav.robot.deploy import FORMAT, FORMAT_VERSION, Policy, clean_ranges  # 
 from jaxnav.robot.mujoco_model import wheel_speeds  # noqa: E402
 from jaxnav.robot.mujoco_rollout import Burger  # noqa: E402
 from jaxnav.world.maps import make_maze  # noqa: E402
-from jaxnav.world.reward import reward_fn  # noqa: E402
+from jaxnav.world.reward import progress_reward, reward_fn  # noqa: E402
 from jaxnav.world.sensor import lidar_scan  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -170,6 +170,38 @@ def test_the_numpy_reward_is_jaxnavs(preset):
         )
         got = mujoco_rollout.reward(task, task.omegas[a], heading, dist, d0, reached, collided)
         assert got == pytest.approx(float(want), rel=1e-4, abs=1e-3)
+
+
+def test_the_numpy_progress_reward_is_jaxnavs():
+    # drive_obstacles' reward (progress, a step and a proximity penalty), with the
+    # change penalty of the SAC configs on top
+    cfg = load_config("drive_obstacles", ["env.change_penalty=0.3"])
+    task = task_of(cfg)
+    _, params = from_config(cfg)
+    assert task.reward_kind == "progress" and task.proximity_penalty > 0
+    rng = np.random.default_rng(5)
+    for _ in range(60):
+        before, after = rng.uniform(0, 3), rng.uniform(0, 3)
+        clearance, change = rng.uniform(0.0, 0.6), rng.uniform(0, 2)
+        reached, collided = bool(rng.random() < 0.2), bool(rng.random() < 0.2)
+        want = progress_reward(
+            params, jnp.float32(before), jnp.float32(after), jnp.float32(clearance),
+            reached, collided, jnp.float32(change),
+        )  # fmt: skip
+        got = mujoco_rollout.progress_reward(
+            task, before, after, clearance, change, reached, collided
+        )
+        assert got == pytest.approx(float(want), rel=1e-4, abs=1e-4)
+
+
+def test_a_steps_clearance_is_its_nearest_approach_to_a_wall_or_cylinder():
+    walls = np.array([[0.0, 1.0, 2.0, 1.0]])  # y = 1 from x = 0 to 2
+    circles = np.array([[3.0, 0.0, 0.25]])
+    a, b = np.array([0.5, 0.0]), np.array([0.5, 0.6])  # towards the wall
+    assert mujoco_rollout.clearance_of((walls, circles), a, b) == pytest.approx(0.4)
+    a, b = np.array([2.0, 0.0]), np.array([2.5, 0.0])  # towards the cylinder
+    assert mujoco_rollout.clearance_of((walls, circles), a, b) == pytest.approx(0.25)
+    assert mujoco_rollout.clearance_of(None, a, b) == float("inf")
 
 
 def test_goals_are_drawn_from_the_mazes_goal_set_away_from_the_last():

@@ -60,6 +60,12 @@ from jaxnav.world.maps import ROBOTIS_FIRST_GOAL, ROBOTIS_GOAL_SEPARATION, Maze,
 def task_of(cfg: Config) -> Task:
     """The test constants of a run's config (its env's params and settings)."""
     env, p = from_config(cfg)
+    if env.reward == "geodesic" or env.progress_path == "geodesic":
+        raise JaxnavError(
+            "sim2sim scores the dense, sparse and progress (straight) rewards in MuJoCo, "
+            "not a reward along the maze's shortest path (env.reward / env.progress_path "
+            "geodesic)"
+        )
     return Task(
         omegas=np.asarray(p.omegas, np.float64),
         R_plus=float(p.R_plus),
@@ -73,6 +79,13 @@ def task_of(cfg: Config) -> Task:
         goal_sampler=env.goal_sampler,
         min_range=float(p.min_range),
         max_range=float(p.max_range),
+        reward_kind=env.reward,
+        progress_scale=float(p.progress_scale),
+        step_penalty=float(p.step_penalty),
+        proximity_penalty=float(p.proximity_penalty),
+        proximity_distance=float(p.proximity_distance),
+        change_penalty=float(p.change_penalty),
+        robot_radius=float(p.robot_radius),
     )
 
 
@@ -134,7 +147,15 @@ def mujoco_results(
         for strategy, seed in labels:
             rng = sim_rng(seed, name)
             res = play(
-                policies[(strategy, seed)], robot, start, goals, task, n_episodes, rng, noise_std
+                policies[(strategy, seed)],
+                robot,
+                start,
+                goals,
+                task,
+                n_episodes,
+                rng,
+                noise_std,
+                (maze.walls().astype(np.float64), maze.obstacles().astype(np.float64)),
             )
             out[(name, strategy, seed)] = res
         if progress:

@@ -35,6 +35,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from jaxnav.core.settings import BURGER_MAX_OMEGA, BURGER_MAX_V
 from jaxnav.robot.deploy import Policy, goal_heading_distance, yaw_from_quaternion
 from jaxnav.robot.mujoco_model import (
     MAZE_GROUP,
@@ -194,6 +195,15 @@ class Task(NamedTuple):
     goal_sampler: str  # "free" or "robotis"
     min_range: float
     max_range: float
+    # env.reward: dense (the paper's heading shaping, :func:`reward`), sparse or
+    # progress (:func:`progress_reward`, with the settings below)
+    reward_kind: str = "dense"
+    progress_scale: float = 10.0
+    step_penalty: float = 0.0
+    proximity_penalty: float = 0.0
+    proximity_distance: float = 0.3
+    change_penalty: float = 0.0
+    robot_radius: float = 0.13
 
 
 def _wrap(a: float) -> float:
@@ -221,6 +231,54 @@ def reward(
     psi = 1.0 - (2.0 / math.pi) * abs(_wrap(heading - phi))
     D = 2.0 ** (distance / max(goal_distance0, 1e-6)) if task.reward_distance_exp else distance
     return float(5.0 * psi * D)
+
+
+def progress_reward(
+    task: Task,
+    before: float,
+    after: float,
+    clearance: float,
+    change: float,
+    reached: bool,
+    collided: bool,
+) -> float:
+    """jaxnav's progress reward (:func:`jaxnav.world.reward.progress_reward`) of one step,
+    in NumPy: R- on a collision, R+ on the goal, else ``progress_scale`` times the metres
+    the step came closer (``before`` - ``after``), minus the step penalty, the proximity
+    penalty where the step's ``clearance`` (least distance of the robot's centre to a
+    surface) is within ``proximity_distance`` of the robot's radius, and the change
+    penalty times ``change`` (|dv| / 0.22 + |d omega| / 2.84)."""
+    if collided:
+        return task.R_minus
+    if reached:
+        return task.R_plus
+    near = min(max(1.0 - (clearance - task.robot_radius) / task.proximity_distance, 0.0), 1.0)
+    return float(
+        task.progress_scale * (before - after)
+        - task.step_penalty
+        - task.proximity_penalty * near
+        - task.change_penalty * change
+    )
+
+
+def clearance_of(surfaces, a: np.ndarray, b: np.ndarray, samples: int = 9) -> float:
+    """The least distance from the robot centre's step, the chord from ``a`` to ``b``
+    sampled at ``samples`` points (jaxnav measures its exact arc), to ``surfaces``
+    (walls f[S, 4], cylinders f[C, 3]); inf with none."""
+    if surfaces is None:
+        return math.inf
+    walls, circles = surfaces
+    p = a[None, :] + np.linspace(0.0, 1.0, samples)[:, None] * (b - a)[None, :]
+    best = math.inf
+    if len(walls):
+        s0, s1 = walls[None, :, :2], walls[None, :, 2:]
+        d = s1 - s0
+        t = np.clip(np.sum((p[:, None] - s0) * d, -1) / np.maximum(np.sum(d * d, -1), 1e-12), 0, 1)
+        best = float(np.min(np.linalg.norm(p[:, None] - (s0 + t[..., None] * d), axis=-1)))
+    if len(circles):
+        dc = np.hypot(p[:, None, 0] - circles[None, :, 0], p[:, None, 1] - circles[None, :, 1])
+        best = min(best, float(np.min(dc - circles[None, :, 2])))
+    return best
 
 
 class Goals(NamedTuple):
@@ -263,13 +321,16 @@ def play(
     n_episodes: int,
     rng: np.random.Generator,
     noise_std: float = LIDAR_NOISE_STD,
+    surfaces: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> Episodes:
     """``n_episodes`` consecutive greedy test episodes of one policy (jaxnav's protocol).
 
     Each step: scan and pose -> the policy's observation -> its greedy action -> the
     command for dt of physics -> reward. A goal reached draws a new one (the episode
     goes on); a collision or ``max_steps`` steps end the episode, and the robot
-    restarts at ``start`` (x, y, yaw) with its goal kept.
+    restarts at ``start`` (x, y, yaw) with its goal kept. The reward is the run's
+    (``task.reward_kind``); the progress reward's proximity term measures the step
+    against ``surfaces`` (the maze's walls f[S, 4] and cylinders f[C, 3]; None: none).
     """
     start = tuple(float(v) for v in start)
     goal = goals.first if goals.first is not None else draw_goal(rng, start[:2], goals)
@@ -279,16 +340,28 @@ def play(
         policy.rest()  # at rest: the normalised observation's last command is (0, 0)
         d0 = math.hypot(goal[0] - start[0], goal[1] - start[1])
         ret, reached_goals, t, collided = 0.0, 0, 0, False
+        last = (0.0, 0.0)  # the command before the first step: at rest
         while not collided and t < task.max_steps:
             pose = robot.pose()
             scan = robot.scan(rng, noise_std)
             obs = policy.observe(scan, 0.0, robot.angle_increment, pose, goal)
             linear, angular = policy.take(policy.act(obs))
             collided = robot.drive(linear, angular, policy.dt)
-            pose = robot.pose()
+            before = math.hypot(goal[0] - pose[0], goal[1] - pose[1])
+            was, pose = np.asarray(pose[:2], np.float64), robot.pose()
             heading, distance = goal_heading_distance(pose, goal)
             reached = distance < task.goal_radius and not collided
-            ret += reward(task, angular, heading, distance, d0, reached, collided)
+            if task.reward_kind == "progress":
+                clear = clearance_of(surfaces, was, np.asarray(pose[:2], np.float64))
+                change = abs(linear - last[0]) / BURGER_MAX_V + abs(angular - last[1]) / (
+                    BURGER_MAX_OMEGA
+                )
+                ret += progress_reward(task, before, distance, clear, change, reached, collided)
+            elif task.reward_kind == "sparse":
+                ret += task.R_minus if collided else task.R_plus if reached else 0.0
+            else:
+                ret += reward(task, angular, heading, distance, d0, reached, collided)
+            last = (float(linear), float(angular))
             t += 1
             if reached:
                 goal = draw_goal(rng, goal, goals)
