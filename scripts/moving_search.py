@@ -1,0 +1,218 @@
+"""Can the burger reach a moving stage's goals at all? A search that answers yes with a
+witness.
+
+ROBOTIS' stage 3 spins four cylinders about the robot's start, inside the ring they
+sweep, and every goal lies beyond it. The oracle (``jaxnav/planners/oracle.py``) plans
+1.4 s ahead, finds no plan clear of the cylinders and keeps clear, so it reaches no
+goal there; ``scripts/moving_reach.py`` shows that speed alone does not rule the world
+out. This script settles it for one action set: it searches, breadth first in time,
+the sequences of the world's actions from the start pose at time 0, each step with the
+environment's own kinematics and collision test (the step's exact path against the
+walls, :func:`jaxnav.world.geometry.path_clearance`, and against the moving cylinders
+over the step's time, :func:`jaxnav.world.motion.moving_clearance`). At each step it
+keeps one state per cell of an (x, y, yaw) raster, the first found, so every state it
+keeps is reached by a real sequence of actions. A goal is reached when a state ends a step
+within the goal radius (the goals: the points the environment draws an episode's first
+goal from, at least ``goal_min_separation`` from the start, or ROBOTIS' fixed first
+goal); the sequence that got there is then replayed
+through the environment itself (``NavEnv.step_env`` from a reset with that goal), and
+the goal counts only if the replay reaches it with no collision.
+
+So every goal it counts is proven reachable from the start (the first goal of an
+episode; later goals start elsewhere and later). A goal it does not reach within the
+horizon is not proven unreachable: the raster merges states that differ within a cell.
+
+    python scripts/moving_search.py stage3 env.actions=vw
+    python scripts/moving_search.py stage3                  # the paper's five yaw rates
+    python scripts/moving_search.py stage4 env.actions=vw --replay 20
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+
+@dataclass
+class Found:
+    """What a search found in one world."""
+
+    name: str  # the maze
+    actions: str  # the action set
+    dt: float
+    horizon: int  # steps searched, at most
+    goals: np.ndarray  # f32[G, 2] the first goals searched for
+    reached: dict[int, list[int]] = field(default_factory=dict)  # goal -> its actions
+    proven: list[int] = field(default_factory=list)  # goals whose replay reached them
+    largest: int = 1  # states kept at one step, at most
+    seconds: float = 0.0  # the search's
+
+
+def search(
+    config: str,
+    overrides: list[str] = (),
+    cell: float = 0.04,
+    headings: int = 24,
+    horizon: int = 0,
+    replay: int = 0,
+) -> Found:
+    """Search ``config``'s world (with ``overrides``) from its start pose at time 0 for
+    every first goal, ``horizon`` steps at most (0: env.max_steps), on a raster of
+    ``cell`` m and ``headings`` yaw bins; replay the sequences found (``replay``: the
+    first so many, 0 all) through the environment. ValueError names a world the search
+    does not apply to."""
+    import jax
+    import jax.numpy as jnp
+
+    from jaxnav.core.config import load_config
+    from jaxnav.core.errors import JaxnavError
+    from jaxnav.env import from_config
+    from jaxnav.world import motion
+    from jaxnav.world.geometry import displacement, path_clearance, wrap_angle
+
+    try:
+        cfg = load_config(config, list(overrides))
+        env, params = from_config(cfg)
+    except JaxnavError as e:
+        raise ValueError(str(e)) from None
+    maze = params.maze
+    if maze.motion is None:
+        raise ValueError(f"{cfg.env.maze}: no moving obstacles")
+    if env.continuous or env.action_delay or env.generator or env.scales_maze:
+        raise ValueError("the search needs a fixed maze, a discrete action set and no action delay")
+    n_actions = env.num_actions
+    dt, radius = float(params.dt), float(params.robot_radius)
+    goal_radius = float(params.goal_radius)
+    horizon = horizon or int(params.max_steps)
+    start = np.asarray(maze.start, np.float32)
+    if env.goal_sampler == "robotis":  # ROBOTIS' fixed first goal
+        goals = np.asarray(env.first_goal(None, start[:2], params, 1.0))[None]
+    else:  # the points the free sampler draws a first goal from: far enough from the start
+        goals = np.asarray(maze.goal_points)[: int(maze.n_goal_points)]
+        far = np.hypot(*(goals - start[:2]).T) >= float(params.goal_min_separation)
+        goals = goals[far]
+    found = Found(cfg.env.maze, cfg.env.actions, dt, horizon, goals)
+    lo = np.asarray(maze.bounds, np.float64)[:2]
+    span = np.asarray(maze.bounds, np.float64)[2:] - lo
+    nx, ny = (np.ceil(span / cell).astype(int) + 1).tolist()
+    actions = jnp.arange(n_actions)
+
+    def one(pos, yaw, a, time0):
+        v, omega = env.command(params, a)
+        c = path_clearance(maze, pos, yaw, omega, v, dt)
+        c = jnp.minimum(c, motion.moving_clearance(maze.motion, pos, yaw, omega, v, dt, time0))
+        return pos + displacement(yaw, omega, v, dt), wrap_angle(yaw + omega * dt), c >= radius
+
+    expand = jax.jit(jax.vmap(jax.vmap(one, (None, None, 0, None)), (0, 0, None, None)))
+
+    pos, yaw = start[None, :2], start[None, 2]
+    parents: list[tuple[np.ndarray, np.ndarray]] = []  # per step: (parent index, action)
+    first: dict[int, tuple[int, int]] = {}  # goal -> (step, state index) first reached
+    t0 = time.perf_counter()
+    for step in range(horizon):
+        n = len(pos)
+        size = 1 << max(4, (n - 1).bit_length())  # padded, so few shapes compile
+        p = np.zeros((size, 2), np.float32)
+        y = np.zeros(size, np.float32)
+        p[:n], y[:n] = pos, yaw
+        new_pos, new_yaw, ok = jax.device_get(expand(p, y, actions, jnp.float32(step * dt)))
+        new_pos, new_yaw, ok = new_pos[:n], new_yaw[:n], ok[:n]
+        parent, action = np.nonzero(ok)
+        if len(parent) == 0:
+            break
+        cand_pos, cand_yaw = new_pos[parent, action], new_yaw[parent, action]
+        ix = np.clip(((cand_pos[:, 0] - lo[0]) / cell).astype(int), 0, nx - 1)
+        iy = np.clip(((cand_pos[:, 1] - lo[1]) / cell).astype(int), 0, ny - 1)
+        ih = np.clip(np.floor((cand_yaw + math.pi) / (2 * math.pi) * headings), 0, headings - 1)
+        keys = (ix * ny + iy) * headings + ih.astype(int)
+        _, keep = np.unique(keys, return_index=True)
+        keep.sort()
+        pos, yaw = cand_pos[keep], cand_yaw[keep]
+        parents.append((parent[keep], action[keep]))
+        found.largest = max(found.largest, len(pos))
+        open_goals = [g for g in range(len(goals)) if g not in first]
+        d = np.hypot(
+            pos[:, None, 0] - goals[None, open_goals, 0],
+            pos[:, None, 1] - goals[None, open_goals, 1],
+        )
+        for j, g in enumerate(open_goals):
+            idx = np.flatnonzero(d[:, j] < goal_radius)
+            if len(idx):
+                first[g] = (step, int(idx[0]))
+        if len(first) == len(goals):
+            break
+    found.seconds = time.perf_counter() - t0
+
+    for g, (step, index) in sorted(first.items(), key=lambda kv: kv[1][0]):
+        seq = []
+        for s in range(step, -1, -1):
+            parent, action = parents[s]
+            seq.append(int(action[index]))
+            index = int(parent[index])
+        found.reached[g] = seq[::-1]
+
+    step_env = jax.jit(env.step_env)
+    key = jax.random.PRNGKey(0)
+    for g in list(found.reached)[: replay or None]:
+        if replays(env, params, step_env, key, goals[g], found.reached[g]):
+            found.proven.append(g)
+    return found
+
+
+def replays(env, params, step_env, key, goal, actions: list[int]) -> bool:
+    """Whether ``actions``, driven through the environment from a reset with ``goal``,
+    reach it at their last step and collide nowhere before."""
+    import jax.numpy as jnp
+
+    _, state = env.reset(key, params)
+    goal = jnp.asarray(goal, jnp.float32)
+    state = state.replace(goal=goal, goal_distance0=jnp.linalg.norm(goal - state.pos))
+    for i, a in enumerate(actions):
+        _, state, _, _, _, info = step_env(key, state, jnp.int32(a), params)
+        if bool(info["collision"]):
+            return False
+        if bool(info["goal_reached"]):
+            return i == len(actions) - 1
+    return False
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("config", help="a shipped config or config file whose maze moves")
+    ap.add_argument("overrides", nargs="*", help="key=value settings (env.actions=vw)")
+    ap.add_argument("--cell", type=float, default=0.04, help="raster cell, m")
+    ap.add_argument("--headings", type=int, default=24, help="yaw bins of the raster")
+    ap.add_argument("--horizon", type=int, default=0, help="steps (0: env.max_steps)")
+    ap.add_argument("--replay", type=int, default=0, help="replay at most this many (0: all)")
+    args = ap.parse_args(argv)
+    try:
+        f = search(args.config, args.overrides, args.cell, args.headings, args.horizon, args.replay)
+    except ValueError as e:  # a bad config or a world the search does not apply to
+        print(f"moving_search: {e}", file=sys.stderr)
+        return 2
+    where = f"{f.name} ({f.actions} actions)"
+    if f.proven:
+        sec = np.asarray([len(f.reached[g]) for g in f.proven]) * f.dt
+        told = (
+            f"{where}: {len(f.proven)} of {len(f.goals)} first goals proven reachable from "
+            f"the start (replayed in the environment, no collision), in "
+            f"{np.min(sec):.1f}-{np.max(sec):.1f} s (median {np.median(sec):.1f} s)"
+        )
+    else:
+        told = f"{where}: no first goal proven reachable within {f.horizon} steps"
+    replayed = min(len(f.reached), args.replay or len(f.reached))
+    print(
+        f"{told}; the search reached {len(f.reached)}, {replayed} replayed "
+        f"({args.cell} m x {args.headings} headings raster, at most {f.largest:,} states "
+        f"a step, {f.seconds:.0f} s)"
+    )
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
