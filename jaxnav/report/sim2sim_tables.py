@@ -79,7 +79,8 @@ def gap_markdown(text: str, title: str = "Sim-to-sim gap") -> str:
 
     lines = [f"# {title}", ""]
     lines.append(
-        f"Every policy greedy (argmax Q), {len(seeds)} seeds per strategy, test mazes "
+        f"Every policy greedy (argmax Q, or SAC's mean action), {len(seeds)} seeds per "
+        "strategy, test mazes "
         f"{', '.join(mazes)}; episodes per policy and maze: jaxnav "
         f"{'/'.join(map(str, n_eps['jaxnav']))}, MuJoCo {'/'.join(map(str, n_eps['mujoco']))}. "
         "Mean over seeds and mazes of each seed's mean over its episodes, with a 95% "
