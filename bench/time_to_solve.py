@@ -31,8 +31,18 @@ over all seeds of the time (and env steps) to solve, a seed never solved countin
 as never (so the median is "not solved" when half or more are not), and the best
 success the seeds reached on average at any one evaluation (how near the line came).
 
+With ``--drive``, instead: every shipped ``drive_*`` config of the driving study
+(``configs/studies/driving.yaml``: PQN on seven worlds, SAC on two), each its own
+whole command at its own seeds and budget, evaluated greedily at eight equal shares
+of the budget (whole updates), beside the oracle and DWA on the same evaluation in
+its training world. Besides each run's time, the row gives when the mean over all
+seeds first comes within 0.02 of the oracle (the driving page's "solved", on the
+evaluation's episodes) and the target: 30 s on square4, 300 s elsewhere.
+
     python bench/time_to_solve.py --quick    # 2 seeds, tiny budgets: checks it runs
     python bench/time_to_solve.py            # 8 seeds, 200,000 env steps per run
+    python bench/time_to_solve.py --drive    # the shipped drive configs (about 35 min)
+    python bench/time_to_solve.py --drive --quick
 
 Commands run one after another, never two at once; use a quiet machine.
 """
@@ -41,11 +51,19 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import statistics
 import sys
 from pathlib import Path
 
-from common import budget, budget_arguments, machine, reference_success, train_evaluating
+from common import (
+    ROOT,
+    budget,
+    budget_arguments,
+    machine,
+    reference_success,
+    train_evaluating,
+)
 
 from jaxnav.report.navigation import SOLVED_TOLERANCE, solved
 
@@ -167,13 +185,146 @@ def table(results: list[dict], refs: dict[str, dict[str, float]], args) -> str:
     return "\n".join(lines)
 
 
+DRIVE_STUDY = ROOT / "jaxnav" / "configs" / "studies" / "driving.yaml"
+DRIVE_EVALUATIONS = 8  # greedy evaluations along each drive config's budget
+DRIVE_TARGET_S = {"drive_square4": 30.0}  # whole command to solved; others DRIVE_TARGET_DEFAULT
+DRIVE_TARGET_DEFAULT = 300.0
+
+
+def drive_configs() -> list[str]:
+    """The driving study's configs, in its order."""
+    import yaml
+
+    return list(yaml.safe_load(DRIVE_STUDY.read_text())["configs"])
+
+
+def drive_budget(name: str, args) -> argparse.Namespace:
+    """One drive config's budget: its seeds and env steps (``--seeds`` replaces the
+    seeds), evaluated at DRIVE_EVALUATIONS equal shares in whole updates (PQN:
+    num_envs x rollout env steps; SAC: one step of all its environments); ``--quick``:
+    2 seeds, 4 updates, an evaluation every 2."""
+    from jaxnav.core.config import load_config
+
+    cfg = load_config(name)
+    update = cfg.sac.num_envs if cfg.agent == "sac" else cfg.pqn.num_envs * cfg.pqn.rollout
+    out = argparse.Namespace(**vars(args))
+    if args.quick:  # two evaluations, each after every environment has ended an episode
+        envs = cfg.sac.num_envs if cfg.agent == "sac" else cfg.pqn.num_envs
+        half = math.ceil(envs * (cfg.env.max_steps + 1) / update) * update
+        out.steps, out.eval_every = 2 * half, half
+    else:
+        out.steps = int(cfg.total_steps)
+        out.eval_every = max(1, round(out.steps / DRIVE_EVALUATIONS / update)) * update
+    out.seeds = args.seeds if args.seeds_given else (2 if args.quick else int(cfg.seeds))
+    return out
+
+
+def mean_solved_at(rows: list[dict[str, str]], oracle: float) -> tuple[float, int] | None:
+    """The first evaluation (wall_s, env_step) whose success averaged over every run
+    is within SOLVED_TOLERANCE of the oracle's ``oracle``; None if none is."""
+    by_step: dict[int, list[dict[str, str]]] = {}
+    for r in rows:
+        by_step.setdefault(int(r["env_step"]), []).append(r)
+    for step in sorted(by_step):
+        xs = [float(r["success"]) for r in by_step[step]]
+        mean = statistics.mean(0.0 if x != x else x for x in xs)
+        if solved(mean, oracle):
+            return float(by_step[step][0]["wall_s"]), step
+    return None
+
+
+def drive(args, log) -> int:
+    """The ``--drive`` form: every shipped drive config, its table on stdout."""
+    names = ["drive_square4", "drive_sac_obstacles"] if args.quick else drive_configs()
+    lines = [
+        "| config | agent | seeds | oracle | DWA | runs solved | median run's time to "
+        "solve (s) | mean solved at (s) | mean solved at (env steps) | last mean success "
+        "| whole command (s) | target (s) | met |",
+        "|---|---|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|---|",
+    ]
+    results = []
+    for name in names:
+        b = drive_budget(name, args)
+        item = f"configs/{name}.yaml"
+        refs = reference_success([item], b.seeds, args.eval_episodes, log)
+        log(f"  {name}: oracle {refs['oracle']:.3f}, DWA {refs['dwa']:.3f}")
+        res = train_evaluating([item], b, log)
+        rows, wall = res["rows"], res["wall_s"]
+        log(f"    {wall:.1f} s whole")
+        runs = solved_at(rows, refs["oracle"])
+        per_run = [None if v is None else v[0] for v in runs.values()]
+        at = mean_solved_at(rows, refs["oracle"])
+        last = max(int(r["env_step"]) for r in rows)
+        last_mean = statistics.mean(
+            0.0 if x != x else x
+            for x in (float(r["success"]) for r in rows if int(r["env_step"]) == last)
+        )
+        target = DRIVE_TARGET_S.get(name, DRIVE_TARGET_DEFAULT)
+        agent = "SAC" if "_sac_" in name else "PQN"
+        median = median_or_never(per_run)
+        results.append(
+            {
+                "config": name,
+                "agent": agent,
+                "seeds": b.seeds,
+                "budget": b.steps,
+                "eval_every": b.eval_every,
+                "oracle": refs["oracle"],
+                "dwa": refs["dwa"],
+                "runs_solved": sum(v is not None for v in per_run),
+                "median_run_s": median,
+                "per_run_s": per_run,
+                "mean_solved_s": None if at is None else at[0],
+                "mean_solved_steps": None if at is None else at[1],
+                "last_mean_success": last_mean,
+                "command_s": wall,
+                "target_s": target,
+            }
+        )
+        never = f"not in {b.steps:,}"
+        lines.append(
+            f"| `{name}` | {agent} | {b.seeds} | {refs['oracle']:.2f} | {refs['dwa']:.2f} "
+            f"| {results[-1]['runs_solved']}/{b.seeds} "
+            f"| {never if median is None else f'{median:.1f}'} "
+            f"| {never if at is None else f'{at[0]:.1f}'} "
+            f"| {never if at is None else f'{at[1]:,}'} | {last_mean:.2f} | {wall:.1f} "
+            f"| {target:.0f} | {'yes' if at is not None and at[0] <= target else 'no'} |"
+        )
+    budgets = (
+        "2 seeds and two greedy evaluations (a check that it runs, not a measurement), "
+        if args.quick
+        else f"its own seeds and budget, a greedy evaluation at each of {DRIVE_EVALUATIONS} "
+        "equal shares of it, "
+    )
+    print(
+        f"`python bench/time_to_solve.py --drive{' --quick' if args.quick else ''}`: each "
+        f"shipped drive config at {budgets}{args.eval_episodes} episodes each; whole "
+        "commands, empty compilation cache; the oracle and DWA on the same "
+        f"evaluation in the config's training world. A run is solved at its first "
+        f"evaluation within {SOLVED_TOLERANCE} of the oracle's success; the mean is "
+        "solved where the success averaged over all runs first is; met: the mean is "
+        "solved within the target's seconds of the command's start."
+    )
+    print()
+    print("\n".join(lines))
+    if args.json:
+        Path(args.json).write_text(json.dumps({"drive": results}, indent=2) + "\n")
+    return 0
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     budget_arguments(ap, "strategy", seeds=8, steps=200_000)
     ap.add_argument("--eval-episodes", type=int, default=5, help="episodes per evaluation")
     ap.add_argument("--mazes", nargs="+", choices=list(MAZES), default=list(MAZES))
     ap.add_argument("--json", help="also write the results here")
+    ap.add_argument(
+        "--drive",
+        action="store_true",
+        help="the shipped drive configs at their own budgets instead (see above)",
+    )
     args = ap.parse_args(argv)
+    args.seeds_given = args.seeds is not None
     budget(args)
     quick = args.quick
 
@@ -181,6 +332,8 @@ def main(argv=None) -> int:
         print(text, file=sys.stderr, flush=True)
 
     log(f"machine: {machine()}")
+    if args.drive:
+        return drive(args, log)
     results, refs, worlds = [], {}, {}
     for maze in args.mazes:
         for agent, items in agents(maze).items():
