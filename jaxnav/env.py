@@ -62,7 +62,6 @@ from jaxnav.world import motion
 from jaxnav.world.geometry import (
     displacement,
     norm2,
-    path_clearance,
     wrap_angle,
 )
 from jaxnav.world.goals import GoalSampler
@@ -417,13 +416,9 @@ class NavEnv(GoalSampler, DrawnLayouts, Observer):
         applied = state.pending_action if self.action_delay else action
         v, omega = self.command(params, applied)
         maze = self.maze_at(params, state.scale)
-        clearance = path_clearance(maze, state.pos, state.yaw, omega, v, params.dt)
-        if maze.motion is not None:  # the moving cylinders, over the step's time
-            time0 = state.t * params.dt
-            moving = motion.moving_clearance(
-                maze.motion, state.pos, state.yaw, omega, v, params.dt, time0
-            )
-            clearance = jnp.minimum(clearance, moving)
+        clearance = motion.step_clearance(
+            maze, state.pos, state.yaw, omega, v, params.dt, state.t * params.dt
+        )
         pos = state.pos + displacement(state.yaw, omega, v, params.dt)
         yaw = wrap_angle(state.yaw + omega * params.dt)
         t = state.t + 1

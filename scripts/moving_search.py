@@ -8,8 +8,8 @@ goal there; ``scripts/moving_reach.py`` shows that speed alone does not rule the
 out. This script settles it for one action set: it searches, breadth first in time,
 the sequences of the world's actions from the start pose at time 0, each step with the
 environment's own kinematics and collision test (the step's exact path against the
-walls, :func:`jaxnav.world.geometry.path_clearance`, and against the moving cylinders
-over the step's time, :func:`jaxnav.world.motion.moving_clearance`). At each step it
+walls and against the moving cylinders over the step's time,
+:func:`jaxnav.world.motion.step_clearance`). At each step it
 keeps one state per cell of an (x, y, yaw) raster, the first found, so every state it
 keeps is reached by a real sequence of actions. A goal is reached when a state ends a step
 within the goal radius (the goals: the points the environment draws an episode's first
@@ -73,7 +73,7 @@ def search(
     from jaxnav.core.errors import JaxnavError
     from jaxnav.env import from_config
     from jaxnav.world import motion
-    from jaxnav.world.geometry import displacement, path_clearance, wrap_angle
+    from jaxnav.world.geometry import displacement, wrap_angle
 
     try:
         cfg = load_config(config, list(overrides))
@@ -104,8 +104,7 @@ def search(
 
     def one(pos, yaw, a, time0):
         v, omega = env.command(params, a)
-        c = path_clearance(maze, pos, yaw, omega, v, dt)
-        c = jnp.minimum(c, motion.moving_clearance(maze.motion, pos, yaw, omega, v, dt, time0))
+        c = motion.step_clearance(maze, pos, yaw, omega, v, dt, time0)
         return pos + displacement(yaw, omega, v, dt), wrap_angle(yaw + omega * dt), c >= radius
 
     expand = jax.jit(jax.vmap(jax.vmap(one, (None, None, 0, None)), (0, 0, None, None)))

@@ -11,8 +11,7 @@ one that reaches the goal soonest, else the one that ends nearest to it along th
 shortest path around the walls (:mod:`jaxnav.planners.raster`), facing along it.
 
 Collisions are checked exactly for the step about to be driven (the environment's own
-:func:`~jaxnav.world.geometry.path_clearance` and
-:func:`~jaxnav.world.motion.moving_clearance`) and, for the later steps of a plan,
+:func:`~jaxnav.world.motion.step_clearance`) and, for the later steps of a plan,
 against a raster of the static clearance read as a lower bound, with a margin, and
 against the moving cylinders at their exact positions. Where every sequence collides
 it takes the one that collides latest. The shortest-path field is computed again only
@@ -33,7 +32,7 @@ from jaxnav.core.settings import ACTION_SETS
 from jaxnav.env import EnvParams, EnvState, NavEnv
 from jaxnav.planners import raster as rs
 from jaxnav.world import motion
-from jaxnav.world.geometry import displacement, path_clearance, wrap_angle
+from jaxnav.world.geometry import displacement, wrap_angle
 from jaxnav.world.lazy import draw_where
 from jaxnav.world.maps import Maze
 
@@ -137,13 +136,16 @@ class Oracle:
         # The step about to be driven, checked exactly as the environment will: each
         # action's, or with action_delay the pending action's, after which the plan starts.
         pos, yaw, offset = state.pos[None], state.yaw[None], 0
+        t0 = state.t * dt  # the step's start, in the episode's time
         if env.action_delay:
             vp, wp = env.command(params, state.pending_action)
-            now = self._exact_clearance(maze, state, vp, wp, dt) >= r
+            now = motion.step_clearance(maze, state.pos, state.yaw, wp, vp, dt, t0) >= r
             pos = pos + displacement(yaw, wp, vp, dt).T
             yaw, offset = wrap_angle(yaw + wp * dt), 1
         else:
-            now = jax.vmap(lambda v, w: self._exact_clearance(maze, state, v, w, dt))(v_a, w_a)
+            now = jax.vmap(
+                lambda v, w: motion.step_clearance(maze, state.pos, state.yaw, w, v, dt, t0)
+            )(v_a, w_a)
             now = now >= r  # [A]
 
         # SIMULATE the tree level by level: every node's A actions, each held its steps;
@@ -243,17 +245,6 @@ class Oracle:
             gap = jnp.linalg.norm(pts[..., None, :] - where, axis=-1) - maze.motion.radius
             bad = bad | (jnp.min(gap, axis=-1) < r + self.moving_margin)
         return jnp.any(bad, axis=-1)
-
-    def _exact_clearance(self, maze: Maze, state: EnvState, v, omega, dt) -> chex.Array:
-        """The smallest distance from the robot's centre to any surface over the next
-        step, as :meth:`jaxnav.env.NavEnv.step_env` computes it."""
-        clearance = path_clearance(maze, state.pos, state.yaw, omega, v, dt)
-        if maze.motion is not None:
-            moving = motion.moving_clearance(
-                maze.motion, state.pos, state.yaw, omega, v, dt, state.t * dt
-            )
-            clearance = jnp.minimum(clearance, moving)
-        return clearance
 
 
 def _default_holds(n_actions: int, moving: bool) -> tuple[int, ...]:

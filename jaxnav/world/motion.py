@@ -30,7 +30,7 @@ import jax.numpy as jnp
 import numpy as np
 from flax import struct
 
-from jaxnav.world.geometry import displacement, point_segment_distance
+from jaxnav.world.geometry import displacement, path_clearance, point_segment_distance
 
 SUBSTEPS = 16  # pieces of a step for the moving-obstacle collision test
 
@@ -194,6 +194,20 @@ def moving_clearance(
     return jnp.min(d - motion.radius[None, :])
 
 
+def step_clearance(maze, pos: chex.Array, yaw: chex.Array, omega, v, dt, time0) -> chex.Array:
+    """f32[]: the smallest distance between the robot's centre and any surface over the
+    step that starts at ``time0`` from pose (pos, yaw): the walls and standing cylinders
+    along its exact arc (:func:`jaxnav.world.geometry.path_clearance`) and, in a maze
+    whose ``motion`` is not None, the moving cylinders over the step's time
+    (:func:`moving_clearance`). The robot collides iff this is below its radius; the
+    environment's step, the oracle and ``scripts/moving_search.py`` all test with it."""
+    clearance = path_clearance(maze, pos, yaw, omega, v, dt)
+    if maze.motion is not None:
+        moving = moving_clearance(maze.motion, pos, yaw, omega, v, dt, time0)
+        clearance = jnp.minimum(clearance, moving)
+    return clearance
+
+
 __all__ = [
     "SUBSTEPS",
     "Motion",
@@ -205,4 +219,5 @@ __all__ = [
     "pad_motion",
     "parked",
     "positions",
+    "step_clearance",
 ]
