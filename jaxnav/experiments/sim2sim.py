@@ -143,6 +143,7 @@ def mujoco_results(
         maze = make_maze(name)
         robot = Burger(maze, timestep, task.min_range, task.max_range, wheel_limit)
         goals, start = goals_of(maze, task), np.asarray(maze.start, np.float64)
+        surfaces = (maze.walls().astype(np.float64), maze.obstacles().astype(np.float64))
         t0 = time.perf_counter()
         for strategy, seed in labels:
             rng = sim_rng(seed, name)
@@ -155,7 +156,7 @@ def mujoco_results(
                 n_episodes,
                 rng,
                 noise_std,
-                (maze.walls().astype(np.float64), maze.obstacles().astype(np.float64)),
+                surfaces,
             )
             out[(name, strategy, seed)] = res
         if progress:

@@ -46,6 +46,7 @@ from jaxnav.robot.mujoco_model import (
     wheel_speeds,
 )
 from jaxnav.world.kinematics import firmware_limit
+from jaxnav.world.polygons import point_segment_distance
 
 N_RAYS = 360  # rays at 2 pi / 360, counter-clockwise from straight ahead
 LIDAR_NOISE_STD = 0.01  # m, Gazebo's LDS-01 model
@@ -271,10 +272,7 @@ def clearance_of(surfaces, a: np.ndarray, b: np.ndarray, samples: int = 9) -> fl
     p = a[None, :] + np.linspace(0.0, 1.0, samples)[:, None] * (b - a)[None, :]
     best = math.inf
     if len(walls):
-        s0, s1 = walls[None, :, :2], walls[None, :, 2:]
-        d = s1 - s0
-        t = np.clip(np.sum((p[:, None] - s0) * d, -1) / np.maximum(np.sum(d * d, -1), 1e-12), 0, 1)
-        best = float(np.min(np.linalg.norm(p[:, None] - (s0 + t[..., None] * d), axis=-1)))
+        best = float(np.min(point_segment_distance(p, walls)))
     if len(circles):
         dc = np.hypot(p[:, None, 0] - circles[None, :, 0], p[:, None, 1] - circles[None, :, 1])
         best = min(best, float(np.min(dc - circles[None, :, 2])))
