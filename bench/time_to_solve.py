@@ -118,14 +118,26 @@ def solved_at(
     return runs
 
 
+def mean_by_step(
+    rows: list[dict[str, str]], strategy: str | None = None
+) -> dict[int, tuple[float, float]]:
+    """{env step: (wall_s, success averaged over the runs)} of every evaluation of a
+    command's runs (of one strategy's, or all); a success of NaN (every attempt cut,
+    none decided) counts as 0."""
+    by_step: dict[int, list[dict[str, str]]] = {}
+    for r in rows:
+        if strategy is None or r["strategy"] == strategy:
+            by_step.setdefault(int(r["env_step"]), []).append(r)
+    out = {}
+    for step, at in sorted(by_step.items()):
+        xs = [float(r["success"]) for r in at]
+        out[step] = (float(at[0]["wall_s"]), statistics.mean(0.0 if x != x else x for x in xs))
+    return out
+
+
 def best_mean_success(rows: list[dict[str, str]], strategy: str) -> float:
     """The highest success, averaged over the strategy's seeds, at any evaluation."""
-    by_step: dict[int, list[float]] = {}
-    for r in rows:
-        if r["strategy"] == strategy:
-            x = float(r["success"])  # nan: every attempt cut (no decided one)
-            by_step.setdefault(int(r["env_step"]), []).append(0.0 if x != x else x)
-    return max(statistics.mean(v) for v in by_step.values())
+    return max(mean for _, mean in mean_by_step(rows, strategy).values())
 
 
 def median_or_never(values: list[float | None]) -> float | None:
@@ -222,14 +234,9 @@ def drive_budget(name: str, args) -> argparse.Namespace:
 def mean_solved_at(rows: list[dict[str, str]], oracle: float) -> tuple[float, int] | None:
     """The first evaluation (wall_s, env_step) whose success averaged over every run
     is within SOLVED_TOLERANCE of the oracle's ``oracle``; None if none is."""
-    by_step: dict[int, list[dict[str, str]]] = {}
-    for r in rows:
-        by_step.setdefault(int(r["env_step"]), []).append(r)
-    for step in sorted(by_step):
-        xs = [float(r["success"]) for r in by_step[step]]
-        mean = statistics.mean(0.0 if x != x else x for x in xs)
+    for step, (wall, mean) in mean_by_step(rows).items():
         if solved(mean, oracle):
-            return float(by_step[step][0]["wall_s"]), step
+            return wall, step
     return None
 
 
@@ -254,11 +261,7 @@ def drive(args, log) -> int:
         runs = solved_at(rows, refs["oracle"])
         per_run = [None if v is None else v[0] for v in runs.values()]
         at = mean_solved_at(rows, refs["oracle"])
-        last = max(int(r["env_step"]) for r in rows)
-        last_mean = statistics.mean(
-            0.0 if x != x else x
-            for x in (float(r["success"]) for r in rows if int(r["env_step"]) == last)
-        )
+        last_mean = list(mean_by_step(rows).values())[-1][1]
         target = DRIVE_TARGET_S.get(name, DRIVE_TARGET_DEFAULT)
         agent = "SAC" if "_sac_" in name else "PQN"
         median = median_or_never(per_run)
