@@ -11,7 +11,6 @@ if __name__ == "__main__":  # first thing: Ctrl-C ends the command cleanly
 
     catch_interrupts_in_command()
 
-import json
 import sys
 from pathlib import Path
 
@@ -78,13 +77,18 @@ def main(argv: list[str] | None = None) -> int:
         out = Path(args.out) if args.out else default_out(run_dir, strategy, seed)
         cli.check_output(out, args.overwrite)
         arrays = export_policy(run_dir, strategy, seed)
-        Policy.from_arrays(arrays)  # what the robot will load must load
-        meta = json.loads(str(arrays["meta"]))
+        policy = Policy.from_arrays(arrays)  # what the robot will load must load
+        meta = policy.meta
         save_policy(arrays, out)
-        features = ", obstacle features" if meta["obstacle_obs"] else ""
+        if policy.observation == "normalised":
+            features = ", normalised observation"
+            if policy.scan_history:
+                features += f" with the {policy.scan_history} scans before"
+        else:
+            features = ", obstacle features" if policy.obstacle_obs else ""
         print(
             f"wrote {out} ({meta['strategy']} seed {meta['seed']}, {meta['n_beams']} beams"
-            f"{features}, maze {meta['maze']})"
+            f"{features}, maze {meta['maze']}; format version {meta['version']})"
         )
 
     return cli.run(p.prog, work)

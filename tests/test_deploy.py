@@ -250,10 +250,48 @@ def test_a_modern_policy_sees_on_the_robot_what_it_saw_in_training(tmp_path):
     assert control.decide(10.0).reason == "reached" and np.all(policy.last_command == 0.0)
 
 
-def test_a_policy_with_a_scan_history_is_refused_by_export(tmp_path):
-    run = _fake_run(tmp_path, "square4", ("env.observation=normalised", "env.scan_history=2"))
-    with pytest.raises(deploy.PolicyError, match="scan_history"):
-        export.export_policy(run, "ebe", 0)
+def test_a_policy_with_a_scan_history_sees_on_the_robot_the_scans_it_saw_in_training(tmp_path):
+    """Step by step along the environment's own episodes (a collision or the step limit
+    restarts one), the adapter's observation from raw scans, with the history it keeps,
+    equals the environment's, and so does the greedy action: the scans newest first, at
+    an episode's start copies of its first scan; a stop starts the history again."""
+    k = 3
+    extra = (*MODERN, f"env.scan_history={k}", "env.max_steps=15")  # restarts every 15 steps
+    run = _fake_run(tmp_path, "square4_obstacles", extra, "hist")
+    s = Setup(run)
+    env, params, policy = s.env, s.params, s.policy
+    assert policy.meta["version"] == deploy.HISTORY_VERSION and policy.scan_history == k
+    assert policy.obs_size == env.obs_size == env.n_beams * (1 + k) + 4
+    increment, nb = 2 * math.pi / 360, env.n_beams
+    rng = np.random.default_rng(3)
+    key = jax.random.key(5)
+    want, state = env.reset(key, params)
+    step = jax.jit(lambda kk, st, a: env.step_env(kk, st, a, params))
+    restarts = steps = 0
+    restarted = True  # the first observation is an episode's start
+    while steps < 40:
+        pose = np.asarray(state.pos), float(state.yaw)
+        scan = _scans(params.maze, pose[0][None], np.float32([pose[1]]), 0.0, increment, 360, 72)
+        got = policy.observe(scan[0], 0.0, increment, (*pose[0], pose[1]), np.asarray(state.goal))
+        want = np.asarray(want)
+        assert abs((got[nb] - want[nb] + 1.0) % 2.0 - 1.0) < 1e-5  # heading, wrapped
+        np.testing.assert_allclose(np.delete(got, nb), np.delete(want, nb), atol=1e-5)
+        history = got[nb + 4 :].reshape(k, nb)
+        if restarted:  # an episode's start: copies of its first scan
+            np.testing.assert_array_equal(history, np.tile(got[:nb], (k, 1)))
+        assert policy.act(got) == int(np.argmax(s.flax_q(want)))
+        a = int(rng.integers(0, env.num_actions))
+        policy.take(a)
+        key, sub = jax.random.split(key)
+        want, state, _, terminated, truncated, _ = step(sub, state, jnp.asarray(a))
+        restarted = bool(terminated | truncated)
+        if restarted:  # the environment restarts the episode; the controller stops
+            want, state = env.restart(sub, state, params)
+            policy.rest()
+            restarts += 1
+        steps += 1
+    assert np.any(history[0] != history[-1])  # the robot moved: the scans differ
+    assert restarts >= 2
 
 
 def test_rays_with_no_return_become_max_range_as_in_the_env(setups):

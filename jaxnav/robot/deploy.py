@@ -55,6 +55,12 @@ How a raw LaserScan becomes the trained observation (:meth:`Policy.observe`):
   firmware's wheel limit where the run modelled it), and (0, 0) after a stop:
   :class:`Policy` keeps it (:meth:`Policy.command` sets it, :meth:`Policy.rest`
   clears it; :class:`Controller` clears it whenever it stops the robot).
+* Scan history (``scan_history`` k > 0, ``env.scan_history``, format version 5): the
+  normalised ranges of the k scans the policy acted on before this one follow the
+  observation, newest first. :class:`Policy` keeps them: a scan joins when an action
+  is taken on it (:meth:`Policy.take`), and after a stop (:meth:`Policy.rest`) the
+  history starts again as copies of the next scan, as an episode's start does in the
+  environment.
 
 The network runs in float64 (exact ReLU MLP; dropout is off at inference; a PQN
 network normalises each hidden layer before its ReLU, as flax's LayerNorm).
@@ -99,7 +105,10 @@ NORMS_VERSION = 2
 DRIVE_VERSION = 3
 # A continuous policy (SAC: the network gives a command, not action values) is version 4.
 CONTINUOUS_VERSION = 4
-VERSIONS = (FORMAT_VERSION, NORMS_VERSION, DRIVE_VERSION, CONTINUOUS_VERSION)
+# A policy that sees the scans before this one (env.scan_history) is version 5: an older
+# reader would feed it a shorter observation.
+HISTORY_VERSION = 5
+VERSIONS = (FORMAT_VERSION, NORMS_VERSION, DRIVE_VERSION, CONTINUOUS_VERSION, HISTORY_VERSION)
 OBSERVATIONS = ("robotis", "normalised")
 # The wheel limit's constants a continuous policy's metadata gives (its "wheel_limit").
 WHEEL = ("max_linear", "max_angular", "max_wheel", "wheel_separation")
@@ -250,7 +259,10 @@ class Policy:
         action of the paper's set.
       linear_velocity: the paper's constant forward speed (m/s).
       observation: "robotis" or "normalised"; scan_beams: 0 or the pooled scan's size.
+      scan_history: how many earlier scans the normalised observation holds (0: none).
       last_command: f64[2] (v, omega) the robot drove last (the normalised observation's).
+      history: f32[scan_history, n_beams] the normalised scans acted on before, newest
+        first, or None at an episode's start (the next scan's copies stand in).
       dt: control period (s); goal_radius: the goal counts as reached within it (m).
     """
 
@@ -273,6 +285,7 @@ class Policy:
             self.beam_layout = str(meta.get("beam_layout", "even"))
             self.observation = str(meta.get("observation_kind", "robotis"))
             self.scan_beams = int(meta.get("scan_beams", 0))
+            self.scan_history = int(meta.get("scan_history", 0))
             speeds = meta.get("speeds", [self.linear_velocity] * len(self.omegas))
             self.speeds = np.asarray(speeds, np.float64)
             driven = meta.get("driven", np.stack([self.speeds, self.omegas], axis=-1))
@@ -298,7 +311,14 @@ class Policy:
                 f"policy metadata's scan_beams {self.scan_beams} is not a multiple of its "
                 f"{self.n_beams} evenly spread beams"
             )
+        if self.scan_history < 0 or (self.scan_history and self.observation != "normalised"):
+            raise PolicyError(
+                f"policy metadata's scan_history {self.scan_history} needs a non-negative "
+                "count and the normalised observation"
+            )
         self.last_command = np.zeros(2, np.float64)
+        self.history: np.ndarray | None = None
+        self._scan: np.ndarray | None = None  # the last observed scan, joins on take()
         self.meta = dict(meta)
         self.layers = [(np.asarray(k, np.float64), np.asarray(b, np.float64)) for k, b in layers]
         width = self.obs_size
@@ -329,7 +349,7 @@ class Policy:
     @property
     def obs_size(self) -> int:
         if self.observation == "normalised":
-            return self.n_beams + 4
+            return self.n_beams * (1 + self.scan_history) + 4
         return self.n_beams + 2 + (2 if self.obstacle_obs else 0)
 
     # -- files ---------------------------------------------------------------
@@ -425,11 +445,15 @@ class Policy:
         beams = self.scan_to_ranges(ranges, angle_min, angle_increment, invalid)
         heading, distance = goal_heading_distance(pose, goal)
         if self.observation == "normalised":
+            scan = (beams / np.float32(self.max_range)).astype(np.float32)
             parts = [
-                beams / np.float32(self.max_range),
+                scan,
                 [heading / math.pi, min(distance, self.max_range) / self.max_range],
                 self.last_command / self.command_scale,
             ]
+            if self.scan_history:  # the scans acted on before (at a start: this one)
+                self._scan = scan
+                parts.append(self._history_or(scan).reshape(-1))
             return np.concatenate(parts).astype(np.float32)
         parts = [beams, np.asarray([heading, distance], np.float32)]
         if self.obstacle_obs:
@@ -464,6 +488,10 @@ class Policy:
         """(linear m/s, angular rad/s) of one action (a continuous policy's: f[2] in
         [-1, 1], clipped there); its driven command becomes the next observation's last
         command."""
+        if self.scan_history and self._scan is not None:  # the scan acted on joins
+            older = self._history_or(self._scan)
+            self.history = np.concatenate([self._scan[None], older[:-1]])
+            self._scan = None
         if self.continuous:
             a = np.clip(np.asarray(action, np.float64).reshape(2), -1.0, 1.0)
             low, high = self.speed_range
@@ -472,6 +500,12 @@ class Policy:
             return float(v), float(omega)
         self.last_command = self.driven[action].copy()
         return float(self.speeds[action]), float(self.omegas[action])
+
+    def _history_or(self, scan: np.ndarray) -> np.ndarray:
+        """The scan history, or at an episode's start ``scan``'s copies."""
+        if self.history is None:
+            return np.tile(scan, (self.scan_history, 1))
+        return self.history
 
     def driven_command(self, v: float, omega: float) -> tuple[float, float]:
         """(v, omega) the robot drives for a command: the firmware's clip of the command
@@ -489,8 +523,11 @@ class Policy:
         return (left + right) / 2, (right - left) / w["wheel_separation"]
 
     def rest(self) -> None:
-        """The robot stopped: the next observation's last command is (0, 0)."""
+        """The robot stopped: the next observation's last command is (0, 0) and its scan
+        history starts again, as at an episode's start."""
         self.last_command = np.zeros(2, np.float64)
+        self.history = None
+        self._scan = None
 
 
 # ----------------------------------------------------------------------------

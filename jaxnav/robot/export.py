@@ -26,6 +26,7 @@ from jaxnav.robot.deploy import (
     DRIVE_VERSION,
     FORMAT,
     FORMAT_VERSION,
+    HISTORY_VERSION,
     INVALID_READING,
     NORMS_VERSION,
 )
@@ -59,11 +60,6 @@ def export_policy(
             f"{params_path} has no parameters for {strategy} seed {seed} (it has {have or 'none'})"
         )
     env, params = from_config(cfg)
-    if env.scan_history:
-        raise PolicyError(
-            f"{run_dir}: a policy trained with env.scan_history cannot be exported yet "
-            "(the robot side keeps no scan history)"
-        )
     if env.waypoint:
         raise PolicyError(
             f"{run_dir}: a policy trained with env.waypoint cannot be exported yet "
@@ -80,6 +76,8 @@ def export_policy(
         meta.update(version=DRIVE_VERSION, **_drive_meta(env, params))
     if env.continuous:  # a command per observation, which an older reader cannot run
         meta.update(version=CONTINUOUS_VERSION, **_continuous_meta(env))
+    if env.scan_history:  # a longer observation, which an older reader cannot build
+        meta.update(version=HISTORY_VERSION, scan_history=int(env.scan_history))
     arrays: dict[str, np.ndarray] = {"meta": np.asarray(json.dumps(meta, indent=1))}
     for n in names:
         arrays[f"{n}/kernel"] = np.asarray(net[n]["kernel"], np.float32)
