@@ -186,7 +186,8 @@ class NavEnv(GoalSampler, DrawnLayouts, Observer):
         the burger's limits: :func:`jaxnav.world.sensor.normalised_state`).
       scan_history: with the normalised observation, the k scans before this one follow
         it (newest first; at an episode's start copies of its first scan), so the policy
-        can see what moves.
+        can see what moves; with history_changes, each beam's change since each of them
+        instead (:func:`jaxnav.world.sensor.history_changes`).
       waypoint: with the normalised observation, the heading and distance to where the
         shortest path through a drawn maze heads next follow the last command
         (``family.geodesic_target``: the next opening on it, or the goal in its cell);
@@ -232,6 +233,7 @@ class NavEnv(GoalSampler, DrawnLayouts, Observer):
     observation: str = "robotis"
     scan_beams: int = 0
     scan_history: int = 0
+    history_changes: bool = False
     waypoint: bool = False
     speed_range: tuple[float, float] = (0.0, BURGER_MAX_V)
     max_yaw_rate: float = BURGER_MAX_OMEGA

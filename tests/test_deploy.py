@@ -250,13 +250,18 @@ def test_a_modern_policy_sees_on_the_robot_what_it_saw_in_training(tmp_path):
     assert control.decide(10.0).reason == "reached" and np.all(policy.last_command == 0.0)
 
 
-def test_a_policy_with_a_scan_history_sees_on_the_robot_the_scans_it_saw_in_training(tmp_path):
+@pytest.mark.parametrize("changes", [False, True], ids=["scans", "changes"])
+def test_a_policy_with_a_scan_history_sees_on_the_robot_the_scans_it_saw_in_training(
+    tmp_path, changes
+):
     """Step by step along the environment's own episodes (a collision or the step limit
     restarts one), the adapter's observation from raw scans, with the history it keeps,
     equals the environment's, and so does the greedy action: the scans newest first, at
-    an episode's start copies of its first scan; a stop starts the history again."""
+    an episode's start copies of its first scan; a stop starts the history again. With
+    env.history_changes, each beam's change since each of those scans (against NumPy)."""
     k = 3
     extra = (*MODERN, f"env.scan_history={k}", "env.max_steps=15")  # restarts every 15 steps
+    extra += (f"env.history_changes={str(changes).lower()}",)
     run = _fake_run(tmp_path, "square4_obstacles", extra, "hist")
     s = Setup(run)
     env, params, policy = s.env, s.params, s.policy
@@ -275,10 +280,19 @@ def test_a_policy_with_a_scan_history_sees_on_the_robot_the_scans_it_saw_in_trai
         got = policy.observe(scan[0], 0.0, increment, (*pose[0], pose[1]), np.asarray(state.goal))
         want = np.asarray(want)
         assert abs((got[nb] - want[nb] + 1.0) % 2.0 - 1.0) < 1e-5  # heading, wrapped
-        np.testing.assert_allclose(np.delete(got, nb), np.delete(want, nb), atol=1e-5)
-        history = got[nb + 4 :].reshape(k, nb)
+        np.testing.assert_allclose(
+            np.delete(got, nb)[: nb + 3], np.delete(want, nb)[: nb + 3], atol=1e-5
+        )
+        past = got[nb + 4 :].reshape(k, nb)
         if restarted:  # an episode's start: copies of its first scan
-            np.testing.assert_array_equal(history, np.tile(got[:nb], (k, 1)))
+            history = np.tile(got[:nb], (k, 1))
+        if changes:  # the scan less each earlier one, x10, in [-1, 1]
+            np.testing.assert_allclose(past, np.clip((got[:nb] - history) * 10, -1, 1), atol=1e-4)
+            np.testing.assert_allclose(past, want[nb + 4 :].reshape(k, nb), atol=1e-4)
+        else:
+            np.testing.assert_array_equal(past, history)
+            np.testing.assert_allclose(past, want[nb + 4 :].reshape(k, nb), atol=1e-5)
+        history = np.concatenate([got[None, :nb], history[:-1]])  # this scan joins
         assert policy.act(got) == int(np.argmax(s.flax_q(want)))
         a = int(rng.integers(0, env.num_actions))
         policy.take(a)
@@ -291,6 +305,8 @@ def test_a_policy_with_a_scan_history_sees_on_the_robot_the_scans_it_saw_in_trai
             restarts += 1
         steps += 1
     assert np.any(history[0] != history[-1])  # the robot moved: the scans differ
+    if changes:
+        assert np.any(np.abs(past) > 0.05)  # and the changes show it
     assert restarts >= 2
 
 

@@ -145,6 +145,32 @@ def test_the_scan_history_holds_the_previous_scans_newest_first():
     np.testing.assert_array_equal(obs2[2 * n + 4 :], obs0[:n])
 
 
+def test_the_history_changes_are_each_beams_change_since_each_earlier_scan():
+    """With env.history_changes the history part is (this scan - that scan) x 10 clipped
+    to [-1, 1], computed here from the plain history of the same steps."""
+    plain, params = jaxnav.make("stage4", observation="normalised", scan_history=2)
+    changes, _ = jaxnav.make(
+        "stage4", observation="normalised", scan_history=2, history_changes=True
+    )
+    n = plain.n_beams
+    obs_c, s_c = changes.reset(jax.random.PRNGKey(0), params)
+    obs, s = plain.reset(jax.random.PRNGKey(0), params)
+    np.testing.assert_array_equal(obs_c[n + 4 :], 0.0)  # a start: no change yet
+    seen = 0.0
+    for k in range(12):  # full speed ahead: the walls and the cylinders come closer
+        key = jax.random.PRNGKey(k + 1)
+        obs, s, *_ = plain.step(key, s, jnp.int32(12), params)
+        obs_c, s_c, *_ = changes.step(key, s_c, jnp.int32(12), params)
+        np.testing.assert_array_equal(obs_c[: n + 4], obs[: n + 4])
+        past = np.asarray(obs[n + 4 :]).reshape(2, n)
+        want = np.clip((np.asarray(obs[:n])[None] - past) * 10.0, -1.0, 1.0)
+        np.testing.assert_allclose(np.asarray(obs_c[n + 4 :]).reshape(2, n), want, atol=1e-6)
+        seen = max(seen, float(np.abs(want).max()))
+    assert seen > 0.1
+    space = changes.observation_space(params)
+    assert float(space.low[-1]) == -1.0 and float(space.high[-1]) == 1.0
+
+
 def test_the_learning_rate_falls_linearly_to_zero():
     """Adam on a constant gradient moves each step by its learning rate (its moments
     are then exactly the gradient and its square): the steps are lr (1 - k / N)."""
@@ -167,6 +193,7 @@ def test_the_learning_rate_falls_linearly_to_zero():
     [
         (["env.scan_beams=30"], "must be 0 or a multiple of env.n_beams"),
         (["env.scan_history=2"], "needs env.observation normalised"),
+        (["env.observation=normalised", "env.history_changes=true"], "needs env.scan_history"),
         (["dqn.lr_decay=true", "total_steps=null"], "dqn.lr_decay needs total_steps"),
         (["env.actions=fast"], "env.actions must be paper or paper_stop or vw"),
         (["env.reward=progress", "env.proximity_distance=0"], "env.proximity_distance"),

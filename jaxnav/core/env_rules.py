@@ -93,6 +93,8 @@ def env_scan_problem(env: Any) -> str | None:
             "env.scan_history is part of the normalised observation: it needs "
             "env.observation normalised"
         )
+    if env.history_changes and not env.scan_history:
+        return "env.history_changes observes the scan history: it needs env.scan_history > 0"
     return None
 
 

@@ -197,6 +197,11 @@ class EnvConfig:
         "first), so the policy can see what moves",
         rule=NON_NEGATIVE,
     )
+    history_changes: bool = setting(
+        False,
+        "with env.scan_history: observe each beam's change since each earlier scan (x10, "
+        "clipped to [-1, 1]) instead of the earlier scans",
+    )
     waypoint: bool = setting(
         False,
         "normalised observation: also the heading and distance to where the shortest path "

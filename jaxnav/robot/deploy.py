@@ -60,7 +60,9 @@ How a raw LaserScan becomes the trained observation (:meth:`Policy.observe`):
   observation, newest first. :class:`Policy` keeps them: a scan joins when an action
   is taken on it (:meth:`Policy.take`), and after a stop (:meth:`Policy.rest`) the
   history starts again as copies of the next scan, as an episode's start does in the
-  environment.
+  environment. With ``history_changes`` the observation holds each beam's change since
+  each of those scans instead: (this scan - that scan) x ``history_change_gain``,
+  clipped to [-1, 1] (:func:`jaxnav.world.sensor.history_changes`).
 
 The network runs in float64 (exact ReLU MLP; dropout is off at inference; a PQN
 network normalises each hidden layer before its ReLU, as flax's LayerNorm).
@@ -259,7 +261,8 @@ class Policy:
         action of the paper's set.
       linear_velocity: the paper's constant forward speed (m/s).
       observation: "robotis" or "normalised"; scan_beams: 0 or the pooled scan's size.
-      scan_history: how many earlier scans the normalised observation holds (0: none).
+      scan_history: how many earlier scans the normalised observation holds (0: none);
+      history_changes: whether it holds each beam's change since them instead.
       last_command: f64[2] (v, omega) the robot drove last (the normalised observation's).
       history: f32[scan_history, n_beams] the normalised scans acted on before, newest
         first, or None at an episode's start (the next scan's copies stand in).
@@ -286,6 +289,8 @@ class Policy:
             self.observation = str(meta.get("observation_kind", "robotis"))
             self.scan_beams = int(meta.get("scan_beams", 0))
             self.scan_history = int(meta.get("scan_history", 0))
+            self.history_changes = bool(meta.get("history_changes", False))
+            self.history_change_gain = np.float32(meta.get("history_change_gain", 0.0))
             speeds = meta.get("speeds", [self.linear_velocity] * len(self.omegas))
             self.speeds = np.asarray(speeds, np.float64)
             driven = meta.get("driven", np.stack([self.speeds, self.omegas], axis=-1))
@@ -453,7 +458,10 @@ class Policy:
             ]
             if self.scan_history:  # the scans acted on before (at a start: this one)
                 self._scan = scan
-                parts.append(self._history_or(scan).reshape(-1))
+                past = self._history_or(scan)
+                if self.history_changes:  # or each beam's change since each of them
+                    past = np.clip((scan[None] - past) * self.history_change_gain, -1, 1)
+                parts.append(past.reshape(-1))
             return np.concatenate(parts).astype(np.float32)
         parts = [beams, np.asarray([heading, distance], np.float32)]
         if self.obstacle_obs:

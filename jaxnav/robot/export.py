@@ -31,6 +31,7 @@ from jaxnav.robot.deploy import (
     NORMS_VERSION,
 )
 from jaxnav.world import kinematics
+from jaxnav.world.sensor import HISTORY_CHANGE_GAIN
 
 NORM_EPSILON = 1e-6  # flax.linen.LayerNorm's default, as jaxnav.agent.networks.QNetwork uses it
 
@@ -78,6 +79,8 @@ def export_policy(
         meta.update(version=CONTINUOUS_VERSION, **_continuous_meta(env))
     if env.scan_history:  # a longer observation, which an older reader cannot build
         meta.update(version=HISTORY_VERSION, scan_history=int(env.scan_history))
+        if env.history_changes:
+            meta.update(history_changes=True, history_change_gain=HISTORY_CHANGE_GAIN)
     arrays: dict[str, np.ndarray] = {"meta": np.asarray(json.dumps(meta, indent=1))}
     for n in names:
         arrays[f"{n}/kernel"] = np.asarray(net[n]["kernel"], np.float32)

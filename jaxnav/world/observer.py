@@ -26,6 +26,7 @@ class Observer:
     observation: str
     scan_beams: int
     scan_history: int
+    history_changes: bool
     waypoint: bool
     generates: bool
     beam_layout: str
@@ -49,7 +50,7 @@ class Observer:
         if self.normalised:
             low = [0.0] * self.n_beams + [-1.0, 0.0, -1.0, -1.0]
             low += [-1.0, 0.0] if self.waypoint else []
-            low += [0.0] * (self.n_beams * self.scan_history)
+            low += [-1.0 if self.history_changes else 0.0] * (self.n_beams * self.scan_history)
             high = [1.0] * self.obs_size
             return Box(np.asarray(low, np.float32), np.asarray(high, np.float32), (self.obs_size,))
         bounds = np.asarray(jax.device_get(params.maze.bounds))  # host side, not under jit
@@ -109,6 +110,8 @@ class Observer:
             if self.scan_history:  # the scans before (at an episode's start: this one)
                 if scans is None:
                     scans = jnp.tile(obs[: self.n_beams], (self.scan_history, 1))
+                if self.history_changes:  # or each beam's change since each of them
+                    scans = sensor.history_changes(obs[: self.n_beams], scans)
                 obs = jnp.concatenate([obs, scans.reshape(-1)])
             return obs
         return sensor.observation(
