@@ -43,6 +43,7 @@ evaluation's episodes) and the target: 30 s on square4, 300 s elsewhere.
     python bench/time_to_solve.py            # 8 seeds, 200,000 env steps per run
     python bench/time_to_solve.py --drive    # the shipped drive configs (about 35 min)
     python bench/time_to_solve.py --drive --quick
+    python bench/time_to_solve.py --drive --configs drive_rooms   # one row again
 
 Commands run one after another, never two at once; use a quiet machine.
 """
@@ -243,6 +244,12 @@ def mean_solved_at(rows: list[dict[str, str]], oracle: float) -> tuple[float, in
 def drive(args, log) -> int:
     """The ``--drive`` form: every shipped drive config, its table on stdout."""
     names = ["drive_square4", "drive_sac_obstacles"] if args.quick else drive_configs()
+    if args.configs:  # a row or two again, after their configs changed
+        unknown = sorted(set(args.configs) - set(drive_configs()))
+        if unknown:
+            log(f"time_to_solve: not a drive config of the driving study: {', '.join(unknown)}")
+            return 2
+        names = [n for n in drive_configs() if n in args.configs]
     lines = [
         "| config | agent | seeds | oracle | DWA | runs solved | median run's time to "
         "solve (s) | mean solved at (s) | mean solved at (env steps) | last mean success "
@@ -299,8 +306,10 @@ def drive(args, log) -> int:
         else f"its own seeds and budget, a greedy evaluation at each of {DRIVE_EVALUATIONS} "
         "equal shares of it, "
     )
+    which = "".join(f" {n}" for n in args.configs) if args.configs else ""
     print(
-        f"`python bench/time_to_solve.py --drive{' --quick' if args.quick else ''}`: each "
+        f"`python bench/time_to_solve.py --drive{' --quick' if args.quick else ''}"
+        f"{' --configs' + which if which else ''}`: each "
         f"shipped drive config at {budgets}{args.eval_episodes} episodes each; whole "
         "commands, empty compilation cache; the oracle and DWA on the same "
         f"evaluation in the config's training world. A run is solved at its first "
@@ -325,6 +334,12 @@ def main(argv=None) -> int:
         "--drive",
         action="store_true",
         help="the shipped drive configs at their own budgets instead (see above)",
+    )
+    ap.add_argument(
+        "--configs",
+        nargs="+",
+        metavar="NAME",
+        help="with --drive: only these drive configs (their rows again after they changed)",
     )
     args = ap.parse_args(argv)
     args.seeds_given = args.seeds is not None
