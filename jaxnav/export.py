@@ -83,7 +83,8 @@ def main(argv: list[str] | None = None) -> int:
         if policy.observation == "normalised":
             features = ", normalised observation"
             if policy.scan_history:
-                features += f" with the {policy.scan_history} scans before"
+                what = "each beam's change since " if policy.history_changes else ""
+                features += f" with {what}the {policy.scan_history} scans before"
         else:
             features = ", obstacle features" if policy.obstacle_obs else ""
         print(
