@@ -254,15 +254,16 @@ def test_a_modern_policy_sees_on_the_robot_what_it_saw_in_training(tmp_path):
 def test_a_policy_with_a_scan_history_sees_on_the_robot_the_scans_it_saw_in_training(
     tmp_path, changes
 ):
-    """Step by step along the environment's own episodes (a collision or the step limit
-    restarts one), the adapter's observation from raw scans, with the history it keeps,
+    """Step by step along the environment's own episodes on stage 4 (a collision or the
+    step limit restarts one), the adapter's observation from raw scans of the walls and
+    the moving cylinders, with the history it keeps,
     equals the environment's, and so does the greedy action: the scans newest first, at
     an episode's start copies of its first scan; a stop starts the history again. With
     env.history_changes, each beam's change since each of those scans (against NumPy)."""
     k = 3
-    extra = (*MODERN, f"env.scan_history={k}", "env.max_steps=15")  # restarts every 15 steps
+    extra = (*MODERN, f"env.scan_history={k}", "env.max_steps=40")  # restarts every 40 steps
     extra += (f"env.history_changes={str(changes).lower()}",)
-    run = _fake_run(tmp_path, "square4_obstacles", extra, "hist")
+    run = _fake_run(tmp_path, "stage4", extra, "hist")  # its cylinders move
     s = Setup(run)
     env, params, policy = s.env, s.params, s.policy
     assert policy.meta["version"] == deploy.HISTORY_VERSION and policy.scan_history == k
@@ -272,11 +273,14 @@ def test_a_policy_with_a_scan_history_sees_on_the_robot_the_scans_it_saw_in_trai
     key = jax.random.key(5)
     want, state = env.reset(key, params)
     step = jax.jit(lambda kk, st, a: env.step_env(kk, st, a, params))
-    restarts = steps = 0
+    restarts = steps = moved = 0
     restarted = True  # the first observation is an episode's start
-    while steps < 40:
+    while steps < 100:
         pose = np.asarray(state.pos), float(state.yaw)
-        scan = _scans(params.maze, pose[0][None], np.float32([pose[1]]), 0.0, increment, 360, 72)
+        maze = env.maze_at(params, 1.0, state.t * params.dt)  # the cylinders where they are
+        scan = _scans(maze, pose[0][None], np.float32([pose[1]]), 0.0, increment, 360, 72)
+        first = _scans(params.maze, pose[0][None], np.float32([pose[1]]), 0.0, increment, 360, 72)
+        moved += bool(np.any(np.abs(scan - first) > 0.01))  # the moving cylinders are seen
         got = policy.observe(scan[0], 0.0, increment, (*pose[0], pose[1]), np.asarray(state.goal))
         want = np.asarray(want)
         assert abs((got[nb] - want[nb] + 1.0) % 2.0 - 1.0) < 1e-5  # heading, wrapped
@@ -307,7 +311,7 @@ def test_a_policy_with_a_scan_history_sees_on_the_robot_the_scans_it_saw_in_trai
     assert np.any(history[0] != history[-1])  # the robot moved: the scans differ
     if changes:
         assert np.any(np.abs(past) > 0.05)  # and the changes show it
-    assert restarts >= 2
+    assert restarts >= 2 and moved >= 10
 
 
 def test_rays_with_no_return_become_max_range_as_in_the_env(setups):
