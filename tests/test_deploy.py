@@ -256,10 +256,10 @@ def test_a_policy_with_a_scan_history_sees_on_the_robot_the_scans_it_saw_in_trai
 ):
     """Step by step along the environment's own episodes on stage 4 (a collision or the
     step limit restarts one), the adapter's observation from raw scans of the walls and
-    the moving cylinders, with the history it keeps,
-    equals the environment's, and so does the greedy action: the scans newest first, at
-    an episode's start copies of its first scan; a stop starts the history again. With
-    env.history_changes, each beam's change since each of those scans (against NumPy)."""
+    the moving cylinders, with the history it keeps, equals the environment's, and so
+    does the greedy action: the scans newest first, at an episode's start copies of its
+    first scan; a stop starts the history again. With env.history_changes, each beam's
+    change since each of those scans (against NumPy)."""
     k = 3
     extra = (*MODERN, f"env.scan_history={k}", "env.max_steps=40")  # restarts every 40 steps
     extra += (f"env.history_changes={str(changes).lower()}",)
@@ -312,6 +312,20 @@ def test_a_policy_with_a_scan_history_sees_on_the_robot_the_scans_it_saw_in_trai
     if changes:
         assert np.any(np.abs(past) > 0.05)  # and the changes show it
     assert restarts >= 2 and moved >= 10
+
+
+@pytest.mark.parametrize(
+    "change", [{"history_change_gain": 0.0}, {"scan_history": 0}], ids=["no gain", "no history"]
+)
+def test_metadata_with_history_changes_but_no_gain_or_history_is_refused(tmp_path, change):
+    """A history of changes without its gain would observe zeros; without a history,
+    nothing: the reader refuses the file instead of driving on either."""
+    extra = (*MODERN, "env.scan_history=2", "env.history_changes=true")
+    arrays = export.export_policy(_fake_run(tmp_path, "square4", extra, "hist"), "ebe", 0)
+    Policy.from_arrays(arrays)  # as written, it loads
+    meta = {**json.loads(str(arrays["meta"])), **change}
+    with pytest.raises(deploy.PolicyError, match="history_changes needs"):
+        Policy.from_arrays({**arrays, "meta": np.asarray(json.dumps(meta))})
 
 
 def test_rays_with_no_return_become_max_range_as_in_the_env(setups):

@@ -321,6 +321,11 @@ class Policy:
                 f"policy metadata's scan_history {self.scan_history} needs a non-negative "
                 "count and the normalised observation"
             )
+        if self.history_changes and not (self.scan_history and self.history_change_gain > 0):
+            raise PolicyError(
+                "policy metadata's history_changes needs a scan_history and a positive "
+                "history_change_gain"
+            )
         self.last_command = np.zeros(2, np.float64)
         self.history: np.ndarray | None = None
         self._scan: np.ndarray | None = None  # the last observed scan, joins on take()
