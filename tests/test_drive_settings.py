@@ -33,7 +33,7 @@ def _by_hand(v: float, w: float) -> tuple[float, float]:
     return (left + right) / 2, (right - left) / 0.16
 
 
-@pytest.mark.parametrize("name", ["paper_stop", "vw"])
+@pytest.mark.parametrize("name", ["paper_stop", "vw", "vw_reverse"])
 @pytest.mark.parametrize("wheel_limit", [False, True])
 def test_every_action_of_a_set_drives_its_command_through_the_wheel_model(name, wheel_limit):
     env, params = jaxnav.make("square8", actions=name, wheel_limit=wheel_limit)

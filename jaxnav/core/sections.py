@@ -163,7 +163,8 @@ class EnvConfig:
     actions: str = setting(
         "paper",
         "paper (5 yaw rates at 0.15 m/s), paper_stop (those and a stop), vw (speeds 0, "
-        "0.11 and 0.22 m/s by the 5 yaw rates): the commands the agent picks from; or "
+        "0.11 and 0.22 m/s by the 5 yaw rates), vw_reverse (those and -0.11 m/s, backing "
+        "up): the commands the agent picks from; or "
         "continuous: (speed, yaw rate) within env.speed_range and env.max_yaw_rate (SAC)",
         rule=one_of(*ACTION_KINDS),
     )

@@ -166,6 +166,8 @@ ACTION_SETS: dict[str, tuple[tuple[float, float], ...] | None] = {
     "paper_stop": tuple((0.15, w) for w in PAPER_YAW_RATES) + ((0.0, 0.0),),
     # three speeds (stopped, half and the burger's full 0.22 m/s) by the five turns
     "vw": tuple((v, w) for v in (0.0, 0.11, 0.22) for w in PAPER_YAW_RATES),
+    # vw and backing up at half speed: the robot can give way to what comes at it
+    "vw_reverse": tuple((v, w) for v in (-0.11, 0.0, 0.11, 0.22) for w in PAPER_YAW_RATES),
 }
 # Continuous commands (env.actions continuous): an action is f32[2] in [-1, 1]^2, the
 # speed across env.speed_range and the yaw rate across +-env.max_yaw_rate. The
