@@ -187,7 +187,9 @@ class NavEnv(GoalSampler, DrawnLayouts, Observer):
       scan_history: with the normalised observation, the k scans before this one follow
         it (newest first; at an episode's start copies of its first scan), so the policy
         can see what moves; with history_changes, each beam's change since each of them
-        instead (:func:`jaxnav.world.sensor.history_changes`).
+        instead (:func:`jaxnav.world.sensor.history_changes`); with history_turned, the
+        changes since each scan seen from the heading now
+        (:func:`jaxnav.world.sensor.turned_changes`).
       waypoint: with the normalised observation, the heading and distance to where the
         shortest path through a drawn maze heads next follow the last command
         (``family.geodesic_target``: the next opening on it, or the goal in its cell);
@@ -234,6 +236,7 @@ class NavEnv(GoalSampler, DrawnLayouts, Observer):
     scan_beams: int = 0
     scan_history: int = 0
     history_changes: bool = False
+    history_turned: bool = False
     waypoint: bool = False
     speed_range: tuple[float, float] = (0.0, BURGER_MAX_V)
     max_yaw_rate: float = BURGER_MAX_OMEGA
@@ -480,10 +483,20 @@ class NavEnv(GoalSampler, DrawnLayouts, Observer):
             last = jnp.stack([jnp.asarray(v, jnp.float32), omega]).astype(jnp.float32)
             new_state = new_state.replace(last_command=last)
         obs = self.observe(
-            k_obs, pos, yaw, goal, params, state.scale, time, last, state.scans, state.cell_dist
+            k_obs,
+            pos,
+            yaw,
+            goal,
+            params,
+            state.scale,
+            time,
+            last,
+            state.scans,
+            state.cell_dist,
+            state.scan_yaws,
         )
         if self.scan_history:  # this scan joins the history, the oldest leaves
-            new_state = new_state.replace(scans=self._newer_scans(state.scans, obs))
+            new_state = self._newer_scans(new_state, obs)
         info = {"goal_reached": reached, "collision": collided}
         return obs, new_state, reward.astype(jnp.float32), terminated, truncated, info
 

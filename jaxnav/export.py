@@ -85,6 +85,8 @@ def main(argv: list[str] | None = None) -> int:
             if policy.scan_history:
                 what = "each beam's change since " if policy.history_changes else ""
                 features += f" with {what}the {policy.scan_history} scans before"
+                if policy.history_turned:
+                    features += " (turned to the heading now)"
         else:
             features = ", obstacle features" if policy.obstacle_obs else ""
         print(

@@ -252,3 +252,23 @@ def arc_cylinder_distance(pos, yaw, omega, v, dt, circle, n: int = 4000) -> floa
 def _swept_one(pos, yaw, omega, v, dt, walls, circles, n):
     args = (np.asarray(x, np.float64)[None] for x in (pos, yaw, omega, v, dt))
     return swept_distance_batch(*args, walls, circles, n=n)[0]
+
+
+def turned_changes_by_hand(now, old, turned):
+    """The rule of env.history_turned, beam by beam: beam i now points where beam
+    i + turned n / (2 pi) of an earlier scan pointed; between that scan's beams c (the
+    nearer) and d there, it saw anything from c to c + w (d - c), w = 2 min(f, 1 - f);
+    the change is how far beam i lies outside that, x 10, clipped to [-1, 1]."""
+    n = len(now)
+    out = np.zeros((len(old), n))
+    for j, (scan, turn) in enumerate(zip(old, turned)):
+        for i in range(n):
+            at = i + turn * n / (2 * np.pi)
+            lo = int(np.floor(at))
+            f = at - lo
+            a, b = scan[lo % n], scan[(lo + 1) % n]
+            c, d = (a, b) if f < 0.5 else (b, a)
+            e = c + 2 * min(f, 1 - f) * (d - c)
+            inside = min(max(now[i], min(c, e)), max(c, e))
+            out[j, i] = min(max((now[i] - inside) * 10.0, -1.0), 1.0)
+    return out

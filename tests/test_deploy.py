@@ -13,6 +13,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from _nav_reference import turned_changes_by_hand
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -250,23 +251,30 @@ def test_a_modern_policy_sees_on_the_robot_what_it_saw_in_training(tmp_path):
     assert control.decide(10.0).reason == "reached" and np.all(policy.last_command == 0.0)
 
 
-@pytest.mark.parametrize("changes", [False, True], ids=["scans", "changes"])
+@pytest.mark.parametrize(
+    "changes, turned",
+    [(False, False), (True, False), (True, True)],
+    ids=["scans", "changes", "turned"],
+)
 def test_a_policy_with_a_scan_history_sees_on_the_robot_the_scans_it_saw_in_training(
-    tmp_path, changes
+    tmp_path, changes, turned
 ):
     """Step by step along the environment's own episodes on stage 4 (a collision or the
     step limit restarts one), the adapter's observation from raw scans of the walls and
     the moving cylinders, with the history it keeps, equals the environment's, and so
     does the greedy action: the scans newest first, at an episode's start copies of its
     first scan; a stop starts the history again. With env.history_changes, each beam's
-    change since each of those scans (against NumPy)."""
+    change since each of those scans (against NumPy); with env.history_turned, since
+    each seen from the heading now, by the odometry's yaw (against the rule by hand)."""
     k = 3
     extra = (*MODERN, f"env.scan_history={k}", "env.max_steps=40")  # restarts every 40 steps
     extra += (f"env.history_changes={str(changes).lower()}",)
+    extra += (f"env.history_turned={str(turned).lower()}",)
     run = _fake_run(tmp_path, "stage4", extra, "hist")  # its cylinders move
     s = Setup(run)
     env, params, policy = s.env, s.params, s.policy
-    assert policy.meta["version"] == deploy.HISTORY_VERSION and policy.scan_history == k
+    version = deploy.TURNED_VERSION if turned else deploy.HISTORY_VERSION
+    assert policy.meta["version"] == version and policy.scan_history == k
     assert policy.obs_size == env.obs_size == env.n_beams * (1 + k) + 4
     increment, nb = 2 * math.pi / 360, env.n_beams
     rng = np.random.default_rng(3)
@@ -274,6 +282,7 @@ def test_a_policy_with_a_scan_history_sees_on_the_robot_the_scans_it_saw_in_trai
     want, state = env.reset(key, params)
     step = jax.jit(lambda kk, st, a: env.step_env(kk, st, a, params))
     restarts = steps = moved = 0
+    turns = 0.0
     restarted = True  # the first observation is an episode's start
     while steps < 100:
         pose = np.asarray(state.pos), float(state.yaw)
@@ -290,13 +299,22 @@ def test_a_policy_with_a_scan_history_sees_on_the_robot_the_scans_it_saw_in_trai
         past = got[nb + 4 :].reshape(k, nb)
         if restarted:  # an episode's start: copies of its first scan
             history = np.tile(got[:nb], (k, 1))
-        if changes:  # the scan less each earlier one, x10, in [-1, 1]
+            yaws = np.full(k, pose[1])
+        if turned:  # each earlier scan seen from the heading now, by hand
+            turn = (pose[1] - yaws + np.pi) % (2 * np.pi) - np.pi
+            np.testing.assert_allclose(
+                past, turned_changes_by_hand(got[:nb], history, turn), atol=1e-4
+            )
+            np.testing.assert_allclose(past, want[nb + 4 :].reshape(k, nb), atol=1e-4)
+            turns = max(turns, float(np.abs(turn).max()))
+        elif changes:  # the scan less each earlier one, x10, in [-1, 1]
             np.testing.assert_allclose(past, np.clip((got[:nb] - history) * 10, -1, 1), atol=1e-4)
             np.testing.assert_allclose(past, want[nb + 4 :].reshape(k, nb), atol=1e-4)
         else:
             np.testing.assert_array_equal(past, history)
             np.testing.assert_allclose(past, want[nb + 4 :].reshape(k, nb), atol=1e-5)
         history = np.concatenate([got[None, :nb], history[:-1]])  # this scan joins
+        yaws = np.concatenate([[pose[1]], yaws[:-1]])
         assert policy.act(got) == int(np.argmax(s.flax_q(want)))
         a = int(rng.integers(0, env.num_actions))
         policy.take(a)
@@ -311,6 +329,8 @@ def test_a_policy_with_a_scan_history_sees_on_the_robot_the_scans_it_saw_in_trai
     assert np.any(history[0] != history[-1])  # the robot moved: the scans differ
     if changes:
         assert np.any(np.abs(past) > 0.05)  # and the changes show it
+    if turned:
+        assert turns > 0.5  # the robot turned by more than a beam between scans
     assert restarts >= 2 and moved >= 10
 
 
@@ -325,6 +345,17 @@ def test_metadata_with_history_changes_but_no_gain_or_history_is_refused(tmp_pat
     Policy.from_arrays(arrays)  # as written, it loads
     meta = {**json.loads(str(arrays["meta"])), **change}
     with pytest.raises(deploy.PolicyError, match="history_changes needs"):
+        Policy.from_arrays({**arrays, "meta": np.asarray(json.dumps(meta))})
+
+
+def test_metadata_with_turned_changes_but_no_changes_is_refused(tmp_path):
+    """A turned history without its changes says nothing the reader could compute."""
+    extra = (*MODERN, "env.scan_history=2", "env.history_changes=true")
+    extra += ("env.history_turned=true",)
+    arrays = export.export_policy(_fake_run(tmp_path, "square4", extra, "turn"), "ebe", 0)
+    assert Policy.from_arrays(arrays).history_turned  # as written, it loads
+    meta = {**json.loads(str(arrays["meta"])), "history_changes": False}
+    with pytest.raises(deploy.PolicyError, match="history_turned needs history_changes"):
         Policy.from_arrays({**arrays, "meta": np.asarray(json.dumps(meta))})
 
 

@@ -13,7 +13,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 from _nav_reference import displacement as reference_displacement
-from _nav_reference import lidar, maze_geometry, path_min_clearance
+from _nav_reference import lidar, maze_geometry, path_min_clearance, turned_changes_by_hand
 
 import jaxnav
 from jaxnav.core.config import ConfigError, load_config
@@ -171,6 +171,63 @@ def test_the_history_changes_are_each_beams_change_since_each_earlier_scan():
     assert float(space.low[-1]) == -1.0 and float(space.high[-1]) == 1.0
 
 
+def test_turned_changes_follow_their_rule_beam_by_beam():
+    from jaxnav.world.sensor import turned_changes
+
+    rng = np.random.default_rng(3)
+    now = rng.uniform(0.05, 1.0, 24).astype(np.float32)
+    old = rng.uniform(0.05, 1.0, (3, 24)).astype(np.float32)
+    turned = np.array([0.1, -2.9, 4.0], np.float32)  # either way, and past pi
+    got = np.asarray(turned_changes(jnp.asarray(now), jnp.asarray(old), jnp.asarray(turned)))
+    np.testing.assert_allclose(got, turned_changes_by_hand(now, old, turned), atol=1e-5)
+
+
+def test_turned_changes_see_a_turn_by_whole_beams_as_none_and_no_turn_as_plain_changes():
+    """A scan turned by m whole beams (beam i now reads what beam i + m read) changes
+    no beam once turned back; with no turn the changes are the plain ones."""
+    from jaxnav.world.sensor import history_changes, turned_changes
+
+    rng = np.random.default_rng(4)
+    now = rng.uniform(0.05, 1.0, 24).astype(np.float32)
+    shifts = [1, -3, 7]
+    old = np.stack([np.roll(now, m) for m in shifts])  # old_j[i + m] = now[i]
+    turned = jnp.asarray([m * 2 * math.pi / 24 for m in shifts], jnp.float32)
+    np.testing.assert_allclose(turned_changes(now, old, turned), 0.0, atol=1e-5)
+    assert float(jnp.abs(history_changes(now, old)).max()) == 1.0  # unturned: large
+    other = rng.uniform(0.05, 1.0, (3, 24)).astype(np.float32)
+    np.testing.assert_array_equal(
+        turned_changes(now, other, jnp.zeros(3)), history_changes(now, other)
+    )
+
+
+@pytest.mark.parametrize("turned", [False, True])
+def test_turning_in_place_changes_little_once_the_history_is_turned(turned):
+    """The robot turns in place (stop, 1.5 rad/s: 17 degrees a step, more than a beam)
+    in square4: the plain changes read every beam as moved; turned to the heading now,
+    the scans change only where a corner lies between two beams."""
+    env, params = jaxnav.make(
+        "square4",
+        observation="normalised",
+        actions="vw",
+        scan_history=3,
+        history_changes=True,
+        history_turned=turned,
+    )
+    n = env.n_beams
+    obs, state = env.reset(jax.random.PRNGKey(0), params)
+    step = jax.jit(env.step_env)
+    changes = []
+    for k in range(6):
+        obs, state, *_ = step(jax.random.PRNGKey(k), state, jnp.int32(4), params)
+        changes.append(float(np.abs(np.asarray(obs[n + 4 :])).mean()))
+    if turned:
+        # the history the next step sees: this step's scan first, taken at this heading
+        np.testing.assert_allclose(state.scan_yaws, state.yaw - 0.3 * np.arange(3), atol=1e-5)
+        assert max(changes) < 0.1
+    else:
+        assert min(changes) > 0.4
+
+
 def test_the_learning_rate_falls_linearly_to_zero():
     """Adam on a constant gradient moves each step by its learning rate (its moments
     are then exactly the gradient and its square): the steps are lr (1 - k / N)."""
@@ -194,8 +251,12 @@ def test_the_learning_rate_falls_linearly_to_zero():
         (["env.scan_beams=30"], "must be 0 or a multiple of env.n_beams"),
         (["env.scan_history=2"], "needs env.observation normalised"),
         (["env.observation=normalised", "env.history_changes=true"], "needs env.scan_history"),
+        (
+            ["env.observation=normalised", "env.scan_history=2", "env.history_turned=true"],
+            "needs env.history_changes true",
+        ),
         (["dqn.lr_decay=true", "total_steps=null"], "dqn.lr_decay needs total_steps"),
-        (["env.actions=fast"], "env.actions must be paper or paper_stop or vw"),
+        (["env.actions=fast"], "env.actions must be paper or paper_stop or vw or vw_reverse"),
         (["env.reward=progress", "env.proximity_distance=0"], "env.proximity_distance"),
     ],
 )

@@ -95,6 +95,12 @@ def env_scan_problem(env: Any) -> str | None:
         )
     if env.history_changes and not env.scan_history:
         return "env.history_changes observes the scan history: it needs env.scan_history > 0"
+    if env.history_turned and not env.history_changes:
+        return (
+            "env.history_turned turns the scan history's changes: it needs env.history_changes true"
+        )
+    if env.history_turned and env.beam_layout != "even":
+        return "env.history_turned turns an even scan: it needs env.beam_layout even"
     return None
 
 

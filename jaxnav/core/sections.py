@@ -203,6 +203,12 @@ class EnvConfig:
         "with env.scan_history: observe each beam's change since each earlier scan (x10, "
         "clipped to [-1, 1]) instead of the earlier scans",
     )
+    history_turned: bool = setting(
+        False,
+        "with env.history_changes: each earlier scan is seen from the heading now (turned "
+        "by the yaw since it, from odometry) before the changes are taken, so turning in "
+        "place changes no beam and what changes is what moves",
+    )
     waypoint: bool = setting(
         False,
         "normalised observation: also the heading and distance to where the shortest path "

@@ -62,7 +62,9 @@ How a raw LaserScan becomes the trained observation (:meth:`Policy.observe`):
   history starts again as copies of the next scan, as an episode's start does in the
   environment. With ``history_changes`` the observation holds each beam's change since
   each of those scans instead: (this scan - that scan) x ``history_change_gain``,
-  clipped to [-1, 1] (:func:`jaxnav.world.sensor.history_changes`).
+  clipped to [-1, 1] (:func:`jaxnav.world.sensor.history_changes`). With
+  ``history_turned`` (format version 6) each earlier scan is first seen from the
+  heading now, by the odometry's yaw turned since it (:func:`turned_changes`).
 
 The network runs in float64 (exact ReLU MLP; dropout is off at inference; a PQN
 network normalises each hidden layer before its ReLU, as flax's LayerNorm).
@@ -110,7 +112,18 @@ CONTINUOUS_VERSION = 4
 # A policy that sees the scans before this one (env.scan_history) is version 5: an older
 # reader would feed it a shorter observation.
 HISTORY_VERSION = 5
-VERSIONS = (FORMAT_VERSION, NORMS_VERSION, DRIVE_VERSION, CONTINUOUS_VERSION, HISTORY_VERSION)
+# A policy whose history's changes are taken from the earlier scans turned to the
+# heading now (env.history_turned) is version 6: a version-5 reader would take them
+# unturned.
+TURNED_VERSION = 6
+VERSIONS = (
+    FORMAT_VERSION,
+    NORMS_VERSION,
+    DRIVE_VERSION,
+    CONTINUOUS_VERSION,
+    HISTORY_VERSION,
+    TURNED_VERSION,
+)
 OBSERVATIONS = ("robotis", "normalised")
 # The wheel limit's constants a continuous policy's metadata gives (its "wheel_limit").
 WHEEL = ("max_linear", "max_angular", "max_wheel", "wheel_separation")
@@ -193,6 +206,32 @@ def pool_sectors(ranges: np.ndarray, n_beams: int) -> np.ndarray:
     return np.roll(r, m // 2, axis=-1).reshape(*r.shape[:-1], n_beams, m).min(axis=-1)
 
 
+def turned_changes(
+    scan: np.ndarray, history: np.ndarray, turned: np.ndarray, gain: float
+) -> np.ndarray:
+    """f32[k, n]: each beam's change since each earlier scan of ``history`` f32[k, n],
+    that scan seen from the heading the robot has turned to since it (``turned`` f[k]
+    rad, counter-clockwise). The NumPy twin of
+    :func:`jaxnav.world.sensor.turned_changes` (this file imports nothing of jaxnav):
+    beam i now points where beam i + turned n / (2 pi) pointed; between the earlier
+    scan's two beams there, c (the nearer) and d, it saw anything from c to
+    c + 2 min(f, 1 - f) (d - c); the change is how far beam i lies outside that, times
+    ``gain``, clipped to [-1, 1]."""
+    n = history.shape[-1]
+    at = np.arange(n, dtype=np.float32)[None, :] + np.asarray(turned, np.float32)[:, None] * (
+        np.float32(n / (2 * math.pi))
+    )
+    below = np.floor(at)
+    f = at - below
+    i0 = below.astype(np.int64) % n
+    a = np.take_along_axis(history, i0, axis=1)
+    b = np.take_along_axis(history, (i0 + 1) % n, axis=1)
+    near, far = np.where(f < 0.5, a, b), np.where(f < 0.5, b, a)
+    reach = near + 2.0 * np.minimum(f, 1.0 - f) * (far - near)
+    seen = np.clip(scan[None, :], np.minimum(near, reach), np.maximum(near, reach))
+    return np.clip((scan[None, :] - seen) * gain, -1.0, 1.0).astype(np.float32)
+
+
 def goal_heading_distance(pose: Sequence[float], goal: Sequence[float]) -> tuple[float, float]:
     """Heading to the goal relative to yaw, in [-pi, pi), and distance to it."""
     x, y, yaw = (float(v) for v in pose)
@@ -262,10 +301,12 @@ class Policy:
       linear_velocity: the paper's constant forward speed (m/s).
       observation: "robotis" or "normalised"; scan_beams: 0 or the pooled scan's size.
       scan_history: how many earlier scans the normalised observation holds (0: none);
-      history_changes: whether it holds each beam's change since them instead.
+      history_changes: whether it holds each beam's change since them instead;
+      history_turned: whether each of those scans is seen from the heading now first.
       last_command: f64[2] (v, omega) the robot drove last (the normalised observation's).
       history: f32[scan_history, n_beams] the normalised scans acted on before, newest
-        first, or None at an episode's start (the next scan's copies stand in).
+        first, or None at an episode's start (the next scan's copies stand in);
+        history_yaws: f64[scan_history] the odometry's yaw at each of them.
       dt: control period (s); goal_radius: the goal counts as reached within it (m).
     """
 
@@ -290,6 +331,7 @@ class Policy:
             self.scan_beams = int(meta.get("scan_beams", 0))
             self.scan_history = int(meta.get("scan_history", 0))
             self.history_changes = bool(meta.get("history_changes", False))
+            self.history_turned = bool(meta.get("history_turned", False))
             self.history_change_gain = np.float32(meta.get("history_change_gain", 0.0))
             speeds = meta.get("speeds", [self.linear_velocity] * len(self.omegas))
             self.speeds = np.asarray(speeds, np.float64)
@@ -326,9 +368,13 @@ class Policy:
                 "policy metadata's history_changes needs a scan_history and a positive "
                 "history_change_gain"
             )
+        if self.history_turned and not self.history_changes:
+            raise PolicyError("policy metadata's history_turned needs history_changes")
         self.last_command = np.zeros(2, np.float64)
         self.history: np.ndarray | None = None
+        self.history_yaws: np.ndarray | None = None
         self._scan: np.ndarray | None = None  # the last observed scan, joins on take()
+        self._yaw = 0.0  # and the yaw it was taken at
         self.meta = dict(meta)
         self.layers = [(np.asarray(k, np.float64), np.asarray(b, np.float64)) for k, b in layers]
         width = self.obs_size
@@ -462,9 +508,13 @@ class Policy:
                 self.last_command / self.command_scale,
             ]
             if self.scan_history:  # the scans acted on before (at a start: this one)
-                self._scan = scan
+                self._scan, self._yaw = scan, float(pose[2])
                 past = self._history_or(scan)
-                if self.history_changes:  # or each beam's change since each of them
+                if self.history_turned:  # each beam's change, the scans seen from here
+                    yaws = self._yaws_or(self._yaw)
+                    turned = _wrap(self._yaw - yaws)
+                    past = turned_changes(scan, past, turned, self.history_change_gain)
+                elif self.history_changes:  # or each beam's change since each of them
                     past = np.clip((scan[None] - past) * self.history_change_gain, -1, 1)
                 parts.append(past.reshape(-1))
             return np.concatenate(parts).astype(np.float32)
@@ -504,6 +554,8 @@ class Policy:
         if self.scan_history and self._scan is not None:  # the scan acted on joins
             older = self._history_or(self._scan)
             self.history = np.concatenate([self._scan[None], older[:-1]])
+            yaws = self._yaws_or(self._yaw)
+            self.history_yaws = np.concatenate([[self._yaw], yaws[:-1]])
             self._scan = None
         if self.continuous:
             a = np.clip(np.asarray(action, np.float64).reshape(2), -1.0, 1.0)
@@ -519,6 +571,12 @@ class Policy:
         if self.history is None:
             return np.tile(scan, (self.scan_history, 1))
         return self.history
+
+    def _yaws_or(self, yaw: float) -> np.ndarray:
+        """The history's yaws, or at an episode's start ``yaw`` for each."""
+        if self.history_yaws is None:
+            return np.full(self.scan_history, yaw, np.float64)
+        return self.history_yaws
 
     def driven_command(self, v: float, omega: float) -> tuple[float, float]:
         """(v, omega) the robot drives for a command: the firmware's clip of the command
@@ -540,6 +598,7 @@ class Policy:
         history starts again, as at an episode's start."""
         self.last_command = np.zeros(2, np.float64)
         self.history = None
+        self.history_yaws = None
         self._scan = None
 
 

@@ -29,6 +29,7 @@ from jaxnav.robot.deploy import (
     HISTORY_VERSION,
     INVALID_READING,
     NORMS_VERSION,
+    TURNED_VERSION,
 )
 from jaxnav.world import kinematics
 from jaxnav.world.sensor import HISTORY_CHANGE_GAIN
@@ -81,6 +82,8 @@ def export_policy(
         meta.update(version=HISTORY_VERSION, scan_history=int(env.scan_history))
         if env.history_changes:
             meta.update(history_changes=True, history_change_gain=HISTORY_CHANGE_GAIN)
+        if env.history_turned:  # the changes of turned scans, which version 5 cannot take
+            meta.update(version=TURNED_VERSION, history_turned=True)
     arrays: dict[str, np.ndarray] = {"meta": np.asarray(json.dumps(meta, indent=1))}
     for n in names:
         arrays[f"{n}/kernel"] = np.asarray(net[n]["kernel"], np.float32)

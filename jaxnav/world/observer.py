@@ -14,6 +14,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from jaxnav.world import sensor
+from jaxnav.world.geometry import wrap_angle
 from jaxnav.world.spaces import Box
 from jaxnav.world.state import EnvParams, EnvState
 
@@ -27,6 +28,7 @@ class Observer:
     scan_beams: int
     scan_history: int
     history_changes: bool
+    history_turned: bool
     waypoint: bool
     generates: bool
     beam_layout: str
@@ -74,6 +76,7 @@ class Observer:
         last_command: chex.Array | None = None,
         scans: chex.Array | None = None,
         cell_dist: chex.Array | None = None,
+        scan_yaws: chex.Array | None = None,
     ) -> chex.Array:
         """The observation f32[obs_size], the moving cylinders (if any) where they are at
         ``time`` (s into the episode): the ROBOTIS state [ranges, heading, distance(, min
@@ -110,7 +113,11 @@ class Observer:
             if self.scan_history:  # the scans before (at an episode's start: this one)
                 if scans is None:
                     scans = jnp.tile(obs[: self.n_beams], (self.scan_history, 1))
-                if self.history_changes:  # or each beam's change since each of them
+                    scan_yaws = jnp.broadcast_to(yaw, (self.scan_history,))
+                if self.history_turned:  # each beam's change, the scans seen from here
+                    turned = wrap_angle(yaw - scan_yaws)
+                    scans = sensor.turned_changes(obs[: self.n_beams], scans, turned)
+                elif self.history_changes:  # or each beam's change since each of them
                     scans = sensor.history_changes(obs[: self.n_beams], scans)
                 obs = jnp.concatenate([obs, scans.reshape(-1)])
             return obs
@@ -154,11 +161,20 @@ class Observer:
         """An episode's first state with its scan history: copies of its first scan."""
         if not self.scan_history:
             return state
-        return state.replace(scans=jnp.tile(obs[: self.n_beams], (self.scan_history, 1)))
+        state = state.replace(scans=jnp.tile(obs[: self.n_beams], (self.scan_history, 1)))
+        if self.history_turned:  # and the heading they were taken at
+            state = state.replace(scan_yaws=jnp.full(self.scan_history, state.yaw, jnp.float32))
+        return state
 
-    def _newer_scans(self, scans: chex.Array, obs: chex.Array) -> chex.Array:
-        """The history after a step: its observed scan first, the oldest dropped."""
-        return jnp.concatenate([obs[None, : self.n_beams], scans[:-1]])
+    def _newer_scans(self, state: EnvState, obs: chex.Array) -> EnvState:
+        """The state after a step (``state``: its pose already the new one) with the
+        step's observed scan first in the history, the oldest dropped."""
+        state = state.replace(scans=jnp.concatenate([obs[None, : self.n_beams], state.scans[:-1]]))
+        if self.history_turned:
+            now = jnp.asarray(state.yaw, jnp.float32)[None]
+            yaws = jnp.concatenate([now, state.scan_yaws[:-1]])
+            state = state.replace(scan_yaws=yaws)
+        return state
 
 
 __all__ = ["Observer"]

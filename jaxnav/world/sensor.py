@@ -73,6 +73,30 @@ def pooled_ranges(ranges: chex.Array, n_beams: int) -> chex.Array:
 HISTORY_CHANGE_GAIN = 10.0
 
 
+def turned_changes(scan: chex.Array, history: chex.Array, turned: chex.Array) -> chex.Array:
+    """f32[k, n]: :func:`history_changes` with each earlier scan seen from the heading
+    the robot has turned to since it (``turned`` f32[k] rad, counter-clockwise
+    positive; n evenly spread beams, beam 0 ahead, counter-clockwise). Beam i points now
+    where beam i + turned n / (2 pi) of the earlier scan pointed: between its two beams c
+    (the nearer) and d, at a fraction w = 2 min(f, 1 - f) of the way to the midpoint (f:
+    the fractional part). What the earlier scan saw there is taken as anything from c to
+    c + w (d - c), and the change is how far this beam lies outside that interval (0
+    inside): 0 where the earlier direction was a beam's, and edges that a turn carries
+    across a beam do not read as motion. Turning in place then changes no beam, but
+    what moves still does."""
+    n = history.shape[-1]
+    at = jnp.arange(n, dtype=jnp.float32)[None, :] + turned[:, None] * (n / (2 * math.pi))
+    below = jnp.floor(at)
+    f = at - below
+    i0 = below.astype(jnp.int32) % n
+    a = jnp.take_along_axis(history, i0, axis=1)
+    b = jnp.take_along_axis(history, (i0 + 1) % n, axis=1)
+    near, far = jnp.where(f < 0.5, a, b), jnp.where(f < 0.5, b, a)
+    reach = near + 2.0 * jnp.minimum(f, 1.0 - f) * (far - near)
+    seen = jnp.clip(scan[None, :], jnp.minimum(near, reach), jnp.maximum(near, reach))
+    return jnp.clip((scan[None, :] - seen) * HISTORY_CHANGE_GAIN, -1.0, 1.0)
+
+
 def history_changes(scan: chex.Array, history: chex.Array) -> chex.Array:
     """f32[k, n]: each beam of ``scan`` (normalised ranges f32[n]) less the same beam of
     each earlier scan ``history`` f32[k, n], times :data:`HISTORY_CHANGE_GAIN`, clipped

@@ -81,6 +81,9 @@ class EnvState:
     # f32[k, n_beams]: the k scans before this one as observed (normalised), newest
     # first; with NavEnv.scan_history k > 0 only (they are part of the observation).
     scans: chex.Array | None = None
+    # f32[k]: the heading each of those scans was taken at; with NavEnv.history_turned
+    # only (the observation turns each scan to the heading now).
+    scan_yaws: chex.Array | None = None
 
 
 def step_keys(key: chex.PRNGKey) -> tuple[chex.Array, chex.Array]:
