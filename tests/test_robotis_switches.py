@@ -160,7 +160,15 @@ def test_switches_off_leave_no_trace():
     _, state = env.reset(jax.random.PRNGKey(0), params)
     # the fields of the switches, of drawn mazes and of the optional observation parts
     # (the last command, the scan history) are absent, not zeros
-    optional = ("pending_action", "maze", "maze_episodes", "cell_dist", "last_command", "scans")
+    optional = (
+        "pending_action",
+        "maze",
+        "maze_episodes",
+        "cell_dist",
+        "last_command",
+        "scans",
+        "scan_yaws",
+    )
     assert all(getattr(state, k) is None for k in optional)
     assert len(jax.tree.leaves(state)) == len(EnvState.__dataclass_fields__) - len(optional)
 
