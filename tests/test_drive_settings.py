@@ -255,6 +255,16 @@ def test_the_learning_rate_falls_linearly_to_zero():
             ["env.observation=normalised", "env.scan_history=2", "env.history_turned=true"],
             "needs env.history_changes true",
         ),
+        (
+            [
+                "env.observation=normalised",
+                "env.scan_history=2",
+                "env.history_changes=true",
+                "env.history_turned=true",
+                "env.beam_layout=gazebo",
+            ],
+            "needs env.beam_layout even",
+        ),
         (["dqn.lr_decay=true", "total_steps=null"], "dqn.lr_decay needs total_steps"),
         (["env.actions=fast"], "env.actions must be paper or paper_stop or vw or vw_reverse"),
         (["env.reward=progress", "env.proximity_distance=0"], "env.proximity_distance"),
