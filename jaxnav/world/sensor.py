@@ -82,8 +82,9 @@ def turned_changes(scan: chex.Array, history: chex.Array, turned: chex.Array) ->
     the fractional part). What the earlier scan saw there is taken as anything from c to
     c + w (d - c), and the change is how far this beam lies outside that interval (0
     inside): 0 where the earlier direction was a beam's, and edges that a turn carries
-    across a beam do not read as motion. Turning in place then changes no beam, but
-    what moves still does."""
+    across a beam do not read as motion. Turning in place then changes a beam only
+    where the earlier scan's two beams missed what lay between them (a corner), while
+    what moves still changes beams."""
     n = history.shape[-1]
     at = jnp.arange(n, dtype=jnp.float32)[None, :] + turned[:, None] * (n / (2 * math.pi))
     below = jnp.floor(at)
