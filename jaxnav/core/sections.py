@@ -207,7 +207,7 @@ class EnvConfig:
         False,
         "with env.history_changes: each earlier scan is seen from the heading now (turned "
         "by the yaw since it, from odometry) before the changes are taken, so turning in "
-        "place changes no beam and what changes is what moves",
+        "place does not read as motion and what changes is what moves",
     )
     waypoint: bool = setting(
         False,

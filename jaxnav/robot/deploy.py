@@ -554,8 +554,9 @@ class Policy:
         if self.scan_history and self._scan is not None:  # the scan acted on joins
             older = self._history_or(self._scan)
             self.history = np.concatenate([self._scan[None], older[:-1]])
-            yaws = self._yaws_or(self._yaw)
-            self.history_yaws = np.concatenate([[self._yaw], yaws[:-1]])
+            if self.history_turned:  # and the yaw it was taken at
+                yaws = self._yaws_or(self._yaw)
+                self.history_yaws = np.concatenate([[self._yaw], yaws[:-1]])
             self._scan = None
         if self.continuous:
             a = np.clip(np.asarray(action, np.float64).reshape(2), -1.0, 1.0)
