@@ -28,6 +28,9 @@ if TYPE_CHECKING:  # only the network's apply is called here
     from jaxnav.agent.networks import QNetwork
 
 EVAL_SALT = 0x7E57  # folded into a seed's key: test goals differ from training's
+# folded into a seed's key: the held-out episodes that choose a run's best policy
+# (run.keep_best) differ from the test's and from training's
+VALID_SALT = 0xBE57
 
 
 class Planner(Protocol):
@@ -228,8 +231,7 @@ def _record_maze(mazes: EpisodeMazes, slot: chex.Array, one: EpisodeMazes) -> Ep
     return EpisodeMazes(*(a.at[slot].set(b, mode="drop") for a, b in zip(mazes, one)))
 
 
-def eval_keys(labels: Sequence[tuple[str, int]]) -> chex.Array:
-    """Test key per run: a seed's key with EVAL_SALT folded in (shared by strategies)."""
-    return jnp.stack(
-        [jax.random.fold_in(jax.random.PRNGKey(seed), EVAL_SALT) for _, seed in labels]
-    )
+def eval_keys(labels: Sequence[tuple[str, int]], salt: int = EVAL_SALT) -> chex.Array:
+    """Test key per run: a seed's key with ``salt`` folded in (shared by strategies);
+    VALID_SALT gives the held-out episodes of run.keep_best."""
+    return jnp.stack([jax.random.fold_in(jax.random.PRNGKey(seed), salt) for _, seed in labels])

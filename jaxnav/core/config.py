@@ -327,6 +327,8 @@ def _check(cfg: Config) -> Config:
         last = cfg.seed + cfg.seeds - 1
         fail("seeds", f"would go up to seed {last}, past 2^32 - 1: a PRNG key holds 32 bits")
 
+    if cfg.run.keep_best and not cfg.run.eval_every:
+        fail("run.keep_best", "chooses among the greedy evaluations: it needs run.eval_every > 0")
     if cfg.dqn.lr_decay and cfg.total_steps is None:
         fail("dqn.lr_decay", "needs total_steps: the decay spans the run's budget of env steps")
     says = agent_problem(cfg)

@@ -420,3 +420,8 @@ class RunConfig:
     eval_episodes: int = setting(
         5, "consecutive episodes of each greedy evaluation (run.eval_every)", rule=AT_LEAST_1
     )
+    keep_best: bool = setting(
+        False,
+        "params.npz keeps each run's policy at its best greedy evaluation on held-out "
+        "episodes (run.eval_every), not its last",
+    )

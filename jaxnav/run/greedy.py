@@ -14,6 +14,12 @@ One row per run and evaluation goes to ``eval.csv`` (:data:`EVAL_COLUMNS`), appe
 with the chunk's logs before its checkpoint, so a resumed run cuts it back as it
 does metrics.csv. Chunks are cut at the evaluations (:meth:`GreedyEval.chunk_end`)
 only where the logs' blocks of env steps stay as they are without evaluation.
+
+With ``run.keep_best`` each evaluation also plays ``run.eval_episodes`` held-out
+episodes (keys with VALID_SALT, neither the test's nor training's), and each run keeps
+the policy that did best there (:class:`BestPolicy`): params.npz gets it instead of
+the last one, so a seed that falls apart late in training is tested as it was at
+its best, and the choice never sees the test's episodes.
 """
 
 from __future__ import annotations
@@ -25,7 +31,7 @@ from pathlib import Path
 import jax
 import numpy as np
 
-from jaxnav.agent.rollout import eval_keys, make_rollout
+from jaxnav.agent.rollout import VALID_SALT, eval_keys, make_rollout
 from jaxnav.agent.sharding import RunSharding
 from jaxnav.agent.trainer import Trainer
 from jaxnav.core import agents, rundir, sweep
@@ -53,6 +59,57 @@ EVAL_COLUMNS = (
     "timeouts",
     "cut",
 )
+
+
+def _leaf_names(tree) -> list[str]:
+    paths, _ = jax.tree_util.tree_flatten_with_path(tree)
+    return [jax.tree_util.keystr(p) for p, _ in paths]
+
+
+class BestPolicy:
+    """Each run's best policy so far on the held-out episodes (``run.keep_best``).
+
+    A run's score is the success of its decided goal attempts there (0 with none
+    decided), then the fewer collisions per attempt; of equal scores the later
+    policy wins, as the more trained one. A run that diverged keeps what it had."""
+
+    def __init__(self, n_runs: int) -> None:
+        self.score = np.full((n_runs, 2), -np.inf)  # (success, -collision share)
+        self.step = np.full(n_runs, -1, np.int64)  # the env step of the kept policy
+        self.params = None  # host copies, a leading run axis; None before the first
+
+    def offer(self, params, score: np.ndarray, steps: np.ndarray, ok: np.ndarray) -> None:
+        """Keep ``params`` (host copies) for the runs where ``score`` is at least as
+        good as the kept one's and ``ok`` (not diverged)."""
+        s, b = score, self.score
+        better = ok & ((s[:, 0] > b[:, 0]) | ((s[:, 0] == b[:, 0]) & (s[:, 1] >= b[:, 1])))
+        if self.params is None:
+            self.params = jax.tree.map(np.array, params)
+        self.params = jax.tree.map(
+            lambda kept, new: np.where(better.reshape((-1,) + (1,) * (new.ndim - 1)), new, kept),
+            self.params,
+            params,
+        )
+        self.score = np.where(better[:, None], s, b)
+        self.step = np.where(better, steps, self.step)
+
+    def arrays(self) -> dict[str, np.ndarray]:
+        """The checkpoint's host entries (none before the first evaluation)."""
+        if self.params is None:
+            return {}
+        leaves = jax.tree.leaves(self.params)
+        named = {f"best.params{n}": a for n, a in zip(_leaf_names(self.params), leaves)}
+        return {"best.score": self.score, "best.step": self.step, **named}
+
+    def restore(self, host: dict[str, np.ndarray], template) -> None:
+        """Back from a checkpoint's host entries (:meth:`arrays`); ``template``: the
+        run's params, for their structure."""
+        if "best.score" not in host:
+            return
+        leaves = [host[f"best.params{n}"] for n in _leaf_names(template)]
+        self.params = jax.tree.unflatten(jax.tree.structure(template), leaves)
+        self.score = np.asarray(host["best.score"], np.float64)
+        self.step = np.asarray(host["best.step"], np.int64)
 
 
 class GreedyEval:
@@ -89,6 +146,9 @@ class GreedyEval:
             jax.vmap(rollout, in_axes=(0, 0, 0, 0, None)), out_shardings=shard.sharding
         )
         self.keys = shard.put(np.asarray(eval_keys(cfg.run_labels())))
+        self.best = BestPolicy(cfg.n_runs) if cfg.run.keep_best else None
+        if self.best is not None:
+            self.valid_keys = shard.put(np.asarray(eval_keys(cfg.run_labels(), VALID_SALT)))
         self.env_params = trainer.env_params
         self.limit = trainer.env.attempt_steps(trainer.env_params)
         self.done = 0  # multiples of ``every`` evaluated so far
@@ -117,6 +177,20 @@ class GreedyEval:
         cut = base + -(-(due - base) // self.grain) * self.grain
         return min(n, base + self.chunk_length - step, cut - step)
 
+    def _offer(self, ts, steps: np.ndarray) -> None:
+        """Play the held-out episodes and offer the policies to :attr:`best`."""
+        res = self.rollout(ts.params, self.valid_keys, ts.strategy, ts.hyper, self.env_params)
+        res, params, diverged_at = self.shard.get((res, ts.params, ts.diverged_at))
+        score = np.zeros((len(self.fields), 2))
+        for r in range(len(self.fields)):
+            att = run_attempts(res.steps, r, self.n_episodes, self.limit)
+            decided = int(np.sum(att.outcome != CUT))
+            if decided:
+                score[r, 0] = np.sum(att.outcome == SUCCESS) / decided
+            if len(att.outcome):
+                score[r, 1] = -np.sum(att.outcome == COLLISION) / len(att.outcome)
+        self.best.offer(params, score, steps, np.asarray(diverged_at) < 0)
+
     def evaluate(self, ts, finished: bool) -> list[tuple]:
         """eval.csv rows of every run's policy in ``ts`` when the chunk that led to it
         is evaluated (it reached the next multiple, or training has ``finished`` and
@@ -131,6 +205,8 @@ class GreedyEval:
         self.done = step // self.every
         res = self.rollout(ts.params, self.keys, ts.strategy, ts.hyper, self.env_params)
         res = self.shard.get(res)
+        if self.best is not None:
+            self._offer(ts, steps)
         out = []
         for r, fields in enumerate(self.fields):
             att = run_attempts(res.steps, r, self.n_episodes, self.limit)

@@ -153,6 +153,8 @@ class Run:
         if self.greedy is not None:
             eval_size = int(host.get("eval_size", 0)) if is_writer() else None
             self.greedy.restore(int(np.asarray(ts.step).max()), eval_size)
+            if self.greedy.best is not None:
+                self.greedy.best.restore(host, ts.params)
         for row in self.metrics.read():
             self._remember((sweep.row_arm(row), int(row["seed"])), row)
         return self.shard.put(ts)
@@ -284,6 +286,8 @@ class Run:
                 "segments": np.int64(segments),
                 "computed": np.int64(self.computed),
             }
+            if self.greedy is not None and self.greedy.best is not None:
+                host |= self.greedy.best.arrays()
             rundir.atomic_write_npz(self.checkpoint, checkpoint_arrays(state, host))
             self.segments = segments
         except OSError:
@@ -452,6 +456,18 @@ class Run:
             "diverged": self.diverged_runs(),
         }
         params = self.shard.get(ts.params)  # every process: collective across hosts
+        best = None if self.greedy is None else self.greedy.best
+        if best is not None and best.params is not None:  # run.keep_best
+            params = best.params
+            summary["best"] = [
+                {
+                    "strategy": arm,
+                    "seed": seed,
+                    "env_step": int(best.step[r]),
+                    "held_out_success": round(float(best.score[r, 0]), 4),
+                }
+                for r, (arm, seed) in enumerate(self.labels)
+            ]
         if is_writer():
             params = params_arrays(self.cfg, params)
             text = json.dumps(summary, indent=2) + "\n"
