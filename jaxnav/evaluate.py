@@ -1,4 +1,5 @@
-"""``jaxnav evaluate RUN_DIR [--mazes M ...] [--episodes N] [--out DIR] [--robustness]``
+"""``jaxnav evaluate RUN_DIR [env.KEY=VALUE ...] [--mazes M ...] [--episodes N] [--out DIR]
+[--robustness]``
 or ``jaxnav evaluate --baseline oracle|dwa WORLD [key=value ...] [--seeds N]``
 
 The paper's test protocol (Sec. 6, Tables 3 and 4) for every trained policy of a
@@ -106,7 +107,9 @@ def main(argv: list[str] | None = None) -> int:
         "overrides",
         nargs="*",
         metavar="key=value",
-        help="with --baseline: settings of the world (env.max_steps=300, ...)",
+        help="with --baseline: settings of the world (env.max_steps=300, ...); for a run: "
+        "environment settings to test its policies in instead of those they trained in "
+        "(env.random_start=false tests a run trained from random poses from the start pose)",
     )
     p.add_argument(
         "--mazes",
@@ -159,10 +162,9 @@ def main(argv: list[str] | None = None) -> int:
         if args.baseline:
             baseline(args)
             return
-        if args.overrides:
+        if args.overrides and args.robustness:
             raise JaxnavError(
-                f"{args.overrides[0]}: settings go with --baseline WORLD; a run is tested "
-                "in the settings it trained in"
+                f"{args.overrides[0]}: --robustness sets the perturbed settings itself"
             )
         run_dir = rundir.existing(args.run_dir, finished=True)
         out = Path(args.out) if args.out else run_dir / "eval"
@@ -180,7 +182,13 @@ def main(argv: list[str] | None = None) -> int:
             check_outputs(out, written, args.overwrite)
             refs = () if args.no_baselines else baselines.names()
             out = evaluate_to_dir(
-                run_dir, args.mazes, args.episodes, out, references=refs, say=watched
+                run_dir,
+                args.mazes,
+                args.episodes,
+                out,
+                references=refs,
+                say=watched,
+                overrides=args.overrides,
             )
         print(f"wrote {out / written[0]}, {out / written[1]} and {out / written[2]}")
         if not args.robustness:

@@ -246,6 +246,8 @@ def _copy_run(src: Path, dst: Path, params: bool = True) -> Path:
         ("unknown_maze", "unknown maze 'nowhere'"),
         ("broken_maze", "not closed"),
         ("zero_episodes", "at least 1"),
+        ("not_env_setting", "other environment settings only"),
+        ("unreadable_setting", "does not match the network"),
     ],
 )
 def test_bad_input_is_one_line_and_exit_2(run, case, message, tmp_path, capsys):
@@ -263,6 +265,10 @@ def test_bad_input_is_one_line_and_exit_2(run, case, message, tmp_path, capsys):
         _copy_run(src, d)
         if case == "unknown_maze":
             argv += ["--mazes", "nowhere"]
+        elif case == "not_env_setting":
+            argv += ["dqn.lr=0.1"]
+        elif case == "unreadable_setting":  # 12 beams: an observation the network never read
+            argv += ["env.n_beams=12"]
         elif case == "broken_maze":
             bad = tmp_path / "bad.yaml"
             bad.write_text("outline: [[0, 0], [1, 0], [1, 1]]\n")
@@ -480,3 +486,21 @@ def test_evaluate_says_what_it_tests_where_a_person_watches(
         assert command.main([*argv, "--overwrite"]) == 0
         err = capsys.readouterr().err
         assert err == ("testing 4 policies on square4 ...\n" if terminal else ""), err
+
+
+@pytest.mark.slow
+def test_a_run_is_tested_in_other_environment_settings_when_asked(run, tmp_path):
+    """env.random_start=true starts the first test episode away from the start pose the
+    run trained from; the tables' title names the setting; nothing else changes."""
+    cfg, src = run
+    start = np.asarray(load_run(src).policies.env_params.maze.start)[:2]
+    _, names, _, plain, _ = evaluate(src, references=())
+    _, _, _, moved, _ = evaluate(src, references=(), overrides=["env.random_start=true"])
+    for name in names:
+        for arm in plain[name]:
+            assert np.allclose(plain[name][arm]["pos"][0], start, atol=0.05)
+            assert not np.allclose(moved[name][arm]["pos"][0], start, atol=0.05)
+    out = evaluate_to_dir(
+        src, out=tmp_path / "eval", references=(), overrides=["env.random_start=true"]
+    )
+    assert "tested with env.random_start=true" in (out / "tables.md").read_text()

@@ -30,7 +30,7 @@ import numpy as np
 from jaxnav.agent.trainer import run_inputs
 from jaxnav.core import agents, baselines, rundir
 from jaxnav.core.config import Config, load_config
-from jaxnav.core.errors import JaxnavError, RunError
+from jaxnav.core.errors import ConfigError, JaxnavError, RunError
 from jaxnav.core.families import family_text
 from jaxnav.core.sweep import with_swept
 from jaxnav.env import from_config
@@ -61,11 +61,13 @@ class LoadedRun(NamedTuple):
     policies: Policies
 
 
-def load_run(run_dir: str | Path) -> LoadedRun:
-    """Config and trained policies of a finished run (RunError if it cannot be used)."""
+def load_run(run_dir: str | Path, overrides: Sequence[str] = ()) -> LoadedRun:
+    """Config and trained policies of a finished run (RunError if it cannot be used).
+    ``overrides``: ``env.KEY=VALUE`` settings the policies are tested in instead of
+    those they trained in (:func:`test_overrides`)."""
     run_dir = rundir.existing(run_dir, finished=True)
     cfg_path, params_path = run_dir / rundir.CONFIG, run_dir / rundir.PARAMS
-    cfg = load_config(str(cfg_path))
+    cfg = load_config(str(cfg_path), list(test_overrides(overrides)))
     env, env_params = from_config(cfg)
     if env.generates:  # trained on drawn mazes: tested on the fixed test mazes by name
         # (and on drawn ones: drawn_policies). A fixed maze has no grid of shortest
@@ -120,6 +122,19 @@ def load_run(run_dir: str | Path) -> LoadedRun:
     return LoadedRun(cfg, policies)
 
 
+def test_overrides(overrides: Sequence[str]) -> Sequence[str]:
+    """``overrides`` if each is an environment setting (``env.KEY=VALUE``): a test
+    changes the world the policies drive in, never how they were trained; a change
+    the network cannot read (another observation size) is refused when the policies
+    load."""
+    for o in overrides:
+        if not o.startswith("env."):
+            raise ConfigError(
+                f"{o}: a run is tested with other environment settings only (env.KEY=VALUE)"
+            )
+    return overrides
+
+
 def trained_on(cfg: Config) -> str:
     """What a run trained on: its maze, or its drawn mazes' family."""
     e = cfg.env
@@ -160,6 +175,7 @@ def evaluate(
     more_drawn: dict[str, Config] | None = None,
     references: Sequence[str] = baselines.names(),
     say: Callable[[str], None] | None = None,
+    overrides: Sequence[str] = (),
 ) -> tuple[LoadedRun, list[str], str, Episodes, Failures]:
     """Test every run of ``run_dir`` in ``modes`` (both: greedy, then exploring).
 
@@ -168,11 +184,12 @@ def evaluate(
     ``references``: the reference drivers (:mod:`jaxnav.experiments.baselines`) that
     take the greedy test beside the policies, once per seed on the same keys.
     ``say``: called with a line before each test starts (progress), if given.
+    ``overrides``: environment settings to test in instead of the trained ones.
     Returns (run, maze names, results.csv text, the first greedy test episode of
     the config's seed per maze and strategy, where each arm's failed greedy attempts
     ended in each test maze, pooled over its seeds).
     """
-    run = load_run(run_dir)
+    run = load_run(run_dir, overrides)
     names, n_episodes = test_setup(run, maze_names, n_episodes, run.config.run.test_mazes)
     labels = run.policies.labels
     mazes = padded_mazes(names) if names else []  # a drawn run may test on its splits only
@@ -284,15 +301,18 @@ def evaluate_to_dir(
     more_drawn: dict[str, Config] | None = None,
     references: Sequence[str] = baselines.names(),
     say: Callable[[str], None] | None = None,
+    overrides: Sequence[str] = (),
 ) -> Path:
     """Evaluate; write results.csv, tables.md, trajectories.npz and, for fixed test
-    mazes, failures.npz (each atomically) into ``out``."""
+    mazes, failures.npz (each atomically) into ``out``. ``overrides``: environment
+    settings to test in instead of the trained ones (the tables' title names them)."""
     run, names, text, episodes, failures = evaluate(
-        run_dir, maze_names, n_episodes, modes, more_drawn, references, say
+        run_dir, maze_names, n_episodes, modes, more_drawn, references, say, overrides
     )
-    tables = tables_markdown(
-        text, trained_on(run.config), run.config.seed, title=f"Test results of {Path(run_dir).name}"
-    )
+    title = f"Test results of {Path(run_dir).name}"
+    if overrides:
+        title += f", tested with {' '.join(overrides)}"
+    tables = tables_markdown(text, trained_on(run.config), run.config.seed, title=title)
     out = Path(out) if out is not None else Path(run_dir) / "eval"
     out.mkdir(parents=True, exist_ok=True)
     goal_radius = float(run.policies.env_params.goal_radius)
