@@ -463,8 +463,11 @@ class Run:
                 {
                     "strategy": arm,
                     "seed": seed,
-                    "env_step": int(best.step[r]),
-                    "held_out_success": round(float(best.score[r, 0]), 4),
+                    # None: the run diverged before its first evaluation
+                    "env_step": int(best.step[r]) if best.step[r] >= 0 else None,
+                    "held_out_success": round(float(best.score[r, 0]), 4)
+                    if best.step[r] >= 0
+                    else None,
                 }
                 for r, (arm, seed) in enumerate(self.labels)
             ]
