@@ -289,7 +289,7 @@ def test_outputs_are_checked_before_the_test_starts(run, tmp_path, capsys, monke
     _, src = run
     tested = []
 
-    def evaluate_to_dir(*a, references=(), say=None):
+    def evaluate_to_dir(*a, references=(), say=None, overrides=()):
         tested.append(a)
         Path(a[3]).mkdir(exist_ok=True)
         (Path(a[3]) / "results.csv").write_text("strategy,seed,mode\n")  # no episodes
