@@ -35,7 +35,8 @@ ROW_SEGMENT = "checkpoints/rows-{:05d}.npz"
 # ----------------------------------------------------------------------------
 
 
-def _leaf_names(tree) -> list[str]:
+def leaf_names(tree) -> list[str]:
+    """The names of a pytree's leaves (``jax.tree_util.keystr`` of each path)."""
     paths, _ = jax.tree_util.tree_flatten_with_path(tree)
     return [jax.tree_util.keystr(p) for p, _ in paths]
 
@@ -74,9 +75,7 @@ def chunk_slots(step_before: np.ndarray, step_after: np.ndarray, capacity: int) 
 def checkpoint_arrays(state: Any, host: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
     """Host copies of the training state without its per-slot replay arrays
     (:func:`without_rows`), and the host loop's own counters."""
-    arrays = {
-        "state" + n: np.asarray(a) for n, a in zip(_leaf_names(state), jax.tree.leaves(state))
-    }
+    arrays = {"state" + n: np.asarray(a) for n, a in zip(leaf_names(state), jax.tree.leaves(state))}
     arrays.update({"host." + k: v for k, v in host.items()})
     return arrays
 
@@ -90,7 +89,7 @@ def state_from_checkpoint(
     """Inverse of :func:`checkpoint_arrays` and the row segments (each ``slots`` and
     one array per per-slot field), against a template of the right shapes."""
     leaves = []
-    for name, leaf in zip(_leaf_names(template), jax.tree.leaves(template)):
+    for name, leaf in zip(leaf_names(template), jax.tree.leaves(template)):
         if _is_buffer_rows(name):
             leaves.append(_records(leaf, segments, path))
             continue

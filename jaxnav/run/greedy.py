@@ -38,6 +38,7 @@ from jaxnav.core import agents, rundir, sweep
 from jaxnav.core.config import Config
 from jaxnav.core.startup import process_age
 from jaxnav.report.navigation import COLLISION, CUT, SUCCESS, TIMEOUT, run_attempts
+from jaxnav.run.checkpoint import leaf_names
 
 # A swept run's eval.csv has one more column per swept key after "strategy", as
 # metrics.csv. return, goals and collided are means over the evaluation's episodes;
@@ -59,11 +60,6 @@ EVAL_COLUMNS = (
     "timeouts",
     "cut",
 )
-
-
-def _leaf_names(tree) -> list[str]:
-    paths, _ = jax.tree_util.tree_flatten_with_path(tree)
-    return [jax.tree_util.keystr(p) for p, _ in paths]
 
 
 class BestPolicy:
@@ -98,7 +94,7 @@ class BestPolicy:
         if self.params is None:
             return {}
         leaves = jax.tree.leaves(self.params)
-        named = {f"best.params{n}": a for n, a in zip(_leaf_names(self.params), leaves)}
+        named = {f"best.params{n}": a for n, a in zip(leaf_names(self.params), leaves)}
         return {"best.score": self.score, "best.step": self.step, **named}
 
     def restore(self, host: dict[str, np.ndarray], template) -> None:
@@ -106,7 +102,7 @@ class BestPolicy:
         run's params, for their structure."""
         if "best.score" not in host:
             return
-        leaves = [host[f"best.params{n}"] for n in _leaf_names(template)]
+        leaves = [host[f"best.params{n}"] for n in leaf_names(template)]
         self.params = jax.tree.unflatten(jax.tree.structure(template), leaves)
         self.score = np.asarray(host["best.score"], np.float64)
         self.step = np.asarray(host["best.step"], np.int64)
