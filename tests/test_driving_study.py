@@ -146,6 +146,23 @@ def test_one_config_run_again_replaces_its_row_and_keeps_the_others(tmp_path, mo
     assert (folder / "gpu_h200_eval.csv").is_file()  # other files of the folder stay
 
 
+def test_a_config_new_to_the_page_takes_its_place_in_the_studys_order(tmp_path, monkeypatch):
+    """drive_stage4_long run alone into a page that lacks it lands after drive_stage4,
+    where the shipped study lists it, not at the end."""
+    folder = tmp_path / "docs" / "driving"
+    shutil.copytree(DOCS, folder)
+    rows = list(csv.DictReader(io.StringIO((folder / RUNS).read_text())))
+    without = [r for r in rows if r["config"] != "drive_stage4_long"]
+    (folder / RUNS).write_text(csv_text(list(rows[0]), [list(r.values()) for r in without]))
+    out = tmp_path / "runs"
+    _data(out, ["drive_stage4_long"])
+    monkeypatch.setattr(driving, "driving_markdown", lambda *a: "page\n")
+    page = tmp_path / "docs" / "driving.md"
+    driving.publish(driving.load_study(SHIPPED, ["drive_stage4_long"]), out, page)
+    after = [r["config"] for r in csv.DictReader(io.StringIO((folder / RUNS).read_text()))]
+    assert after == [r["config"] for r in rows] == list(driving.load_study(SHIPPED).configs)
+
+
 @pytest.mark.slow  # the page's bootstrap intervals
 def test_the_committed_page_is_what_the_study_writes_from_the_committed_data(tmp_path):
     folder = tmp_path / "docs" / "driving"

@@ -35,6 +35,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import yaml
+
 from jaxnav.core.config import CONFIG_DIR, Config
 from jaxnav.core.errors import ConfigError, JaxnavError
 from jaxnav.core.rundir import EVAL, atomic_write_text, csv_text
@@ -208,6 +210,14 @@ def _rows(path: Path) -> list[dict[str, str]]:
     return list(csv.DictReader(io.StringIO(path.read_text()))) if path.is_file() else []
 
 
+SHIPPED = CONFIG_DIR / "studies" / "driving.yaml"
+
+
+def shipped_order() -> list[str]:
+    """The shipped study's configs (``configs/studies/driving.yaml``), in its order."""
+    return list(yaml.safe_load(SHIPPED.read_text())["configs"])
+
+
 def publish(study: Study, out: Path, page: Path) -> list[Path]:
     """The page and its data folder ``STEM/`` beside it: this study's configs' results
     and rows, the rows of configs it did not run kept from the folder."""
@@ -222,6 +232,10 @@ def publish(study: Study, out: Path, page: Path) -> list[Path]:
             shutil.copyfile(
                 data / EVALS / f"{r['config']}.csv", folder / EVALS / f"{r['config']}.csv"
             )
+    # in the shipped study's order (a config run alone goes to its place, not the end);
+    # rows of configs it does not list follow, in the folder's order
+    order = {name: i for i, name in enumerate(shipped_order())}
+    rows = dict(sorted(rows.items(), key=lambda kv: order.get(kv[0], len(order))))
     text = csv_text(RUN_COLUMNS, [[r[c] for c in RUN_COLUMNS] for r in rows.values()])
     atomic_write_text(folder / RUNS, text)
     # each row keeps the command that wrote it: the folder's for the rows kept
