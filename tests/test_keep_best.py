@@ -7,6 +7,8 @@ import json
 
 import numpy as np
 import pytest
+from test_greedy_eval import EVAL, Killed
+from test_greedy_eval import TINY as PLAIN
 
 from jaxnav.agent.rollout import EVAL_SALT, VALID_SALT, eval_keys
 from jaxnav.core import rundir
@@ -21,16 +23,7 @@ from jaxnav.run.training import train_new
 from jaxnav.train import main
 
 # test_greedy_eval's tiny DQN run: evaluations at 300, 600, 900 and 1,000 env steps
-TINY = [
-    "seeds=2",
-    "episodes=null",
-    "total_steps=1000",
-    "env.max_steps=100",
-    "run.chunk_steps=400",
-    "dqn.batch_size=16",
-    "run.eval_episodes=3",
-    "run.eval_every=300",
-]
+TINY = PLAIN + EVAL
 BEST = TINY + ["run.keep_best=true"]
 
 
@@ -109,10 +102,6 @@ def test_the_kept_score_is_a_rollout_of_the_kept_policy_on_the_held_out_keys(bes
         success = np.sum(att.outcome == SUCCESS) / decided if decided else 0.0
         assert c["held_out_success"] == pytest.approx(success, abs=1e-4)
         assert c["env_step"] in (300, 600, 900, 1000)
-
-
-class Killed(BaseException):
-    """A kill between a chunk's log appends and its checkpoint."""
 
 
 @pytest.mark.slow

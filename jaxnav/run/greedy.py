@@ -89,6 +89,22 @@ class BestPolicy:
         self.score = np.where(better[:, None], s, b)
         self.step = np.where(better, steps, self.step)
 
+    def summary(self, labels) -> list[dict]:
+        """summary.json's ``best``: per run (``labels``: its arm and seed) the env step
+        of the kept policy and its held-out success, None for a run that diverged
+        before its first evaluation."""
+        return [
+            {
+                "strategy": arm,
+                "seed": seed,
+                "env_step": int(self.step[r]) if self.step[r] >= 0 else None,
+                "held_out_success": round(float(self.score[r, 0]), 4)
+                if self.step[r] >= 0
+                else None,
+            }
+            for r, (arm, seed) in enumerate(labels)
+        ]
+
     def arrays(self) -> dict[str, np.ndarray]:
         """The checkpoint's host entries (none before the first evaluation)."""
         if self.params is None:

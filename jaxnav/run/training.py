@@ -459,18 +459,7 @@ class Run:
         best = None if self.greedy is None else self.greedy.best
         if best is not None and best.params is not None:  # run.keep_best
             params = best.params
-            summary["best"] = [
-                {
-                    "strategy": arm,
-                    "seed": seed,
-                    # None: the run diverged before its first evaluation
-                    "env_step": int(best.step[r]) if best.step[r] >= 0 else None,
-                    "held_out_success": round(float(best.score[r, 0]), 4)
-                    if best.step[r] >= 0
-                    else None,
-                }
-                for r, (arm, seed) in enumerate(self.labels)
-            ]
+            summary["best"] = best.summary(self.labels)
         if is_writer():
             params = params_arrays(self.cfg, params)
             text = json.dumps(summary, indent=2) + "\n"
