@@ -190,6 +190,10 @@ class NavEnv(GoalSampler, DrawnLayouts, Observer):
         instead (:func:`jaxnav.world.sensor.history_changes`); with history_turned, the
         changes since each scan seen from the heading now
         (:func:`jaxnav.world.sensor.turned_changes`).
+      observe_moving: with the normalised observation, the k nearest moving cylinders'
+        position and velocity in the robot's frame follow everything else
+        (:func:`jaxnav.world.sensor.moving_features`): what a simulator knows and no
+        sensor on the robot gives, to measure what the scan leaves out.
       waypoint: with the normalised observation, the heading and distance to where the
         shortest path through a drawn maze heads next follow the last command
         (``family.geodesic_target``: the next opening on it, or the goal in its cell);
@@ -237,6 +241,7 @@ class NavEnv(GoalSampler, DrawnLayouts, Observer):
     scan_history: int = 0
     history_changes: bool = False
     history_turned: bool = False
+    observe_moving: int = 0
     waypoint: bool = False
     speed_range: tuple[float, float] = (0.0, BURGER_MAX_V)
     max_yaw_rate: float = BURGER_MAX_OMEGA

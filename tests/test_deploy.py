@@ -778,3 +778,10 @@ def test_a_policy_with_a_waypoint_is_refused_by_export(tmp_path):
     run = _fake_run(tmp_path, "square4", overrides)
     with pytest.raises(deploy.PolicyError, match="env.waypoint"):
         export.export_policy(run, "ebe", 0)
+
+
+def test_a_policy_that_observes_the_moving_cylinders_is_refused_by_export(tmp_path):
+    overrides = ("preset=modern", "env.observe_moving=2")
+    run = _fake_run(tmp_path, "stage4", overrides)
+    with pytest.raises(deploy.PolicyError, match="env.observe_moving"):
+        export.export_policy(run, "ebe", 0)

@@ -241,3 +241,38 @@ def test_a_test_rollout_records_the_cylinders_where_they_were_at_each_step():
     for t in range(int(res.length[0])):  # the first episode: time t * dt
         real = np.asarray(tr.circles[t])[np.asarray(tr.circles[t])[:, 2] > 0]
         np.testing.assert_allclose(real[:, :2], stage3_centres(0.2 * t), atol=1e-5)
+
+
+@pytest.mark.parametrize("name", ["stage3", "stage4"])
+def test_observe_moving_gives_the_nearest_cylinders_in_the_robot_frame(name):
+    """env.observe_moving against the stage tables' own motion laws, turned into the
+    robot's frame by hand: offsets over the sensor's range, the next step's velocity
+    over the burger's 0.22 m/s, nearest first, clipped to [-1, 1]."""
+    k = 2
+    env, params = jaxnav.make(name, observation="normalised", observe_moving=k)
+    centres = stage3_centres if name == "stage3" else stage4_centres
+    assert env.obs_size == 24 + 4 + 4 * k
+    rng = np.random.default_rng(1)
+    for i, pos in enumerate(ref.sample_free(rng, params.maze, 8, 0.2)):
+        time, yaw = 0.2 * (11 * i + 2), float(rng.uniform(-np.pi, np.pi))
+        now, soon = centres(time), centres(time + 0.2)
+        turn = np.array([[math.cos(yaw), math.sin(yaw)], [-math.sin(yaw), math.cos(yaw)]])
+        offset, velocity = (now - pos) @ turn.T, (soon - now) / 0.2 @ turn.T
+        order = np.argsort(np.linalg.norm(offset, axis=1))[:k]
+        rows = np.concatenate([offset[order] / 3.5, velocity[order] / 0.22], axis=1)
+        want = np.clip(rows, -1.0, 1.0).reshape(-1)
+        obs = env.observe(
+            jax.random.PRNGKey(0),
+            jnp.asarray(pos, jnp.float32),
+            yaw,
+            jnp.zeros(2),
+            params,
+            1.0,
+            time,
+        )
+        np.testing.assert_allclose(np.asarray(obs[-4 * k :]), want, atol=2e-4)
+    # a maze with no moving cylinders reads zeros there, in the same layout
+    env, params = jaxnav.make("square4_obstacles", observation="normalised", observe_moving=k)
+    _, state = env.reset(jax.random.PRNGKey(0), params)
+    obs, *_ = env.step_env(jax.random.PRNGKey(1), state, jnp.int32(STRAIGHT), params)
+    assert obs.shape == (env.obs_size,) and not np.any(np.asarray(obs[-4 * k :]))

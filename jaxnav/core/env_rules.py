@@ -88,6 +88,11 @@ def env_scan_problem(env: Any) -> str | None:
             "env.waypoint is part of the normalised observation: it needs "
             "env.observation normalised"
         )
+    if env.observe_moving and env.observation != "normalised":
+        return (
+            "env.observe_moving is part of the normalised observation: it needs "
+            "env.observation normalised"
+        )
     if env.scan_history and env.observation != "normalised":
         return (
             "env.scan_history is part of the normalised observation: it needs "

@@ -209,6 +209,13 @@ class EnvConfig:
         "by the yaw since it, from odometry) before the changes are taken, so turning in "
         "place does not read as motion and what changes is what moves",
     )
+    observe_moving: int = setting(
+        0,
+        "normalised observation: also the k nearest moving cylinders' position and "
+        "velocity in the robot's frame, as the simulator knows them (no sensor on the "
+        "robot gives them: a diagnosis of what the scan leaves out; export refuses it)",
+        rule=NON_NEGATIVE,
+    )
     waypoint: bool = setting(
         False,
         "normalised observation: also the heading and distance to where the shortest path "

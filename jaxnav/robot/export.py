@@ -67,6 +67,11 @@ def export_policy(
             f"{run_dir}: a policy trained with env.waypoint cannot be exported yet "
             "(the robot side has no path to take the next waypoint from)"
         )
+    if env.observe_moving:
+        raise PolicyError(
+            f"{run_dir}: a policy trained with env.observe_moving cannot be exported (it "
+            "observes where the simulator's moving cylinders are: no robot sensor gives that)"
+        )
     net = fold_dueling(rundir.load_params(params_path, strategy, seed).get("params", {}))
     outputs = 2 * env.action_size if env.continuous else len(np.asarray(params.omegas))
     names = _dense_layers(net, env.obs_size, outputs, params_path)

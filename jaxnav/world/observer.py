@@ -13,7 +13,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from jaxnav.world import sensor
+from jaxnav.world import motion, sensor
 from jaxnav.world.geometry import wrap_angle
 from jaxnav.world.spaces import Box
 from jaxnav.world.state import EnvParams, EnvState
@@ -29,6 +29,7 @@ class Observer:
     scan_history: int
     history_changes: bool
     history_turned: bool
+    observe_moving: int
     waypoint: bool
     generates: bool
     beam_layout: str
@@ -45,7 +46,8 @@ class Observer:
     @property
     def obs_size(self) -> int:
         if self.normalised:
-            return self.n_beams * (1 + self.scan_history) + 4 + (2 if self.waypoint else 0)
+            extra = (2 if self.waypoint else 0) + 4 * self.observe_moving
+            return self.n_beams * (1 + self.scan_history) + 4 + extra
         return self.n_beams + 2 + (2 if self.obstacle_obs else 0)
 
     def observation_space(self, params: EnvParams) -> Box:
@@ -53,6 +55,7 @@ class Observer:
             low = [0.0] * self.n_beams + [-1.0, 0.0, -1.0, -1.0]
             low += [-1.0, 0.0] if self.waypoint else []
             low += [-1.0 if self.history_changes else 0.0] * (self.n_beams * self.scan_history)
+            low += [-1.0] * (4 * self.observe_moving)
             high = [1.0] * self.obs_size
             return Box(np.asarray(low, np.float32), np.asarray(high, np.float32), (self.obs_size,))
         bounds = np.asarray(jax.device_get(params.maze.bounds))  # host side, not under jit
@@ -120,6 +123,8 @@ class Observer:
                 elif self.history_changes:  # or each beam's change since each of them
                     scans = sensor.history_changes(obs[: self.n_beams], scans)
                 obs = jnp.concatenate([obs, scans.reshape(-1)])
+            if self.observe_moving:  # where the moving cylinders are and go: privileged
+                obs = jnp.concatenate([obs, self._moving(pos, yaw, params, scale, time)])
             return obs
         return sensor.observation(
             key,
@@ -133,6 +138,18 @@ class Observer:
             dropout=self.beam_dropout,
             odom_std=self.odom_noise,
             obstacle_obs=self.obstacle_obs,
+        )
+
+    def _moving(self, pos, yaw, params: EnvParams, scale, time) -> chex.Array:
+        """f32[4 observe_moving]: the nearest moving cylinders as the simulator knows them
+        (:func:`jaxnav.world.sensor.moving_features`); zeros in a maze with none."""
+        maze = self.maze_at(params, scale)
+        if maze.motion is None:
+            return jnp.zeros(4 * self.observe_moving, jnp.float32)
+        now = motion.positions(maze.motion, time)
+        soon = motion.positions(maze.motion, time + params.dt)
+        return sensor.moving_features(
+            pos, yaw, now, soon, params.dt, self.observe_moving, params.max_range
         )
 
     def beam_ranges(

@@ -226,6 +226,35 @@ def normalised_state(
     return jnp.concatenate(parts).astype(jnp.float32)
 
 
+def moving_features(
+    pos: chex.Array,
+    yaw: chex.Array,
+    now: chex.Array,
+    soon: chex.Array,
+    dt,
+    k: int,
+    max_range,
+) -> chex.Array:
+    """f32[4 k]: the k moving cylinders nearest the robot, nearest first, each as its
+    centre's offset from the robot in the robot's frame (x ahead, y to the left) over
+    the sensor's range and its velocity over the next step in the same frame over the
+    burger's top speed, all clipped to [-1, 1]; zeros where the maze has fewer than k.
+    ``now``, ``soon``: f32[M, 2] their centres at this step's time and ``dt`` s later."""
+    c, s = jnp.cos(yaw), jnp.sin(yaw)
+
+    def robot_frame(d):  # world vectors [M, 2] turned by -yaw
+        return jnp.stack([c * d[:, 0] + s * d[:, 1], -s * d[:, 0] + c * d[:, 1]], axis=1)
+
+    offset = robot_frame(now - pos[None, :])
+    velocity = robot_frame((soon - now) / dt)
+    order = jnp.argsort(jnp.sum(offset**2, axis=1))[:k]
+    rows = jnp.concatenate([offset[order] / max_range, velocity[order] / BURGER_MAX_V], axis=1)
+    rows = jnp.clip(rows, -1.0, 1.0)
+    if rows.shape[0] < k:  # a maze with fewer moving cylinders than observed
+        rows = jnp.concatenate([rows, jnp.zeros((k - rows.shape[0], 4), rows.dtype)])
+    return rows.reshape(-1).astype(jnp.float32)
+
+
 def normalised_observation(
     key: chex.PRNGKey,
     ranges: chex.Array,
