@@ -1,0 +1,90 @@
+"""scripts/collision_causes.py: what a policy's test collisions hit, by hand-built cases
+and against the test's own count of collisions."""
+
+from __future__ import annotations
+
+import importlib.util
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from _tiny_run import tiny_run
+
+SCRIPTS = Path(__file__).resolve().parent.parent / "scripts"
+
+
+def _load(name: str):
+    spec = importlib.util.spec_from_file_location(name, SCRIPTS / f"{name}.py")
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[name] = module
+    spec.loader.exec_module(module)
+    return module
+
+
+causes = _load("collision_causes")
+WALL = np.array([[0.2, -1.0, 0.2, 1.0]])  # x = 0.2, 0.2 m ahead of a robot at the origin
+NONE = np.zeros((0, 3))
+DT = 0.2
+
+
+def test_the_nearest_surface_is_what_the_robot_hit():
+    far = np.array([[0.0, 0.4, 0.12]])  # 0.28 m from the robot's centre: the wall is nearer
+    c = causes.cause(np.zeros(2), 0.0, 0.0, WALL, NONE, far, far, DT)
+    assert c.surface == "wall" and c.gap == pytest.approx(0.2)
+    standing = np.array([[-0.25, 0.0, 0.1]])  # a standing cylinder counts as a wall
+    c = causes.cause(np.zeros(2), 0.0, 0.0, WALL, standing, far, far, DT)
+    assert c.surface == "wall" and c.gap == pytest.approx(0.15)
+
+
+def test_a_cylinder_that_comes_at_a_still_robot_from_the_side_closed_the_gap():
+    now, before = np.array([[0.0, 0.25, 0.12]]), np.array([[0.0, 0.29, 0.12]])
+    c = causes.cause(np.zeros(2), 0.0, 0.0, WALL, NONE, now, before, DT)
+    assert c.surface == "moving" and c.gap == pytest.approx(0.13)
+    assert c.bearing == pytest.approx(90.0) and c.stopped
+    assert c.cylinder_closing == pytest.approx(0.2) and c.robot_closing == 0.0
+
+
+def test_a_robot_driving_into_a_cylinder_ahead_closed_the_gap():
+    now = np.array([[0.0, 0.0, 0.12]])
+    pos, yaw = np.array([-0.25, 0.0]), 0.0  # heading +x, the cylinder 0.25 m ahead
+    c = causes.cause(pos, yaw, 0.22, NONE.reshape(0, 4), NONE, now, now, DT)
+    assert c.bearing == pytest.approx(0.0) and not c.stopped
+    assert c.robot_closing == pytest.approx(0.22) and c.cylinder_closing == pytest.approx(0.0)
+    # the same cylinder behind a robot turned round, catching it up at 0.1 m/s
+    before = np.array([[0.02, 0.0, 0.12]])
+    c = causes.cause(pos, np.pi, 0.05, NONE.reshape(0, 4), NONE, now, before, DT)
+    assert c.bearing == pytest.approx(180.0)
+    assert c.robot_closing == pytest.approx(-0.05) and c.cylinder_closing == pytest.approx(0.1)
+    # at an episode's first step there is no step before: no velocity
+    c = causes.cause(pos, yaw, 0.22, NONE.reshape(0, 4), NONE, now, None, DT)
+    assert c.cylinder_closing == 0.0
+
+
+def test_the_summary_counts_and_shares():
+    found = [
+        causes.Cause("wall", 0.1),
+        causes.Cause("moving", 0.1, 0.0, 0.2, 90.0, True),
+        causes.Cause("moving", 0.1, 0.2, 0.0, 10.0, False),
+        causes.Cause("moving", 0.1, 0.0, 0.1, 170.0, True),
+    ]
+    s = causes.summary(found)
+    assert (s["collisions"], s["wall"], s["moving"]) == (4, 1, 3)
+    assert s["cylinder closed faster"] == pytest.approx(2 / 3)
+    assert (s["ahead"], s["beside"], s["behind"]) == pytest.approx((1 / 3, 1 / 3, 1 / 3))
+    assert s["robot stopped"] == pytest.approx(2 / 3)
+
+
+def test_every_collision_of_the_test_is_counted_once(tmp_path_factory):
+    """The paper's tiny run tested on stage 3, whose cylinders spin round its start:
+    every collision the test's episodes end in is found, each with a moving cylinder
+    (stage 3's walls lie beyond the ring the cylinders sweep)."""
+    from jaxnav.experiments.evaluation import load_run
+    from jaxnav.experiments.rollout import padded_mazes, run_tests
+
+    _, run_dir = tiny_run(tmp_path_factory)
+    found = causes.run_causes(str(run_dir), "stage3", 3)["stage3"]
+    res = run_tests(load_run(run_dir).policies, padded_mazes(["stage3"]), 3)[0]
+    assert len(found) == int(np.asarray(res.collided).sum()) > 0  # one per episode, at most
+    reach = 0.13 + DT * (0.15 + 0.43)  # the robot's radius and what both move in a step
+    assert all(c.surface == "moving" and c.gap < reach for c in found)
