@@ -122,6 +122,10 @@ class NavEnv(GoalSampler, DrawnLayouts, Observer):
       maze_scale: (low, high): each episode scales the maze (walls, obstacle
         positions, goals, start) by a factor drawn uniformly from this range;
         obstacle radii keep their size. (1, 1) is off.
+      motion_pace: (low, high): each episode runs the moving cylinders at a pace drawn
+        uniformly from this range times their own (0: standing at their first pose),
+        their loops unchanged: a training distribution; a run's test plays them at
+        their own pace. (1, 1) is off.
       wheel_limit: drive each action's (v, omega) as the burger's firmware does
         (:func:`jaxnav.world.kinematics.firmware_limit`: a wheel at most 0.21 m/s).
     Range noise is ``EnvParams.lidar_noise_std``.
@@ -221,6 +225,7 @@ class NavEnv(GoalSampler, DrawnLayouts, Observer):
     odom_noise: tuple[float, float] = (0.0, 0.0)
     random_start: bool = False
     maze_scale: tuple[float, float] = (1.0, 1.0)
+    motion_pace: tuple[float, float] = (1.0, 1.0)
     wheel_limit: bool = False
     collision: str = "disc"
     goal_sampler: str = "free"
@@ -375,15 +380,33 @@ class NavEnv(GoalSampler, DrawnLayouts, Observer):
 
     # -- observation ---------------------------------------------------------
 
-    def maze_at(self, params: EnvParams, scale: chex.Array, time=None) -> Maze:
-        """The maze of an episode: ``params.maze``, scaled if ``maze_scale`` is on; at
-        ``time`` (s) its moving cylinders join the static ones where they are then."""
+    def maze_at(self, params: EnvParams, scale: chex.Array, time=None, pace=None) -> Maze:
+        """The maze of an episode: ``params.maze``, scaled if ``maze_scale`` is on, its
+        cylinders moving at the episode's ``pace`` (``EnvState.pace``; None: their own);
+        at ``time`` (s) its moving cylinders join the static ones where they are then."""
         maze = scale_maze(params.maze, scale) if self.scales_maze else params.maze
+        if pace is not None and maze.motion is not None:
+            maze = maze.replace(motion=motion.paced(maze.motion, pace))
         return maze if time is None else motion.frozen_at(maze, time)
 
-    def circles_at(self, params: EnvParams, scale: chex.Array, t: chex.Array) -> chex.Array:
+    def circles_at(
+        self, params: EnvParams, scale: chex.Array, t: chex.Array, pace=None
+    ) -> chex.Array:
         """f32[k, 3]: every cylinder (static, then moving) after ``t`` steps."""
-        return self.maze_at(params, scale, t * params.dt).circles
+        return self.maze_at(params, scale, t * params.dt, pace).circles
+
+    @property
+    def paces_motion(self) -> bool:
+        """Whether each episode draws its moving cylinders' pace (``motion_pace``)."""
+        return tuple(self.motion_pace) != (1.0, 1.0)
+
+    def _episode_pace(self, key: chex.PRNGKey) -> chex.Array | None:
+        """This episode's pace of the moving cylinders, from ``fold_in(key, 6)``; None
+        when ``motion_pace`` is off (no draw, no leaf in the state)."""
+        if not self.paces_motion:
+            return None
+        lo, hi = self.motion_pace
+        return jax.random.uniform(jax.random.fold_in(key, 6), (), jnp.float32, lo, hi)
 
     # -- API -----------------------------------------------------------------
 
@@ -405,8 +428,10 @@ class NavEnv(GoalSampler, DrawnLayouts, Observer):
         pos, yaw = self._start_pose(key, params, goal, scale)
         scale = jnp.asarray(scale, jnp.float32)
         state = new_episode(pos, yaw, goal, scale, self.action_delay, maze, maze_episodes)
-        state = self._with_world(state, params, cell_dist)
-        obs = self.observe(k_obs, pos, yaw, goal, params, scale, cell_dist=state.cell_dist)
+        state = self._with_world(state.replace(pace=self._episode_pace(key)), params, cell_dist)
+        obs = self.observe(
+            k_obs, pos, yaw, goal, params, scale, cell_dist=state.cell_dist, pace=state.pace
+        )
         return obs, self._first_scans(state, obs)
 
     def _with_world(self, state: EnvState, params: EnvParams, cell_dist=None) -> EnvState:
@@ -416,7 +441,9 @@ class NavEnv(GoalSampler, DrawnLayouts, Observer):
             cell_dist = self.family.cell_distances(params.maze)
         last = jnp.zeros(2, jnp.float32) if self.normalised else None  # at rest
         return state.replace(
-            circles=self.circles_at(params, state.scale, 0), cell_dist=cell_dist, last_command=last
+            circles=self.circles_at(params, state.scale, 0, state.pace),
+            cell_dist=cell_dist,
+            last_command=last,
         )
 
     def step_env(self, key: chex.PRNGKey, state: EnvState, action: chex.Array, params: EnvParams):
@@ -425,7 +452,7 @@ class NavEnv(GoalSampler, DrawnLayouts, Observer):
         k_goal, k_obs = step_keys(key)
         applied = state.pending_action if self.action_delay else action
         v, omega = self.command(params, applied)
-        maze = self.maze_at(params, state.scale)
+        maze = self.maze_at(params, state.scale, pace=state.pace)
         clearance = motion.step_clearance(
             maze, state.pos, state.yaw, omega, v, params.dt, state.t * params.dt
         )
@@ -435,7 +462,15 @@ class NavEnv(GoalSampler, DrawnLayouts, Observer):
         time = t * params.dt  # the scan after the step sees the cylinders at this time
         if self.collision == "lidar":  # the scan after the step, as ROBOTIS reads it
             ranges = self.observe(
-                k_obs, pos, yaw, state.goal, params, state.scale, time, cell_dist=state.cell_dist
+                k_obs,
+                pos,
+                yaw,
+                state.goal,
+                params,
+                state.scale,
+                time,
+                cell_dist=state.cell_dist,
+                pace=state.pace,
             )
             nearest = jnp.min(ranges[: self.n_beams])
             collided = (nearest < params.robot_radius) | (clearance < BURGER_RADIUS)
@@ -481,7 +516,7 @@ class NavEnv(GoalSampler, DrawnLayouts, Observer):
             t=t,
             goal_distance0=d0,
             pending_action=action if self.action_delay else None,
-            circles=self.circles_at(params, state.scale, t),
+            circles=self.circles_at(params, state.scale, t, state.pace),
         )
         last = None
         if self.normalised:  # the command just driven is part of the next observation
@@ -499,6 +534,7 @@ class NavEnv(GoalSampler, DrawnLayouts, Observer):
             state.scans,
             state.cell_dist,
             state.scan_yaws,
+            state.pace,
         )
         if self.scan_history:  # this scan joins the history, the oldest leaves
             new_state = self._newer_scans(new_state, obs)
@@ -522,8 +558,9 @@ class NavEnv(GoalSampler, DrawnLayouts, Observer):
         scale = jnp.asarray(scale, jnp.float32)
         if self.scales_maze:  # the kept goal moves with the maze
             goal = goal * (scale / state.scale)
-        obs = self.observe(key, pos, yaw, goal, params, scale)
-        state = new_episode(pos, yaw, goal, scale, self.action_delay)
+        pace = self._episode_pace(key)
+        obs = self.observe(key, pos, yaw, goal, params, scale, pace=pace)
+        state = new_episode(pos, yaw, goal, scale, self.action_delay).replace(pace=pace)
         return obs, self._first_scans(self._with_world(state, params), obs)
 
     def step(self, key: chex.PRNGKey, state: EnvState, action: chex.Array, params: EnvParams):
@@ -597,6 +634,8 @@ def make(
         values["speeds"] = jnp.asarray([v for v, _ in table], jnp.float32)
         values["omegas"] = jnp.asarray([w for _, w in table], jnp.float32)
     params = EnvParams(maze=maze_obj, **values)
+    if env.paces_motion and maze_obj.motion is None:
+        raise ValueError(f"env.motion_pace paces moving cylinders: maze {maze!r} has none")
     if env.attempt_limit > int(params.max_steps):
         raise ValueError(
             f"attempt_limit ({env.attempt_limit}) must not exceed max_steps ({params.max_steps})"

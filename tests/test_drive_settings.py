@@ -251,6 +251,8 @@ def test_the_learning_rate_falls_linearly_to_zero():
         (["env.scan_beams=30"], "must be 0 or a multiple of env.n_beams"),
         (["env.scan_history=2"], "needs env.observation normalised"),
         (["env.observe_moving=2"], "env.observe_moving is part of the normalised observation"),
+        (["env.motion_pace=[0,1]", "env.generator=grid"], "drawn mazes have none"),
+        (["env.motion_pace=[1,0.5]"], "env.motion_pace must be"),
         (["env.observation=normalised", "env.history_changes=true"], "needs env.scan_history"),
         (
             ["env.observation=normalised", "env.scan_history=2", "env.history_turned=true"],

@@ -504,3 +504,20 @@ def test_a_run_is_tested_in_other_environment_settings_when_asked(run, tmp_path)
         src, out=tmp_path / "eval", references=(), overrides=["env.random_start=true"]
     )
     assert "tested with env.random_start=true" in (out / "tables.md").read_text()
+
+
+def test_a_paced_run_is_tested_at_the_worlds_own_pace(tmp_path):
+    """env.motion_pace is a training distribution: the test, and each periodic
+    evaluation, play the moving cylinders at their own pace unless a test setting
+    asks for another."""
+    from jaxnav.core.config import dump_config, load_config
+    from jaxnav.experiments.evaluation import tested_config
+
+    cfg = load_config(None, ["env.maze=stage4", "env.motion_pace=[0.5,2]"])
+    path = tmp_path / "config.yaml"
+    path.write_text(dump_config(cfg))
+    assert tuple(tested_config(path).env.motion_pace) == (1.0, 1.0)
+    assert tuple(tested_config(path, ["env.motion_pace=[2,2]"]).env.motion_pace) == (2.0, 2.0)
+    plain = tmp_path / "plain.yaml"
+    plain.write_text(dump_config(load_config(None, ["env.maze=stage4"])))
+    assert tested_config(plain) == load_config(str(plain))

@@ -276,3 +276,40 @@ def test_observe_moving_gives_the_nearest_cylinders_in_the_robot_frame(name):
     _, state = env.reset(jax.random.PRNGKey(0), params)
     obs, *_ = env.step_env(jax.random.PRNGKey(1), state, jnp.int32(STRAIGHT), params)
     assert obs.shape == (env.obs_size,) and not np.any(np.asarray(obs[-4 * k :]))
+
+
+@pytest.mark.parametrize("name, pace", [("stage3", 0.5), ("stage4", 1.5), ("stage4", 0.0)])
+def test_a_paced_episode_moves_the_cylinders_along_their_own_laws_at_that_pace(name, pace):
+    """env.motion_pace: the cylinders after t steps stand where the stage tables' laws
+    put them at pace * t * dt (0: their first pose), seen by the LiDAR there too."""
+    env, params = jaxnav.make(name, motion_pace=(pace, pace))
+    centres = stage3_centres if name == "stage3" else stage4_centres
+    _, state = env.reset(jax.random.PRNGKey(0), params)
+    assert float(state.pace) == pytest.approx(pace)
+    step = jax.jit(env.step_env)
+    for t in range(1, 6):
+        obs, state, *_ = step(jax.random.PRNGKey(t), state, jnp.int32(STRAIGHT), params)
+        real = np.asarray(state.circles)[np.asarray(state.circles)[:, 2] > 0]
+        np.testing.assert_allclose(real[:, :2], centres(pace * 0.2 * t), atol=1e-4)
+    walls, radius = params.maze.walls().astype(np.float64), real[0, 2]
+    circles = np.concatenate([centres(pace * 0.2 * 5), np.full((len(real), 1), radius)], 1)
+    want = ref.lidar(np.asarray(state.pos)[None], np.asarray([state.yaw]), walls, circles, 24)
+    np.testing.assert_allclose(np.asarray(obs[:24]), want[0], atol=2e-4)
+
+
+def test_each_episode_draws_its_pace_and_off_leaves_the_state_as_it_was():
+    env, params = jaxnav.make("stage4", motion_pace=(0.5, 2.0))
+    paces = [float(env.reset(jax.random.PRNGKey(k), params)[1].pace) for k in range(40)]
+    assert 0.5 <= min(paces) < 0.8 and 1.7 < max(paces) <= 2.0  # uniform over the range
+    _, restarted = env.restart(
+        jax.random.PRNGKey(99), env.reset(jax.random.PRNGKey(0), params)[1], params
+    )
+    assert float(restarted.pace) not in paces[:1]  # a restart draws again
+    env, params = jaxnav.make("stage4")
+    _, state = env.reset(jax.random.PRNGKey(0), params)
+    assert state.pace is None  # no leaf: the paper's and every other run are unchanged
+
+
+def test_a_pace_where_nothing_moves_is_refused():
+    with pytest.raises(ValueError, match="env.motion_pace paces moving cylinders"):
+        jaxnav.make("square4_obstacles", motion_pace=(0.0, 1.0))

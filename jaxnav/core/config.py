@@ -20,6 +20,7 @@ import os
 import re
 import sys
 import typing
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -145,6 +146,17 @@ class Config:
             swept = [sweeps.value_text(values[k]) if k in values else "" for k in keys]
             out.append((strategy, *swept, seed))
         return out
+
+    def tested(self, overrides: Sequence[str] = ()) -> Config:
+        """This config as a test plays its world: the moving cylinders at their own
+        pace (``env.motion_pace`` is a training distribution), unless ``overrides``
+        (the test's ``key=value`` settings, already applied) set it."""
+        own = (1.0, 1.0)
+        if tuple(self.env.motion_pace) == own or any(
+            o.startswith("env.motion_pace=") for o in overrides
+        ):
+            return self
+        return dataclasses.replace(self, env=dataclasses.replace(self.env, motion_pace=own))
 
     def at(self, point: sweeps.Point) -> Config:
         """This config at one sweep point: the point's values set, no sweep."""

@@ -38,6 +38,8 @@ def env_reward_problem(env: Any) -> str | None:
 
 def env_bank_problem(env: Any) -> str | None:
     """What is wrong with the maze bank's setting given the maze settings, or None."""
+    if tuple(env.motion_pace) != (1.0, 1.0) and env.generator:
+        return "env.motion_pace paces moving cylinders: drawn mazes have none (env.generator)"
     if env.maze_bank and not env.generator:
         return "env.maze_bank draws layouts ahead: it needs drawn mazes (env.generator)"
     if env.maze_bank_refresh and not env.maze_bank:

@@ -17,6 +17,7 @@ from jaxnav.core.settings import (
     BURGER_MAX_OMEGA,
     BURGER_MAX_V,
     NON_NEGATIVE,
+    PACE_RANGE,
     PAIR_NON_NEGATIVE,
     POSITIVE,
     PRESETS,
@@ -71,6 +72,13 @@ class EnvConfig:
     random_start: bool = setting(False, "each episode starts at a random free pose")
     maze_scale: tuple[float, ...] = setting(
         (1.0, 1.0), "per-episode maze scale drawn from [low, high]", rule=SCALE_RANGE
+    )
+    motion_pace: tuple[float, ...] = setting(
+        (1.0, 1.0),
+        "training: each episode runs the moving cylinders at a pace drawn from [low, high] "
+        "times their own (0: standing still), the same loops; a run's test plays them at "
+        "their own pace",
+        rule=PACE_RANGE,
     )
     wheel_limit: bool = setting(
         False, "drive each action as the burger's firmware clips it (wheels at most 0.21 m/s)"

@@ -142,6 +142,10 @@ PAIR_NON_NEGATIVE = (
     lambda x: _pair(x) and min(x) >= 0,
     "must be [position std, yaw std], both non-negative",
 )
+PACE_RANGE = (
+    lambda x: _pair(x) and 0.0 <= x[0] <= x[1] <= 4.0,
+    "must be [low, high] with 0 <= low <= high <= 4",
+)
 SCALE_RANGE = (
     lambda x: _pair(x) and 0.5 <= x[0] <= x[1] <= 2.0,
     "must be [low, high] with 0.5 <= low <= high <= 2",

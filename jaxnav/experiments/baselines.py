@@ -122,8 +122,8 @@ def world_config(world: str, overrides: Sequence[str] = ()) -> Config:
     else a maze (a built-in maze's name or a maze file) in the default settings, the
     paper's; ``overrides`` (``key=value``) apply on top."""
     path = resolve_config_path(world)
-    if os.path.isfile(path) and not _is_maze_file(path):
-        return load_config(path, list(overrides))
+    if os.path.isfile(path) and not _is_maze_file(path):  # tested as a run of it is
+        return load_config(path, list(overrides)).tested(overrides)
     make_maze(world)  # a maze, or a one-line error naming what it is not
     return load_config(None, [f"env.maze={world}", *overrides])
 

@@ -67,7 +67,7 @@ def load_run(run_dir: str | Path, overrides: Sequence[str] = ()) -> LoadedRun:
     those they trained in (:func:`test_overrides`)."""
     run_dir = rundir.existing(run_dir, finished=True)
     cfg_path, params_path = run_dir / rundir.CONFIG, run_dir / rundir.PARAMS
-    cfg = load_config(str(cfg_path), list(test_overrides(overrides)))
+    cfg = tested_config(cfg_path, overrides)
     env, env_params = from_config(cfg)
     if env.generates:  # trained on drawn mazes: tested on the fixed test mazes by name
         # (and on drawn ones: drawn_policies). A fixed maze has no grid of shortest
@@ -133,6 +133,13 @@ def test_overrides(overrides: Sequence[str]) -> Sequence[str]:
                 f"{o}: a run is tested with other environment settings only (env.KEY=VALUE)"
             )
     return overrides
+
+
+def tested_config(cfg_path: Path, overrides: Sequence[str] = ()) -> Config:
+    """The config a run's policies are tested in: the run's, with ``overrides``
+    (:func:`test_overrides`), and its moving cylinders at their own pace
+    (``env.motion_pace`` is a training distribution) unless an override sets it."""
+    return load_config(str(cfg_path), list(test_overrides(overrides))).tested(overrides)
 
 
 def trained_on(cfg: Config) -> str:

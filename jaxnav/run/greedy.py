@@ -147,6 +147,8 @@ class GreedyEval:
         env = trainer.env
         if env.generates:
             env = dataclasses.replace(env, new_maze_every=1)
+        if env.paces_motion:  # the moving cylinders at their own pace, as the test has them
+            env = dataclasses.replace(env, motion_pace=(1.0, 1.0))
         rollout = make_rollout(
             env,
             agents.get(cfg.agent).network_of(cfg, trainer.env),

@@ -153,6 +153,16 @@ def circles_at(motion: Motion, time: chex.Array) -> chex.Array:
     return jnp.concatenate([positions(motion, time), motion.radius[:, None]], axis=1)
 
 
+def paced(motion: Motion, pace: chex.Array) -> Motion:
+    """``motion`` run ``pace`` times as fast (f32[]; 0 stands still at the first pose):
+    the same loops and turns, the cylinder at time t where ``motion`` has it at
+    ``pace * t``."""
+    rate = jnp.maximum(jnp.asarray(pace, jnp.float32), 1e-6)  # 0: keyframes out of reach
+    return motion.replace(
+        times=motion.times / rate, period=motion.period / rate, spin=motion.spin * pace
+    )
+
+
 def loop_paths(motion: Motion, n: int = 400) -> np.ndarray:
     """f64[M, n, 2] host side: each cylinder's centre over its longest cycle (for
     drawing): the loop's period, or a full turn when it spins."""
@@ -219,5 +229,6 @@ __all__ = [
     "pad_motion",
     "parked",
     "positions",
+    "paced",
     "step_clearance",
 ]

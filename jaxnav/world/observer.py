@@ -80,13 +80,15 @@ class Observer:
         scans: chex.Array | None = None,
         cell_dist: chex.Array | None = None,
         scan_yaws: chex.Array | None = None,
+        pace: chex.Array | None = None,
     ) -> chex.Array:
         """The observation f32[obs_size], the moving cylinders (if any) where they are at
         ``time`` (s into the episode): the ROBOTIS state [ranges, heading, distance(, min
         range, argmin beam)], or the normalised one with ``last_command`` (v, omega)
         and, with ``waypoint``, the next point of the shortest path (a drawn maze's, from
-        its ``cell_dist``; on a fixed maze the goal)."""
-        maze = self.maze_at(params, scale, time)
+        its ``cell_dist``; on a fixed maze the goal); ``pace``: the episode's pace of the
+        moving cylinders (None: their own)."""
+        maze = self.maze_at(params, scale, time, pace)
         if self.scan_beams:  # a finer scan, the least range of each sector observed
             fine = self.beam_ranges(maze, pos, yaw, self.scan_beams)
             ranges = sensor.pooled_ranges(fine, self.n_beams)
@@ -124,7 +126,8 @@ class Observer:
                     scans = sensor.history_changes(obs[: self.n_beams], scans)
                 obs = jnp.concatenate([obs, scans.reshape(-1)])
             if self.observe_moving:  # where the moving cylinders are and go: privileged
-                obs = jnp.concatenate([obs, self._moving(pos, yaw, params, scale, time)])
+                moving = self._moving(pos, yaw, params, scale, time, pace)
+                obs = jnp.concatenate([obs, moving])
             return obs
         return sensor.observation(
             key,
@@ -140,10 +143,10 @@ class Observer:
             obstacle_obs=self.obstacle_obs,
         )
 
-    def _moving(self, pos, yaw, params: EnvParams, scale, time) -> chex.Array:
+    def _moving(self, pos, yaw, params: EnvParams, scale, time, pace=None) -> chex.Array:
         """f32[4 observe_moving]: the nearest moving cylinders as the simulator knows them
         (:func:`jaxnav.world.sensor.moving_features`); zeros in a maze with none."""
-        maze = self.maze_at(params, scale)
+        maze = self.maze_at(params, scale, pace=pace)
         if maze.motion is None:
             return jnp.zeros(4 * self.observe_moving, jnp.float32)
         now = motion.positions(maze.motion, time)

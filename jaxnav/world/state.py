@@ -84,6 +84,9 @@ class EnvState:
     # f32[k]: the heading each of those scans was taken at; with NavEnv.history_turned
     # only (the observation turns each scan to the heading now).
     scan_yaws: chex.Array | None = None
+    # f32[]: this episode's pace of the moving cylinders (NavEnv.motion_pace); None (no
+    # leaf) when it is off, so the state is unchanged.
+    pace: chex.Array | None = None
 
 
 def step_keys(key: chex.PRNGKey) -> tuple[chex.Array, chex.Array]:
