@@ -198,3 +198,17 @@ def test_a_bad_evaluation_setting_is_one_line_and_exit_2(arg, message, tmp_path,
     assert main([arg, "--out", str(tmp_path / "run")]) == 2
     err = capsys.readouterr().err.strip()
     assert message in err and "\n" not in err and not (tmp_path / "run").exists()
+
+
+def test_the_periodic_evaluation_plays_the_world_as_the_test_does():
+    """A new drawn layout every episode, and the moving cylinders at their own pace
+    (env.motion_pace is a training distribution), whatever training used."""
+    import jaxnav
+    from jaxnav.run.greedy import evaluation_env
+
+    env, _ = jaxnav.make("stage4", motion_pace=(0.0, 2.0))
+    assert evaluation_env(env).motion_pace == (1.0, 1.0)
+    env, _ = jaxnav.make(generator="grid", new_maze_every=10)
+    assert evaluation_env(env).new_maze_every == 1
+    env, _ = jaxnav.make("stage4")
+    assert evaluation_env(env) == env

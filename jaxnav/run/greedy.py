@@ -37,6 +37,7 @@ from jaxnav.agent.trainer import Trainer
 from jaxnav.core import agents, rundir, sweep
 from jaxnav.core.config import Config
 from jaxnav.core.startup import process_age
+from jaxnav.env import NavEnv
 from jaxnav.report.navigation import COLLISION, CUT, SUCCESS, TIMEOUT, run_attempts
 from jaxnav.run.checkpoint import leaf_names
 
@@ -124,6 +125,19 @@ class BestPolicy:
         self.step = np.asarray(host["best.step"], np.int64)
 
 
+def evaluation_env(env: NavEnv) -> NavEnv:
+    """The environment the periodic evaluation plays: the training one, with drawn
+    mazes a new layout every episode, as jaxnav evaluate tests, whatever
+    env.new_maze_every training keeps one for (a greedy policy replays its failure in a
+    kept layout, so N episodes would be N / new_maze_every layouts), and the moving
+    cylinders at their own pace (env.motion_pace is training's), as the test has them."""
+    if env.generates:
+        env = dataclasses.replace(env, new_maze_every=1)
+    if env.paces_motion:
+        env = dataclasses.replace(env, motion_pace=(1.0, 1.0))
+    return env
+
+
 class GreedyEval:
     """The evaluations of a run's policies while it trains, and their log.
 
@@ -141,16 +155,8 @@ class GreedyEval:
         self.grain = math.lcm(trainer.step_size, block)
         self.log = rundir.CsvLog(out / rundir.EVAL, sweep.with_swept(EVAL_COLUMNS, cfg.sweep))
         self.shard = shard
-        # Drawn mazes: a new layout every episode, as jaxnav evaluate tests, whatever
-        # env.new_maze_every training keeps one for (a greedy policy replays its
-        # failure in a kept layout, so N episodes would be N / new_maze_every layouts).
-        env = trainer.env
-        if env.generates:
-            env = dataclasses.replace(env, new_maze_every=1)
-        if env.paces_motion:  # the moving cylinders at their own pace, as the test has them
-            env = dataclasses.replace(env, motion_pace=(1.0, 1.0))
         rollout = make_rollout(
-            env,
+            evaluation_env(trainer.env),
             agents.get(cfg.agent).network_of(cfg, trainer.env),
             self.n_episodes,
             int(trainer.env_params.max_steps),
