@@ -158,8 +158,8 @@ def test_switches_off_leave_no_trace():
         k: v[0] for k, v in ROBOTIS_SWITCHES.items()
     }
     _, state = env.reset(jax.random.PRNGKey(0), params)
-    # the fields of the switches, of drawn mazes and of the optional observation parts
-    # (the last command, the scan history) are absent, not zeros
+    # the fields of the switches, of drawn mazes, of the optional observation parts
+    # (the last command, the scan history) and of the cylinders' pace are absent, not zeros
     optional = (
         "pending_action",
         "maze",
@@ -168,6 +168,7 @@ def test_switches_off_leave_no_trace():
         "last_command",
         "scans",
         "scan_yaws",
+        "pace",
     )
     assert all(getattr(state, k) is None for k in optional)
     assert len(jax.tree.leaves(state)) == len(EnvState.__dataclass_fields__) - len(optional)
