@@ -179,7 +179,7 @@ class NavEnv(GoalSampler, DrawnLayouts, Observer):
         to its goal; ``progress_path`` "geodesic": along the shortest path through a grid
         maze, as the geodesic shaping measures it). Beside any of them,
         ``EnvParams.step_penalty`` and ``proximity_penalty`` are taken from every step
-        that neither reaches nor collides (:func:`jaxnav.world.reward.penalties`).
+        that neither reaches nor collides (:func:`jaxnav.world.reward.progress_reward`).
 
     Actions and observation (beyond the paper; both off by default):
       actions: "paper" (``EnvParams.omegas`` at the constant ``v``) or a set of
