@@ -3,7 +3,7 @@ witness.
 
 ROBOTIS' stage 3 spins four cylinders about the robot's start, inside the ring they
 sweep, and every goal lies beyond it. The oracle (``jaxnav/planners/oracle.py``) plans
-1.4 s ahead, finds no plan clear of the cylinders and keeps clear, so it reaches no
+2.8 s ahead there, finds no plan clear of the cylinders and keeps clear, so it reaches no
 goal there; ``scripts/moving_reach.py`` shows that speed alone does not rule the world
 out. This script settles it for one action set: it searches, breadth first in time,
 the sequences of the world's actions from the start pose at time 0, each step with the
