@@ -56,7 +56,9 @@ from jaxnav.core.settings import (
     BURGER_MAX_V,
     CONTINUOUS,
     CONTINUOUS_TWIN,
+    OWN_PACE,
     PRESETS,
+    paces_motion,
 )
 from jaxnav.world import motion
 from jaxnav.world.geometry import (
@@ -225,7 +227,7 @@ class NavEnv(GoalSampler, DrawnLayouts, Observer):
     odom_noise: tuple[float, float] = (0.0, 0.0)
     random_start: bool = False
     maze_scale: tuple[float, float] = (1.0, 1.0)
-    motion_pace: tuple[float, float] = (1.0, 1.0)
+    motion_pace: tuple[float, float] = OWN_PACE
     wheel_limit: bool = False
     collision: str = "disc"
     goal_sampler: str = "free"
@@ -389,6 +391,11 @@ class NavEnv(GoalSampler, DrawnLayouts, Observer):
             maze = maze.replace(motion=motion.paced(maze.motion, pace))
         return maze if time is None else motion.frozen_at(maze, time)
 
+    def episode_maze(self, params: EnvParams, state: EnvState) -> Maze:
+        """The maze of ``state``'s episode: its drawn maze (if drawn), scaled and paced as
+        the episode is, its moving cylinders still on their loops."""
+        return self.maze_at(self.in_maze(params, state), state.scale, pace=state.pace)
+
     def circles_at(
         self, params: EnvParams, scale: chex.Array, t: chex.Array, pace=None
     ) -> chex.Array:
@@ -398,7 +405,7 @@ class NavEnv(GoalSampler, DrawnLayouts, Observer):
     @property
     def paces_motion(self) -> bool:
         """Whether each episode draws its moving cylinders' pace (``motion_pace``)."""
-        return tuple(self.motion_pace) != (1.0, 1.0)
+        return paces_motion(self.motion_pace)
 
     def _episode_pace(self, key: chex.PRNGKey) -> chex.Array | None:
         """This episode's pace of the moving cylinders, from ``fold_in(key, 6)``; None
@@ -452,7 +459,7 @@ class NavEnv(GoalSampler, DrawnLayouts, Observer):
         k_goal, k_obs = step_keys(key)
         applied = state.pending_action if self.action_delay else action
         v, omega = self.command(params, applied)
-        maze = self.maze_at(params, state.scale, pace=state.pace)
+        maze = self.episode_maze(params, state)
         clearance = motion.step_clearance(
             maze, state.pos, state.yaw, omega, v, params.dt, state.t * params.dt
         )

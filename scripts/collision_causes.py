@@ -123,6 +123,7 @@ def run_causes(run_dir: str, maze: str | None, episodes: int) -> dict[str, list[
         segments = np.asarray(m.walls(), np.float64)
         found = []
         collided, episode = np.asarray(tr.collided), np.asarray(tr.episode)
+        speeds = np.asarray(steps.command)[..., 0]
         for r, t in zip(*np.nonzero(collided & (episode < episodes))):
             circles = np.zeros((0, 3)) if tr.circles is None else np.asarray(tr.circles[r, t])
             real = circles[:, 2] > 0
@@ -131,7 +132,7 @@ def run_causes(run_dir: str, maze: str | None, episodes: int) -> dict[str, list[
             before = None
             if n_moving and t > 0 and episode[r, t - 1] == episode[r, t]:
                 before = np.asarray(tr.circles[r, t - 1])[len(circles) - n_moving :]
-            speed = float(np.asarray(steps.command)[r, t, 0])
+            speed = float(speeds[r, t])
             found.append(
                 cause(
                     tr.pos[r, t], float(tr.yaw[r, t]), speed, segments, standing, moving, before, dt

@@ -103,6 +103,15 @@ def test_the_state_holds_every_cylinder_where_it_is_at_the_step():
     np.testing.assert_allclose(np.asarray(state.circles), np.asarray(params.maze.circles))
 
 
+def _observe(env, params, pos, yaw: float, time: float) -> np.ndarray:
+    """The observation from pose (pos, yaw) at ``time`` s into an episode (the goal at
+    the origin, the maze unscaled)."""
+    pose = jnp.asarray(pos, jnp.float32)
+    return np.asarray(
+        env.observe(jax.random.PRNGKey(0), pose, yaw, jnp.zeros(2), params, 1.0, time)
+    )
+
+
 @pytest.mark.parametrize("name", ["stage3", "stage4"])
 def test_the_lidar_sees_the_cylinders_where_they_are_at_the_scan(name):
     env, params = jaxnav.make(name, n_beams=360)
@@ -118,15 +127,7 @@ def test_the_lidar_sees_the_cylinders_where_they_are_at_the_scan(name):
             [centres(time), np.full((2 if name == "stage4" else 4, 1), radius)], 1
         )
         want = ref.lidar(pos[None], np.array([yaw]), walls, circles, 360)[0]
-        obs = env.observe(
-            jax.random.PRNGKey(0),
-            jnp.asarray(pos, jnp.float32),
-            yaw,
-            jnp.zeros(2),
-            params,
-            1.0,
-            time,
-        )
+        obs = _observe(env, params, pos, yaw, time)
         np.testing.assert_allclose(np.asarray(obs[:360]), want, atol=2e-4)
 
 
@@ -261,15 +262,7 @@ def test_observe_moving_gives_the_nearest_cylinders_in_the_robot_frame(name):
         order = np.argsort(np.linalg.norm(offset, axis=1))[:k]
         rows = np.concatenate([offset[order] / 3.5, velocity[order] / 0.22], axis=1)
         want = np.clip(rows, -1.0, 1.0).reshape(-1)
-        obs = env.observe(
-            jax.random.PRNGKey(0),
-            jnp.asarray(pos, jnp.float32),
-            yaw,
-            jnp.zeros(2),
-            params,
-            1.0,
-            time,
-        )
+        obs = _observe(env, params, pos, yaw, time)
         np.testing.assert_allclose(np.asarray(obs[-4 * k :]), want, atol=2e-4)
     # a maze with no moving cylinders reads zeros there, in the same layout
     env, params = jaxnav.make("square4_obstacles", observation="normalised", observe_moving=k)

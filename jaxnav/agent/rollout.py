@@ -217,7 +217,7 @@ def make_rollout(
 
 def _geometry(env: NavEnv, env_params: EnvParams, state) -> EpisodeMazes:
     """The walls and circles of the state's episode (its maze, scaled as it is)."""
-    maze = env.maze_at(env.in_maze(env_params, state), state.scale, pace=state.pace)
+    maze = env.episode_maze(env_params, state)
     return EpisodeMazes(maze.segments, maze.segment_mask, maze.circles, maze.circle_mask)
 
 

@@ -51,8 +51,10 @@ from jaxnav.core.sections import (
 from jaxnav.core.settings import (
     AT_LEAST_1,
     CONTINUOUS,
+    OWN_PACE,
     PRESETS,
     SEED,
+    paces_motion,
     problem,
     setting,
 )
@@ -151,12 +153,11 @@ class Config:
         """This config as a test plays its world: the moving cylinders at their own
         pace (``env.motion_pace`` is a training distribution), unless ``overrides``
         (the test's ``key=value`` settings, already applied) set it."""
-        own = (1.0, 1.0)
-        if tuple(self.env.motion_pace) == own or any(
+        if not paces_motion(self.env.motion_pace) or any(
             o.startswith("env.motion_pace=") for o in overrides
         ):
             return self
-        return dataclasses.replace(self, env=dataclasses.replace(self.env, motion_pace=own))
+        return dataclasses.replace(self, env=dataclasses.replace(self.env, motion_pace=OWN_PACE))
 
     def at(self, point: sweeps.Point) -> Config:
         """This config at one sweep point: the point's values set, no sweep."""

@@ -13,7 +13,13 @@ from __future__ import annotations
 from typing import Any
 
 from jaxnav.core import families
-from jaxnav.core.settings import BURGER_MAX_OMEGA, BURGER_MAX_V, CONTINUOUS, MAX_LATTICE_CELLS
+from jaxnav.core.settings import (
+    BURGER_MAX_OMEGA,
+    BURGER_MAX_V,
+    CONTINUOUS,
+    MAX_LATTICE_CELLS,
+    paces_motion,
+)
 
 
 def env_family_problem(env: Any) -> str | None:
@@ -38,7 +44,7 @@ def env_reward_problem(env: Any) -> str | None:
 
 def env_bank_problem(env: Any) -> str | None:
     """What is wrong with the maze bank's setting given the maze settings, or None."""
-    if tuple(env.motion_pace) != (1.0, 1.0) and env.generator:
+    if paces_motion(env.motion_pace) and env.generator:
         return "env.motion_pace paces moving cylinders: drawn mazes have none (env.generator)"
     if env.maze_bank and not env.generator:
         return "env.maze_bank draws layouts ahead: it needs drawn mazes (env.generator)"
@@ -85,21 +91,12 @@ def env_scan_problem(env: Any) -> str | None:
         )
     if env.scan_beams and env.beam_layout != "even":
         return "env.scan_beams pools an even scan: it needs env.beam_layout even"
-    if env.waypoint and env.observation != "normalised":
-        return (
-            "env.waypoint is part of the normalised observation: it needs "
-            "env.observation normalised"
-        )
-    if env.observe_moving and env.observation != "normalised":
-        return (
-            "env.observe_moving is part of the normalised observation: it needs "
-            "env.observation normalised"
-        )
-    if env.scan_history and env.observation != "normalised":
-        return (
-            "env.scan_history is part of the normalised observation: it needs "
-            "env.observation normalised"
-        )
+    for part in ("waypoint", "observe_moving", "scan_history"):
+        if getattr(env, part) and env.observation != "normalised":
+            return (
+                f"env.{part} is part of the normalised observation: it needs "
+                "env.observation normalised"
+            )
     if env.history_changes and not env.scan_history:
         return "env.history_changes observes the scan history: it needs env.scan_history > 0"
     if env.history_turned and not env.history_changes:

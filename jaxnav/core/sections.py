@@ -17,6 +17,7 @@ from jaxnav.core.settings import (
     BURGER_MAX_OMEGA,
     BURGER_MAX_V,
     NON_NEGATIVE,
+    OWN_PACE,
     PACE_RANGE,
     PAIR_NON_NEGATIVE,
     POSITIVE,
@@ -74,7 +75,7 @@ class EnvConfig:
         (1.0, 1.0), "per-episode maze scale drawn from [low, high]", rule=SCALE_RANGE
     )
     motion_pace: tuple[float, ...] = setting(
-        (1.0, 1.0),
+        OWN_PACE,
         "training: each episode runs the moving cylinders at a pace drawn from [low, high] "
         "times their own (0: standing still), the same loops; a run's test plays them at "
         "their own pace",

@@ -142,6 +142,15 @@ PAIR_NON_NEGATIVE = (
     lambda x: _pair(x) and min(x) >= 0,
     "must be [position std, yaw std], both non-negative",
 )
+# env.motion_pace at the cylinders' own pace: off, and what every test plays
+OWN_PACE = (1.0, 1.0)
+
+
+def paces_motion(motion_pace) -> bool:
+    """Whether an env.motion_pace draws each episode's pace (is not :data:`OWN_PACE`)."""
+    return tuple(motion_pace) != OWN_PACE
+
+
 PACE_RANGE = (
     lambda x: _pair(x) and 0.0 <= x[0] <= x[1] <= 4.0,
     "must be [low, high] with 0 <= low <= high <= 4",

@@ -85,7 +85,7 @@ def sample(env: NavEnv, params, n: int, seed: int) -> list[Sample]:
 
     def one(key):
         _, state = env.reset(key, params)
-        maze = env.maze_at(env.in_maze(params, state), state.scale, pace=state.pace)
+        maze = env.episode_maze(params, state)
         return maze, state.pos, state.yaw, state.goal
 
     mazes, pos, yaw, goal = jax.device_get(jax.jit(jax.vmap(one))(keys))

@@ -84,7 +84,7 @@ class Oracle:
     # -- memory ---------------------------------------------------------------
 
     def _geometry(self, params: EnvParams, state: EnvState) -> Maze:
-        return self.env.maze_at(self.env.in_maze(params, state), state.scale, pace=state.pace)
+        return self.env.episode_maze(params, state)
 
     def _distance(self, inputs):
         clearance, goal, origin, goal_radius, radius = inputs

@@ -36,6 +36,7 @@ from jaxnav.agent.sharding import RunSharding
 from jaxnav.agent.trainer import Trainer
 from jaxnav.core import agents, rundir, sweep
 from jaxnav.core.config import Config
+from jaxnav.core.settings import OWN_PACE
 from jaxnav.core.startup import process_age
 from jaxnav.env import NavEnv
 from jaxnav.report.navigation import COLLISION, CUT, SUCCESS, TIMEOUT, run_attempts
@@ -134,7 +135,7 @@ def evaluation_env(env: NavEnv) -> NavEnv:
     if env.generates:
         env = dataclasses.replace(env, new_maze_every=1)
     if env.paces_motion:
-        env = dataclasses.replace(env, motion_pace=(1.0, 1.0))
+        env = dataclasses.replace(env, motion_pace=OWN_PACE)
     return env
 
 

@@ -88,7 +88,8 @@ class Observer:
         and, with ``waypoint``, the next point of the shortest path (a drawn maze's, from
         its ``cell_dist``; on a fixed maze the goal); ``pace``: the episode's pace of the
         moving cylinders (None: their own)."""
-        maze = self.maze_at(params, scale, time, pace)
+        moving = self.maze_at(params, scale, pace=pace)  # its cylinders still on their loops
+        maze = motion.frozen_at(moving, time)  # and where they are at ``time``
         if self.scan_beams:  # a finer scan, the least range of each sector observed
             fine = self.beam_ranges(maze, pos, yaw, self.scan_beams)
             ranges = sensor.pooled_ranges(fine, self.n_beams)
@@ -126,8 +127,7 @@ class Observer:
                     scans = sensor.history_changes(obs[: self.n_beams], scans)
                 obs = jnp.concatenate([obs, scans.reshape(-1)])
             if self.observe_moving:  # where the moving cylinders are and go: privileged
-                moving = self._moving(pos, yaw, params, scale, time, pace)
-                obs = jnp.concatenate([obs, moving])
+                obs = jnp.concatenate([obs, self._moving(pos, yaw, params, moving.motion, time)])
             return obs
         return sensor.observation(
             key,
@@ -143,14 +143,14 @@ class Observer:
             obstacle_obs=self.obstacle_obs,
         )
 
-    def _moving(self, pos, yaw, params: EnvParams, scale, time, pace=None) -> chex.Array:
-        """f32[4 observe_moving]: the nearest moving cylinders as the simulator knows them
-        (:func:`jaxnav.world.sensor.moving_features`); zeros in a maze with none."""
-        maze = self.maze_at(params, scale, pace=pace)
-        if maze.motion is None:
+    def _moving(self, pos, yaw, params: EnvParams, moving, time) -> chex.Array:
+        """f32[4 observe_moving]: the nearest moving cylinders of the episode's
+        ``moving`` (its :class:`jaxnav.world.motion.Motion`, or None) as the simulator
+        knows them (:func:`jaxnav.world.sensor.moving_features`); zeros where none move."""
+        if moving is None:
             return jnp.zeros(4 * self.observe_moving, jnp.float32)
-        now = motion.positions(maze.motion, time)
-        soon = motion.positions(maze.motion, time + params.dt)
+        now = motion.positions(moving, time)
+        soon = motion.positions(moving, time + params.dt)
         return sensor.moving_features(
             pos, yaw, now, soon, params.dt, self.observe_moving, params.max_range
         )
