@@ -50,6 +50,7 @@ from jaxnav.core.env_rules import (
     env_scan_problem,
     lattice_problem,
 )
+from jaxnav.core.errors import ConfigError
 from jaxnav.core.settings import (
     ACTION_SETS,
     BURGER_MAX_OMEGA,
@@ -642,7 +643,7 @@ def make(
         values["omegas"] = jnp.asarray([w for _, w in table], jnp.float32)
     params = EnvParams(maze=maze_obj, **values)
     if env.paces_motion and maze_obj.motion is None:
-        raise ValueError(f"env.motion_pace paces moving cylinders: maze {maze!r} has none")
+        raise ConfigError(f"env.motion_pace paces moving cylinders: maze {maze!r} has none")
     if env.attempt_limit > int(params.max_steps):
         raise ValueError(
             f"attempt_limit ({env.attempt_limit}) must not exceed max_steps ({params.max_steps})"

@@ -177,6 +177,7 @@ def test_resume_after_sigkill_gives_identical_results(tmp_path):
         (["seeds=2.5"], "seeds must be an integer"),
         (["strategies=[ebe, softmax]"], "unknown strategy 'softmax'"),
         (["env.maze=nowhere"], "unknown maze 'nowhere'"),
+        (["env.motion_pace=[0,1]"], "maze 'square4' has none"),
         (["--resume", "/nonexistent/run"], "does not exist"),
         (["/nonexistent/config.yaml"], "no such file"),
     ],
