@@ -55,20 +55,18 @@ from jaxnav.core.settings import (
     ACTION_SETS,
     BURGER_MAX_OMEGA,
     BURGER_MAX_V,
-    CONTINUOUS,
-    CONTINUOUS_TWIN,
     OWN_PACE,
     PRESETS,
-    paces_motion,
 )
 from jaxnav.world import motion
+from jaxnav.world.commands import Commands
+from jaxnav.world.episode import EpisodeMaze
 from jaxnav.world.geometry import (
     displacement,
     norm2,
     wrap_angle,
 )
 from jaxnav.world.goals import GoalSampler
-from jaxnav.world.kinematics import firmware_limit
 from jaxnav.world.layouts import BANK_BATCH, DrawnLayouts, bank_key
 from jaxnav.world.lazy import draw_where
 from jaxnav.world.maps import (
@@ -79,7 +77,6 @@ from jaxnav.world.maps import (
 from jaxnav.world.observer import Observer
 from jaxnav.world.reward import progress_reward, reward_fn, sparse_reward
 from jaxnav.world.sensor import goal_heading_distance
-from jaxnav.world.spaces import Box, Discrete
 from jaxnav.world.state import (
     PAPER_OMEGAS,
     STRAIGHT,
@@ -106,7 +103,7 @@ ROBOTIS_SWITCHES = {
 
 @dataclasses.dataclass(frozen=True)
 @families.settings_after("generator")
-class NavEnv(GoalSampler, DrawnLayouts, Observer):
+class NavEnv(Commands, EpisodeMaze, GoalSampler, DrawnLayouts, Observer):
     """The environment. Its fields fix array shapes, so they are static, not params.
 
     Attributes:
@@ -279,86 +276,6 @@ class NavEnv(GoalSampler, DrawnLayouts, Observer):
         """``params`` with the state's maze when the mazes are drawn (else unchanged)."""
         return params.replace(maze=state.maze) if self.generates else params
 
-    def command(self, params: EnvParams, action: chex.Array) -> tuple[chex.Array, chex.Array]:
-        """(v m/s, omega rad/s) the robot drives for ``action`` (any shape): the action's
-        yaw rate at its speed (the forward speed ``v`` for the paper's actions), as the
-        firmware clips them if ``wheel_limit``. A continuous action (f32[..., 2] in
-        [-1, 1], clipped there) sets the speed across ``speed_range`` and the yaw rate
-        across +-``max_yaw_rate``."""
-        if self.continuous:
-            a = jnp.clip(jnp.asarray(action, jnp.float32), -1.0, 1.0)
-            low, high = self.speed_range
-            v = low + (a[..., 0] + 1.0) * (0.5 * (high - low))
-            omega = a[..., 1] * self.max_yaw_rate
-        else:
-            omega = jnp.asarray(params.omegas)[action]
-            v = params.v if params.speeds is None else jnp.asarray(params.speeds)[action]
-        if self.wheel_limit:  # the arc the robot drives, not the one commanded
-            v, omega = firmware_limit(jnp.asarray(v, jnp.float32), omega)
-        return v, omega
-
-    def driven(self, params: EnvParams, state: EnvState, action: chex.Array):
-        """(v, omega), f32[] each: the command the step from ``state`` drives for the
-        action chosen (or, with ``action_delay``, the one pending)."""
-        applied = state.pending_action if self.action_delay else action
-        v, omega = self.command(params, applied)
-        v = jnp.broadcast_to(jnp.asarray(v, jnp.float32), jnp.shape(omega))
-        return v, jnp.asarray(omega, jnp.float32)
-
-    def _change(self, state: EnvState, v: chex.Array, omega: chex.Array) -> chex.Array | None:
-        """The step's change of the driven command from the last step's, each over the
-        burger's limits (for ``change_penalty``); None without the normalised
-        observation, which is what keeps the last command."""
-        if not self.normalised:
-            return None
-        last = state.last_command
-        return (
-            jnp.abs(jnp.asarray(v, jnp.float32) - last[0]) / BURGER_MAX_V
-            + jnp.abs(omega - last[1]) / BURGER_MAX_OMEGA
-        )
-
-    def travel(self, params: EnvParams, state: EnvState, action: chex.Array) -> chex.Array:
-        """f32[]: the length of the path the step from ``state`` drives (|v| dt along its
-        arc), for the action chosen (or, with ``action_delay``, the one pending)."""
-        v, _ = self.driven(params, state, action)
-        return jnp.abs(v) * params.dt
-
-    def attempt_steps(self, params: EnvParams) -> int:
-        """The attempt limit in steps (host side): ``attempt_limit``, or the episode's
-        step limit where it is 0."""
-        return int(self.attempt_limit) or int(params.max_steps)
-
-    @property
-    def continuous(self) -> bool:
-        """Whether an action is a continuous command (``actions`` continuous)."""
-        return self.actions == CONTINUOUS
-
-    @property
-    def num_actions(self) -> int:
-        """The discrete actions' count (continuous actions have none: ``action_size``)."""
-        if self.continuous:
-            raise ValueError("continuous actions are not counted: see NavEnv.action_size")
-        table = ACTION_SETS[self.actions]
-        return len(PAPER_OMEGAS) if table is None else len(table)
-
-    @property
-    def action_size(self) -> int:
-        """Numbers per action: 2 for a continuous command (speed, yaw rate), else 1."""
-        return 2 if self.continuous else 1
-
-    def discrete_twin(self, params: EnvParams) -> tuple[NavEnv, EnvParams]:
-        """This environment and ``params`` with the discrete commands the reference
-        drivers plan over: the ``vw`` set (:data:`jaxnav.core.settings.CONTINUOUS_TWIN`)
-        for continuous actions, unchanged otherwise. The world, its goals and its keys
-        are the same, so a planner's test meets the goals a continuous policy meets."""
-        if not self.continuous:
-            return self, params
-        table = ACTION_SETS[CONTINUOUS_TWIN]
-        twin = dataclasses.replace(self, actions=CONTINUOUS_TWIN)
-        speeds = jnp.asarray([v for v, _ in table], jnp.float32)
-        omegas = jnp.asarray([w for _, w in table], jnp.float32)
-        return twin, params.replace(speeds=speeds, omegas=omegas)
-
     @property
     def walks_lattice(self) -> bool:
         """Whether the LiDAR walks the drawn mazes' lattice (``broad_phase`` "lattice" or
@@ -375,46 +292,6 @@ class NavEnv(GoalSampler, DrawnLayouts, Observer):
         return self.reward == "geodesic" or (
             self.reward == "progress" and self.progress_path == "geodesic"
         )
-
-    def action_space(self, params: EnvParams | None = None) -> Discrete | Box:
-        if self.continuous:
-            return Box(-1.0, 1.0, (2,))
-        return Discrete(self.num_actions)
-
-    # -- observation ---------------------------------------------------------
-
-    def maze_at(self, params: EnvParams, scale: chex.Array, time=None, pace=None) -> Maze:
-        """The maze of an episode: ``params.maze``, scaled if ``maze_scale`` is on, its
-        cylinders moving at the episode's ``pace`` (``EnvState.pace``; None: their own);
-        at ``time`` (s) its moving cylinders join the static ones where they are then."""
-        maze = scale_maze(params.maze, scale) if self.scales_maze else params.maze
-        if pace is not None and maze.motion is not None:
-            maze = maze.replace(motion=motion.paced(maze.motion, pace))
-        return maze if time is None else motion.frozen_at(maze, time)
-
-    def episode_maze(self, params: EnvParams, state: EnvState) -> Maze:
-        """The maze of ``state``'s episode: its drawn maze (if drawn), scaled and paced as
-        the episode is, its moving cylinders still on their loops."""
-        return self.maze_at(self.in_maze(params, state), state.scale, pace=state.pace)
-
-    def circles_at(
-        self, params: EnvParams, scale: chex.Array, t: chex.Array, pace=None
-    ) -> chex.Array:
-        """f32[k, 3]: every cylinder (static, then moving) after ``t`` steps."""
-        return self.maze_at(params, scale, t * params.dt, pace).circles
-
-    @property
-    def paces_motion(self) -> bool:
-        """Whether each episode draws its moving cylinders' pace (``motion_pace``)."""
-        return paces_motion(self.motion_pace)
-
-    def _episode_pace(self, key: chex.PRNGKey) -> chex.Array | None:
-        """This episode's pace of the moving cylinders, from ``fold_in(key, 6)``; None
-        when ``motion_pace`` is off (no draw, no leaf in the state)."""
-        if not self.paces_motion:
-            return None
-        lo, hi = self.motion_pace
-        return jax.random.uniform(jax.random.fold_in(key, 6), (), jnp.float32, lo, hi)
 
     # -- API -----------------------------------------------------------------
 

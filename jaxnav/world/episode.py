@@ -1,0 +1,56 @@
+"""The maze an episode drives in: the maze scaled by the episode's factor
+(``maze_scale``), its moving cylinders at the episode's pace (``motion_pace``) and,
+at a time, where they are then. A mixin of :class:`jaxnav.env.NavEnv`: the fields and
+methods it reads (``motion_pace``, ``scales_maze``, ``in_maze``) are the
+environment's."""
+
+from __future__ import annotations
+
+import chex
+import jax
+import jax.numpy as jnp
+
+from jaxnav.core.settings import paces_motion
+from jaxnav.world import motion
+from jaxnav.world.maps import Maze
+from jaxnav.world.state import EnvParams, EnvState, scale_maze
+
+
+class EpisodeMaze:
+    """The scaled, paced and moving maze of :class:`jaxnav.env.NavEnv`'s episodes."""
+
+    motion_pace: tuple[float, float]
+    scales_maze: bool
+
+    def maze_at(self, params: EnvParams, scale: chex.Array, time=None, pace=None) -> Maze:
+        """The maze of an episode: ``params.maze``, scaled if ``maze_scale`` is on, its
+        cylinders moving at the episode's ``pace`` (``EnvState.pace``; None: their own);
+        at ``time`` (s) its moving cylinders join the static ones where they are then."""
+        maze = scale_maze(params.maze, scale) if self.scales_maze else params.maze
+        if pace is not None and maze.motion is not None:
+            maze = maze.replace(motion=motion.paced(maze.motion, pace))
+        return maze if time is None else motion.frozen_at(maze, time)
+
+    def episode_maze(self, params: EnvParams, state: EnvState) -> Maze:
+        """The maze of ``state``'s episode: its drawn maze (if drawn), scaled and paced as
+        the episode is, its moving cylinders still on their loops."""
+        return self.maze_at(self.in_maze(params, state), state.scale, pace=state.pace)
+
+    def circles_at(
+        self, params: EnvParams, scale: chex.Array, t: chex.Array, pace=None
+    ) -> chex.Array:
+        """f32[k, 3]: every cylinder (static, then moving) after ``t`` steps."""
+        return self.maze_at(params, scale, t * params.dt, pace).circles
+
+    @property
+    def paces_motion(self) -> bool:
+        """Whether each episode draws its moving cylinders' pace (``motion_pace``)."""
+        return paces_motion(self.motion_pace)
+
+    def _episode_pace(self, key: chex.PRNGKey) -> chex.Array | None:
+        """This episode's pace of the moving cylinders, from ``fold_in(key, 6)``; None
+        when ``motion_pace`` is off (no draw, no leaf in the state)."""
+        if not self.paces_motion:
+            return None
+        lo, hi = self.motion_pace
+        return jax.random.uniform(jax.random.fold_in(key, 6), (), jnp.float32, lo, hi)
