@@ -126,6 +126,10 @@ class NavEnv(Commands, EpisodeMaze, GoalSampler, DrawnLayouts, Observer):
         uniformly from this range times their own (0: standing at their first pose),
         their loops unchanged: a training distribution; a run's test plays them at
         their own pace. (1, 1) is off.
+      collision_margin: metres the robot's footprint is padded by in training: a step
+        that comes within ``robot_radius + collision_margin`` of a surface ends the
+        episode as a collision (paying R-). A run's test, its periodic evaluations and
+        the reference drivers count real collisions (``TRAINING_ONLY``). 0 is off.
       wheel_limit: drive each action's (v, omega) as the burger's firmware does
         (:func:`jaxnav.world.kinematics.firmware_limit`: a wheel at most 0.21 m/s).
     Range noise is ``EnvParams.lidar_noise_std``.
@@ -226,6 +230,7 @@ class NavEnv(Commands, EpisodeMaze, GoalSampler, DrawnLayouts, Observer):
     random_start: bool = False
     maze_scale: tuple[float, float] = (1.0, 1.0)
     motion_pace: tuple[float, float] = OWN_PACE
+    collision_margin: float = 0.0
     wheel_limit: bool = False
     collision: str = "disc"
     goal_sampler: str = "free"
@@ -358,9 +363,11 @@ class NavEnv(Commands, EpisodeMaze, GoalSampler, DrawnLayouts, Observer):
                 pace=state.pace,
             )
             nearest = jnp.min(ranges[: self.n_beams])
-            collided = (nearest < params.robot_radius) | (clearance < BURGER_RADIUS)
+            collided = (nearest < self._padded(params.robot_radius)) | (
+                clearance < self._padded(BURGER_RADIUS)
+            )
         else:
-            collided = clearance < params.robot_radius
+            collided = clearance < self._padded(params.robot_radius)
         distance = norm2(state.goal - pos)
         reached = (distance < params.goal_radius) & ~collided
         if self.reward == "sparse":
@@ -425,6 +432,10 @@ class NavEnv(Commands, EpisodeMaze, GoalSampler, DrawnLayouts, Observer):
             new_state = self._newer_scans(new_state, obs)
         info = {"goal_reached": reached, "collision": collided}
         return obs, new_state, reward.astype(jnp.float32), terminated, truncated, info
+
+    def _padded(self, radius):
+        """A collision radius padded by ``collision_margin`` (unchanged when it is 0)."""
+        return radius + self.collision_margin if self.collision_margin else radius
 
     def restart(
         self, key: chex.PRNGKey, state: EnvState, params: EnvParams

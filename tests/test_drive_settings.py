@@ -12,6 +12,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from _nav_reference import clearance as reference_clearance
 from _nav_reference import displacement as reference_displacement
 from _nav_reference import lidar, maze_geometry, path_min_clearance, turned_changes_by_hand
 
@@ -131,6 +132,56 @@ def test_a_collision_and_a_goal_pay_their_constants_under_the_progress_reward():
     near_goal = state.replace(goal=state.pos + jnp.asarray([0.2, 0.0]))
     _, _, r, _, _, info = env.step_env(jax.random.PRNGKey(1), near_goal, jnp.int32(2), params)
     assert bool(info["goal_reached"]) and float(r) == 10.0
+
+
+@pytest.mark.parametrize("collision", ["disc", "lidar"])
+@pytest.mark.parametrize("margin", [0.0, 0.03, 0.08])
+def test_a_collision_margin_ends_the_episode_within_the_padded_footprint(margin, collision):
+    """env.collision_margin: a robot standing still (the vw set's stop) and facing a wall
+    collides, pays R- and ends its episode exactly where its centre is closer to the wall
+    than the robot's radius plus the margin, by a NumPy point-to-wall distance (which the
+    beam straight ahead reads too); 0 is the real disc."""
+    env, params = jaxnav.make(
+        "square4",
+        actions="vw",
+        reward="progress",
+        R_minus=-7.0,
+        collision_margin=margin,
+        collision=collision,
+    )
+    stop = ACTION_SETS["vw"].index((0.0, 0.0))
+    walls, circles = maze_geometry(params.maze)
+    _, state = env.reset(jax.random.PRNGKey(0), params)
+    xs = np.linspace(1.60, 1.80, 41)  # towards the wall at x = 1.85
+    centres = np.stack([xs, np.zeros_like(xs)], axis=1)
+    gap = reference_clearance(centres, walls, circles)
+    outcomes = []
+    for centre, g in zip(centres, gap, strict=True):
+        at = state.replace(pos=jnp.asarray(centre, jnp.float32), yaw=jnp.float32(0.0))
+        _, _, r, term, _, info = env.step_env(jax.random.PRNGKey(1), at, jnp.int32(stop), params)
+        expected = g < params.robot_radius + margin
+        if abs(g - (params.robot_radius + margin)) > 1e-4:  # clear of the threshold
+            assert bool(info["collision"]) == expected == bool(term), (centre, g)
+            assert (float(r) == -7.0) == expected
+        outcomes.append(bool(info["collision"]))
+    assert any(outcomes) and not all(outcomes)
+
+
+def test_a_run_with_a_collision_margin_is_tested_with_real_collisions(tmp_path):
+    """env.collision_margin shapes training only: the test and the periodic evaluation
+    count real collisions unless a test setting asks for the margin."""
+    from jaxnav.core.config import dump_config
+    from jaxnav.experiments.evaluation import tested_config
+    from jaxnav.run.greedy import evaluation_env
+
+    cfg = load_config(None, ["env.maze=stage4", "env.collision_margin=0.05"])
+    path = tmp_path / "config.yaml"
+    path.write_text(dump_config(cfg))
+    assert tested_config(path).env.collision_margin == 0.0
+    assert tested_config(path, ["env.collision_margin=0.02"]).env.collision_margin == 0.02
+    env, _ = jaxnav.make("stage4", collision_margin=0.05, motion_pace=(0.5, 2.0))
+    tested = evaluation_env(env)
+    assert (tested.collision_margin, tested.motion_pace) == (0.0, (1.0, 1.0))
 
 
 def test_the_scan_history_holds_the_previous_scans_newest_first():
@@ -253,6 +304,8 @@ def test_the_learning_rate_falls_linearly_to_zero():
         (["env.observe_moving=2"], "env.observe_moving is part of the normalised observation"),
         (["env.motion_pace=[0,1]", "env.generator=grid"], "drawn mazes have none"),
         (["env.motion_pace=[1,0.5]"], "env.motion_pace must be"),
+        (["env.collision_margin=-0.01"], "env.collision_margin must be in"),
+        (["env.collision_margin=0.5"], "env.collision_margin must be in"),
         (["env.observation=normalised", "env.history_changes=true"], "needs env.scan_history"),
         (
             ["env.observation=normalised", "env.scan_history=2", "env.history_turned=true"],

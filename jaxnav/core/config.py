@@ -51,12 +51,11 @@ from jaxnav.core.sections import (
 from jaxnav.core.settings import (
     AT_LEAST_1,
     CONTINUOUS,
-    OWN_PACE,
     PRESETS,
     SEED,
-    paces_motion,
     problem,
     setting,
+    training_only_on,
 )
 from jaxnav.core.values import coerce, flatten, parse_override
 
@@ -150,14 +149,18 @@ class Config:
         return out
 
     def tested(self, overrides: Sequence[str] = ()) -> Config:
-        """This config as a test plays its world: the moving cylinders at their own
-        pace (``env.motion_pace`` is a training distribution), unless ``overrides``
-        (the test's ``key=value`` settings, already applied) set it."""
-        if not paces_motion(self.env.motion_pace) or any(
-            o.startswith("env.motion_pace=") for o in overrides
-        ):
+        """This config as a test plays its world: every training-only env setting off
+        (:data:`jaxnav.core.settings.TRAINING_ONLY`: the moving cylinders at their own
+        pace, real collisions), except those ``overrides`` (the test's ``key=value``
+        settings, already applied) set."""
+        off = {
+            name: value
+            for name, value in training_only_on(self.env).items()
+            if not any(o.startswith(f"env.{name}=") for o in overrides)
+        }
+        if not off:
             return self
-        return dataclasses.replace(self, env=dataclasses.replace(self.env, motion_pace=OWN_PACE))
+        return dataclasses.replace(self, env=dataclasses.replace(self.env, **off))
 
     def at(self, point: sweeps.Point) -> Config:
         """This config at one sweep point: the point's values set, no sweep."""

@@ -16,6 +16,7 @@ from jaxnav.core.settings import (
     AT_LEAST_1,
     BURGER_MAX_OMEGA,
     BURGER_MAX_V,
+    MARGIN,
     NON_NEGATIVE,
     OWN_PACE,
     PACE_RANGE,
@@ -80,6 +81,13 @@ class EnvConfig:
         "times their own (0: standing still), the same loops; a run's test plays them at "
         "their own pace",
         rule=PACE_RANGE,
+    )
+    collision_margin: float = setting(
+        0.0,
+        "training: an episode also ends as a collision when the robot comes within this "
+        "many metres of a surface (a padded footprint); a run's test counts real "
+        "collisions",
+        rule=MARGIN,
     )
     wheel_limit: bool = setting(
         False, "drive each action as the burger's firmware clips it (wheels at most 0.21 m/s)"

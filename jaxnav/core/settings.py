@@ -151,6 +151,23 @@ def paces_motion(motion_pace) -> bool:
     return tuple(motion_pace) != OWN_PACE
 
 
+# The env settings that shape training only, each with its value when off: a run's test,
+# its periodic evaluations and the reference drivers play the world with them off.
+TRAINING_ONLY = {"motion_pace": OWN_PACE, "collision_margin": 0.0}
+
+
+def training_only_on(env: Any) -> dict[str, Any]:
+    """Each training-only setting ``env`` (an env config or a NavEnv) turns on, with its
+    value when off: what a test of its runs sets back."""
+    on = {}
+    for name, off in TRAINING_ONLY.items():
+        value = getattr(env, name)
+        if (tuple(value) if isinstance(value, (list, tuple)) else value) != off:
+            on[name] = off
+    return on
+
+
+MARGIN = (lambda v: 0.0 <= v <= 0.2, "must be in [0, 0.2] (metres)")
 PACE_RANGE = (
     lambda x: _pair(x) and 0.0 <= x[0] <= x[1] <= 4.0,
     "must be [low, high] with 0 <= low <= high <= 4",

@@ -137,8 +137,9 @@ def test_overrides(overrides: Sequence[str]) -> Sequence[str]:
 
 def tested_config(cfg_path: Path, overrides: Sequence[str] = ()) -> Config:
     """The config a run's policies are tested in: the run's, with ``overrides``
-    (:func:`test_overrides`), and its moving cylinders at their own pace
-    (``env.motion_pace`` is a training distribution) unless an override sets it."""
+    (:func:`test_overrides`), and every training-only setting off (the moving
+    cylinders at their own pace, real collisions: :meth:`Config.tested`) unless an
+    override sets it."""
     return load_config(str(cfg_path), list(test_overrides(overrides))).tested(overrides)
 
 

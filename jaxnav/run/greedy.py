@@ -36,7 +36,7 @@ from jaxnav.agent.sharding import RunSharding
 from jaxnav.agent.trainer import Trainer
 from jaxnav.core import agents, rundir, sweep
 from jaxnav.core.config import Config
-from jaxnav.core.settings import OWN_PACE
+from jaxnav.core.settings import training_only_on
 from jaxnav.core.startup import process_age
 from jaxnav.env import NavEnv
 from jaxnav.report.navigation import COLLISION, CUT, SUCCESS, TIMEOUT, run_attempts
@@ -130,13 +130,12 @@ def evaluation_env(env: NavEnv) -> NavEnv:
     """The environment the periodic evaluation plays: the training one, with drawn
     mazes a new layout every episode, as jaxnav evaluate tests, whatever
     env.new_maze_every training keeps one for (a greedy policy replays its failure in a
-    kept layout, so N episodes would be N / new_maze_every layouts), and the moving
-    cylinders at their own pace (env.motion_pace is training's), as the test has them."""
+    kept layout, so N episodes would be N / new_maze_every layouts), and every
+    training-only setting off (the moving cylinders at their own pace, real
+    collisions: :data:`jaxnav.core.settings.TRAINING_ONLY`), as the test has them."""
     if env.generates:
         env = dataclasses.replace(env, new_maze_every=1)
-    if env.paces_motion:
-        env = dataclasses.replace(env, motion_pace=OWN_PACE)
-    return env
+    return dataclasses.replace(env, **training_only_on(env))
 
 
 class GreedyEval:
