@@ -84,8 +84,8 @@ class EnvConfig:
     )
     collision_margin: float = setting(
         0.0,
-        "training: an episode also ends as a collision when the robot comes within this "
-        "many metres of a surface (a padded footprint); a run's test counts real "
+        "training: an episode also ends as a collision when the robot's edge comes within "
+        "this many metres of a surface (a padded footprint); a run's test counts real "
         "collisions",
         rule=MARGIN,
     )
