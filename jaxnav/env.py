@@ -281,6 +281,11 @@ class NavEnv(Commands, EpisodeMaze, GoalSampler, DrawnLayouts, Observer):
         """``params`` with the state's maze when the mazes are drawn (else unchanged)."""
         return params.replace(maze=state.maze) if self.generates else params
 
+    def attempt_steps(self, params: EnvParams) -> int:
+        """The attempt limit in steps (host side): ``attempt_limit``, or the episode's
+        step limit where it is 0."""
+        return int(self.attempt_limit) or int(params.max_steps)
+
     @property
     def walks_lattice(self) -> bool:
         """Whether the LiDAR walks the drawn mazes' lattice (``broad_phase`` "lattice" or
@@ -340,8 +345,7 @@ class NavEnv(Commands, EpisodeMaze, GoalSampler, DrawnLayouts, Observer):
         """One control period without the auto-reset."""
         params = self.in_maze(params, state)
         k_goal, k_obs = step_keys(key)
-        applied = state.pending_action if self.action_delay else action
-        v, omega = self.command(params, applied)
+        v, omega = self.driven(params, state, action)
         maze = self.episode_maze(params, state)
         clearance = motion.step_clearance(
             maze, state.pos, state.yaw, omega, v, params.dt, state.t * params.dt

@@ -31,7 +31,6 @@ class Commands:
     action_delay: bool
     speed_range: tuple[float, float]
     max_yaw_rate: float
-    attempt_limit: int
     normalised: bool
 
     def command(self, params: EnvParams, action: chex.Array) -> tuple[chex.Array, chex.Array]:
@@ -77,11 +76,6 @@ class Commands:
         arc), for the action chosen (or, with ``action_delay``, the one pending)."""
         v, _ = self.driven(params, state, action)
         return jnp.abs(v) * params.dt
-
-    def attempt_steps(self, params: EnvParams) -> int:
-        """The attempt limit in steps (host side): ``attempt_limit``, or the episode's
-        step limit where it is 0."""
-        return int(self.attempt_limit) or int(params.max_steps)
 
     @property
     def continuous(self) -> bool:
