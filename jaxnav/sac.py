@@ -19,6 +19,9 @@ its SAC variant, 2025), each run steps ``sac.num_envs`` environments together an
   -log(alpha) (log pi(a | s) + H_target) (:func:`temperature_loss`), H_target =
   -``sac.entropy_scale`` x 2.
 * The first ``sac.learning_starts`` env steps act uniformly at random.
+* With ``sac.actor_average`` > 0 the policy that is evaluated, tested and exported is a
+  Polyak average of the actor's parameters, moved that far towards the actor after each
+  gradient step; the actor that explores and learns is unchanged by it.
 
 Counting is PQN's (docs/training.md): ``step`` is the env steps of all the run's
 environments, ``episode`` the episodes any of them finished.
@@ -184,11 +187,12 @@ class Memory:
 
 @struct.dataclass
 class SACState:
-    """One SAC run. The fields the host loop reads (``params``: the actor's,
+    """One SAC run. The fields the host loop reads (``params``: the tested actor's,
     ``step``, ``episode``, ``metrics``, ``diverged_at``, ``key``, ``bank``) mean what
     they mean for PQN (:class:`jaxnav.pqn.PQNState`)."""
 
-    params: chex.ArrayTree  # the actor's
+    params: chex.ArrayTree  # the tested actor's: the actor's, or their average (actor_average)
+    actor: chex.ArrayTree  # the actor that samples and learns
     critic: chex.ArrayTree
     target_critic: chex.ArrayTree
     log_alpha: chex.Array  # f32[]
@@ -212,6 +216,7 @@ class Learner(struct.PyTreeNode):
     """What one gradient step changes."""
 
     actor: chex.ArrayTree
+    average: chex.ArrayTree  # the tested actor (the actor itself when actor_average is 0)
     critic: chex.ArrayTree
     target: chex.ArrayTree
     log_alpha: chex.Array
@@ -223,7 +228,7 @@ class Learner(struct.PyTreeNode):
 def make_learner(config: Config):
     """``learn(learner, memory, key) -> (learner, critic loss, finite)``: one SAC
     gradient step on a uniform batch of the memory (critics, then the actor against the
-    new critics, then the temperature, then the targets)."""
+    new critics, then the temperature, then the targets and the tested actor)."""
     s = config.sac
     actor, critic = network_of(config), critic_of(config)
     optimizer = optax.adam(s.lr)
@@ -261,8 +266,13 @@ def make_learner(config: Config):
         updates, alpha_opt = optimizer.update(grad, lr.alpha_opt, lr.log_alpha)
         log_alpha = optax.apply_updates(lr.log_alpha, updates)
 
+        if s.actor_average > 0:
+            average = soft_update(actor_params, lr.average, s.actor_average)
+        else:
+            average = actor_params
         new = Learner(
             actor_params,
+            average,
             critic_params,
             soft_update(critic_params, lr.target, s.tau),
             log_alpha,
@@ -319,6 +329,7 @@ def make_trainer(config: Config) -> Trainer:
         )
         return SACState(
             params=params,
+            actor=params,
             critic=critic_params,
             target_critic=critic_params,
             log_alpha=log_alpha,
@@ -347,7 +358,7 @@ def make_trainer(config: Config) -> Trainer:
         alpha = jnp.exp(ts.log_alpha)
 
         # ACT: the policy's sample, or uniform before learning starts.
-        sampled, _ = actor.apply(ts.params, ts.obs, k_act)
+        sampled, _ = actor.apply(ts.actor, ts.obs, k_act)
         uniform = jax.random.uniform(k_random, sampled.shape, jnp.float32, -1.0, 1.0)
         action = jnp.where(ts.step < s.learning_starts, uniform, sampled)
         max_q = jnp.min(critic.apply(ts.critic, ts.obs, action), axis=0)
@@ -382,6 +393,7 @@ def make_trainer(config: Config) -> Trainer:
         # LEARN: sac.updates gradient steps, once learning has started.
         n_steps = ts.step + envs
         learner = Learner(
+            ts.actor,
             ts.params,
             ts.critic,
             ts.target_critic,
@@ -403,7 +415,8 @@ def make_trainer(config: Config) -> Trainer:
         learner = select(learning, learned, learner)
         diverged = (ts.diverged_at < 0) & learning & ~ok
         held = ts.replace(
-            params=learner.actor,
+            params=learner.average,
+            actor=learner.actor,
             critic=learner.critic,
             target_critic=learner.target,
             log_alpha=learner.log_alpha,

@@ -75,8 +75,9 @@ def test_temperature_rises_below_the_entropy_target_and_falls_above():
     assert float(grad(jnp.float32(0.0), jnp.asarray([0.0, 0.0]), target)) > 0.0
 
 
-def test_one_gradient_step_moves_the_targets_by_polyak_averaging():
-    cfg = load_config("smoke", TINY + ["sac.tau=0.25"])
+@pytest.mark.parametrize("average", [0.0, 0.1])
+def test_one_gradient_step_moves_the_targets_by_polyak_averaging(average):
+    cfg = load_config("smoke", TINY + ["sac.tau=0.25", f"sac.actor_average={average}"])
     env, params = make(
         "square4", "modern", actions="continuous", reward="progress", observation="normalised"
     )
@@ -97,8 +98,17 @@ def test_one_gradient_step_moves_the_targets_by_polyak_averaging():
         filled=jnp.int32(n),
         cursor=jnp.int32(0),
     )
+    # a tested actor unlike the actor, so the average's step is seen
+    avg_p = actor.init(jax.random.PRNGKey(4), obs)
     learner = sac.Learner(
-        a_p, c_p, t_p, jnp.log(jnp.float32(0.1)), opt.init(a_p), opt.init(c_p), opt.init(0.0)
+        a_p,
+        avg_p,
+        c_p,
+        t_p,
+        jnp.log(jnp.float32(0.1)),
+        opt.init(a_p),
+        opt.init(c_p),
+        opt.init(0.0),
     )
     new, loss, finite = sac.make_learner(cfg)(learner, memory, jax.random.PRNGKey(5))
     assert bool(finite) and float(loss) > 0.0
@@ -108,6 +118,13 @@ def test_one_gradient_step_moves_the_targets_by_polyak_averaging():
     # the critic moved and the target sits a quarter of the way towards it
     moved = jax.tree.leaves(jax.tree.map(lambda a, b: jnp.max(jnp.abs(a - b)), new.critic, c_p))
     assert max(float(x) for x in moved) > 0.0
+    # the tested actor: the new actor itself, or a tenth of the way from its last value
+    if average:
+        want = jax.tree.map(lambda a, t: 0.1 * a + 0.9 * t, new.actor, avg_p)
+    else:
+        want = new.actor
+    for g, w in zip(jax.tree.leaves(new.average), jax.tree.leaves(want)):
+        np.testing.assert_allclose(np.asarray(g), np.asarray(w), rtol=1e-6, atol=1e-7)
 
 
 @pytest.mark.parametrize("wheel_limit", [False, True])
@@ -205,6 +222,25 @@ def test_a_tiny_run_is_deterministic_and_acts_within_the_limits():
     ]
     assert all(np.all(np.abs(x) <= 1.0) for x in acts)
     assert int(a.memory.filled[0]) == 256 and np.asarray(a.memory.action).max() <= 1.0
+
+
+def test_the_tested_actor_is_the_actor_or_its_average():
+    def run(extra):
+        cfg = load_config("smoke", TINY + extra)
+        return jax.jit(jax.vmap(make_train(cfg)))(*run_inputs(cfg))
+
+    plain, averaged = run([]), run(["sac.actor_average=0.05"])
+    leaves = jax.tree.leaves
+    for x, y in zip(leaves(plain.params), leaves(plain.actor)):
+        np.testing.assert_array_equal(np.asarray(x), np.asarray(y))
+    # the same actor learns (the average is not fed back), and the tested one lags it
+    for x, y in zip(leaves(averaged.actor), leaves(plain.actor)):
+        np.testing.assert_array_equal(np.asarray(x), np.asarray(y))
+    gap = [
+        np.max(np.abs(np.asarray(x) - np.asarray(y)))
+        for x, y in zip(leaves(averaged.params), leaves(averaged.actor))
+    ]
+    assert max(gap) > 0.0
 
 
 @pytest.fixture(scope="module")

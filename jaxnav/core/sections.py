@@ -392,6 +392,13 @@ class SACConfig:
         rule=WIDTHS,
     )
     layer_norm: bool = setting(True, "LayerNorm before each hidden ReLU of the critics")
+    actor_average: float = setting(
+        0.0,
+        "Polyak rate of the tested actor: after each gradient step a copy of the actor's "
+        "parameters moves this far towards them, and the copy is what is evaluated, tested "
+        "and exported (0: the actor itself)",
+        rule=UNIT_OPEN,
+    )
     init_alpha: float = setting(0.1, "the entropy temperature at the start", rule=POSITIVE)
     entropy_scale: float = setting(
         1.0,
