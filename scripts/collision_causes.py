@@ -20,6 +20,7 @@ moving cylinders, not the maze.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import math
 import sys
 from dataclasses import dataclass
@@ -40,6 +41,8 @@ class Cause:
     cylinder_closing: float = 0.0  # m/s along the same line, towards the robot
     bearing: float = 0.0  # degrees of the cylinder off the robot's heading, in [0, 180]
     stopped: bool = False  # the robot's driven speed was 0
+    into_attempt: int = 0  # steps of its goal attempt before the colliding one
+    after_goal: bool = False  # the attempt began at a goal reached, not at the episode's start
 
 
 def segment_gaps(pos: np.ndarray, segments: np.ndarray) -> np.ndarray:
@@ -102,7 +105,18 @@ def summary(causes: list[Cause]) -> dict[str, float]:
         out["beside"] = np.mean([AHEAD <= c.bearing <= BEHIND for c in moving])
         out["behind"] = np.mean([c.bearing > BEHIND for c in moving])
         out["robot stopped"] = np.mean([c.stopped for c in moving])
+        out["after a goal"] = np.mean([c.after_goal for c in moving])
+        out["median steps into the attempt"] = float(np.median([c.into_attempt for c in moving]))
     return out
+
+
+def attempt_starts(reached: np.ndarray, episode: np.ndarray, r: int, t: int) -> tuple[int, bool]:
+    """(steps of the attempt before step ``t`` of row ``r``, whether it began at a goal
+    reached): an attempt begins at its episode's first step or after a goal."""
+    k = t
+    while k > 0 and episode[r, k - 1] == episode[r, t] and not reached[r, k - 1]:
+        k -= 1
+    return t - k, bool(k > 0 and episode[r, k - 1] == episode[r, t])
 
 
 def run_causes(run_dir: str, maze: str | None, episodes: int) -> dict[str, list[Cause]]:
@@ -123,6 +137,7 @@ def run_causes(run_dir: str, maze: str | None, episodes: int) -> dict[str, list[
         segments = np.asarray(m.walls(), np.float64)
         found = []
         collided, episode = np.asarray(tr.collided), np.asarray(tr.episode)
+        reached = np.asarray(tr.reached)
         speeds = np.asarray(steps.command)[..., 0]
         for r, t in zip(*np.nonzero(collided & (episode < episodes))):
             circles = np.zeros((0, 3)) if tr.circles is None else np.asarray(tr.circles[r, t])
@@ -133,11 +148,11 @@ def run_causes(run_dir: str, maze: str | None, episodes: int) -> dict[str, list[
             if n_moving and t > 0 and episode[r, t - 1] == episode[r, t]:
                 before = np.asarray(tr.circles[r, t - 1])[len(circles) - n_moving :]
             speed = float(speeds[r, t])
-            found.append(
-                cause(
-                    tr.pos[r, t], float(tr.yaw[r, t]), speed, segments, standing, moving, before, dt
-                )
+            c = cause(
+                tr.pos[r, t], float(tr.yaw[r, t]), speed, segments, standing, moving, before, dt
             )
+            into, after_goal = attempt_starts(reached, episode, r, t)
+            found.append(dataclasses.replace(c, into_attempt=into, after_goal=after_goal))
         out[name] = found
     return out
 
@@ -158,7 +173,9 @@ def main(argv: list[str] | None = None) -> int:
             line += (
                 f"; of those the cylinder closed faster {s['cylinder closed faster']:.2f}, "
                 f"it stood ahead {s['ahead']:.2f}, beside {s['beside']:.2f}, behind "
-                f"{s['behind']:.2f}, the robot was stopped {s['robot stopped']:.2f}"
+                f"{s['behind']:.2f}, the robot was stopped {s['robot stopped']:.2f}; "
+                f"the attempt began at a goal reached {s['after a goal']:.2f}, the collision "
+                f"came a median {s['median steps into the attempt']:.0f} steps into it"
             )
         print(line)
     return 0

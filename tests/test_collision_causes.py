@@ -75,6 +75,25 @@ def test_the_summary_counts_and_shares():
     assert s["robot stopped"] == pytest.approx(2 / 3)
 
 
+def test_an_attempt_begins_at_its_episode_or_after_a_goal():
+    # one row: episode 0 reaches a goal at step 2; episode 1 begins at step 5
+    reached = np.array([[0, 0, 1, 0, 0, 0, 0, 1, 0]], bool)
+    episode = np.array([[0, 0, 0, 0, 0, 1, 1, 1, 1]])
+    assert causes.attempt_starts(reached, episode, 0, 1) == (1, False)
+    assert causes.attempt_starts(reached, episode, 0, 3) == (0, True)
+    assert causes.attempt_starts(reached, episode, 0, 4) == (1, True)
+    assert causes.attempt_starts(reached, episode, 0, 5) == (0, False)
+    assert causes.attempt_starts(reached, episode, 0, 8) == (0, True)
+    found = [
+        causes.Cause("moving", 0.1, into_attempt=3, after_goal=True),
+        causes.Cause("moving", 0.1, into_attempt=9, after_goal=False),
+        causes.Cause("moving", 0.1, into_attempt=40, after_goal=True),
+    ]
+    s = causes.summary(found)
+    assert s["after a goal"] == pytest.approx(2 / 3)
+    assert s["median steps into the attempt"] == 9
+
+
 def test_every_collision_of_the_test_is_counted_once(tmp_path_factory):
     """The paper's tiny run tested on stage 3, whose cylinders spin round its start:
     every collision the test's episodes end in is found, each with a moving cylinder
