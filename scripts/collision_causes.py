@@ -7,7 +7,9 @@ cylinder) or a moving cylinder. For a moving cylinder it also says which of the 
 closed the gap: the robot's closing speed is its driven speed along the line to the
 cylinder's centre, the cylinder's is its velocity over the step before along the same
 line, towards the robot; and where the cylinder stood: ahead of the robot (within 60
-degrees of its heading), beside it (60 to 120) or behind it (beyond 120).
+degrees of its heading), beside it (60 to 120) or behind it (beyond 120); and when: how
+many steps into its goal attempt, and whether that attempt began at a goal reached or
+at the episode's start.
 
     python scripts/collision_causes.py runs/drive_stage4
     python scripts/collision_causes.py runs/drive_stage4 --maze stage4_humble --episodes 10
