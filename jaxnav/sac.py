@@ -192,7 +192,6 @@ class SACState:
     they mean for PQN (:class:`jaxnav.pqn.PQNState`)."""
 
     params: chex.ArrayTree  # the tested actor's: the actor's, or their average (actor_average)
-    actor: chex.ArrayTree  # the actor that samples and learns
     critic: chex.ArrayTree
     target_critic: chex.ArrayTree
     log_alpha: chex.Array  # f32[]
@@ -210,6 +209,13 @@ class SACState:
     metrics: Episodes
     diverged_at: chex.Array  # i32[] env step of the step that first broke; -1 while none
     bank: Any = None  # the run's layouts drawn ahead (env.maze_bank), else None
+    # the actor that samples and learns, where the tested one is its average
+    # (sac.actor_average); None: ``params`` is that actor
+    actor: Any = None
+
+    def acting(self) -> chex.ArrayTree:
+        """The parameters of the actor that samples and learns."""
+        return self.params if self.actor is None else self.actor
 
 
 class Learner(struct.PyTreeNode):
@@ -329,7 +335,6 @@ def make_trainer(config: Config) -> Trainer:
         )
         return SACState(
             params=params,
-            actor=params,
             critic=critic_params,
             target_critic=critic_params,
             log_alpha=log_alpha,
@@ -347,6 +352,7 @@ def make_trainer(config: Config) -> Trainer:
             metrics=Episodes.zeros(slots, envs, attempts=bool(env.attempt_limit)),
             diverged_at=jnp.asarray(-1, jnp.int32),
             bank=env_params.bank,
+            actor=params if s.actor_average > 0 else None,
         )
 
     def active(ts: SACState) -> chex.Array:
@@ -358,7 +364,7 @@ def make_trainer(config: Config) -> Trainer:
         alpha = jnp.exp(ts.log_alpha)
 
         # ACT: the policy's sample, or uniform before learning starts.
-        sampled, _ = actor.apply(ts.actor, ts.obs, k_act)
+        sampled, _ = actor.apply(ts.acting(), ts.obs, k_act)
         uniform = jax.random.uniform(k_random, sampled.shape, jnp.float32, -1.0, 1.0)
         action = jnp.where(ts.step < s.learning_starts, uniform, sampled)
         max_q = jnp.min(critic.apply(ts.critic, ts.obs, action), axis=0)
@@ -393,7 +399,7 @@ def make_trainer(config: Config) -> Trainer:
         # LEARN: sac.updates gradient steps, once learning has started.
         n_steps = ts.step + envs
         learner = Learner(
-            ts.actor,
+            ts.acting(),
             ts.params,
             ts.critic,
             ts.target_critic,
@@ -416,7 +422,7 @@ def make_trainer(config: Config) -> Trainer:
         diverged = (ts.diverged_at < 0) & learning & ~ok
         held = ts.replace(
             params=learner.average,
-            actor=learner.actor,
+            actor=learner.actor if s.actor_average > 0 else None,
             critic=learner.critic,
             target_critic=learner.target,
             log_alpha=learner.log_alpha,

@@ -114,11 +114,12 @@ def summary(causes: list[Cause]) -> dict[str, float]:
 
 def attempt_starts(reached: np.ndarray, episode: np.ndarray, r: int, t: int) -> tuple[int, bool]:
     """(steps of the attempt before step ``t`` of row ``r``, whether it began at a goal
-    reached): an attempt begins at its episode's first step or after a goal."""
-    k = t
-    while k > 0 and episode[r, k - 1] == episode[r, t] and not reached[r, k - 1]:
-        k -= 1
-    return t - k, bool(k > 0 and episode[r, k - 1] == episode[r, t])
+    reached): an attempt begins at its episode's first step or after a goal, as the
+    navigation metrics split them (:func:`jaxnav.report.navigation.attempt_first_steps`)."""
+    from jaxnav.report.navigation import attempt_first_steps
+
+    k = int(np.flatnonzero(attempt_first_steps(episode[r, : t + 1], reached[r, : t + 1]))[-1])
+    return t - k, bool(k > 0 and episode[r, k - 1] == episode[r, k])
 
 
 def run_causes(run_dir: str, maze: str | None, episodes: int) -> dict[str, list[Cause]]:

@@ -106,6 +106,16 @@ def outcome_of(steps, reached, collided, limit: int) -> np.ndarray:
     ).astype(np.int32)
 
 
+def attempt_first_steps(episode: np.ndarray, reached: np.ndarray) -> np.ndarray:
+    """bool[T]: where a goal attempt starts among a run's steps (``episode`` each step's
+    test episode, ``reached`` the goal reached in the step): at an episode's first step
+    or at the step after a reach."""
+    episode, reached = np.asarray(episode), np.asarray(reached, bool)
+    first = np.ones(len(episode), bool)
+    first[1:] = (episode[1:] != episode[:-1]) | reached[:-1]
+    return first
+
+
 def split_attempts(
     pos: np.ndarray,
     goal: np.ndarray,
@@ -138,8 +148,7 @@ def split_attempts(
         return Attempts(
             *(np.zeros(shape, dtype) for shape, dtype in _EMPTY), np.zeros(0), np.zeros((0, 2))
         )
-    first = np.ones(n, bool)  # an attempt starts at an episode's first step ...
-    first[1:] = (episode[1:] != episode[:-1]) | reached[:-1]  # ... or after a reach
+    first = attempt_first_steps(episode, reached)
     starts = np.flatnonzero(first)
     ends = np.append(starts[1:] - 1, n - 1)  # attempts tile the steps
     taken = ends - starts + 1
