@@ -119,6 +119,10 @@ class NavEnv(Commands, EpisodeMaze, GoalSampler, DrawnLayouts, Observer):
         pose the robot uses for the goal's heading and distance (odometry error).
       random_start: start each episode at a random free pose with a uniform yaw
         instead of the maze's start pose.
+      restart_goal: "keep" (ROBOTIS': after a collision or the step limit the robot
+        retries the goal it missed; with a deterministic policy in a fixed world that
+        restart replays the same attempt) or "new" (the restart draws its goal as a
+        reset does, from ``fold_in(key, 7)``).
       maze_scale: (low, high): each episode scales the maze (walls, obstacle
         positions, goals, start) by a factor drawn uniformly from this range;
         obstacle radii keep their size. (1, 1) is off.
@@ -228,6 +232,7 @@ class NavEnv(Commands, EpisodeMaze, GoalSampler, DrawnLayouts, Observer):
     beam_dropout: float = 0.0
     odom_noise: tuple[float, float] = (0.0, 0.0)
     random_start: bool = False
+    restart_goal: str = "keep"
     maze_scale: tuple[float, float] = (1.0, 1.0)
     motion_pace: tuple[float, float] = OWN_PACE
     collision_margin: float = 0.0
@@ -445,18 +450,22 @@ class NavEnv(Commands, EpisodeMaze, GoalSampler, DrawnLayouts, Observer):
         self, key: chex.PRNGKey, state: EnvState, params: EnvParams
     ) -> tuple[chex.Array, EnvState]:
         """TurtleBot3's restart after a collision or the step limit: the start pose
-        (random if ``random_start``), the same goal, step count 0, the moving cylinders
-        back at their first pose. With drawn mazes, every ``new_maze_every`` episodes a
-        new maze, start and goal instead."""
+        (random if ``random_start``), the same goal (a new one with ``restart_goal``
+        "new"), step count 0, the moving cylinders back at their first pose. With drawn
+        mazes, every ``new_maze_every`` episodes a new maze, start and goal instead."""
         # Without randomised starts the start-pose scan does not depend on the state:
         # under vmap with shared params it is computed once, not per environment.
         if self.generates:
             return self._restart_drawn(key, state, params)
         goal = state.goal
         scale = self._episode_scale(key)
+        if self.restart_goal == "new":  # a goal drawn as a reset draws it
+            start = params.maze.start[:2]
+            start = start * scale if self.scales_maze else start
+            goal = self.first_goal(jax.random.fold_in(key, 7), start, params, scale)
         pos, yaw = self._start_pose(key, params, goal, scale)
         scale = jnp.asarray(scale, jnp.float32)
-        if self.scales_maze:  # the kept goal moves with the maze
+        if self.scales_maze and self.restart_goal == "keep":  # the kept goal moves with the maze
             goal = goal * (scale / state.scale)
         pace = self._episode_pace(key)
         obs = self.observe(key, pos, yaw, goal, params, scale, pace=pace)
@@ -465,8 +474,8 @@ class NavEnv(Commands, EpisodeMaze, GoalSampler, DrawnLayouts, Observer):
 
     def step(self, key: chex.PRNGKey, state: EnvState, action: chex.Array, params: EnvParams):
         """Step with auto-reset: after a collision or truncation the robot restarts at the
-        start pose and keeps its goal. ``info["final_obs"]`` is the observation before
-        the reset (needed to bootstrap through truncation)."""
+        start pose and keeps its goal (``restart_goal``). ``info["final_obs"]`` is the
+        observation before the reset (needed to bootstrap through truncation)."""
         obs_st, st, reward, terminated, truncated, info = self.step_env(key, state, action, params)
         done = terminated | truncated
         info = dict(info, final_obs=obs_st)

@@ -467,6 +467,45 @@ def test_after_a_collision_the_robot_restarts_at_the_start_with_its_goal():
     assert not np.allclose(np.asarray(info["final_obs"]), np.asarray(obs))
 
 
+def _restart_goals(restart_goal: str, episodes: int = 4) -> list[tuple[float, float]]:
+    """The goal of each episode when a policy drives straight on from square4's start
+    until it hits the east wall, again and again (a deterministic failure)."""
+    env, params = make("square4", restart_goal=restart_goal)
+    fns = jitted(env)
+    _, s = fns["reset"](KEY, params)
+    goals, key = [tuple(np.asarray(s.goal).tolist())], KEY
+    while len(goals) < episodes:
+        key, sub = jax.random.split(key)
+        _, s, _, term, trunc, _ = fns["step"](sub, s, 2, params)
+        assert not bool(trunc)
+        if bool(term):  # crashed: restarted at the start
+            np.testing.assert_array_equal(np.asarray(s.pos), [0.0, 0.0])
+            goals.append(tuple(np.asarray(s.goal).tolist()))
+    return goals
+
+
+def test_restart_goal_keep_retries_the_missed_goal_and_new_draws_a_fresh_one():
+    # keep (ROBOTIS'): every restart retries the goal the crash missed.
+    kept = _restart_goals("keep")
+    assert len(set(kept)) == 1
+    # new: each restart draws a goal as a reset does: one of the maze's admissible
+    # points, at least goal_min_separation from the start, a different one each time.
+    fresh = _restart_goals("new")
+    assert fresh[0] == kept[0]  # the reset's goal is the same draw either way
+    assert len(set(fresh)) == len(fresh)
+    _, params = make("square4")
+    points = np.asarray(params.maze.goal_points)[: int(params.maze.n_goal_points)]
+    for goal in fresh:
+        assert np.min(np.linalg.norm(points - np.asarray(goal), axis=1)) < 1e-6
+        assert math.hypot(*goal) >= params.goal_min_separation
+
+
+def test_restart_goal_new_with_drawn_mazes_needs_a_new_layout_at_every_restart():
+    with pytest.raises(ValueError, match="env.restart_goal new .* env.new_maze_every 1"):
+        NavEnv(generator="grid", new_maze_every=2, restart_goal="new")
+    NavEnv(generator="grid", restart_goal="new")  # every restart draws a layout anyway
+
+
 def test_episode_truncates_after_500_steps_with_the_pre_reset_observation():
     env, params = make("square4_obstacles")
     fns = jitted(env)

@@ -46,6 +46,11 @@ def env_bank_problem(env: Any) -> str | None:
     """What is wrong with the maze bank's setting given the maze settings, or None."""
     if paces_motion(env.motion_pace) and env.generator:
         return "env.motion_pace paces moving cylinders: drawn mazes have none (env.generator)"
+    if env.restart_goal == "new" and env.generator and env.new_maze_every > 1:
+        return (
+            "env.restart_goal new draws a reset's goal: with drawn mazes it needs "
+            "env.new_maze_every 1 (each restart a new layout and goal)"
+        )
     if env.maze_bank and not env.generator:
         return "env.maze_bank draws layouts ahead: it needs drawn mazes (env.generator)"
     if env.maze_bank_refresh and not env.maze_bank:

@@ -72,6 +72,13 @@ class EnvConfig:
         (0.0, 0.0), "std of (position m, yaw rad) odometry noise", rule=PAIR_NON_NEGATIVE
     )
     random_start: bool = setting(False, "each episode starts at a random free pose")
+    restart_goal: str = setting(
+        "keep",
+        "the goal after a collision or the step limit: keep (ROBOTIS': the restart retries "
+        "the goal, so a deterministic policy in a fixed world replays the same attempt) or new "
+        "(drawn as a reset draws it)",
+        rule=one_of("keep", "new"),
+    )
     maze_scale: tuple[float, ...] = setting(
         (1.0, 1.0), "per-episode maze scale drawn from [low, high]", rule=SCALE_RANGE
     )
