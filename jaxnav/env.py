@@ -75,7 +75,7 @@ from jaxnav.world.maps import (
     make_maze,
 )
 from jaxnav.world.observer import Observer
-from jaxnav.world.reward import progress_reward, reward_fn, sparse_reward
+from jaxnav.world.reward import nearness, progress_reward, reward_fn, sparse_reward
 from jaxnav.world.sensor import goal_heading_distance
 from jaxnav.world.state import (
     PAPER_OMEGAS,
@@ -188,6 +188,11 @@ class NavEnv(Commands, EpisodeMaze, GoalSampler, DrawnLayouts, Observer):
         maze, as the geodesic shaping measures it). Beside any of them,
         ``EnvParams.step_penalty`` and ``proximity_penalty`` are taken from every step
         that neither reaches nor collides (:func:`jaxnav.world.reward.progress_reward`).
+      moving_proximity_penalty: with the progress reward in a maze with moving
+        cylinders, also taken from such a step, times
+        :func:`jaxnav.world.reward.nearness` of the step's least clearance to a moving
+        cylinder over ``moving_proximity_distance`` (m): a wider berth for what moves
+        than for walls. 0 is off (no computation).
 
     Actions and observation (beyond the paper; both off by default):
       actions: "paper" (``EnvParams.omegas`` at the constant ``v``) or a set of
@@ -261,6 +266,8 @@ class NavEnv(Commands, EpisodeMaze, GoalSampler, DrawnLayouts, Observer):
     speed_range: tuple[float, float] = (0.0, BURGER_MAX_V)
     max_yaw_rate: float = BURGER_MAX_OMEGA
     beyond_limits: bool = False
+    moving_proximity_penalty: float = 0.0
+    moving_proximity_distance: float = 0.5
 
     def __post_init__(self):
         for f in dataclasses.fields(self):  # the rules of the config's env settings
@@ -405,6 +412,13 @@ class NavEnv(Commands, EpisodeMaze, GoalSampler, DrawnLayouts, Observer):
             reward = reward_fn(
                 params, action, heading, distance, state.goal_distance0, reached, collided
             )
+        if self.moving_proximity_penalty and maze.motion is not None:  # a wider berth
+            moving = motion.moving_clearance(
+                maze.motion, state.pos, state.yaw, omega, v, params.dt, state.t * params.dt
+            )
+            near = nearness(moving - params.robot_radius, self.moving_proximity_distance)
+            shaped = reward - self.moving_proximity_penalty * near
+            reward = jnp.where(reached | collided, reward, shaped)
         new_goal = self.draw_goal(k_goal, state.goal, params, state.scale)
         goal = jnp.where(reached, new_goal, state.goal)
         d0 = jnp.where(reached, norm2(new_goal - pos), state.goal_distance0)
@@ -545,6 +559,10 @@ def make(
     params = EnvParams(maze=maze_obj, **values)
     if env.paces_motion and maze_obj.motion is None:
         raise ConfigError(f"env.motion_pace paces moving cylinders: maze {maze!r} has none")
+    if env.moving_proximity_penalty and maze_obj.motion is None:
+        raise ConfigError(
+            f"env.moving_proximity_penalty keeps clear of moving cylinders: maze {maze!r} has none"
+        )
     if env.attempt_limit > int(params.max_steps):
         raise ValueError(
             f"attempt_limit ({env.attempt_limit}) must not exceed max_steps ({params.max_steps})"

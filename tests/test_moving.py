@@ -196,6 +196,42 @@ def test_a_cylinder_that_grazes_a_still_robot_mid_step_collides():
     assert float(clear) < ref.ROBOT_R
 
 
+@pytest.mark.parametrize("gap", [0.05, 0.2, 0.45, 0.8])
+def test_the_moving_proximity_penalty_is_taken_by_hand_near_a_passing_cylinder(gap):
+    """A robot standing still (the vw set's stop) ``gap`` m beyond contact with stage
+    4's first cylinder 10 s into an episode: the penalty taken is the setting times
+    1 - c / 0.5, c its least clearance to either cylinder over the step, found by
+    sampling the cylinders' own laws (0 from 0.5 m on); walls and goal are unchanged."""
+    stop, penalty, distance, radius, t = 2, 0.7, 0.5, 0.12, 50
+    centre = stage4_centres(0.2 * t)[0]
+    out = centre - np.asarray([-0.7, 0.0])  # from the start towards the cylinder
+    pos = centre - out / np.linalg.norm(out) * (radius + ref.ROBOT_R + gap)
+    rewards = []
+    for on in (0.0, penalty):
+        kw = {"moving_proximity_penalty": on} if on else {}
+        env, params = jaxnav.make("stage4", reward="progress", actions="vw", **kw)
+        _, state = env.reset(jax.random.PRNGKey(0), params)
+        state = state.replace(pos=jnp.asarray(pos, jnp.float32), t=jnp.int32(t))
+        _, _, reward, term, _, info = env.step_env(
+            jax.random.PRNGKey(1), state, jnp.int32(stop), params
+        )
+        assert not bool(term) and not bool(info["goal_reached"])
+        rewards.append(float(reward))
+    s = np.linspace(0.0, 0.2, 4001)
+    discs = np.stack([stage4_centres(0.2 * t + si) for si in s])  # [n, 2, 2]
+    c = (np.linalg.norm(discs - pos, axis=-1) - radius).min() - ref.ROBOT_R
+    want = penalty * min(max(1.0 - c / distance, 0.0), 1.0)
+    assert rewards[0] - rewards[1] == pytest.approx(want, abs=1e-4)
+    assert (want > 0) == (gap < distance)
+
+
+def test_a_moving_proximity_penalty_where_nothing_moves_or_without_progress_is_refused():
+    with pytest.raises(ValueError, match="maze 'square4' has none"):
+        jaxnav.make("square4", reward="progress", moving_proximity_penalty=1.0)
+    with pytest.raises(ValueError, match="needs env.reward progress"):
+        jaxnav.make("stage4", moving_proximity_penalty=1.0)
+
+
 @pytest.mark.slow
 def test_mazes_that_move_and_mazes_that_stand_still_stack_and_vmap():
     """A still maze stacked beside stages carries parked cylinders that nothing sees."""

@@ -39,6 +39,11 @@ def env_reward_problem(env: Any) -> str | None:
         return f"env.reward geodesic needs env.generator {which} (its shortest paths)"
     if env.progress_path == "geodesic" and (env.reward != "progress" or env.generator not in paths):
         return f"env.progress_path geodesic needs env.reward progress and env.generator {which}"
+    if env.moving_proximity_penalty and (env.reward != "progress" or env.generator):
+        return (
+            "env.moving_proximity_penalty is a progress reward term for a fixed maze with "
+            "moving cylinders: it needs env.reward progress and no env.generator"
+        )
     return None
 
 

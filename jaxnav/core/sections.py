@@ -184,6 +184,20 @@ class EnvConfig:
         "progress reward: the clearance below which the proximity penalty applies, m",
         rule=POSITIVE,
     )
+    moving_proximity_penalty: float = setting(
+        0.0,
+        "progress reward, mazes with moving cylinders: taken, times 1 - clearance / "
+        "env.moving_proximity_distance, where the step brings the robot within "
+        "env.moving_proximity_distance of a moving cylinder (clearance beyond its radius), "
+        "beside env.proximity_penalty",
+        rule=NON_NEGATIVE,
+    )
+    moving_proximity_distance: float = setting(
+        0.5,
+        "progress reward: the clearance to a moving cylinder below which "
+        "env.moving_proximity_penalty applies, m",
+        rule=POSITIVE,
+    )
     actions: str = setting(
         "paper",
         "paper (5 yaw rates at 0.15 m/s), paper_stop (those and a stop), vw (speeds 0, "

@@ -62,6 +62,12 @@ def sparse_reward(params: Any, reached: chex.Array, collided: chex.Array) -> che
     return jnp.where(collided, params.R_minus, jnp.where(reached, params.R_plus, 0.0))
 
 
+def nearness(clearance: chex.Array, distance) -> chex.Array:
+    """1 - c / ``distance`` clipped to [0, 1]: 1 at contact, 0 from ``distance`` (m) on,
+    for a clearance c beyond the robot's radius."""
+    return jnp.clip(1.0 - clearance / distance, 0.0, 1.0)
+
+
 def progress_reward(
     params: Any,
     before: chex.Array,
@@ -81,8 +87,7 @@ def progress_reward(
     JaxMARL's JaxNav), a penalty near obstacles (ROBOTIS' stage code). ``change`` (given
     with the normalised observation): the step's change of command, |dv| / 0.22 +
     |d omega| / 2.84, taken times ``change_penalty``."""
-    c = clearance - params.robot_radius
-    near = jnp.clip(1.0 - c / params.proximity_distance, 0.0, 1.0)
+    near = nearness(clearance - params.robot_radius, params.proximity_distance)
     shaping = (
         params.progress_scale * (before - after)
         - params.step_penalty
