@@ -68,8 +68,9 @@ def navigation_section(results: dict, mazes, strategies, seeds) -> list[str]:
         "",
         "## Navigation: per goal attempt",
         "",
-        "An attempt starts when a goal is set (an episode's start, which keeps the goal "
-        "after a collision or the step limit, or the next goal after one is reached) and "
+        "An attempt starts when a goal is set (an episode's start, which retries the goal "
+        "a collision or the step limit missed unless env.restart_goal is new, or the next "
+        "goal after one is reached) and "
         "ends at the goal within the attempt limit (success), in a collision within it, "
         "after the whole attempt limit (timeout; by default the limit is the episode's, so "
         "only an attempt spanning a whole episode times out), or cut off by its episode's "

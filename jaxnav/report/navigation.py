@@ -3,7 +3,8 @@ attempts that were decided, the attempts cut off by an episode's end, the path
 travelled, SPL, the time to the goal and goals per minute of driving.
 
 An attempt starts when a goal is set: at an episode's start (a reset, or the restart
-after a collision or the step limit, which keeps the goal) and after a goal is
+after a collision or the step limit, which keeps the goal unless
+``env.restart_goal`` is "new") and after a goal is
 reached (the next goal, from where the robot stands). It may take at most the
 *attempt limit* in steps (``env.attempt_limit``; by default the episode's step limit,
 so an attempt times out only if it spans a whole episode). It ends, in this order of
