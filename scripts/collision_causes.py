@@ -9,7 +9,9 @@ cylinder's centre, the cylinder's is its velocity over the step before along the
 line, towards the robot; and where the cylinder stood: ahead of the robot (within 60
 degrees of its heading), beside it (60 to 120) or behind it (beyond 120); and when: how
 many steps into its goal attempt, and whether that attempt began at a goal reached or
-at the episode's start.
+at the episode's start; and how long before the collision the cylinder passed the last
+waypoint of its loop (where it turns), beside the share of the loop's time that lies
+that soon after a waypoint.
 
     python scripts/collision_causes.py runs/drive_stage4
     python scripts/collision_causes.py runs/drive_stage4 --maze stage4_humble --episodes 10
@@ -30,6 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 
 AHEAD, BEHIND = 60.0, 120.0  # degrees off the heading
+WINDOW = 2.0  # s after a waypoint
 
 
 @dataclass(frozen=True)
@@ -45,6 +48,8 @@ class Cause:
     stopped: bool = False  # the robot's driven speed was 0
     into_attempt: int = 0  # steps of its goal attempt before the colliding one
     after_goal: bool = False  # the attempt began at a goal reached, not at the episode's start
+    cylinder: int = -1  # which moving cylinder (its row in the maze's motion)
+    since_waypoint: float = math.nan  # s since that cylinder passed its loop's last waypoint
 
 
 def segment_gaps(pos: np.ndarray, segments: np.ndarray) -> np.ndarray:
@@ -88,6 +93,7 @@ def cause(
     return Cause(
         "moving",
         float(gaps[k]),
+        cylinder=k,
         robot_closing=float(speed * np.dot(heading, u)),
         cylinder_closing=float(-np.dot(velocity, u)),
         bearing=bearing,
@@ -109,7 +115,25 @@ def summary(causes: list[Cause]) -> dict[str, float]:
         out["robot stopped"] = np.mean([c.stopped for c in moving])
         out["after a goal"] = np.mean([c.after_goal for c in moving])
         out["median steps into the attempt"] = float(np.median([c.into_attempt for c in moving]))
+        ages = np.asarray([c.since_waypoint for c in moving])
+        ages = ages[~np.isnan(ages)]  # loops that turn about a centre have no waypoints
+        if len(ages):
+            out["median s since a waypoint"] = float(np.median(ages))
+            out["within 2 s of a waypoint"] = float(np.mean(ages <= WINDOW))
     return out
+
+
+def waypoint_age(times: np.ndarray, period: float, time: float) -> float:
+    """Seconds since a loop's cylinder passed its last waypoint at ``time`` s into the
+    episode: ``times`` f[K] the loop's keyframe times (0 first, the period last)."""
+    tau = time % period
+    return float(tau - times[times <= tau].max())
+
+
+def near_waypoint_share(times: np.ndarray, period: float, window: float) -> float:
+    """The share of a loop's time that lies within ``window`` s after a waypoint."""
+    legs = np.diff(np.unique(np.concatenate([times, [period]])))
+    return float(np.minimum(legs, window).sum() / period)
 
 
 def attempt_starts(reached: np.ndarray, episode: np.ndarray, r: int, t: int) -> tuple[int, bool]:
@@ -122,8 +146,11 @@ def attempt_starts(reached: np.ndarray, episode: np.ndarray, r: int, t: int) -> 
     return t - k, bool(k > 0 and episode[r, k - 1] == episode[r, k])
 
 
-def run_causes(run_dir: str, maze: str | None, episodes: int) -> dict[str, list[Cause]]:
-    """Each test maze's collisions (``maze``: only that one) in the run's greedy test."""
+def run_causes(
+    run_dir: str, maze: str | None, episodes: int
+) -> dict[str, tuple[list[Cause], float]]:
+    """Each test maze's collisions (``maze``: only that one) in the run's greedy test,
+    and the share of its waypoint loops' time within WINDOW s after a waypoint."""
     from jaxnav.experiments.evaluation import load_run
     from jaxnav.experiments.rollout import padded_mazes, run_tests
     from jaxnav.world.maps import make_maze
@@ -138,6 +165,9 @@ def run_causes(run_dir: str, maze: str | None, episodes: int) -> dict[str, list[
         m = make_maze(name)
         n_moving = 0 if m.motion is None else int(m.motion.n)
         segments = np.asarray(m.walls(), np.float64)
+        times = np.zeros((0, 1)) if m.motion is None else np.asarray(m.motion.times, np.float64)
+        periods = np.zeros(0) if m.motion is None else np.asarray(m.motion.period, np.float64)
+        spins = np.zeros(0) if m.motion is None else np.asarray(m.motion.spin, np.float64)
         found = []
         collided, episode = np.asarray(tr.collided), np.asarray(tr.episode)
         reached = np.asarray(tr.reached)
@@ -155,9 +185,22 @@ def run_causes(run_dir: str, maze: str | None, episodes: int) -> dict[str, list[
                 tr.pos[r, t], float(tr.yaw[r, t]), speed, segments, standing, moving, before, dt
             )
             into, after_goal = attempt_starts(reached, episode, r, t)
-            found.append(dataclasses.replace(c, into_attempt=into, after_goal=after_goal))
-        out[name] = found
+            c = dataclasses.replace(c, into_attempt=into, after_goal=after_goal)
+            if c.surface == "moving" and spins[c.cylinder] == 0.0:  # time at the step's start
+                t_in = t - int(np.flatnonzero(episode[r, : t + 1] == episode[r, t])[0])
+                age = waypoint_age(times[c.cylinder], periods[c.cylinder], t_in * dt)
+                c = dataclasses.replace(c, since_waypoint=age)
+            found.append(c)
+        out[name] = (found, base_share(times[spins == 0.0], periods[spins == 0.0]))
     return out
+
+
+def base_share(times: np.ndarray, periods: np.ndarray) -> float:
+    """The share of the loops' time within WINDOW s after a waypoint (mean over the
+    cylinders; nan without moving cylinders)."""
+    if not len(periods):
+        return math.nan
+    return float(np.mean([near_waypoint_share(x, p, WINDOW) for x, p in zip(times, periods)]))
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -166,7 +209,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--maze", help="one test maze (default: the run's test mazes)")
     ap.add_argument("--episodes", type=int, default=10, help="greedy test episodes per seed")
     args = ap.parse_args(argv)
-    for name, causes in run_causes(args.run_dir, args.maze, args.episodes).items():
+    for name, (causes, base) in run_causes(args.run_dir, args.maze, args.episodes).items():
         s = summary(causes)
         line = (
             f"{name}: {s['collisions']} collisions, {s['wall']} with a wall, "
@@ -179,6 +222,12 @@ def main(argv: list[str] | None = None) -> int:
                 f"{s['behind']:.2f}, the robot was stopped {s['robot stopped']:.2f}; "
                 f"the attempt began at a goal reached {s['after a goal']:.2f}, the collision "
                 f"came a median {s['median steps into the attempt']:.0f} steps into it"
+            )
+        if "median s since a waypoint" in s:
+            line += (
+                f"; a median {s['median s since a waypoint']:.1f} s after the cylinder passed "
+                f"a waypoint of its loop, within {WINDOW:.0f} s of one "
+                f"{s['within 2 s of a waypoint']:.2f} (of the loops' time {base:.2f})"
             )
         print(line)
     return 0

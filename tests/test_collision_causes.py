@@ -75,6 +75,26 @@ def test_the_summary_counts_and_shares():
     assert s["robot stopped"] == pytest.approx(2 / 3)
 
 
+def test_how_long_since_a_cylinder_passed_a_waypoint_of_its_loop():
+    # a loop of legs of 3, 5 and 2 s (period 10), padded with its last keyframe
+    times = np.array([0.0, 3.0, 8.0, 10.0, 10.0])
+    assert causes.waypoint_age(times, 10.0, 0.0) == 0.0
+    assert causes.waypoint_age(times, 10.0, 4.5) == pytest.approx(1.5)
+    assert causes.waypoint_age(times, 10.0, 9.0) == pytest.approx(1.0)
+    assert causes.waypoint_age(times, 10.0, 23.5) == pytest.approx(0.5)  # 3.5 s into a lap
+    # within 2 s after a waypoint: 2 of the first leg, 2 of the second, all 2 of the last
+    assert causes.near_waypoint_share(times, 10.0, 2.0) == pytest.approx(0.6)
+    found = [
+        causes.Cause("moving", 0.1, since_waypoint=0.5),
+        causes.Cause("moving", 0.1, since_waypoint=3.0),
+        causes.Cause("moving", 0.1, since_waypoint=1.0),
+        causes.Cause("moving", 0.1),  # a spun loop: no waypoints
+    ]
+    s = causes.summary(found)
+    assert s["median s since a waypoint"] == pytest.approx(1.0)
+    assert s["within 2 s of a waypoint"] == pytest.approx(2 / 3)
+
+
 def test_an_attempt_begins_at_its_episode_or_after_a_goal():
     # one row: episode 0 reaches a goal at step 2; episode 1 begins at step 5
     reached = np.array([[0, 0, 1, 0, 0, 0, 0, 1, 0]], bool)
@@ -102,7 +122,7 @@ def test_every_collision_of_the_test_is_counted_once(tmp_path_factory):
     from jaxnav.experiments.rollout import padded_mazes, run_tests
 
     _, run_dir = tiny_run(tmp_path_factory)
-    found = causes.run_causes(str(run_dir), "stage3", 3)["stage3"]
+    found = causes.run_causes(str(run_dir), "stage3", 3)["stage3"][0]
     res = run_tests(load_run(run_dir).policies, padded_mazes(["stage3"]), 3)[0]
     assert len(found) == int(np.asarray(res.collided).sum()) > 0  # one per episode, at most
     reach = 0.13 + DT * (0.15 + 0.43)  # the robot's radius and what both move in a step
