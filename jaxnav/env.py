@@ -321,7 +321,6 @@ class NavEnv(Commands, EpisodeMaze, GoalSampler, DrawnLayouts, Observer):
         """Robot at the start pose with a freshly drawn goal (and maze, if drawn)."""
         k_goal, k_obs = jax.random.split(key)
         scale = self._episode_scale(key)
-        start = params.maze.start[:2]
         maze = maze_episodes = cell_dist = None
         if self.generates:  # a new maze, its start and a goal min_path_cells away
             maze, goal, cell_dist = self._layout(jax.random.fold_in(key, 5), params)
@@ -329,9 +328,7 @@ class NavEnv(Commands, EpisodeMaze, GoalSampler, DrawnLayouts, Observer):
             maze_episodes = jnp.zeros((), jnp.int32)
             goal = goal * scale if self.scales_maze else goal
         else:
-            if self.scales_maze:
-                start = start * scale
-            goal = self.first_goal(k_goal, start, params, scale)
+            goal = self.reset_goal(k_goal, params, scale)
         pos, yaw = self._start_pose(key, params, goal, scale)
         scale = jnp.asarray(scale, jnp.float32)
         state = new_episode(pos, yaw, goal, scale, self.action_delay, maze, maze_episodes)
@@ -359,7 +356,7 @@ class NavEnv(Commands, EpisodeMaze, GoalSampler, DrawnLayouts, Observer):
         k_goal, k_obs = step_keys(key)
         v, omega = self.driven(params, state, action)
         maze = self.episode_maze(params, state)
-        clearance = motion.step_clearance(
+        clearance, moving = motion.step_clearances(
             maze, state.pos, state.yaw, omega, v, params.dt, state.t * params.dt
         )
         pos = state.pos + displacement(state.yaw, omega, v, params.dt)
@@ -412,10 +409,7 @@ class NavEnv(Commands, EpisodeMaze, GoalSampler, DrawnLayouts, Observer):
             reward = reward_fn(
                 params, action, heading, distance, state.goal_distance0, reached, collided
             )
-        if self.moving_proximity_penalty and maze.motion is not None:  # a wider berth
-            moving = motion.moving_clearance(
-                maze.motion, state.pos, state.yaw, omega, v, params.dt, state.t * params.dt
-            )
+        if self.moving_proximity_penalty and moving is not None:  # a wider berth
             near = nearness(moving - params.robot_radius, self.moving_proximity_distance)
             shaped = reward - self.moving_proximity_penalty * near
             reward = jnp.where(reached | collided, reward, shaped)
@@ -474,9 +468,7 @@ class NavEnv(Commands, EpisodeMaze, GoalSampler, DrawnLayouts, Observer):
         goal = state.goal
         scale = self._episode_scale(key)
         if self.restart_goal == "new":  # a goal drawn as a reset draws it
-            start = params.maze.start[:2]
-            start = start * scale if self.scales_maze else start
-            goal = self.first_goal(jax.random.fold_in(key, 7), start, params, scale)
+            goal = self.reset_goal(jax.random.fold_in(key, 7), params, scale)
         pos, yaw = self._start_pose(key, params, goal, scale)
         scale = jnp.asarray(scale, jnp.float32)
         if self.scales_maze and self.restart_goal == "keep":  # the kept goal moves with the maze

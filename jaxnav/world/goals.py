@@ -83,6 +83,13 @@ class GoalSampler:
             return jnp.asarray(ROBOTIS_FIRST_GOAL) * (params.maze.robotis_scale * scale)
         return self.draw_goal(key, start, params, scale)
 
+    def reset_goal(self, key, params: Any, scale) -> chex.Array:
+        """The goal a reset sets: :meth:`first_goal` away from the maze's start, scaled
+        with the maze when ``maze_scale`` is on."""
+        start = params.maze.start[:2]
+        start = start * scale if self.scales_maze else start
+        return self.first_goal(key, start, params, scale)
+
     def _episode_scale(self, key: chex.PRNGKey) -> chex.Array | float:
         """This episode's maze scale, from ``fold_in(key, 3)``; the constant 1 when off."""
         if not self.scales_maze:

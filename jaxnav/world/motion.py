@@ -211,11 +211,18 @@ def step_clearance(maze, pos: chex.Array, yaw: chex.Array, omega, v, dt, time0) 
     whose ``motion`` is not None, the moving cylinders over the step's time
     (:func:`moving_clearance`). The robot collides iff this is below its radius; the
     environment's step, the oracle and ``scripts/moving_search.py`` all test with it."""
+    return step_clearances(maze, pos, yaw, omega, v, dt, time0)[0]
+
+
+def step_clearances(maze, pos: chex.Array, yaw: chex.Array, omega, v, dt, time0):
+    """(:func:`step_clearance`, the moving cylinders' part of it): the second is
+    :func:`moving_clearance` over the step, or None in a maze whose ``motion`` is None."""
     clearance = path_clearance(maze, pos, yaw, omega, v, dt)
+    moving = None
     if maze.motion is not None:
         moving = moving_clearance(maze.motion, pos, yaw, omega, v, dt, time0)
         clearance = jnp.minimum(clearance, moving)
-    return clearance
+    return clearance, moving
 
 
 __all__ = [
@@ -231,4 +238,5 @@ __all__ = [
     "positions",
     "paced",
     "step_clearance",
+    "step_clearances",
 ]
