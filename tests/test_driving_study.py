@@ -26,7 +26,9 @@ from jaxnav.report.driving_page import (
     RUN_COLUMNS,
     RUNS,
     commands_of,
+    config_tests,
     machines_of,
+    setting_text,
     written_by,
 )
 
@@ -55,9 +57,33 @@ def test_names_on_the_command_line_pick_configs_and_settings_reach_them():
     assert driving.load_study(SHIPPED).configs[0] == "drive_square4"  # the file is unchanged
 
 
+def test_each_test_is_environment_settings_with_a_results_folder_of_its_own():
+    study = driving.load_study(SHIPPED)
+    # the table's test draws a new goal at each restart; the retried goal stays beside it
+    assert study.tests == (("env.restart_goal=new", "env.new_maze_every=1"), ())
+    folders = [driving.results_folder(t) for t in study.tests]
+    assert folders == ["eval-env.restart_goal=new,env.new_maze_every=1", "eval"]
+    run = json.loads((DOCS / "run.json").read_text())
+    assert config_tests(run, list(study.configs)) == {
+        c: [list(t) for t in study.tests] for c in study.configs
+    }
+    assert config_tests({}, ["a"]) == {"a": [[]]}  # a folder written before tests: as trained
+    assert setting_text("env.x", "new") == "env.x=new"
+    assert setting_text("env.x", [1, 2]) == "env.x=[1, 2]"
+    assert setting_text("env.x", "a b") == 'env.x="a b"'
+    one = driving.load_study(SHIPPED, ["drive_square4", "tests=[{env: {restart_goal: new}}]"])
+    assert one.tests == (("env.restart_goal=new",),)
+
+
 @pytest.mark.parametrize(
     "items, message",
     [
+        (["tests=[]"], "tests must list at least one test"),
+        (["tests=[1]"], "tests[0] must be a mapping of settings"),
+        (["tests=[{}, {}]"], "tests names a test twice"),
+        (["tests=[{dqn.lr: 0.1}]"], "tested with other environment settings only"),
+        (["tests=[{env.restart_goal: nw}]"], "env.restart_goal"),
+        (["drive_grid4", "tests=[{env.restart_goal: new}]"], "env.new_maze_every 1"),
         (["drive_nowhere"], "no shipped config 'drive_nowhere'"),
         (["test_episodes=0"], "test_episodes must be at least 1"),
         (["settings.env.max_stepz=3"], "unknown key 'env.max_stepz'"),
@@ -113,7 +139,8 @@ def _data(out: Path, configs: list[str]) -> None:
     (data / RUNS).write_text(csv_text(RUN_COLUMNS, mine))
     (data / EVALS).mkdir()
     for name in configs:
-        shutil.copyfile(DOCS / f"{name}.csv", data / f"{name}.csv")
+        for path in DOCS.glob(f"{name}.*csv"):  # its tests: NAME.csv, NAME.test2.csv
+            shutil.copyfile(path, data / path.name)
         shutil.copyfile(DOCS / EVALS / f"{name}.csv", data / EVALS / f"{name}.csv")
     shutil.copyfile(DOCS / "run.json", data / "run.json")
 
@@ -139,7 +166,10 @@ def test_one_config_run_again_replaces_its_row_and_keeps_the_others(tmp_path, mo
     configs = [r["config"] for r in csv.DictReader(io.StringIO(before))]
     was = commands_of(kept, configs)  # each other row keeps the command that wrote it
     on = machines_of(kept, configs)  # and the machine it ran on
-    assert drawn == [(folder, {**was, "drive_grid4": "c"}, {**on, "drive_grid4": "m"})]
+    tests = {**config_tests(kept, configs), "drive_grid4": [[]]}  # ran with one test, as trained
+    assert drawn == [(folder, {**was, "drive_grid4": "c"}, {**on, "drive_grid4": "m"}, tests)]
+    assert not (folder / "drive_grid4.test2.csv").exists()  # its earlier second test is gone
+    assert (folder / "drive_rooms.test2.csv").is_file()  # another config's stays
     assert json.loads((folder / "run.json").read_text())["commands"]["drive_grid4"] == "c"
     after = (folder / RUNS).read_text()
     assert after == before.replace("grid 4x4", "grid 4x4 again")  # its row, in its place
@@ -211,9 +241,61 @@ def test_a_tiny_driving_study_end_to_end_and_its_resume(tmp_path):
     again = subprocess.run([*cmd, "--resume"], capture_output=True, text=True)
     assert again.returncode == 0, again.stderr
     assert params.stat().st_mtime_ns == before  # a finished config is not trained again
+    # a test added to a finished study runs on the finished training, beside the first
+    path.write_text(TINY + "tests: [{}, {env.restart_goal: new}]\n")
+    more = [*cmd, "--resume", "--doc", str(doc), "--overwrite"]
+    more = subprocess.run(more, capture_output=True, text=True)
+    assert more.returncode == 0, more.stderr
+    assert params.stat().st_mtime_ns == before
+    assert (out / "smoke" / "eval-env.restart_goal=new" / "results.csv").is_file()
+    assert (doc.parent / "drive" / "smoke.test2.csv").is_file()
+    assert "## The same policies in other tests" in doc.read_text()
+    page = doc.read_text()  # its row, or (no restart in so short a test) the same results
+    assert "| `env.restart_goal=new` |" in page or "gave the very same results" in page
+    path.write_text(TINY)
     path.write_text(TINY.replace("episodes: 2", "episodes: 3"))
     refused = subprocess.run([*cmd, "--resume"], capture_output=True, text=True)
     assert refused.returncode == 2 and "was trained with other settings" in refused.stderr
+
+
+def test_the_other_tests_table_comes_from_the_committed_data():
+    """Each row of the smaller table (the same policies retested) against the committed
+    file read with the csv module and the statistics library alone."""
+    import statistics
+
+    from jaxnav.report.driving_page import data_name, other_tests, trained_label
+
+    tests = config_tests(json.loads((DOCS / "run.json").read_text()), driving.shipped_order())
+    lines = other_tests(DOCS, tests)
+    assert lines[0] == "## The same policies in other tests"
+    rows = [line for line in lines if line.startswith("| `")]
+    checked, same = 0, []
+    for config, its in tests.items():
+        for k in range(1, len(its)):
+            if (DOCS / data_name(config, k)).read_bytes() == (DOCS / f"{config}.csv").read_bytes():
+                same.append(f"`{config}`")  # no row: the very same test
+                assert not any(r.startswith(f"| `{config}` |") for r in rows)
+                continue
+            got = list(csv.DictReader(io.StringIO((DOCS / data_name(config, k)).read_text())))
+            policy = next(r["strategy"] for r in got if r["strategy"] not in ("oracle", "dwa"))
+            for maze in dict.fromkeys(r["maze"] for r in got):
+                success = statistics.mean(_rate(got, maze, policy))
+                oracle = statistics.mean(_rate(got, maze, "oracle"))
+                row = next(r for r in rows if r.startswith(f"| `{config}` | {maze} |"))
+                cells = [c.strip() for c in row.strip("|").split("|")]
+                assert cells[4].startswith(f"{success:.2f} [") and cells[6].startswith(
+                    f"{oracle:.2f} ["
+                )
+                assert cells[7] == ("yes" if success >= oracle - 0.02 else "no")
+                checked += 1
+    assert checked == len(rows) > 0
+    if same:
+        assert f"For {', '.join(same)} the other tests gave the very same results" in lines[2]
+    # the retried goal is named as each config trained with it
+    assert trained_label("drive_stage4", ["env.restart_goal=new", "env.new_maze_every=1"]) == (
+        "as trained (`env.restart_goal=keep`)"
+    )
+    assert trained_label("drive_grid4", ["env.new_maze_every=10"]) == "as trained"
 
 
 def test_the_page_names_each_command_with_the_configs_it_wrote():

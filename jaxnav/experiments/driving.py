@@ -10,6 +10,13 @@ DWA's rows on the same test keys). A cell is a config: ``DIR/NAME/`` is its run,
 trained with other settings than the config's now is refused); a training that was
 interrupted is refused, as its time would not be one command's.
 
+``tests:`` lists the tests each config's policies take, each a mapping of environment
+settings to test in (``jaxnav evaluate RUN env.KEY=VALUE``; ``{}``: the settings they
+trained in). The first is the page's table and its sentences; each further one is a
+smaller table beside it (the policies' and the oracle's success under that test). A
+test's results are ``DIR/NAME/eval/`` (``{}``) or ``DIR/NAME/eval-KEY=VALUE/``, so a
+finished test is reused and a new test runs on the finished training.
+
 Extra names on the command line pick configs (``jaxnav study driving drive_grid4 --out
 runs/drive``); the page's data folder keeps the other configs' rows, so one config can be
 run again alone. ``--doc docs/driving.md`` writes the committed page and its data,
@@ -40,17 +47,21 @@ import yaml
 from jaxnav.core.config import CONFIG_DIR, Config
 from jaxnav.core.errors import ConfigError, JaxnavError
 from jaxnav.core.rundir import EVAL, atomic_write_text, csv_text
-from jaxnav.core.values import flatten
+from jaxnav.core.values import flatten, parse_override
 from jaxnav.experiments import runner, studyfile
+from jaxnav.experiments.evaluation import test_overrides
 from jaxnav.report import agents_sac
 from jaxnav.report.driving_page import (
     EVALS,
     RUN_COLUMNS,
     RUNS,
     commands_of,
+    config_tests,
     configs_of,
+    data_name,
     driving_markdown,
     machines_of,
+    setting_text,
 )
 
 STUDY_KEYS = {
@@ -59,6 +70,7 @@ STUDY_KEYS = {
     "configs": list,
     "test_episodes": int,
     "settings": dict,
+    "tests": list,
 }
 REQUIRED = ("kind", "title", "configs")
 TIMING = "command_s.json"  # in a cell's run: the whole training command's seconds
@@ -71,10 +83,42 @@ class Study:
     test_episodes: int
     settings: dict[str, Any]  # over every config (a small form: settings.total_steps=2048)
     text: str  # the study file, as read
+    tests: tuple[tuple[str, ...], ...] = ((),)  # each test's env.KEY=VALUE settings
 
     def overrides(self) -> list[str]:
         """The settings as ``jaxnav train``'s ``key=value`` arguments."""
         return [f"{k}={json.dumps(v)}" for k, v in self.settings.items()]
+
+
+def parse_tests(tests: list, where: str) -> tuple[tuple[str, ...], ...]:
+    """The study's ``tests``: each a mapping of environment settings, as ``key=value``
+    overrides of ``jaxnav evaluate``."""
+    if not tests:
+        raise ConfigError(f"{where}: tests must list at least one test ({{}}: as trained)")
+    out = []
+    for k, test in enumerate(tests):
+        if not isinstance(test, dict):
+            raise ConfigError(
+                f"{where}: tests[{k}] must be a mapping of settings ({{}}: as trained), "
+                f"not {test!r}"
+            )
+        try:
+            items = tuple(setting_text(key, v) for key, v in flatten(test).items())
+            test_overrides(items)
+        except ConfigError as e:
+            raise ConfigError(f"{where}: tests[{k}]: {e}") from None
+        out.append(items)
+    if len(set(out)) < len(out):
+        raise ConfigError(f"{where}: tests names a test twice")
+    return tuple(out)
+
+
+def results_folder(test: tuple[str, ...] | list[str]) -> str:
+    """A test's results folder in a run: ``eval`` as trained, else ``eval-KEY=VALUE``
+    (several joined by ``,``), so each test's results are kept apart and reused."""
+    if not test:
+        return "eval"
+    return "eval-" + ",".join(t.replace("/", "_") for t in test)
 
 
 def parse_study(text: str, where: str) -> Study:
@@ -98,9 +142,12 @@ def parse_study(text: str, where: str) -> Study:
         doc.get("test_episodes", 10),
         flatten(doc.get("settings", {})),
         text,
+        parse_tests(doc.get("tests", [{}]), where),
     )
     for name in study.configs:
         config_of(study, name, where)
+        for test in filter(None, study.tests):
+            tested_config_of(study, name, test, where)
     return study
 
 
@@ -118,6 +165,17 @@ def config_of(study: Study, name: str, where: str = "study") -> Config:
     values = studyfile.base_values(name)
     values.update(study.settings)
     return studyfile.build(values, f"{where}: configs.{name}")
+
+
+def tested_config_of(study: Study, name: str, test: tuple[str, ...], where: str) -> Config:
+    """A config in a test's settings: a setting the config cannot take is one line
+    here, before any training."""
+    values = studyfile.base_values(name)
+    values.update(study.settings)
+    for item in test:
+        key, value = parse_override(item)
+        values[key] = value
+    return studyfile.build(values, f"{where}: configs.{name} tested with {' '.join(test)}")
 
 
 def world_of(cfg: Config) -> str:
@@ -162,9 +220,15 @@ def run_cell(study: Study, out: Path, name: str, say: runner.Say) -> dict:
         atomic_write_text(timing, json.dumps({"command_s": round(seconds, 1)}))
     if not timing.is_file():
         raise JaxnavError(f"{cell.run} has no {TIMING}: it was not trained by this study")
-    if not (cell.run / "eval" / "results.csv").is_file():
-        say(f"{name}: testing {cfg.n_runs} policies, {study.test_episodes} episodes per maze")
-        runner.test(cell, n_episodes=study.test_episodes)
+    for test in study.tests:
+        folder = cell.run / results_folder(test)
+        if not (folder / "results.csv").is_file():
+            how = f", with {' '.join(test)}" if test else ""
+            say(
+                f"{name}: testing {cfg.n_runs} policies, {study.test_episodes} episodes "
+                f"per maze{how}"
+            )
+            runner.test(cell, n_episodes=study.test_episodes, out=folder, overrides=test)
     summary = json.loads((cell.run / "summary.json").read_text())
     return {
         "config": name,
@@ -190,7 +254,10 @@ def run_study(study: Study, out: Path, resume_ok: bool, quiet: bool, command: st
     data.mkdir(exist_ok=True)
     (data / EVALS).mkdir(exist_ok=True)
     for name in study.configs:
-        shutil.copyfile(out / name / "eval" / "results.csv", data / f"{name}.csv")
+        for k, test in enumerate(study.tests):
+            shutil.copyfile(
+                out / name / results_folder(test) / "results.csv", data / data_name(name, k)
+            )
         if (out / name / EVAL).is_file():  # the greedy evaluations while it trained
             shutil.copyfile(out / name / EVAL, data / EVALS / f"{name}.csv")
     atomic_write_text(
@@ -200,6 +267,7 @@ def run_study(study: Study, out: Path, resume_ok: bool, quiet: bool, command: st
     meta = {
         "commands": dict.fromkeys(study.configs, command),
         "machines": dict.fromkeys(study.configs, machine),
+        "tests": {c: [list(t) for t in study.tests] for c in study.configs},
         "machine": machine,
     }
     atomic_write_text(data / "run.json", json.dumps(meta) + "\n")
@@ -225,9 +293,14 @@ def publish(study: Study, out: Path, page: Path) -> list[Path]:
     folder.mkdir(parents=True, exist_ok=True)
     rows = {r["config"]: r for r in _rows(folder / RUNS)}
     (folder / EVALS).mkdir(exist_ok=True)
+    new = json.loads((data / "run.json").read_text())
     for r in _rows(data / RUNS):
         rows[r["config"]] = r
-        shutil.copyfile(data / f"{r['config']}.csv", folder / f"{r['config']}.csv")
+        for old in folder.glob(f"{r['config']}.test*.csv"):  # an earlier run's other tests
+            old.unlink()
+        for k in range(len(config_tests(new, [r["config"]])[r["config"]])):
+            name = data_name(r["config"], k)
+            shutil.copyfile(data / name, folder / name)
         if (data / EVALS / f"{r['config']}.csv").is_file():
             shutil.copyfile(
                 data / EVALS / f"{r['config']}.csv", folder / EVALS / f"{r['config']}.csv"
@@ -240,15 +313,16 @@ def publish(study: Study, out: Path, page: Path) -> list[Path]:
     atomic_write_text(folder / RUNS, text)
     # each row keeps the command that wrote it: the folder's for the rows kept
     kept = json.loads((folder / "run.json").read_text()) if (folder / "run.json").is_file() else {}
-    new = json.loads((data / "run.json").read_text())
     configs, ran = list(rows), configs_of(data)
     commands = {**(commands_of(kept, configs) if kept else {}), **commands_of(new, ran)}
     commands = {c: commands[c] for c in configs}
     machines = {**(machines_of(kept, configs) if kept else {}), **machines_of(new, ran)}
     machines = {c: machines[c] for c in configs}
-    meta = {"commands": commands, "machines": machines, "machine": new["machine"]}
+    tests = {**config_tests(kept, configs), **config_tests(new, ran)}
+    tests = {c: tests[c] for c in configs}
+    meta = {"commands": commands, "machines": machines, "tests": tests, "machine": new["machine"]}
     atomic_write_text(folder / "run.json", json.dumps(meta) + "\n")
-    atomic_write_text(page, driving_markdown(folder, commands, machines))
+    atomic_write_text(page, driving_markdown(folder, commands, machines, tests))
     written = [page]
     if agents_sac.pairs(folder):  # SAC beside PQN: docs/agents.md's figure
         written.append(agents_sac.figure(folder, page.parent / agents_sac.FIGURE))

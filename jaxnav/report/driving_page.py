@@ -4,7 +4,10 @@ config's committed run beside the oracle and DWA on the same test, from its data
 The data folder holds, per config, the run's ``results.csv`` (``jaxnav evaluate``'s,
 the oracle's and DWA's rows in it) as ``NAME.csv`` and one row of ``runs.csv``: the
 config, its world, the whole command's seconds (compilation included), its env steps
-per run and its seeds. Per world and test maze the page shows each driver's success,
+per run and its seeds. ``run.json`` names, per config, the tests its policies took
+(each a list of ``env.KEY=VALUE`` settings; none: as trained): the first is
+``NAME.csv``, the page's table; the k-th after it ``NAME.test{k+1}.csv``, a smaller
+table of success under that test. Per world and test maze the page shows each driver's success,
 collision, time-out, SPL and goals per minute (mean over seeds [95% CI]) and whether the
 policies solve it (:func:`jaxnav.report.navigation.solved`, against the oracle's mean on
 the very same test). No JAX: a test rebuilds the page from the committed data.
@@ -14,7 +17,9 @@ from __future__ import annotations
 
 import csv
 import io
+import json
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -49,6 +54,45 @@ def commands_of(meta: dict, configs: list[str]) -> dict[str, str]:
     return dict.fromkeys(configs, meta["command"])
 
 
+def config_tests(meta: dict, configs: list[str]) -> dict[str, list[list[str]]]:
+    """config -> its tests' settings, from a data folder's ``run.json`` (``"tests"``);
+    one test as trained for a config it does not name (folders written before tests)."""
+    tests = meta.get("tests", {})
+    return {c: [list(t) for t in tests.get(c, [[]])] for c in configs}
+
+
+def data_name(config: str, k: int) -> str:
+    """The data folder's file of a config's ``k``-th test (0: the page's table)."""
+    return f"{config}.csv" if k == 0 else f"{config}.test{k + 1}.csv"
+
+
+def setting_text(key: str, value: Any) -> str:
+    """``key=value`` as a user types it (a plain string unquoted)."""
+    plain = isinstance(value, str) and value and all(c.isalnum() or c in "._-" for c in value)
+    return f"{key}={value if plain else json.dumps(value)}"
+
+
+def label_of_test(test: list[str]) -> str:
+    """A test as the page names it."""
+    return " ".join(f"`{t}`" for t in test) if test else "as trained"
+
+
+def trained_label(config: str, keys: list[str]) -> str:
+    """ "as trained", naming the values the shipped ``config`` trained with of the
+    ``keys`` (the table's test's settings, ``env.restart_goal=new``) where they differ."""
+    from jaxnav.core.config import load_config
+
+    cfg = load_config(config)
+    shown = []
+    for item in keys:
+        key, value = item.split("=", 1)
+        section, name = key.split(".", 1)
+        had = getattr(getattr(cfg, section), name)
+        if setting_text(key, had) != item:
+            shown.append(f"`{setting_text(key, had)}`")
+    return "as trained" + (f" ({' '.join(shown)})" if shown else "")
+
+
 def machines_of(meta: dict, configs: list[str]) -> dict[str, str]:
     """config -> the machine its row was measured on, from a data folder's ``run.json``
     (``"machines"``), or its one ``"machine"`` for every config (folders written before
@@ -76,11 +120,15 @@ def written_by(commands: dict[str, str], machines: dict[str, str] | str) -> str:
     return "Written by " + "; ".join(f"{p} on {k[1]}" for k, p in parts.items()) + "."
 
 
-def world_table(folder: Path) -> list[dict]:
-    """One entry per (config, test maze): each driver's per-seed metrics and the run."""
+def world_table(folder: Path, k: int = 0) -> list[dict]:
+    """One entry per (config, test maze): each driver's per-seed metrics and the run,
+    in each config's ``k``-th test (the configs that took one)."""
     out = []
     for run in _runs(folder):
-        res = read_results((folder / f"{run['config']}.csv").read_text())
+        path = folder / data_name(run["config"], k)
+        if not path.is_file():
+            continue
+        res = read_results(path.read_text())
         for maze in ordered_unique(k[0] for k in res):
             drivers = {}
             for name in (run["strategy"], *baselines.names()):
@@ -124,10 +172,88 @@ def sentences(folder: Path) -> list[str]:
     return out
 
 
-def driving_markdown(folder: Path, commands: dict[str, str], machines: dict[str, str] | str) -> str:
+def line_of_tests(tests: dict[str, list[list[str]]]) -> str:
+    """The page's line naming the table's test, and what its settings do."""
+    from jaxnav.core.config import SETTINGS
+
+    firsts = {c: t[0] for c, t in tests.items()}
+    kinds = {tuple(t) for t in firsts.values()}
+    if kinds == {()}:
+        return "The policies are tested in the settings they trained in."
+    if len(kinds) == 1:
+        only = label_of_test(list(next(iter(kinds))))
+        head = f"The table's test: the settings each config trained in, with {only}"
+    else:
+        head = "The table's test, per config: " + "; ".join(
+            f"`{c}` {label_of_test(t)}" for c, t in firsts.items()
+        )
+    keys = dict.fromkeys(item.split("=", 1)[0] for t in kinds for item in t)
+    what = " ".join(f"`{k}`: {SETTINGS[k].help}." for k in keys if k in SETTINGS)
+    return f"{head}. {what}".strip()
+
+
+def other_tests(folder: Path, tests: dict[str, list[list[str]]]) -> list[str]:
+    """The smaller tables: per further test, the policies' and the oracle's success."""
+    most = max((len(t) for t in tests.values()), default=1)
+    if most < 2:
+        return []
+    rows, same = [], []
+    for k in range(1, most):
+        for e in world_table(folder, k):
+            run, d = e["run"], e["drivers"]
+            config = run["config"]
+            policy, oracle = d.get(run["strategy"]), d.get("oracle")
+            first, this = folder / data_name(config, 0), folder / data_name(config, k)
+            if first.read_bytes() == this.read_bytes():  # the very same test
+                same += [f"`{config}`"] if f"`{config}`" not in same else []
+                continue
+            if not policy:
+                continue
+            test = tests[config][k]
+            label = label_of_test(test) if test else trained_label(config, tests[config][0])
+            mo = _mean(oracle, "success") if oracle else float("nan")
+            rows.append(
+                [
+                    f"`{run['config']}`",
+                    e["maze"],
+                    label,
+                    str(len(policy)),
+                    _cell(policy, "success"),
+                    _cell(policy, "collision"),
+                    _cell(oracle, "success") if oracle else "n/a",
+                    "yes" if solved(_mean(policy, "success"), mo) else "no",
+                ]
+            )
+    header = ["config", "test maze", "test", "seeds", "success", "collision",
+              "oracle's success", "solved"]  # fmt: skip
+    alike = (
+        f" For {', '.join(same)} the other tests gave the very same results as the "
+        "table's, episode for episode, and have no row here."
+        if same
+        else ""
+    )
+    return [
+        "## The same policies in other tests",
+        "",
+        "The same trained policies, tested again in other settings (the oracle through "
+        f"the same test), each cell as above.{alike}",
+        "",
+        *markdown_table(header, rows),
+        "",
+    ]
+
+
+def driving_markdown(
+    folder: Path,
+    commands: dict[str, str],
+    machines: dict[str, str] | str,
+    tests: dict[str, list[list[str]]] | None = None,
+) -> str:
     """The page from its data folder, the commands that wrote its rows (config ->
-    command, :func:`commands_of`) and the machines they ran on (config -> machine,
-    :func:`machines_of`, or one for all)."""
+    command, :func:`commands_of`), the machines they ran on (config -> machine,
+    :func:`machines_of`, or one for all) and each config's tests (:func:`config_tests`;
+    None: one, as trained)."""
+    tests = tests if tests is not None else config_tests({}, configs_of(folder))
     rows = []
     for e in world_table(folder):
         run, d = e["run"], e["drivers"]
@@ -170,12 +296,15 @@ def driving_markdown(folder: Path, commands: dict[str, str], machines: dict[str,
         "",
         written_by(commands, machines),
         "",
+        line_of_tests(tests),
+        "",
         *markdown_table(header, rows),
         "",
         "In one sentence each:",
         "",
         *[f"- {s}" for s in sentences(folder)],
         "",
+        *other_tests(folder, tests),
         *recipe_section(),
     ]
     return "\n".join(L) + "\n"
@@ -219,9 +348,12 @@ __all__ = [
     "RUN_COLUMNS",
     "commands_of",
     "configs_of",
+    "data_name",
     "driving_markdown",
     "machines_of",
     "readme_block",
     "sentences",
+    "setting_text",
+    "config_tests",
     "written_by",
 ]

@@ -129,12 +129,20 @@ def _driving_readme(root: Path) -> str:
 
 
 def _driving_page(root: Path) -> str:
-    from jaxnav.report.driving_page import commands_of, configs_of, driving_markdown, machines_of
+    from jaxnav.report.driving_page import (
+        commands_of,
+        config_tests,
+        configs_of,
+        driving_markdown,
+        machines_of,
+    )
 
     folder = root / "docs" / "driving"
     meta = json.loads((folder / "run.json").read_text())
     configs = configs_of(folder)
-    return driving_markdown(folder, commands_of(meta, configs), machines_of(meta, configs))
+    return driving_markdown(
+        folder, commands_of(meta, configs), machines_of(meta, configs), config_tests(meta, configs)
+    )
 
 
 def _agents_sac(root: Path) -> str:
