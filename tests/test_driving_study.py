@@ -252,7 +252,6 @@ def test_a_tiny_driving_study_end_to_end_and_its_resume(tmp_path):
     assert "## The same policies in other tests" in doc.read_text()
     page = doc.read_text()  # its row, or (no restart in so short a test) the same results
     assert "| `env.restart_goal=new` |" in page or "gave the very same results" in page
-    path.write_text(TINY)
     path.write_text(TINY.replace("episodes: 2", "episodes: 3"))
     refused = subprocess.run([*cmd, "--resume"], capture_output=True, text=True)
     assert refused.returncode == 2 and "was trained with other settings" in refused.stderr

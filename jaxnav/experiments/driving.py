@@ -147,7 +147,7 @@ def parse_study(text: str, where: str) -> Study:
     for name in study.configs:
         config_of(study, name, where)
         for test in filter(None, study.tests):
-            tested_config_of(study, name, test, where)
+            config_of(study, name, where, test)
     return study
 
 
@@ -161,21 +161,14 @@ def load_study(path: str, items: list[str] | tuple[str, ...] = ()) -> Study:
     return studyfile.read_text(path, overrides, parse_study, STUDY_KEYS)
 
 
-def config_of(study: Study, name: str, where: str = "study") -> Config:
+def config_of(study: Study, name: str, where: str = "study", test: tuple[str, ...] = ()) -> Config:
+    """A config as the study trains it, or in a test's settings (``test``: a setting
+    the config cannot take is one line here, before any training)."""
     values = studyfile.base_values(name)
     values.update(study.settings)
-    return studyfile.build(values, f"{where}: configs.{name}")
-
-
-def tested_config_of(study: Study, name: str, test: tuple[str, ...], where: str) -> Config:
-    """A config in a test's settings: a setting the config cannot take is one line
-    here, before any training."""
-    values = studyfile.base_values(name)
-    values.update(study.settings)
-    for item in test:
-        key, value = parse_override(item)
-        values[key] = value
-    return studyfile.build(values, f"{where}: configs.{name} tested with {' '.join(test)}")
+    values.update(parse_override(item) for item in test)
+    tested = f" tested with {' '.join(test)}" if test else ""
+    return studyfile.build(values, f"{where}: configs.{name}{tested}")
 
 
 def world_of(cfg: Config) -> str:
@@ -294,11 +287,13 @@ def publish(study: Study, out: Path, page: Path) -> list[Path]:
     rows = {r["config"]: r for r in _rows(folder / RUNS)}
     (folder / EVALS).mkdir(exist_ok=True)
     new = json.loads((data / "run.json").read_text())
+    ran = configs_of(data)
+    ran_tests = config_tests(new, ran)
     for r in _rows(data / RUNS):
         rows[r["config"]] = r
         for old in folder.glob(f"{r['config']}.test*.csv"):  # an earlier run's other tests
             old.unlink()
-        for k in range(len(config_tests(new, [r["config"]])[r["config"]])):
+        for k in range(len(ran_tests[r["config"]])):
             name = data_name(r["config"], k)
             shutil.copyfile(data / name, folder / name)
         if (data / EVALS / f"{r['config']}.csv").is_file():
@@ -313,12 +308,12 @@ def publish(study: Study, out: Path, page: Path) -> list[Path]:
     atomic_write_text(folder / RUNS, text)
     # each row keeps the command that wrote it: the folder's for the rows kept
     kept = json.loads((folder / "run.json").read_text()) if (folder / "run.json").is_file() else {}
-    configs, ran = list(rows), configs_of(data)
+    configs = list(rows)
     commands = {**(commands_of(kept, configs) if kept else {}), **commands_of(new, ran)}
     commands = {c: commands[c] for c in configs}
     machines = {**(machines_of(kept, configs) if kept else {}), **machines_of(new, ran)}
     machines = {c: machines[c] for c in configs}
-    tests = {**config_tests(kept, configs), **config_tests(new, ran)}
+    tests = {**config_tests(kept, configs), **ran_tests}
     tests = {c: tests[c] for c in configs}
     meta = {"commands": commands, "machines": machines, "tests": tests, "machine": new["machine"]}
     atomic_write_text(folder / "run.json", json.dumps(meta) + "\n")

@@ -24,6 +24,7 @@ from typing import Any
 import numpy as np
 
 from jaxnav.core import baselines
+from jaxnav.core.values import parse_override
 from jaxnav.report import stats
 from jaxnav.report.markdown import interval, markdown_table
 from jaxnav.report.navigation import SOLVED_TOLERANCE, seed_metrics, solved
@@ -85,7 +86,7 @@ def trained_label(config: str, keys: list[str]) -> str:
     cfg = load_config(config)
     shown = []
     for item in keys:
-        key, value = item.split("=", 1)
+        key, _ = parse_override(item)
         section, name = key.split(".", 1)
         had = getattr(getattr(cfg, section), name)
         if setting_text(key, had) != item:
@@ -187,9 +188,15 @@ def line_of_tests(tests: dict[str, list[list[str]]]) -> str:
         head = "The table's test, per config: " + "; ".join(
             f"`{c}` {label_of_test(t)}" for c, t in firsts.items()
         )
-    keys = dict.fromkeys(item.split("=", 1)[0] for t in kinds for item in t)
+    keys = dict.fromkeys(parse_override(item)[0] for t in kinds for item in t)
     what = " ".join(f"`{k}`: {SETTINGS[k].help}." for k in keys if k in SETTINGS)
     return f"{head}. {what}".strip()
+
+
+def _same_results(folder: Path, config: str, k: int) -> bool:
+    """Whether a config's ``k``-th test gave the very same results as the table's."""
+    this = folder / data_name(config, k)
+    return this.is_file() and this.read_bytes() == (folder / data_name(config, 0)).read_bytes()
 
 
 def other_tests(folder: Path, tests: dict[str, list[list[str]]]) -> list[str]:
@@ -199,24 +206,26 @@ def other_tests(folder: Path, tests: dict[str, list[list[str]]]) -> list[str]:
         return []
     rows, same = [], []
     for k in range(1, most):
+        takers = {c: t for c, t in tests.items() if len(t) > k}
+        alike = {c for c in takers if _same_results(folder, c, k)}
+        same += [f"`{c}`" for c in takers if c in alike and f"`{c}`" not in same]
+        labels = {
+            c: label_of_test(t[k]) if t[k] else trained_label(c, t[0])
+            for c, t in takers.items()
+            if c not in alike
+        }
         for e in world_table(folder, k):
             run, d = e["run"], e["drivers"]
             config = run["config"]
             policy, oracle = d.get(run["strategy"]), d.get("oracle")
-            first, this = folder / data_name(config, 0), folder / data_name(config, k)
-            if first.read_bytes() == this.read_bytes():  # the very same test
-                same += [f"`{config}`"] if f"`{config}`" not in same else []
+            if config in alike or not policy:
                 continue
-            if not policy:
-                continue
-            test = tests[config][k]
-            label = label_of_test(test) if test else trained_label(config, tests[config][0])
             mo = _mean(oracle, "success") if oracle else float("nan")
             rows.append(
                 [
-                    f"`{run['config']}`",
+                    f"`{config}`",
                     e["maze"],
-                    label,
+                    labels[config],
                     str(len(policy)),
                     _cell(policy, "success"),
                     _cell(policy, "collision"),
@@ -347,6 +356,7 @@ __all__ = [
     "RUNS",
     "RUN_COLUMNS",
     "commands_of",
+    "config_tests",
     "configs_of",
     "data_name",
     "driving_markdown",
@@ -354,6 +364,5 @@ __all__ = [
     "readme_block",
     "sentences",
     "setting_text",
-    "config_tests",
     "written_by",
 ]
