@@ -60,7 +60,8 @@ def network_of(config: Config, env: NavEnv | None = None) -> QNetwork:
     """DQN's Q-network of a config's runs (``env``: its environment, if already made)."""
     env = from_config(config)[0] if env is None else env
     d = config.dqn
-    return QNetwork(env.num_actions, tuple(d.hidden), d.dropout, d.dueling)
+    conv = {"scan_conv": tuple(d.scan_conv), "scan_layout": env.scan_layout}
+    return QNetwork(env.num_actions, tuple(d.hidden), d.dropout, d.dueling, **conv)
 
 
 # ----------------------------------------------------------------------------

@@ -87,6 +87,9 @@ def main(argv: list[str] | None = None) -> int:
                 features += f" with {what}the {policy.scan_history} scans before"
                 if policy.history_turned:
                     features += " (turned to the heading now)"
+            if policy.convs:
+                channels = ", ".join(str(k.shape[-1]) for k, _ in policy.convs)
+                features += f", circular convolutions over the scan ({channels} channels)"
         else:
             features = ", obstacle features" if policy.obstacle_obs else ""
         print(

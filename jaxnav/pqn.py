@@ -58,7 +58,8 @@ def network_of(config: Config, env: NavEnv | None = None) -> QNetwork:
     ReLU (``env``: the config's environment, if already made)."""
     env = from_config(config)[0] if env is None else env
     d = config.dqn
-    return QNetwork(env.num_actions, tuple(d.hidden), d.dropout, d.dueling, layer_norm=True)
+    conv = {"scan_conv": tuple(d.scan_conv), "scan_layout": env.scan_layout}
+    return QNetwork(env.num_actions, tuple(d.hidden), d.dropout, d.dueling, layer_norm=True, **conv)
 
 
 # ----------------------------------------------------------------------------

@@ -19,6 +19,7 @@ from hypothesis import strategies as st
 
 from jaxnav import export as export_command
 from jaxnav.agent.networks import QNetwork
+from jaxnav.core import agents
 from jaxnav.core.config import dump_config, load_config
 from jaxnav.core.rundir import atomic_write_bytes, atomic_write_text, load_params, npz_bytes
 from jaxnav.env import from_config
@@ -42,7 +43,7 @@ def _fake_run(root: Path, maze: str, extra: tuple[str, ...] = (), name: str | No
     """
     cfg = load_config(None, ["seeds=1", "strategies=[ebe]", f"env.maze={maze}", *extra])
     env, _ = from_config(cfg)
-    net = QNetwork(env.num_actions, cfg.dqn.hidden, cfg.dqn.dropout)
+    net = agents.get(cfg.agent).network_of(cfg, env)
     params = net.init(jax.random.key(7), jnp.zeros(env.obs_size))
     params = jax.tree.map(lambda x: x[None], params)  # leading axis: one run
     out = root / (name or maze)
@@ -64,7 +65,7 @@ class Setup:
     def __init__(self, run: Path):
         self.cfg = load_config(str(run / "config.yaml"))
         self.env, self.params = from_config(self.cfg)
-        self.net = QNetwork(self.env.num_actions, self.cfg.dqn.hidden, self.cfg.dqn.dropout)
+        self.net = agents.get(self.cfg.agent).network_of(self.cfg, self.env)
         self.net_params = load_params(run / "params.npz", "ebe", 0)
         self.policy = Policy.from_arrays(export.export_policy(run, "ebe", 0))
 
@@ -252,12 +253,12 @@ def test_a_modern_policy_sees_on_the_robot_what_it_saw_in_training(tmp_path):
 
 
 @pytest.mark.parametrize(
-    "changes, turned",
-    [(False, False), (True, False), (True, True)],
-    ids=["scans", "changes", "turned"],
+    "changes, turned, conv",
+    [(False, False, False), (True, False, False), (True, True, False), (True, True, True)],
+    ids=["scans", "changes", "turned", "turned_conv"],
 )
 def test_a_policy_with_a_scan_history_sees_on_the_robot_the_scans_it_saw_in_training(
-    tmp_path, changes, turned
+    tmp_path, changes, turned, conv
 ):
     """Step by step along the environment's own episodes on stage 4 (a collision or the
     step limit restarts one), the adapter's observation from raw scans of the walls and
@@ -265,15 +266,22 @@ def test_a_policy_with_a_scan_history_sees_on_the_robot_the_scans_it_saw_in_trai
     does the greedy action: the scans newest first, at an episode's start copies of its
     first scan; a stop starts the history again. With env.history_changes, each beam's
     change since each of those scans (against NumPy); with env.history_turned, since
-    each seen from the heading now, by the odometry's yaw (against the rule by hand)."""
+    each seen from the heading now, by the odometry's yaw (against the rule by hand).
+    With dqn.scan_conv (PQN's network, LayerNorm), the policy's circular convolutions over
+    those scans give the flax network's greedy action at every step."""
     k = 3
     extra = (*MODERN, f"env.scan_history={k}", "env.max_steps=40")  # restarts every 40 steps
     extra += (f"env.history_changes={str(changes).lower()}",)
     extra += (f"env.history_turned={str(turned).lower()}",)
+    if conv:
+        extra += ("agent=pqn", "dqn.scan_conv=[8,8]", "episodes=null", "total_steps=1024")
     run = _fake_run(tmp_path, "stage4", extra, "hist")  # its cylinders move
     s = Setup(run)
     env, params, policy = s.env, s.params, s.policy
     version = deploy.TURNED_VERSION if turned else deploy.HISTORY_VERSION
+    if conv:
+        version = deploy.CONV_VERSION
+        assert len(policy.convs) == 2 and len(policy.norms) == 2
     assert policy.meta["version"] == version and policy.scan_history == k
     assert policy.obs_size == env.obs_size == env.n_beams * (1 + k) + 4
     increment, nb = 2 * math.pi / 360, env.n_beams

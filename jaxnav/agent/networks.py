@@ -1,5 +1,6 @@
 """The Q-network both Q-learning agents act and learn with (paper Table 2), its
-dueling head and the dropout mask it trains with."""
+dueling head, the circular convolutions over the scan it may start with, and the
+dropout mask it trains with."""
 
 from __future__ import annotations
 
@@ -7,6 +8,12 @@ import chex
 import flax.linen as nn
 import jax
 import jax.numpy as jnp
+import numpy as np
+
+# The scan convolutions' kernel (beams) and stride: each output looks at 5 neighbouring
+# beams, every second beam, so each layer halves the beams (rounded up).
+CONV_KERNEL = 5
+CONV_STRIDE = 2
 
 
 class QNetwork(nn.Module):
@@ -16,6 +23,11 @@ class QNetwork(nn.Module):
     the same hidden features, a value ``value`` (1 output) and an advantage
     ``advantage`` (|A| outputs), joined by :func:`dueling_q`. ``layer_norm`` (PQN,
     Gallici et al. 2024) normalises each hidden layer before its ReLU.
+
+    ``scan_conv`` (channels per layer; empty: none, the paper's network) puts circular
+    convolutions over the scan before the hidden layers (:class:`ScanTorso`):
+    ``scan_layout`` (beams, gap, history) says where the normalised observation holds
+    the scan and its history (:attr:`jaxnav.world.observer.Observer.scan_layout`).
     """
 
     num_actions: int = 5
@@ -23,12 +35,16 @@ class QNetwork(nn.Module):
     dropout: float = 0.2
     dueling: bool = False
     layer_norm: bool = False
+    scan_conv: tuple[int, ...] = ()
+    scan_layout: tuple[int, int, int] = (0, 0, 0)
 
     @nn.compact
     def __call__(self, obs: chex.Array, train: bool = False, dropout=None) -> chex.Array:
         """``dropout``: the rate as data (f32[]); None takes ``self.dropout``."""
         x = obs
         init = nn.initializers.lecun_uniform()  # ROBOTIS' Keras initialiser
+        if self.scan_conv:
+            x = ScanTorso(self.scan_conv, self.scan_layout, name="ScanTorso")(x)
         for width in self.hidden:
             x = nn.Dense(width, kernel_init=init)(x)
             if self.layer_norm:
@@ -42,6 +58,81 @@ class QNetwork(nn.Module):
         value = nn.Dense(1, kernel_init=init, name="value")(x)
         advantage = nn.Dense(self.num_actions, kernel_init=init, name="advantage")(x)
         return dueling_q(value, advantage)
+
+
+def split_scans(obs: chex.Array, layout: tuple[int, int, int]):
+    """(scans f[..., beams, 1 + history], rest f[..., m]) of normalised observations
+    f[..., obs_size] laid out as (beams, gap, history) says: the scan, ``gap`` values
+    (heading, distance, last command, waypoint), ``history`` blocks of ``beams`` (the
+    earlier scans or their changes, newest first), then anything after them. The scan
+    and each history block become one channel, the rest keeps its order."""
+    beams, gap, history = layout
+    start = beams + gap
+    end = start + history * beams
+    blocks = [obs[..., :beams]]
+    blocks += [obs[..., start + k * beams : start + (k + 1) * beams] for k in range(history)]
+    rest = jnp.concatenate([obs[..., beams:start], obs[..., end:]], axis=-1)
+    return jnp.stack(blocks, axis=-1), rest
+
+
+def circular_taps(width: int) -> np.ndarray:
+    """f32[CONV_KERNEL, width, out]: tap t of output o reads beam (CONV_STRIDE o + t -
+    CONV_KERNEL // 2) mod ``width``, out = ceil(width / CONV_STRIDE). A 1 where it does
+    (summed where two taps wrap onto one beam of a narrow layer)."""
+    out = -(-width // CONV_STRIDE)
+    taps = np.zeros((CONV_KERNEL, width, out), np.float32)
+    for t in range(CONV_KERNEL):
+        for o in range(out):
+            taps[t, (CONV_STRIDE * o + t - CONV_KERNEL // 2) % width, o] += 1.0
+    return taps
+
+
+class CircularConv(nn.Module):
+    """One circular convolution over the beams, ReLU after it: f[..., width, C] ->
+    f[..., ceil(width / 2), features]. The scan wraps round the robot, so the first beam
+    neighbours the last. Parameters as ``nn.Conv``'s (kernel f[5, C, features], tap t
+    of output o on beam 2 o + t - 2), computed as one matrix product, which a small
+    network runs faster so on a CPU than as a convolution (the same numbers up to
+    rounding): on an even width, the beams in pairs, each output's five taps are its
+    pair's, the pair before's and the next pair's first beam; on an odd one, the kernel
+    laid out over every (beam, output) pair (:func:`circular_taps`)."""
+
+    features: int
+
+    @nn.compact
+    def __call__(self, x: chex.Array) -> chex.Array:
+        width, channels = x.shape[-2], x.shape[-1]
+        init = nn.initializers.lecun_uniform()  # fan-in: kernel x channels, as nn.Conv
+        kernel = self.param("kernel", init, (CONV_KERNEL, channels, self.features))
+        bias = self.param("bias", nn.initializers.zeros, (self.features,))
+        lead = x.shape[:-2]
+        if width % 2 == 0:
+            pairs = x.reshape(lead + (width // 2, 2 * channels))
+            ring = jnp.concatenate([pairs[..., -1:, :], pairs, pairs[..., :1, :]], axis=-2)
+            cols = [ring[..., :-2, :], ring[..., 1:-1, :], ring[..., 2:, :channels]]
+            y = jnp.concatenate(cols, axis=-1) @ kernel.reshape(CONV_KERNEL * channels, -1)
+        else:
+            taps = circular_taps(width)
+            full = jnp.einsum("tio,tcf->icof", taps, kernel)
+            y = x.reshape(lead + (width * channels,)) @ full.reshape(width * channels, -1)
+            y = y.reshape(lead + (taps.shape[-1], self.features))
+        return nn.relu(y + bias)
+
+
+class ScanTorso(nn.Module):
+    """The scan and its history through :class:`CircularConv` layers of ``channels``,
+    flattened, then the observation's other values after them."""
+
+    channels: tuple[int, ...]
+    layout: tuple[int, int, int]
+
+    @nn.compact
+    def __call__(self, obs: chex.Array) -> chex.Array:
+        y, rest = split_scans(obs, self.layout)
+        for i, c in enumerate(self.channels):
+            y = CircularConv(c, name=f"Conv_{i}")(y)
+        y = y.reshape(y.shape[:-2] + (-1,))
+        return jnp.concatenate([y, rest], axis=-1)
 
 
 def dueling_q(value: chex.Array, advantage: chex.Array) -> chex.Array:
@@ -67,4 +158,14 @@ def dropout16(key: chex.PRNGKey, x: chex.Array, rate) -> chex.Array:
     return jnp.where(keep, x / (1.0 - rate), 0.0)
 
 
-__all__ = ["QNetwork", "dropout16", "dueling_q"]
+__all__ = [
+    "CONV_KERNEL",
+    "CONV_STRIDE",
+    "CircularConv",
+    "QNetwork",
+    "ScanTorso",
+    "circular_taps",
+    "dropout16",
+    "dueling_q",
+    "split_scans",
+]

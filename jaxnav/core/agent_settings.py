@@ -9,9 +9,22 @@ from jaxnav.core.sections import PRIORITISED_ONLY, REPLAY_ONLY
 from jaxnav.core.settings import PRESETS
 
 
+def network_problem(cfg: Config) -> str | None:
+    """The Q-network's settings together: its scan convolutions read the normalised
+    observation's layout."""
+    if cfg.dqn.scan_conv and cfg.env.observation != "normalised":
+        return (
+            "dqn.scan_conv convolves the normalised observation's scan: it needs "
+            "env.observation normalised"
+        )
+    return None
+
+
 def dqn_problem(cfg: Config) -> str | None:
-    """DQN's settings together: prioritised replay's settings need it on, and a batch
-    fits the replay memory."""
+    """DQN's settings together: the network's (:func:`network_problem`), prioritised
+    replay's settings need it on, and a batch fits the replay memory."""
+    if problem := network_problem(cfg):
+        return problem
     for name in PRIORITISED_ONLY if not cfg.dqn.prioritised else ():
         if getattr(cfg.dqn, name) != SETTINGS[f"dqn.{name}"].default:
             return f"dqn.{name} is a prioritised replay setting: it needs dqn.prioritised true"
@@ -36,6 +49,8 @@ def pqn_problem(cfg: Config) -> str | None:
                 f"{key} is a replay or target-network setting, and PQN (agent pqn) has "
                 "neither: leave it at its default"
             )
+    if problem := network_problem(cfg):
+        return problem
     p = cfg.pqn
     if (p.num_envs * p.rollout) % p.minibatches:
         return (

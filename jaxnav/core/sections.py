@@ -16,6 +16,7 @@ from jaxnav.core.settings import (
     AT_LEAST_1,
     BURGER_MAX_OMEGA,
     BURGER_MAX_V,
+    CHANNELS,
     MARGIN,
     NON_NEGATIVE,
     OWN_PACE,
@@ -290,6 +291,13 @@ class DQNConfig:
         (64, 64),
         "hidden layer widths",
         rule=WIDTHS,
+    )
+    scan_conv: tuple[int, ...] = setting(
+        (),
+        "channels of circular convolutions over the scan's beams before the hidden layers "
+        "(kernel 5 beams, stride 2; the scan and each earlier scan or change are the "
+        "input channels; needs env.observation normalised); empty: none (paper)",
+        rule=CHANNELS,
     )
     dropout: float = setting(0.2, "dropout after the hidden layers", rule=UNIT_OPEN, sweep=True)
     # "periodic": hard copy every target_update_every env steps (paper).

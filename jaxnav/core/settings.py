@@ -136,6 +136,7 @@ POSITIVE = (lambda v: v > 0, "must be positive")
 UNIT = (lambda v: 0.0 <= v <= 1.0, "must be in [0, 1]")
 UNIT_OPEN = (lambda v: 0.0 <= v < 1.0, "must be in [0, 1)")
 WIDTHS = (lambda v: len(v) > 0 and min(v) >= 1, "must be a non-empty list of positive widths")
+CHANNELS = (lambda v: all(c >= 1 for c in v), "must be a list of positive channel counts")
 # every seed a user gives (config, study, --seed): a larger one would repeat a smaller one
 SEED = (lambda v: 0 <= v < 2**32, "must be in [0, 2^32): a PRNG key holds 32 bits")
 PAIR_NON_NEGATIVE = (

@@ -10,6 +10,9 @@ pickle), together with everything needed to feed it:
     Dense_<i>/kernel, Dense_<i>/bias   the network's layers (f32), in order
     LayerNorm_<i>/scale, LayerNorm_<i>/bias   PQN's LayerNorm after hidden layer i,
                     when meta lists them in "norms" (format version 2)
+    ScanTorso/Conv_<i>/kernel, ScanTorso/Conv_<i>/bias   the circular convolutions over
+                    the scan before the first layer, when meta lists them in "scan_conv"
+                    (format version 7)
     maze/walls, maze/obstacles, maze/start   the training maze's geometry
 
 ``python -m jaxnav.export --info POLICY.npz`` prints the metadata.
@@ -67,7 +70,11 @@ How a raw LaserScan becomes the trained observation (:meth:`Policy.observe`):
   heading now, by the odometry's yaw turned since it (:func:`turned_changes`).
 
 The network runs in float64 (exact ReLU MLP; dropout is off at inference; a PQN
-network normalises each hidden layer before its ReLU, as flax's LayerNorm).
+network normalises each hidden layer before its ReLU, as flax's LayerNorm). A network
+with scan convolutions (``dqn.scan_conv``, format version 7) first takes the scan and
+each block of its history as channels, convolves them circularly over the beams (kernel
+5, stride 2, ReLU; :func:`circular_conv`), flattens the result and puts the
+observation's other values after it (:func:`scan_torso`).
 
 A continuous policy (``action_kind: continuous``, format version 4, SAC's actor) ends
 in 4 outputs, the mean and the log standard deviation of (speed, yaw rate) before the
@@ -116,6 +123,9 @@ HISTORY_VERSION = 5
 # heading now (env.history_turned) is version 6: a version-5 reader would take them
 # unturned.
 TURNED_VERSION = 6
+# A network that starts with circular convolutions over the scan (dqn.scan_conv) is
+# version 7: an older reader would feed its first dense layer the raw observation.
+CONV_VERSION = 7
 VERSIONS = (
     FORMAT_VERSION,
     NORMS_VERSION,
@@ -123,6 +133,7 @@ VERSIONS = (
     CONTINUOUS_VERSION,
     HISTORY_VERSION,
     TURNED_VERSION,
+    CONV_VERSION,
 )
 OBSERVATIONS = ("robotis", "normalised")
 # The wheel limit's constants a continuous policy's metadata gives (its "wheel_limit").
@@ -232,6 +243,37 @@ def turned_changes(
     return np.clip((scan[None, :] - seen) * gain, -1.0, 1.0).astype(np.float32)
 
 
+def circular_conv(x: np.ndarray, kernel: np.ndarray, bias: np.ndarray) -> np.ndarray:
+    """f64[..., ceil(w / 2), F]: one circular convolution over the beams of x f[..., w, C]
+    with ``kernel`` f[5, C, F] and ``bias`` f[F], ReLU after it: output o sums tap t's
+    kernel times beam (2 o + t - 2) mod w. The NumPy twin of
+    :class:`jaxnav.agent.networks.CircularConv`."""
+    x = np.asarray(x, np.float64)
+    width, taps = x.shape[-2], kernel.shape[0]
+    out = -(-width // 2)
+    idx = (2 * np.arange(out)[:, None] + np.arange(taps)[None, :] - taps // 2) % width
+    patches = x[..., idx, :].reshape(x.shape[:-2] + (out, -1))  # [..., out, taps * C]
+    k = np.asarray(kernel, np.float64).reshape(-1, kernel.shape[-1])
+    return np.maximum(patches @ k + np.asarray(bias, np.float64), 0.0)
+
+
+def scan_torso(obs: np.ndarray, convs, layout: Sequence[int]) -> np.ndarray:
+    """f64[..., m]: normalised observations f[..., obs_size] through the scan
+    convolutions ``convs`` ((kernel, bias) each): the scan and each of ``layout``'s
+    (beams, gap, history) history blocks as channels, convolved, flattened, then the
+    observation's other values in their order (as :class:`jaxnav.agent.networks.ScanTorso`)."""
+    beams, gap, history = (int(v) for v in layout)
+    x = np.asarray(obs, np.float64)
+    start, end = beams + gap, beams + gap + history * beams
+    blocks = [x[..., :beams]]
+    blocks += [x[..., start + k * beams : start + (k + 1) * beams] for k in range(history)]
+    y = np.stack(blocks, axis=-1)
+    for kernel, bias in convs:
+        y = circular_conv(y, kernel, bias)
+    y = y.reshape(y.shape[:-2] + (-1,))
+    return np.concatenate([y, x[..., beams:start], x[..., end:]], axis=-1)
+
+
 def goal_heading_distance(pose: Sequence[float], goal: Sequence[float]) -> tuple[float, float]:
     """Heading to the goal relative to yaw, in [-pi, pi), and distance to it."""
     x, y, yaw = (float(v) for v in pose)
@@ -315,8 +357,11 @@ class Policy:
         layers: Sequence[tuple[np.ndarray, np.ndarray]],
         meta: dict[str, Any],
         norms: Sequence[tuple[np.ndarray, np.ndarray]] = (),
+        convs: Sequence[tuple[np.ndarray, np.ndarray]] = (),
     ):
-        """``norms``: (scale, bias) of the LayerNorm after each hidden layer, or none."""
+        """``norms``: (scale, bias) of the LayerNorm after each hidden layer, or none;
+        ``convs``: (kernel, bias) of each scan convolution before the first layer, or
+        none."""
         try:
             self.n_beams = int(meta["n_beams"])
             self.obstacle_obs = bool(meta["obstacle_obs"])
@@ -376,8 +421,9 @@ class Policy:
         self._scan: np.ndarray | None = None  # the last observed scan, joins on take()
         self._yaw = 0.0  # and the yaw it was taken at
         self.meta = dict(meta)
+        self.convs = [(np.asarray(k, np.float64), np.asarray(b, np.float64)) for k, b in convs]
+        width = self._torso_width(meta)
         self.layers = [(np.asarray(k, np.float64), np.asarray(b, np.float64)) for k, b in layers]
-        width = self.obs_size
         for i, (k, b) in enumerate(self.layers):
             if k.ndim != 2 or k.shape[0] != width or b.shape != (k.shape[1],):
                 raise PolicyError(
@@ -401,6 +447,31 @@ class Policy:
                 raise PolicyError(f"policy LayerNorm {i} does not fit hidden layer {i}")
             if not (np.isfinite(g).all() and np.isfinite(b).all()):
                 raise PolicyError(f"policy LayerNorm {i} has non-finite weights")
+
+    def _torso_width(self, meta: dict[str, Any]) -> int:
+        """The first layer's input width: the observation's, or what the scan
+        convolutions make of it (their shapes checked against the layout)."""
+        if not self.convs:
+            return self.obs_size
+        layout = [self.n_beams, 4, self.scan_history]
+        conv = meta.get("scan_conv")
+        given = conv.get("layout") if isinstance(conv, dict) else None
+        if self.observation != "normalised" or given != layout:
+            raise PolicyError(
+                f"policy metadata's scan_conv layout {given} does not fit its normalised "
+                f"observation {layout}"
+            )
+        width, channels = self.n_beams, 1 + self.scan_history
+        for i, (k, b) in enumerate(self.convs):
+            if k.ndim != 3 or k.shape[:2] != (5, channels) or b.shape != (k.shape[2],):
+                raise PolicyError(
+                    f"policy scan convolution {i} has shape {k.shape}/{b.shape}, expected "
+                    f"(5, {channels}, n)/(n,)"
+                )
+            if not (np.isfinite(k).all() and np.isfinite(b).all()):
+                raise PolicyError(f"policy scan convolution {i} has non-finite weights")
+            width, channels = -(-width // 2), k.shape[2]
+        return width * channels + 4
 
     @property
     def obs_size(self) -> int:
@@ -429,9 +500,13 @@ class Policy:
         try:
             layers = [(arrays[f"{n}/kernel"], arrays[f"{n}/bias"]) for n in meta["layers"]]
             norms = [(arrays[f"{n}/scale"], arrays[f"{n}/bias"]) for n in meta.get("norms", [])]
+            conv = meta.get("scan_conv") or {"layers": []}
+            convs = [(arrays[f"{n}/kernel"], arrays[f"{n}/bias"]) for n in conv["layers"]]
         except KeyError as e:
             raise PolicyError(f"policy file lacks array {e}") from None
-        return cls(layers, meta, norms)
+        except TypeError:
+            raise PolicyError("policy metadata's scan_conv is not a mapping with layers") from None
+        return cls(layers, meta, norms, convs)
 
     @classmethod
     def load(cls, path: str | os.PathLike) -> Policy:
@@ -448,10 +523,13 @@ class Policy:
     # -- inference -----------------------------------------------------------
 
     def q_values(self, obs: np.ndarray) -> np.ndarray:
-        """f64[..., A] Q-values of observations f[..., obs_size] (ReLU MLP, no dropout)."""
+        """f64[..., A] Q-values of observations f[..., obs_size] (the scan convolutions,
+        if any, then the ReLU MLP, no dropout)."""
         x = np.asarray(obs, np.float64)
         if x.shape[-1:] != (self.obs_size,):
             raise ValueError(f"observation has shape {x.shape}, expected (..., {self.obs_size})")
+        if self.convs:
+            x = scan_torso(x, self.convs, (self.n_beams, 4, self.scan_history))
         for i, (k, b) in enumerate(self.layers):
             x = x @ k + b
             if i < len(self.layers) - 1:

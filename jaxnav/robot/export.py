@@ -23,6 +23,7 @@ from jaxnav.core.settings import BURGER_MAX_OMEGA, BURGER_MAX_V
 from jaxnav.env import from_config
 from jaxnav.robot.deploy import (
     CONTINUOUS_VERSION,
+    CONV_VERSION,
     DRIVE_VERSION,
     FORMAT,
     FORMAT_VERSION,
@@ -74,7 +75,9 @@ def export_policy(
         )
     net = fold_dueling(rundir.load_params(params_path, strategy, seed).get("params", {}))
     outputs = 2 * env.action_size if env.continuous else len(np.asarray(params.omegas))
-    names = _dense_layers(net, env.obs_size, outputs, params_path)
+    torso = net.get("ScanTorso", {})
+    convs = sorted(torso, key=lambda n: int(n.split("_")[1]))
+    names = _dense_layers(net, _torso_width(env, torso, convs), outputs, params_path)
     norms = _norms(net, len(names) - 1, params_path)
     meta = _meta(cfg, env, params, strategy, seed, names, run_dir)
     if norms:  # PQN: read only by a reader that applies them
@@ -89,7 +92,16 @@ def export_policy(
             meta.update(history_changes=True, history_change_gain=HISTORY_CHANGE_GAIN)
         if env.history_turned:  # the changes of turned scans, which version 5 cannot take
             meta.update(version=TURNED_VERSION, history_turned=True)
+    if convs:  # the scan's convolutions first, which an older reader would skip
+        layers = [f"ScanTorso/{n}" for n in convs]
+        meta.update(
+            version=CONV_VERSION,
+            scan_conv={"layers": layers, "kernel": 5, "stride": 2, "layout": list(env.scan_layout)},
+        )
     arrays: dict[str, np.ndarray] = {"meta": np.asarray(json.dumps(meta, indent=1))}
+    for n in convs:
+        arrays[f"ScanTorso/{n}/kernel"] = np.asarray(torso[n]["kernel"], np.float32)
+        arrays[f"ScanTorso/{n}/bias"] = np.asarray(torso[n]["bias"], np.float32)
     for n in names:
         arrays[f"{n}/kernel"] = np.asarray(net[n]["kernel"], np.float32)
         arrays[f"{n}/bias"] = np.asarray(net[n]["bias"], np.float32)
@@ -180,6 +192,19 @@ def _dense_layers(net: dict, obs_size: int, num_actions: int, params_path: Path)
     if not names or width != num_actions:
         raise PolicyError(f"{params_path}: the network does not end in {num_actions} outputs")
     return names
+
+
+def _torso_width(env, torso: dict, convs: list[str]) -> int:
+    """The first dense layer's input width: the observation's, or with scan
+    convolutions their flattened output and the observation's other values."""
+    if not convs:
+        return env.obs_size
+    beams, gap, history = env.scan_layout
+    width = beams
+    for _ in convs:
+        width = -(-width // 2)
+    features = np.asarray(torso[convs[-1]]["kernel"]).shape[-1]
+    return width * features + env.obs_size - beams * (1 + history)
 
 
 def _norms(net: dict, hidden: int, params_path: Path) -> list[str]:

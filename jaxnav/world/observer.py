@@ -50,6 +50,14 @@ class Observer:
             return self.n_beams * (1 + self.scan_history) + 4 + extra
         return self.n_beams + 2 + (2 if self.obstacle_obs else 0)
 
+    @property
+    def scan_layout(self) -> tuple[int, int, int]:
+        """Where the normalised observation holds the scan and its history: (beams,
+        the values between the scan and its history, earlier scans). The scan comes
+        first, then heading, distance, the last command (and the waypoint), then the
+        history, then the moving cylinders' features (:meth:`observe`)."""
+        return self.n_beams, 4 + (2 if self.waypoint else 0), self.scan_history
+
     def observation_space(self, params: EnvParams) -> Box:
         if self.normalised:
             low = [0.0] * self.n_beams + [-1.0, 0.0, -1.0, -1.0]
