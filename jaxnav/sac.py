@@ -40,6 +40,7 @@ from flax import struct
 
 from jaxnav.agent.episodes import Episodes
 from jaxnav.agent.hyper import Hyper
+from jaxnav.agent.networks import ScanTorso
 from jaxnav.agent.qlearning import soft_update
 from jaxnav.agent.trainer import (
     StepLog,
@@ -84,14 +85,19 @@ class Actor(nn.Module):
 
     ``actor(obs)`` is the mean action tanh(mean) (tested, exported, deployed);
     ``actor(obs, key)`` samples: (a, log pi(a)). Its layers are ``Dense_0``, ... with
-    the last giving [mean, raw log std], so a NumPy reader runs it as a plain MLP."""
+    the last giving [mean, raw log std], so a NumPy reader runs it as a plain MLP (after
+    the scan's convolutions with ``scan_conv``, :class:`jaxnav.agent.networks.ScanTorso`)."""
 
     hidden: tuple[int, ...] = (128, 128)
     action_size: int = ACTION_SIZE
+    scan_conv: tuple[int, ...] = ()
+    scan_layout: tuple[int, int, int] = (0, 0, 0)
 
     @nn.compact
     def __call__(self, obs: chex.Array, key: chex.PRNGKey | None = None):
         x = obs
+        if self.scan_conv:  # the circular convolutions over the scan first
+            x = ScanTorso(self.scan_conv, self.scan_layout, name="ScanTorso")(x)
         for width in self.hidden:
             x = nn.relu(nn.Dense(width)(x))
         mean, raw = jnp.split(nn.Dense(2 * self.action_size)(x), 2, axis=-1)
@@ -103,13 +109,18 @@ class Actor(nn.Module):
 
 class Critic(nn.Module):
     """Q(s, a): ReLU layers of ``hidden`` widths on [s, a] (LayerNorm before each ReLU
-    with ``layer_norm``), one linear output."""
+    with ``layer_norm``), one linear output; with ``scan_conv`` s is first what the
+    scan's convolutions make of it (its own, not the actor's)."""
 
     hidden: tuple[int, ...] = (128, 128)
     layer_norm: bool = True
+    scan_conv: tuple[int, ...] = ()
+    scan_layout: tuple[int, int, int] = (0, 0, 0)
 
     @nn.compact
     def __call__(self, obs: chex.Array, action: chex.Array) -> chex.Array:
+        if self.scan_conv:
+            obs = ScanTorso(self.scan_conv, self.scan_layout, name="ScanTorso")(obs)
         x = jnp.concatenate([obs, action], axis=-1)
         for width in self.hidden:
             x = nn.Dense(width)(x)
@@ -124,6 +135,8 @@ class TwinCritic(nn.Module):
 
     hidden: tuple[int, ...] = (128, 128)
     layer_norm: bool = True
+    scan_conv: tuple[int, ...] = ()
+    scan_layout: tuple[int, int, int] = (0, 0, 0)
 
     @nn.compact
     def __call__(self, obs: chex.Array, action: chex.Array) -> chex.Array:
@@ -135,18 +148,27 @@ class TwinCritic(nn.Module):
             out_axes=0,
             axis_size=2,
         )
-        return twins(self.hidden, self.layer_norm)(obs, action)
+        return twins(self.hidden, self.layer_norm, self.scan_conv, self.scan_layout)(obs, action)
+
+
+def _conv(config: Config, env: NavEnv | None) -> dict:
+    """The scan convolutions' settings of SAC's networks (``env``: the config's
+    environment, made here if needed for the observation's layout)."""
+    if not config.sac.scan_conv:
+        return {}
+    env = from_config(config)[0] if env is None else env
+    return {"scan_conv": tuple(config.sac.scan_conv), "scan_layout": env.scan_layout}
 
 
 def network_of(config: Config, env: NavEnv | None = None) -> Actor:
-    """The network SAC's policy acts with: the actor (``env`` is not needed)."""
-    del env
-    return Actor(tuple(config.sac.hidden))
+    """The network SAC's policy acts with: the actor (``env``: the config's
+    environment, if already made)."""
+    return Actor(tuple(config.sac.hidden), **_conv(config, env))
 
 
-def critic_of(config: Config) -> TwinCritic:
+def critic_of(config: Config, env: NavEnv | None = None) -> TwinCritic:
     s = config.sac
-    return TwinCritic(tuple(s.hidden), s.layer_norm)
+    return TwinCritic(tuple(s.hidden), s.layer_norm, **_conv(config, env))
 
 
 # ----------------------------------------------------------------------------
@@ -236,7 +258,8 @@ def make_learner(config: Config):
     gradient step on a uniform batch of the memory (critics, then the actor against the
     new critics, then the temperature, then the targets and the tested actor)."""
     s = config.sac
-    actor, critic = network_of(config), critic_of(config)
+    env = from_config(config)[0] if s.scan_conv else None
+    actor, critic = network_of(config, env), critic_of(config, env)
     optimizer = optax.adam(s.lr)
     target_entropy = -s.entropy_scale * ACTION_SIZE
 
@@ -304,7 +327,7 @@ def make_trainer(config: Config) -> Trainer:
     env, base_params = from_config(config)
     s = config.sac
     envs = s.num_envs
-    actor, critic = network_of(config), critic_of(config)
+    actor, critic = network_of(config, env), critic_of(config, env)
     optimizer = optax.adam(s.lr)
     learn = make_learner(config)
     capacity = sac_capacity(config)

@@ -343,3 +343,31 @@ def test_resume_after_sigkill_gives_identical_results(tmp_path):
     assert (killed / "metrics.csv").read_bytes() == (ref / "metrics.csv").read_bytes()
     a, b = np.load(ref / "params.npz"), np.load(killed / "params.npz")
     assert a.files == b.files and all(np.array_equal(a[k], b[k]) for k in a.files)
+
+
+def test_a_sac_policy_with_scan_convolutions_trains_and_exports_its_mean_command(tmp_path):
+    """sac.scan_conv: the actor and each critic start with their own circular
+    convolutions over the scan and its history; a tiny run trains, and the exported
+    policy (format version 7) drives the trained actor's mean command on the same
+    observations."""
+    from jaxnav.core import rundir
+    from jaxnav.robot.deploy import CONV_VERSION, Policy
+    from jaxnav.robot.export import export_policy
+    from jaxnav.run.training import train_new
+
+    extra = ["sac.scan_conv=[4,4]", "env.scan_history=2", "env.history_changes=true"]
+    cfg = load_config("smoke", TINY + extra)
+    out = tmp_path / "run"
+    train_new(cfg, out, quiet=True)
+    params = rundir.load_params(out / rundir.PARAMS, "policy", 0)
+    assert set(params["params"]["ScanTorso"]) == {"Conv_0", "Conv_1"}
+    critic = sac.critic_of(cfg).init(
+        jax.random.key(0), jnp.zeros((1, 24 * 3 + 4)), jnp.zeros((1, 2))
+    )
+    twin = critic["params"]["VmapCritic_0"]["ScanTorso"]["Conv_0"]["kernel"]
+    assert twin.shape == (2, 5, 3, 4)  # each critic its own kernel over 3 channels
+    policy = Policy.from_arrays(export_policy(out, "policy", 0))
+    assert policy.meta["version"] == CONV_VERSION and policy.continuous
+    x = np.random.default_rng(6).uniform(-1, 1, (9, policy.obs_size)).astype(np.float32)
+    want = np.asarray(sac.network_of(cfg).apply(params, jnp.asarray(x)))
+    np.testing.assert_allclose(policy.act(x), want, rtol=1e-4, atol=1e-5)

@@ -421,6 +421,13 @@ class SACConfig:
         rule=WIDTHS,
     )
     layer_norm: bool = setting(True, "LayerNorm before each hidden ReLU of the critics")
+    scan_conv: tuple[int, ...] = setting(
+        (),
+        "channels of circular convolutions over the scan's beams before the actor's and "
+        "each critic's hidden layers, as dqn.scan_conv (needs env.observation "
+        "normalised); empty: none",
+        rule=CHANNELS,
+    )
     actor_average: float = setting(
         0.0,
         "Polyak rate of the tested actor: after each gradient step a copy of the actor's "
