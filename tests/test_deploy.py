@@ -367,6 +367,31 @@ def test_metadata_with_turned_changes_but_no_changes_is_refused(tmp_path):
         Policy.from_arrays({**arrays, "meta": np.asarray(json.dumps(meta))})
 
 
+@pytest.mark.parametrize("broken", ["layout", "kernel", "missing", "not_a_mapping"])
+def test_a_policy_file_with_broken_scan_convolutions_is_refused_in_one_line(tmp_path, broken):
+    """A version-7 file whose convolutions do not fit its observation, or lack an
+    array, or whose metadata is not a mapping: a PolicyError naming the problem."""
+    extra = (*MODERN, "env.scan_history=2", "env.history_changes=true", "dqn.scan_conv=[4,4]")
+    arrays = export.export_policy(_fake_run(tmp_path, "square4", extra, "conv"), "ebe", 0)
+    assert Policy.from_arrays(arrays).meta["version"] == deploy.CONV_VERSION
+    meta = json.loads(str(arrays["meta"]))
+    if broken == "layout":
+        meta["scan_conv"]["layout"] = [24, 4, 3]
+        says = "scan_conv layout"
+    elif broken == "kernel":
+        arrays = {**arrays, "ScanTorso/Conv_1/kernel": np.zeros((5, 3, 4), np.float32)}
+        says = "scan convolution 1 has shape"
+    elif broken == "missing":
+        arrays = {k: v for k, v in arrays.items() if k != "ScanTorso/Conv_0/bias"}
+        says = "lacks array"
+    else:
+        meta["scan_conv"] = [1, 2]
+        says = "not a mapping"
+    with pytest.raises(deploy.PolicyError, match=says) as e:
+        Policy.from_arrays({**arrays, "meta": np.asarray(json.dumps(meta))})
+    assert "\n" not in str(e.value)
+
+
 def test_rays_with_no_return_become_max_range_as_in_the_env(setups):
     """Two walls removed: many rays hit nothing (inf), both paths read 3.5 m there."""
     s = setups["square4"]
