@@ -253,12 +253,11 @@ class Learner(struct.PyTreeNode):
     alpha_opt: chex.ArrayTree
 
 
-def make_learner(config: Config):
+def make_learner(config: Config, env: NavEnv | None = None):
     """``learn(learner, memory, key) -> (learner, critic loss, finite)``: one SAC
     gradient step on a uniform batch of the memory (critics, then the actor against the
     new critics, then the temperature, then the targets and the tested actor)."""
     s = config.sac
-    env = from_config(config)[0] if s.scan_conv else None
     actor, critic = network_of(config, env), critic_of(config, env)
     optimizer = optax.adam(s.lr)
     target_entropy = -s.entropy_scale * ACTION_SIZE
@@ -329,7 +328,7 @@ def make_trainer(config: Config) -> Trainer:
     envs = s.num_envs
     actor, critic = network_of(config, env), critic_of(config, env)
     optimizer = optax.adam(s.lr)
-    learn = make_learner(config)
+    learn = make_learner(config, env)
     capacity = sac_capacity(config)
     per_chunk = _steps_per_chunk(config)
     length = per_chunk * envs

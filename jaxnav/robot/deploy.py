@@ -453,7 +453,7 @@ class Policy:
         convolutions make of it (their shapes checked against the layout)."""
         if not self.convs:
             return self.obs_size
-        layout = [self.n_beams, 4, self.scan_history]
+        layout = list(self.conv_layout)
         conv = meta.get("scan_conv")
         given = conv.get("layout") if isinstance(conv, dict) else None
         if self.observation != "normalised" or given != layout:
@@ -472,6 +472,13 @@ class Policy:
                 raise PolicyError(f"policy scan convolution {i} has non-finite weights")
             width, channels = -(-width // 2), k.shape[2]
         return width * channels + 4
+
+    @property
+    def conv_layout(self) -> tuple[int, int, int]:
+        """(beams, gap, history) of the normalised observation the scan convolutions
+        read: an exported policy's gap is the 4 values of heading, distance and the
+        last command."""
+        return self.n_beams, 4, self.scan_history
 
     @property
     def obs_size(self) -> int:
@@ -529,7 +536,7 @@ class Policy:
         if x.shape[-1:] != (self.obs_size,):
             raise ValueError(f"observation has shape {x.shape}, expected (..., {self.obs_size})")
         if self.convs:
-            x = scan_torso(x, self.convs, (self.n_beams, 4, self.scan_history))
+            x = scan_torso(x, self.convs, self.conv_layout)
         for i, (k, b) in enumerate(self.layers):
             x = x @ k + b
             if i < len(self.layers) - 1:

@@ -31,6 +31,7 @@ from jaxnav.robot.deploy import (
     INVALID_READING,
     NORMS_VERSION,
     TURNED_VERSION,
+    scan_torso,
 )
 from jaxnav.world import kinematics
 from jaxnav.world.sensor import HISTORY_CHANGE_GAIN
@@ -195,16 +196,13 @@ def _dense_layers(net: dict, obs_size: int, num_actions: int, params_path: Path)
 
 
 def _torso_width(env, torso: dict, convs: list[str]) -> int:
-    """The first dense layer's input width: the observation's, or with scan
-    convolutions their flattened output and the observation's other values."""
+    """The first dense layer's input width: the observation's, or what the robot's
+    NumPy twin of the scan convolutions (:func:`jaxnav.robot.deploy.scan_torso`) makes
+    of one."""
     if not convs:
         return env.obs_size
-    beams, gap, history = env.scan_layout
-    width = beams
-    for _ in convs:
-        width = -(-width // 2)
-    features = np.asarray(torso[convs[-1]]["kernel"]).shape[-1]
-    return width * features + env.obs_size - beams * (1 + history)
+    layers = [(np.asarray(torso[n]["kernel"]), np.asarray(torso[n]["bias"])) for n in convs]
+    return scan_torso(np.zeros(env.obs_size), layers, env.scan_layout).shape[-1]
 
 
 def _norms(net: dict, hidden: int, params_path: Path) -> list[str]:
