@@ -131,15 +131,21 @@ class Critic(nn.Module):
 
 
 class TwinCritic(nn.Module):
-    """Two :class:`Critic` s with their own parameters: Q f32[2, ...]."""
+    """Two :class:`Critic` s with their own parameters: Q f32[2, ...]. With ``shared``
+    the scan's convolutions (``ScanTorso``) are one, before both (sac.shared_torso)."""
 
     hidden: tuple[int, ...] = (128, 128)
     layer_norm: bool = True
     scan_conv: tuple[int, ...] = ()
     scan_layout: tuple[int, int, int] = (0, 0, 0)
+    shared: bool = False
 
     @nn.compact
     def __call__(self, obs: chex.Array, action: chex.Array) -> chex.Array:
+        conv = self.scan_conv
+        if self.shared and conv:
+            obs = ScanTorso(conv, self.scan_layout, name="ScanTorso")(obs)
+            conv = ()
         twins = nn.vmap(
             Critic,
             variable_axes={"params": 0},
@@ -148,7 +154,7 @@ class TwinCritic(nn.Module):
             out_axes=0,
             axis_size=2,
         )
-        return twins(self.hidden, self.layer_norm, self.scan_conv, self.scan_layout)(obs, action)
+        return twins(self.hidden, self.layer_norm, conv, self.scan_layout)(obs, action)
 
 
 def _conv(config: Config, env: NavEnv | None) -> dict:
@@ -168,7 +174,24 @@ def network_of(config: Config, env: NavEnv | None = None) -> Actor:
 
 def critic_of(config: Config, env: NavEnv | None = None) -> TwinCritic:
     s = config.sac
-    return TwinCritic(tuple(s.hidden), s.layer_norm, **_conv(config, env))
+    return TwinCritic(tuple(s.hidden), s.layer_norm, shared=s.shared_torso, **_conv(config, env))
+
+
+# With sac.shared_torso the actor's and the critics' parameters each hold the one torso
+# under "ScanTorso", beside their own layers: split off, it runs alone, and the rest
+# runs as the same network without convolutions.
+TORSO = "ScanTorso"
+
+
+def split_torso(variables: dict) -> tuple[dict, dict]:
+    """(the torso's variables, the rest's) of a network with a ``ScanTorso``."""
+    p = variables["params"]
+    return {"params": p[TORSO]}, {"params": {k: v for k, v in p.items() if k != TORSO}}
+
+
+def with_torso(head: dict, torso: dict) -> dict:
+    """The network's variables: ``head``'s layers after ``torso``'s convolutions."""
+    return {"params": {**head["params"], TORSO: torso["params"]}}
 
 
 # ----------------------------------------------------------------------------
@@ -256,17 +279,17 @@ class Learner(struct.PyTreeNode):
 def make_learner(config: Config, env: NavEnv | None = None):
     """``learn(learner, memory, key) -> (learner, critic loss, finite)``: one SAC
     gradient step on a uniform batch of the memory (critics, then the actor against the
-    new critics, then the temperature, then the targets and the tested actor)."""
+    new critics, then the temperature, then the targets and the tested actor); with
+    sac.shared_torso, :func:`_shared_learner`'s."""
     s = config.sac
     actor, critic = network_of(config, env), critic_of(config, env)
+    if s.shared_torso:
+        return _shared_learner(config, actor, critic)
     optimizer = optax.adam(s.lr)
-    target_entropy = -s.entropy_scale * ACTION_SIZE
 
     def learn(lr: Learner, memory: Memory, key: chex.PRNGKey):
         k_idx, k_next, k_new = jax.random.split(key, 3)
-        idx = jax.random.randint(k_idx, (s.batch_size,), 0, jnp.maximum(memory.filled, 1))
-        obs, action = memory.obs[idx], memory.action[idx]
-        reward, next_obs, term = memory.reward[idx], memory.next_obs[idx], memory.terminated[idx]
+        obs, action, reward, next_obs, term = _batch(memory, k_idx, s.batch_size)
         alpha = jnp.exp(lr.log_alpha)
 
         next_a, next_logp = actor.apply(lr.actor, next_obs, k_next)
@@ -290,28 +313,105 @@ def make_learner(config: Config, env: NavEnv | None = None):
         updates, actor_opt = optimizer.update(grads, lr.actor_opt, lr.actor)
         actor_params = optax.apply_updates(lr.actor, updates)
 
-        t_loss, grad = jax.value_and_grad(temperature_loss)(lr.log_alpha, logp, target_entropy)
-        updates, alpha_opt = optimizer.update(grad, lr.alpha_opt, lr.log_alpha)
-        log_alpha = optax.apply_updates(lr.log_alpha, updates)
-
-        if s.actor_average > 0:
-            average = soft_update(actor_params, lr.average, s.actor_average)
-        else:
-            average = actor_params
-        new = Learner(
-            actor_params,
-            average,
-            critic_params,
-            soft_update(critic_params, lr.target, s.tau),
-            log_alpha,
-            actor_opt,
-            critic_opt,
-            alpha_opt,
+        return _finish(
+            config, lr, actor_params, actor_opt, critic_params, critic_opt, logp, c_loss, a_loss
         )
-        finite = jnp.isfinite(c_loss) & jnp.isfinite(a_loss) & jnp.isfinite(t_loss)
-        return new, c_loss, finite & all_finite((actor_params, critic_params))
 
     return learn
+
+
+def _batch(memory: Memory, key: chex.PRNGKey, size: int):
+    """(obs, action, reward, next_obs, terminated) of ``size`` transitions drawn
+    uniformly from the filled part of the memory."""
+    idx = jax.random.randint(key, (size,), 0, jnp.maximum(memory.filled, 1))
+    m = memory
+    return m.obs[idx], m.action[idx], m.reward[idx], m.next_obs[idx], m.terminated[idx]
+
+
+def _finish(config, lr, actor_params, actor_opt, critic_params, critic_opt, logp, c_loss, a_loss):
+    """A gradient step's end, shared by both learners: the temperature's step, the
+    target critics' and the tested actor's Polyak steps, and whether all is finite."""
+    s = config.sac
+    optimizer = optax.adam(s.lr)
+    target_entropy = -s.entropy_scale * ACTION_SIZE
+    t_loss, grad = jax.value_and_grad(temperature_loss)(lr.log_alpha, logp, target_entropy)
+    updates, alpha_opt = optimizer.update(grad, lr.alpha_opt, lr.log_alpha)
+    log_alpha = optax.apply_updates(lr.log_alpha, updates)
+
+    if s.actor_average > 0:
+        average = soft_update(actor_params, lr.average, s.actor_average)
+    else:
+        average = actor_params
+    new = Learner(
+        actor_params,
+        average,
+        critic_params,
+        soft_update(critic_params, lr.target, s.tau),
+        log_alpha,
+        actor_opt,
+        critic_opt,
+        alpha_opt,
+    )
+    finite = jnp.isfinite(c_loss) & jnp.isfinite(a_loss) & jnp.isfinite(t_loss)
+    return new, c_loss, finite & all_finite((actor_params, critic_params))
+
+
+def _shared_learner(config: Config, actor: Actor, critic: TwinCritic):
+    """:func:`make_learner`'s step with sac.shared_torso (DrQ's encoder sharing,
+    Yarats et al. 2021): the critics' torso is the only one. Their loss trains it; the
+    actor reads its output with the gradient stopped, so the actor's optimiser holds
+    only the actor's own layers (``actor_opt`` is over :func:`split_torso`'s rest), and
+    after each step the actor's "ScanTorso" is set to the critics' new one. The torso
+    runs 4 times a step (the batch's s' with the critics' and the targets' torso, its s
+    forward and back, its s again after the critics' step) where separate torsos run
+    14 times."""
+    s = config.sac
+    optimizer = optax.adam(s.lr)
+    torso = ScanTorso(actor.scan_conv, actor.scan_layout)
+    head = Actor(actor.hidden, actor.action_size)
+    heads = TwinCritic(critic.hidden, critic.layer_norm)
+
+    def learn(lr: Learner, memory: Memory, key: chex.PRNGKey):
+        k_idx, k_next, k_new = jax.random.split(key, 3)
+        obs, action, reward, next_obs, term = _batch(memory, k_idx, s.batch_size)
+        alpha = jnp.exp(lr.log_alpha)
+        c_torso, _ = split_torso(lr.critic)
+        t_torso, t_heads = split_torso(lr.target)
+        _, a_head = split_torso(lr.actor)
+
+        next_a, next_logp = head.apply(a_head, torso.apply(c_torso, next_obs), k_next)
+        next_q = heads.apply(t_heads, torso.apply(t_torso, next_obs), next_a)
+        y = jax.lax.stop_gradient(soft_target(reward, term, next_q, next_logp, alpha, s.gamma))
+
+        def critic_loss(params):
+            q = critic.apply(params, obs, action)  # f32[2, B]
+            return jnp.sum(jnp.mean((q - y) ** 2, axis=-1))
+
+        c_loss, grads = jax.value_and_grad(critic_loss)(lr.critic)
+        updates, critic_opt = optimizer.update(grads, lr.critic_opt, lr.critic)
+        critic_params = optax.apply_updates(lr.critic, updates)
+        new_torso, new_heads = split_torso(critic_params)
+        features = jax.lax.stop_gradient(torso.apply(new_torso, obs))
+
+        def actor_loss(params):
+            a, logp = head.apply(params, features, k_new)
+            q = jnp.min(heads.apply(new_heads, features, a), axis=0)
+            return jnp.mean(alpha * logp - q), logp
+
+        (a_loss, logp), grads = jax.value_and_grad(actor_loss, has_aux=True)(a_head)
+        updates, actor_opt = optimizer.update(grads, lr.actor_opt, a_head)
+        actor_params = with_torso(optax.apply_updates(a_head, updates), new_torso)
+        return _finish(
+            config, lr, actor_params, actor_opt, critic_params, critic_opt, logp, c_loss, a_loss
+        )
+
+    return learn
+
+
+def trained_part(config: Config, actor_params: dict) -> dict:
+    """The part of the actor's parameters its optimiser steps: all of them, or with
+    sac.shared_torso all but the torso (the critics train that)."""
+    return split_torso(actor_params)[1] if config.sac.shared_torso else actor_params
 
 
 def _steps_per_chunk(config: Config) -> int:
@@ -344,6 +444,8 @@ def make_trainer(config: Config) -> Trainer:
         a0 = jnp.zeros((ACTION_SIZE,), jnp.float32)
         params = actor.init(k_actor, obs[0])
         critic_params = critic.init(k_critic, obs[0], a0)
+        if s.shared_torso:  # the actor reads the critics' torso
+            params = with_torso(split_torso(params)[1], split_torso(critic_params)[0])
         log_alpha = jnp.log(jnp.float32(s.init_alpha))
         d = obs.shape[-1]
         memory = Memory(
@@ -360,7 +462,7 @@ def make_trainer(config: Config) -> Trainer:
             critic=critic_params,
             target_critic=critic_params,
             log_alpha=log_alpha,
-            actor_opt=optimizer.init(params),
+            actor_opt=optimizer.init(trained_part(config, params)),
             critic_opt=optimizer.init(critic_params),
             alpha_opt=optimizer.init(log_alpha),
             memory=memory,
@@ -489,6 +591,9 @@ __all__ = [
     "make_trainer",
     "network_of",
     "soft_target",
+    "split_torso",
     "squashed_sample",
     "temperature_loss",
+    "trained_part",
+    "with_torso",
 ]

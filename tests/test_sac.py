@@ -14,7 +14,7 @@ from jaxnav import sac
 from jaxnav.agent.trainer import make_train, run_inputs
 from jaxnav.core.config import load_config
 from jaxnav.core.errors import ConfigError
-from jaxnav.env import make
+from jaxnav.env import from_config, make
 from jaxnav.world.kinematics import firmware_limit
 
 TINY = [
@@ -177,6 +177,7 @@ def test_discrete_twin_plans_over_the_vw_set_in_the_same_world():
         (["env.reward=dense"], "progress or sparse"),
         (["sac.batch_size=100000"], "larger than the replay"),
         (["env.action_delay=true"], "action_delay holds a discrete action"),
+        (["sac.shared_torso=true"], "shared_torso shares the scan convolutions"),
     ],
 )
 def test_bad_continuous_settings_are_one_line_refusals(overrides, says):
@@ -369,5 +370,99 @@ def test_a_sac_policy_with_scan_convolutions_trains_and_exports_its_mean_command
     policy = Policy.from_arrays(export_policy(out, "policy", 0))
     assert policy.meta["version"] == CONV_VERSION and policy.continuous
     x = np.random.default_rng(6).uniform(-1, 1, (9, policy.obs_size)).astype(np.float32)
+    want = np.asarray(sac.network_of(cfg).apply(params, jnp.asarray(x)))
+    np.testing.assert_allclose(policy.act(x), want, rtol=1e-4, atol=1e-5)
+
+
+SHARED = [
+    "sac.scan_conv=[4,4]",
+    "env.scan_history=2",
+    "env.history_changes=true",
+    "sac.shared_torso=true",
+]
+
+
+def test_a_shared_torso_is_trained_by_the_critics_loss_alone_and_read_by_the_actor():
+    """sac.shared_torso: one gradient step moves the critics (torso included) by one
+    Adam step of the critics' loss alone, recomputed here on the same batch; the actor's
+    own layers move, its torso becomes the critics' new one, the targets take their
+    Polyak step, and the actor's optimiser holds only the actor's own layers."""
+    import optax
+
+    cfg = load_config("smoke", TINY + SHARED + ["sac.tau=0.25"])
+    env, _ = from_config(cfg)
+    d = 24 * 3 + 4
+    actor, critic = sac.network_of(cfg, env), sac.critic_of(cfg, env)
+    assert critic.shared and env.scan_layout == (24, 4, 2)
+    x0, a0 = jnp.zeros(d), jnp.zeros(2)
+    c_p = critic.init(jax.random.PRNGKey(2), x0, a0)
+    assert c_p["params"]["ScanTorso"]["Conv_0"]["kernel"].shape == (5, 3, 4)  # one, not two
+    t_p = critic.init(jax.random.PRNGKey(3), x0, a0)
+    a_p = sac.with_torso(
+        sac.split_torso(actor.init(jax.random.PRNGKey(1), x0))[1], sac.split_torso(c_p)[0]
+    )
+    opt = optax.adam(cfg.sac.lr)
+    n = 32
+    rng = np.random.default_rng(0)
+    memory = sac.Memory(
+        obs=jnp.asarray(rng.uniform(-1, 1, size=(n, d)), jnp.float32),
+        action=jnp.asarray(rng.uniform(-1, 1, size=(n, 2)), jnp.float32),
+        reward=jnp.asarray(rng.normal(size=n), jnp.float32),
+        next_obs=jnp.asarray(rng.uniform(-1, 1, size=(n, d)), jnp.float32),
+        terminated=jnp.asarray(rng.uniform(size=n) < 0.2),
+        filled=jnp.int32(n),
+        cursor=jnp.int32(0),
+    )
+    head0 = sac.trained_part(cfg, a_p)
+    assert "ScanTorso" not in head0["params"]
+    learner = sac.Learner(
+        a_p, a_p, c_p, t_p, jnp.log(jnp.float32(0.1)), opt.init(head0), opt.init(c_p), opt.init(0.0)
+    )
+    key = jax.random.PRNGKey(5)
+    new, loss, finite = sac.make_learner(cfg, env)(learner, memory, key)
+    assert bool(finite) and float(loss) > 0.0
+
+    # the reference: the same batch and next actions, through the full (unsplit) networks
+    k_idx, k_next, _ = jax.random.split(key, 3)
+    idx = jax.random.randint(k_idx, (cfg.sac.batch_size,), 0, n)
+    obs, next_obs = memory.obs[idx], memory.next_obs[idx]
+    next_a, next_logp = actor.apply(a_p, next_obs, k_next)
+    next_q = critic.apply(t_p, next_obs, next_a)
+    y = sac.soft_target(memory.reward[idx], memory.terminated[idx], next_q, next_logp, 0.1, 0.99)
+
+    def critic_loss(p):
+        return jnp.sum(jnp.mean((critic.apply(p, obs, memory.action[idx]) - y) ** 2, axis=-1))
+
+    grads = jax.grad(critic_loss)(c_p)
+    updates, _ = opt.update(grads, opt.init(c_p), c_p)
+    want = optax.apply_updates(c_p, updates)
+    for g, w in zip(jax.tree.leaves(new.critic), jax.tree.leaves(want)):
+        np.testing.assert_allclose(np.asarray(g), np.asarray(w), rtol=1e-5, atol=1e-6)
+
+    torso, head = sac.split_torso(new.actor)
+    for g, w in zip(jax.tree.leaves(torso), jax.tree.leaves(sac.split_torso(new.critic)[0])):
+        np.testing.assert_array_equal(np.asarray(g), np.asarray(w))
+    moved = jax.tree.map(lambda a, b: float(jnp.max(jnp.abs(a - b))), head, head0)
+    assert min(jax.tree.leaves(moved)) > 0.0  # every layer of the actor's own moved
+    target = jax.tree.map(lambda c, t: 0.25 * c + 0.75 * t, new.critic, t_p)
+    for g, w in zip(jax.tree.leaves(new.target), jax.tree.leaves(target)):
+        np.testing.assert_allclose(np.asarray(g), np.asarray(w), rtol=1e-6, atol=1e-7)
+
+
+def test_a_sac_policy_with_a_shared_torso_trains_and_exports_its_mean_command(tmp_path):
+    """A tiny run with sac.shared_torso: the tested actor's torso is the critics', and
+    the export (the same format as separate torsos) drives its mean command."""
+    from jaxnav.core import rundir
+    from jaxnav.robot.deploy import Policy
+    from jaxnav.robot.export import export_policy
+    from jaxnav.run.training import train_new
+
+    cfg = load_config("smoke", TINY + SHARED)
+    out = tmp_path / "run"
+    train_new(cfg, out, quiet=True)
+    params = rundir.load_params(out / rundir.PARAMS, "policy", 0)
+    assert set(params["params"]["ScanTorso"]) == {"Conv_0", "Conv_1"}
+    policy = Policy.from_arrays(export_policy(out, "policy", 0))
+    x = np.random.default_rng(7).uniform(-1, 1, (9, policy.obs_size)).astype(np.float32)
     want = np.asarray(sac.network_of(cfg).apply(params, jnp.asarray(x)))
     np.testing.assert_allclose(policy.act(x), want, rtol=1e-4, atol=1e-5)

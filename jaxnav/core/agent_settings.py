@@ -83,13 +83,16 @@ def pqn_memory(cfg: Config) -> int:
 
 def sac_problem(cfg: Config) -> str | None:
     """SAC's settings together: the scan convolutions read the normalised
-    observation's layout, and a batch fits the replay memory."""
+    observation's layout, a shared torso needs them, and a batch fits the replay
+    memory."""
     s = cfg.sac
     if s.scan_conv and cfg.env.observation != "normalised":
         return (
             "sac.scan_conv convolves the normalised observation's scan: it needs "
             "env.observation normalised"
         )
+    if s.shared_torso and not s.scan_conv:
+        return "sac.shared_torso shares the scan convolutions: it needs sac.scan_conv"
     capacity = sac_capacity(cfg)
     if s.batch_size > capacity:
         return (

@@ -428,6 +428,13 @@ class SACConfig:
         "normalised); empty: none",
         rule=CHANNELS,
     )
+    shared_torso: bool = setting(
+        False,
+        "with sac.scan_conv: one set of scan convolutions, trained by the critics' loss, "
+        "read by both critics and the actor (the actor's gradient stops at its output; "
+        "the target critics keep their Polyak copy), as DrQ shares its encoder; off: the "
+        "actor and each critic their own",
+    )
     actor_average: float = setting(
         0.0,
         "Polyak rate of the tested actor: after each gradient step a copy of the actor's "
