@@ -22,8 +22,9 @@ from __future__ import annotations
 import argparse
 import json
 import statistics
-import subprocess
 import sys
+
+from common import MARK, run_marked
 
 
 def measure(config: str, overrides: list[str], chunk: int, chunks: int) -> dict:
@@ -66,15 +67,14 @@ def main() -> None:
     a = p.parse_args()
     if a.case is not None:
         overrides = [] if a.case == "-" else a.case.split()
-        print(json.dumps(measure(a.config, overrides, a.chunk, a.chunks)))
+        print(MARK + json.dumps(measure(a.config, overrides, a.chunk, a.chunks)))
         return
     got: dict[str, list[dict]] = {v: [] for v in a.variants}
     for _ in range(a.reps):
         for v in a.variants:
             cmd = [sys.executable, __file__, a.config, "-", "--case", v]
             cmd += ["--chunk", str(a.chunk), "--chunks", str(a.chunks)]
-            out = subprocess.run(cmd, check=True, capture_output=True, text=True).stdout
-            got[v].append(json.loads(out.strip().splitlines()[-1]))
+            got[v].append(run_marked(cmd))
     first = statistics.median(r["steps_per_s"] for r in got[a.variants[0]])
     print(f"{a.config}: env steps per second of all its runs, median of {a.reps} rounds")
     print("| overrides | env steps / s | compile (s) | time per step vs the first |")

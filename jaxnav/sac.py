@@ -296,13 +296,7 @@ def make_learner(config: Config, env: NavEnv | None = None):
         next_q = critic.apply(lr.target, next_obs, next_a)
         y = jax.lax.stop_gradient(soft_target(reward, term, next_q, next_logp, alpha, s.gamma))
 
-        def critic_loss(params):
-            q = critic.apply(params, obs, action)  # f32[2, B]
-            return jnp.sum(jnp.mean((q - y) ** 2, axis=-1))
-
-        c_loss, grads = jax.value_and_grad(critic_loss)(lr.critic)
-        updates, critic_opt = optimizer.update(grads, lr.critic_opt, lr.critic)
-        critic_params = optax.apply_updates(lr.critic, updates)
+        c_loss, critic_params, critic_opt = _critic_step(critic, optimizer, lr, obs, action, y)
 
         def actor_loss(params):
             a, logp = actor.apply(params, obs, k_new)
@@ -318,6 +312,19 @@ def make_learner(config: Config, env: NavEnv | None = None):
         )
 
     return learn
+
+
+def _critic_step(critic: TwinCritic, optimizer, lr: Learner, obs, action, y):
+    """(loss, critic parameters, optimiser state) after one Adam step of both critics
+    towards the soft target ``y``: the sum over the twins of their mean squared error."""
+
+    def critic_loss(params):
+        q = critic.apply(params, obs, action)  # f32[2, B]
+        return jnp.sum(jnp.mean((q - y) ** 2, axis=-1))
+
+    c_loss, grads = jax.value_and_grad(critic_loss)(lr.critic)
+    updates, critic_opt = optimizer.update(grads, lr.critic_opt, lr.critic)
+    return c_loss, optax.apply_updates(lr.critic, updates), critic_opt
 
 
 def _batch(memory: Memory, key: chex.PRNGKey, size: int):
@@ -383,13 +390,7 @@ def _shared_learner(config: Config, actor: Actor, critic: TwinCritic):
         next_q = heads.apply(t_heads, torso.apply(t_torso, next_obs), next_a)
         y = jax.lax.stop_gradient(soft_target(reward, term, next_q, next_logp, alpha, s.gamma))
 
-        def critic_loss(params):
-            q = critic.apply(params, obs, action)  # f32[2, B]
-            return jnp.sum(jnp.mean((q - y) ** 2, axis=-1))
-
-        c_loss, grads = jax.value_and_grad(critic_loss)(lr.critic)
-        updates, critic_opt = optimizer.update(grads, lr.critic_opt, lr.critic)
-        critic_params = optax.apply_updates(lr.critic, updates)
+        c_loss, critic_params, critic_opt = _critic_step(critic, optimizer, lr, obs, action, y)
         new_torso, new_heads = split_torso(critic_params)
         features = jax.lax.stop_gradient(torso.apply(new_torso, obs))
 
