@@ -178,6 +178,8 @@ def test_discrete_twin_plans_over_the_vw_set_in_the_same_world():
         (["sac.batch_size=100000"], "larger than the replay"),
         (["env.action_delay=true"], "action_delay holds a discrete action"),
         (["sac.shared_torso=true"], "shared_torso shares the scan convolutions"),
+        (["sac.updates=3", "sac.actor_every=2"], "actor_every \\(2\\) must divide"),
+        (["sac.lr_decay=true", "total_steps=null", "episodes=5"], "lr_decay needs total_steps"),
     ],
 )
 def test_bad_continuous_settings_are_one_line_refusals(overrides, says):
@@ -466,3 +468,156 @@ def test_a_sac_policy_with_a_shared_torso_trains_and_exports_its_mean_command(tm
     x = np.random.default_rng(7).uniform(-1, 1, (9, policy.obs_size)).astype(np.float32)
     want = np.asarray(sac.network_of(cfg).apply(params, jnp.asarray(x)))
     np.testing.assert_allclose(policy.act(x), want, rtol=1e-4, atol=1e-5)
+
+
+@pytest.mark.parametrize("shared", [False, True])
+def test_a_critics_only_step_is_the_full_steps_critic_step_and_leaves_the_actor(shared):
+    """sac.actor_every's critics-only step: the critics and targets move exactly as in
+    the full step on the same key (the critics' step comes first in both); the actor's
+    own layers, its optimiser, the temperature and its optimiser stay; with a shared
+    torso the actor reads the critics' new one."""
+    import optax
+
+    cfg = load_config("smoke", TINY + (SHARED if shared else []) + ["sac.actor_average=0.1"])
+    env, _ = from_config(cfg)
+    d = env.obs_size
+    actor, critic = sac.network_of(cfg, env), sac.critic_of(cfg, env)
+    x0 = jnp.zeros(d)
+    c_p = critic.init(jax.random.PRNGKey(2), x0, jnp.zeros(2))
+    t_p = critic.init(jax.random.PRNGKey(3), x0, jnp.zeros(2))
+    a_p = actor.init(jax.random.PRNGKey(1), x0)
+    if shared:
+        a_p = sac.with_torso(sac.split_torso(a_p)[1], sac.split_torso(c_p)[0])
+    opt = optax.adam(cfg.sac.lr)
+    rng = np.random.default_rng(1)
+    n = 32
+    memory = sac.Memory(
+        obs=jnp.asarray(rng.uniform(-1, 1, size=(n, d)), jnp.float32),
+        action=jnp.asarray(rng.uniform(-1, 1, size=(n, 2)), jnp.float32),
+        reward=jnp.asarray(rng.normal(size=n), jnp.float32),
+        next_obs=jnp.asarray(rng.uniform(-1, 1, size=(n, d)), jnp.float32),
+        terminated=jnp.asarray(rng.uniform(size=n) < 0.2),
+        filled=jnp.int32(n),
+        cursor=jnp.int32(0),
+    )
+    head0 = sac.trained_part(cfg, a_p)
+    learner = sac.Learner(
+        a_p, a_p, c_p, t_p, jnp.log(jnp.float32(0.1)), opt.init(head0), opt.init(c_p), opt.init(0.0)
+    )
+    learn = sac.make_learner(cfg, env)
+    key = jax.random.PRNGKey(7)
+    full, full_loss, _ = learn(learner, memory, key)
+    critics, loss, finite = learn(learner, memory, key, actor_step=False)
+    assert bool(finite) and float(loss) == float(full_loss)
+    leaves = jax.tree.leaves
+    for name in ("critic", "target", "critic_opt"):
+        for g, w in zip(leaves(getattr(critics, name)), leaves(getattr(full, name))):
+            np.testing.assert_array_equal(np.asarray(g), np.asarray(w))
+    for name in ("log_alpha", "actor_opt", "alpha_opt"):
+        for g, w in zip(leaves(getattr(critics, name)), leaves(getattr(learner, name))):
+            np.testing.assert_array_equal(np.asarray(g), np.asarray(w))
+    assert float(full.log_alpha) != float(learner.log_alpha)  # the full step moved it
+    for g, w in zip(leaves(sac.trained_part(cfg, critics.actor)), leaves(head0)):
+        np.testing.assert_array_equal(np.asarray(g), np.asarray(w))
+    if shared:  # the actor reads the critics' new torso
+        torso = sac.split_torso(critics.actor)[0]
+        for g, w in zip(leaves(torso), leaves(sac.split_torso(critics.critic)[0])):
+            np.testing.assert_array_equal(np.asarray(g), np.asarray(w))
+
+
+def test_the_actor_steps_once_per_actor_every_critic_steps_in_a_run():
+    """Adam counts its steps: after a tiny run with sac.updates 2 and sac.actor_every 2
+    the actor's optimiser has taken half the critics' steps, the temperature's as many
+    as the actor's."""
+    cfg = load_config("smoke", TINY + ["sac.updates=2", "sac.actor_every=2"])
+    out = jax.jit(jax.vmap(make_train(cfg)))(*run_inputs(cfg))
+    assert np.all(np.asarray(out.diverged_at) == -1)
+
+    def count(state):
+        return int(np.asarray(jax.tree.leaves(state[0].count)[0]).reshape(-1)[0])
+
+    critic_steps = count(out.critic_opt)
+    # learning starts with the env step that reaches 64 env steps: 49 of the run's 64
+    # steps of its 4 environments, 2 critic steps each
+    assert critic_steps == ((256 - 64) // 4 + 1) * 2
+    assert count(out.actor_opt) == critic_steps // 2 == count(out.alpha_opt)
+
+
+def test_the_learning_rates_fall_linearly_to_zero_at_the_runs_last_gradient_step():
+    """sac.lr_decay: under a constant gradient Adam's direction is exactly 1, so step c
+    moves a parameter by -lr (1 - c / N); N by hand is the run's gradient steps (49 env
+    steps that learn x 2 critic steps; the actor every 2nd of them), and a tiny run's
+    optimisers end at exactly that count."""
+    import optax
+
+    cfg = load_config(
+        "smoke", TINY + ["sac.lr_decay=true", "sac.updates=2", "sac.actor_every=2", "sac.lr=0.01"]
+    )
+    for opt, n in zip(sac.optimizers(cfg), (49, 98)):
+        x = jnp.zeros(())
+        state = opt.init(x)
+        for c in range(n + 1):
+            updates, state = opt.update(jnp.ones(()), state, x)
+            want = 0.0 if c == n else -0.01 * (1.0 - c / n)
+            np.testing.assert_allclose(float(updates), want, rtol=1e-5, atol=1e-9)
+            x = optax.apply_updates(x, updates)
+    out = jax.jit(jax.vmap(make_train(cfg)))(*run_inputs(cfg))
+
+    def count(state):
+        return {int(c) for c in np.asarray(jax.tree.leaves(state[0].count)[0]).reshape(-1)}
+
+    assert count(out.critic_opt) == {98} and count(out.actor_opt) == {49}
+
+
+def test_n_step_returns_match_a_walk_through_each_environments_stream():
+    """sac.n_step: every slot's return, last slot and discount against a plain Python
+    walk of the ring (written in steps of ``envs`` slots, one per environment, wrapped
+    round past the capacity) that follows each transition's environment forward while
+    its episode goes on and the next step was written, n steps at most."""
+    envs, capacity, n, gamma = 3, 20, 4, 0.9
+    rng = np.random.default_rng(3)
+    steps = 9  # 27 transitions into 20 slots: the ring wrapped
+    reward = np.zeros(capacity, np.float32)
+    done = np.zeros(capacity, bool)
+    written = {}  # slot -> (env step t, env e)
+    for t in range(steps):
+        for e in range(envs):
+            slot = (t * envs + e) % capacity
+            reward[slot], done[slot] = rng.normal(), rng.uniform() < 0.25
+            written[slot] = (t, e)
+    cursor = steps * envs % capacity
+    memory = sac.Memory(
+        obs=jnp.zeros((capacity, 1)),
+        action=jnp.zeros((capacity, 2)),
+        reward=jnp.asarray(reward),
+        next_obs=jnp.zeros((capacity, 1)),
+        terminated=jnp.zeros(capacity, bool),
+        filled=jnp.int32(capacity),
+        cursor=jnp.int32(cursor),
+        done=jnp.asarray(done),
+    )
+    slot_of = {v: k for k, v in written.items()}
+    idx = np.arange(capacity)
+    g, last, disc = sac.n_step_returns(memory, jnp.asarray(idx), n, envs, gamma)
+    for i in idx:
+        t, e = written[i]
+        total, at, k = 0.0, i, 0
+        while True:
+            total += gamma**k * reward[at]
+            k += 1
+            nxt = slot_of.get((t + k, e))
+            if k == n or done[at] or nxt is None:
+                break
+            at = nxt
+        np.testing.assert_allclose(float(g[i]), total, rtol=1e-5, atol=1e-6)
+        assert int(last[i]) == at and abs(float(disc[i]) - gamma**k) < 1e-6
+    assert set(np.asarray(last).tolist()) != set(idx.tolist())  # some walks went on
+
+
+def test_a_tiny_n_step_run_learns_finite_and_one_step_is_unchanged():
+    cfg = load_config("smoke", TINY + ["sac.n_step=3"])
+    out = jax.jit(jax.vmap(make_train(cfg)))(*run_inputs(cfg))
+    assert np.all(np.asarray(out.diverged_at) == -1)
+    assert int(np.asarray(out.memory.done).sum()) > 0  # episodes of 40 steps ended
+    plain = jax.jit(jax.vmap(make_train(load_config("smoke", TINY))))(*run_inputs(cfg))
+    assert plain.memory.done is None

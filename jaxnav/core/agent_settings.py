@@ -83,8 +83,8 @@ def pqn_memory(cfg: Config) -> int:
 
 def sac_problem(cfg: Config) -> str | None:
     """SAC's settings together: the scan convolutions read the normalised
-    observation's layout, a shared torso needs them, and a batch fits the replay
-    memory."""
+    observation's layout, a shared torso needs them, the actor's period divides the
+    gradient steps, and a batch fits the replay memory."""
     s = cfg.sac
     if s.scan_conv and cfg.env.observation != "normalised":
         return (
@@ -93,6 +93,13 @@ def sac_problem(cfg: Config) -> str | None:
         )
     if s.shared_torso and not s.scan_conv:
         return "sac.shared_torso shares the scan convolutions: it needs sac.scan_conv"
+    if s.lr_decay and cfg.total_steps is None:
+        return "sac.lr_decay needs total_steps: the decay spans the run's budget of env steps"
+    if s.updates % s.actor_every:
+        return (
+            f"sac.actor_every ({s.actor_every}) must divide sac.updates ({s.updates}): the "
+            "actor steps after every actor_every-th of each env step's critic steps"
+        )
     capacity = sac_capacity(cfg)
     if s.batch_size > capacity:
         return (

@@ -400,6 +400,11 @@ class SACConfig:
     lr: float = setting(
         1e-3, "Adam's learning rate of the actor, critics and temperature", rule=POSITIVE
     )
+    lr_decay: bool = setting(
+        False,
+        "the actor's and critics' learning rates fall linearly to 0 over their gradient "
+        "steps in the run's budget (needs total_steps); the temperature's does not",
+    )
     batch_size: int = setting(128, "transitions per gradient step", rule=AT_LEAST_1)
     buffer_size: int = setting(
         200_000, "replay capacity, transitions (capped at the run's env steps)", rule=AT_LEAST_1
@@ -411,6 +416,20 @@ class SACConfig:
     )
     updates: int = setting(
         2, "gradient steps after each step of all num_envs environments", rule=AT_LEAST_1
+    )
+    actor_every: int = setting(
+        1,
+        "the actor and the temperature step after every actor_every-th of the critics' "
+        "gradient steps (TD3's delayed policy update), the critics and their targets after "
+        "each; must divide sac.updates",
+        rule=AT_LEAST_1,
+    )
+    n_step: int = setting(
+        1,
+        "steps of reward before the critics' target bootstraps: each sampled transition "
+        "adds its environment's next ones, discounted, up to the episode's end (1: "
+        "one-step targets)",
+        rule=AT_LEAST_1,
     )
     tau: float = setting(
         0.005, "Polyak rate of the target critics per gradient step", rule=UNIT_OPEN
