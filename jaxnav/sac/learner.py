@@ -33,7 +33,8 @@ from jaxnav.sac.networks import (
 
 def soft_target(reward, terminated, next_q, next_log_prob, alpha, gamma) -> chex.Array:
     """y = r + gamma (1 - terminated) (min_i Q'_i(s', a') - alpha log pi(a' | s')):
-    ``next_q`` f32[2, B] the target critics at (s', a'), ``next_log_prob`` f32[B]."""
+    ``next_q`` f32[2, B] the target critics at (s', a'), ``next_log_prob`` f32[B];
+    ``gamma`` a number, or f32[B] (gamma^m after m steps of reward, :func:`n_step_returns`)."""
     soft_value = jnp.min(next_q, axis=0) - alpha * next_log_prob
     return reward + gamma * (1.0 - terminated.astype(jnp.float32)) * soft_value
 
@@ -45,7 +46,7 @@ def temperature_loss(log_alpha, log_prob, target_entropy) -> chex.Array:
 
 
 # ----------------------------------------------------------------------------
-# Training state
+# The replay memory and one gradient step
 # ----------------------------------------------------------------------------
 
 
