@@ -384,6 +384,21 @@ SHARED = [
 ]
 
 
+def uniform_memory(n: int, d: int, seed: int) -> sac.Memory:
+    """A full replay memory of ``n`` random transitions of ``d``-value observations in
+    [-1, 1] (the normalised observation's range), a fifth of them collisions."""
+    rng = np.random.default_rng(seed)
+    return sac.Memory(
+        obs=jnp.asarray(rng.uniform(-1, 1, size=(n, d)), jnp.float32),
+        action=jnp.asarray(rng.uniform(-1, 1, size=(n, 2)), jnp.float32),
+        reward=jnp.asarray(rng.normal(size=n), jnp.float32),
+        next_obs=jnp.asarray(rng.uniform(-1, 1, size=(n, d)), jnp.float32),
+        terminated=jnp.asarray(rng.uniform(size=n) < 0.2),
+        filled=jnp.int32(n),
+        cursor=jnp.int32(0),
+    )
+
+
 def test_a_shared_torso_is_trained_by_the_critics_loss_alone_and_read_by_the_actor():
     """sac.shared_torso: one gradient step moves the critics (torso included) by one
     Adam step of the critics' loss alone, recomputed here on the same batch; the actor's
@@ -405,16 +420,7 @@ def test_a_shared_torso_is_trained_by_the_critics_loss_alone_and_read_by_the_act
     )
     opt = optax.adam(cfg.sac.lr)
     n = 32
-    rng = np.random.default_rng(0)
-    memory = sac.Memory(
-        obs=jnp.asarray(rng.uniform(-1, 1, size=(n, d)), jnp.float32),
-        action=jnp.asarray(rng.uniform(-1, 1, size=(n, 2)), jnp.float32),
-        reward=jnp.asarray(rng.normal(size=n), jnp.float32),
-        next_obs=jnp.asarray(rng.uniform(-1, 1, size=(n, d)), jnp.float32),
-        terminated=jnp.asarray(rng.uniform(size=n) < 0.2),
-        filled=jnp.int32(n),
-        cursor=jnp.int32(0),
-    )
+    memory = uniform_memory(n, d, seed=0)
     head0 = sac.trained_part(cfg, a_p)
     assert "ScanTorso" not in head0["params"]
     learner = sac.Learner(
@@ -489,17 +495,8 @@ def test_a_critics_only_step_is_the_full_steps_critic_step_and_leaves_the_actor(
     if shared:
         a_p = sac.with_torso(sac.split_torso(a_p)[1], sac.split_torso(c_p)[0])
     opt = optax.adam(cfg.sac.lr)
-    rng = np.random.default_rng(1)
     n = 32
-    memory = sac.Memory(
-        obs=jnp.asarray(rng.uniform(-1, 1, size=(n, d)), jnp.float32),
-        action=jnp.asarray(rng.uniform(-1, 1, size=(n, 2)), jnp.float32),
-        reward=jnp.asarray(rng.normal(size=n), jnp.float32),
-        next_obs=jnp.asarray(rng.uniform(-1, 1, size=(n, d)), jnp.float32),
-        terminated=jnp.asarray(rng.uniform(size=n) < 0.2),
-        filled=jnp.int32(n),
-        cursor=jnp.int32(0),
-    )
+    memory = uniform_memory(n, d, seed=1)
     head0 = sac.trained_part(cfg, a_p)
     learner = sac.Learner(
         a_p, a_p, c_p, t_p, jnp.log(jnp.float32(0.1)), opt.init(head0), opt.init(c_p), opt.init(0.0)

@@ -83,7 +83,8 @@ def optimizers(config: Config) -> tuple[optax.GradientTransformation, ...]:
     """(the actor's, the critics') Adam at sac.lr; with sac.lr_decay each rate falls
     linearly to 0 over its network's gradient steps in the run's budget (the critics'
     from the first env step that learns to the last, the actor's every
-    sac.actor_every-th of them). The temperature's rate does not decay."""
+    sac.actor_every-th of them). The temperature's rate does not decay
+    (:func:`temperature_optimizer`)."""
     s = config.sac
     if not s.lr_decay:
         return optax.adam(s.lr), optax.adam(s.lr)
@@ -93,6 +94,11 @@ def optimizers(config: Config) -> tuple[optax.GradientTransformation, ...]:
         optax.adam(optax.linear_schedule(s.lr, 0.0, max(1, steps // s.actor_every))),
         optax.adam(optax.linear_schedule(s.lr, 0.0, steps)),
     )
+
+
+def temperature_optimizer(config: Config) -> optax.GradientTransformation:
+    """The entropy temperature's Adam, at sac.lr throughout."""
+    return optax.adam(config.sac.lr)
 
 
 def make_learner(config: Config, env: NavEnv | None = None):
@@ -199,7 +205,7 @@ def _finish(
     if logp is None:
         log_alpha, alpha_opt, t_loss, a_loss = lr.log_alpha, lr.alpha_opt, 0.0, 0.0
     else:
-        optimizer = optax.adam(s.lr)
+        optimizer = temperature_optimizer(config)
         target_entropy = -s.entropy_scale * ACTION_SIZE
         t_loss, grad = jax.value_and_grad(temperature_loss)(lr.log_alpha, logp, target_entropy)
         updates, alpha_opt = optimizer.update(grad, lr.alpha_opt, lr.log_alpha)

@@ -8,7 +8,6 @@ from typing import Any
 import chex
 import jax
 import jax.numpy as jnp
-import optax
 from flax import struct
 
 from jaxnav.agent.episodes import Episodes
@@ -25,7 +24,13 @@ from jaxnav.agent.trainer import (
 from jaxnav.core.agent_settings import sac_capacity
 from jaxnav.core.config import Config
 from jaxnav.env import EnvState, bank_key, from_config
-from jaxnav.sac.learner import Learner, Memory, make_learner, optimizers
+from jaxnav.sac.learner import (
+    Learner,
+    Memory,
+    make_learner,
+    optimizers,
+    temperature_optimizer,
+)
 from jaxnav.sac.networks import (
     ACTION_SIZE,
     critic_of,
@@ -122,7 +127,7 @@ def make_trainer(config: Config) -> Trainer:
             log_alpha=log_alpha,
             actor_opt=actor_optimizer.init(trained_part(config, params)),
             critic_opt=critic_optimizer.init(critic_params),
-            alpha_opt=optax.adam(s.lr).init(log_alpha),
+            alpha_opt=temperature_optimizer(config).init(log_alpha),
             memory=memory,
             env_state=env_state,
             obs=obs,
