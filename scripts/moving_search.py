@@ -30,9 +30,7 @@ horizon is not proven unreachable: the raster merges states that differ within a
 from __future__ import annotations
 
 import argparse
-import math
 import sys
-import time
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -63,97 +61,33 @@ def search(
 ) -> Found:
     """Search ``config``'s world (with ``overrides``) from its start pose at time 0 for
     every first goal, ``horizon`` steps at most (0: env.max_steps), on a raster of
-    ``cell`` m and ``headings`` yaw bins; replay the sequences found (``replay``: the
-    first so many, 0 all) through the environment. ValueError names a world the search
-    does not apply to."""
+    ``cell`` m and ``headings`` yaw bins (:func:`jaxnav.planners.search.search`); replay
+    the sequences found (``replay``: the first so many, 0 all) through the environment.
+    ValueError names a world the search does not apply to."""
     import jax
-    import jax.numpy as jnp
 
     from jaxnav.core.config import load_config
     from jaxnav.core.errors import JaxnavError
     from jaxnav.env import from_config
-    from jaxnav.world import motion
-    from jaxnav.world.geometry import displacement, wrap_angle
+    from jaxnav.planners import search as space_time
 
     try:
         cfg = load_config(config, list(overrides))
         env, params = from_config(cfg)
     except JaxnavError as e:
         raise ValueError(str(e)) from None
-    maze = params.maze
-    if maze.motion is None:
-        raise ValueError(f"{cfg.env.maze}: no moving obstacles")
-    if env.continuous or env.action_delay or env.generator or env.scales_maze:
-        raise ValueError("the search needs a fixed maze, a discrete action set and no action delay")
-    n_actions = env.num_actions
-    dt, radius = float(params.dt), float(params.robot_radius)
-    goal_radius = float(params.goal_radius)
+    why = space_time.search_problem(env, params.maze)
+    if why:
+        raise ValueError(f"{cfg.env.maze}: {why}" if params.maze.motion is None else why)
     horizon = horizon or int(params.max_steps)
-    start = np.asarray(maze.start, np.float32)
-    if env.goal_sampler == "robotis":  # ROBOTIS' fixed first goal
-        goals = np.asarray(env.first_goal(None, start[:2], params, 1.0))[None]
-    else:  # the points the free sampler draws a first goal from: far enough from the start
-        goals = np.asarray(maze.goal_points)[: int(maze.n_goal_points)]
-        far = np.hypot(*(goals - start[:2]).T) >= float(params.goal_min_separation)
-        goals = goals[far]
-    found = Found(cfg.env.maze, cfg.env.actions, dt, horizon, goals)
-    lo = np.asarray(maze.bounds, np.float64)[:2]
-    span = np.asarray(maze.bounds, np.float64)[2:] - lo
-    nx, ny = (np.ceil(span / cell).astype(int) + 1).tolist()
-    actions = jnp.arange(n_actions)
-
-    def one(pos, yaw, a, time0):
-        v, omega = env.command(params, a)
-        c = motion.step_clearance(maze, pos, yaw, omega, v, dt, time0)
-        return pos + displacement(yaw, omega, v, dt), wrap_angle(yaw + omega * dt), c >= radius
-
-    expand = jax.jit(jax.vmap(jax.vmap(one, (None, None, 0, None)), (0, 0, None, None)))
-
-    pos, yaw = start[None, :2], start[None, 2]
-    parents: list[tuple[np.ndarray, np.ndarray]] = []  # per step: (parent index, action)
-    first: dict[int, tuple[int, int]] = {}  # goal -> (step, state index) first reached
-    t0 = time.perf_counter()
-    for step in range(horizon):
-        n = len(pos)
-        size = 1 << max(4, (n - 1).bit_length())  # padded, so few shapes compile
-        p = np.zeros((size, 2), np.float32)
-        y = np.zeros(size, np.float32)
-        p[:n], y[:n] = pos, yaw
-        new_pos, new_yaw, ok = jax.device_get(expand(p, y, actions, jnp.float32(step * dt)))
-        new_pos, new_yaw, ok = new_pos[:n], new_yaw[:n], ok[:n]
-        parent, action = np.nonzero(ok)
-        if len(parent) == 0:
-            break
-        cand_pos, cand_yaw = new_pos[parent, action], new_yaw[parent, action]
-        ix = np.clip(((cand_pos[:, 0] - lo[0]) / cell).astype(int), 0, nx - 1)
-        iy = np.clip(((cand_pos[:, 1] - lo[1]) / cell).astype(int), 0, ny - 1)
-        ih = np.clip(np.floor((cand_yaw + math.pi) / (2 * math.pi) * headings), 0, headings - 1)
-        keys = (ix * ny + iy) * headings + ih.astype(int)
-        _, keep = np.unique(keys, return_index=True)
-        keep.sort()
-        pos, yaw = cand_pos[keep], cand_yaw[keep]
-        parents.append((parent[keep], action[keep]))
-        found.largest = max(found.largest, len(pos))
-        open_goals = [g for g in range(len(goals)) if g not in first]
-        d = np.hypot(
-            pos[:, None, 0] - goals[None, open_goals, 0],
-            pos[:, None, 1] - goals[None, open_goals, 1],
-        )
-        for j, g in enumerate(open_goals):
-            idx = np.flatnonzero(d[:, j] < goal_radius)
-            if len(idx):
-                first[g] = (step, int(idx[0]))
-        if len(first) == len(goals):
-            break
-    found.seconds = time.perf_counter() - t0
-
-    for g, (step, index) in sorted(first.items(), key=lambda kv: kv[1][0]):
-        seq = []
-        for s in range(step, -1, -1):
-            parent, action = parents[s]
-            seq.append(int(action[index]))
-            index = int(parent[index])
-        found.reached[g] = seq[::-1]
+    goals = space_time.first_goals(env, params)
+    found = Found(cfg.env.maze, cfg.env.actions, float(params.dt), horizon, goals)
+    searched = space_time.search(env, params, goals, cell=cell, headings=headings, horizon=horizon)
+    found.reached, found.largest, found.seconds = (
+        searched.reached,
+        searched.largest,
+        searched.seconds,
+    )
 
     step_env = jax.jit(env.step_env)
     key = jax.random.PRNGKey(0)

@@ -43,9 +43,11 @@ def _segment_distance(p: np.ndarray, walls: np.ndarray) -> np.ndarray:
     return np.min(np.linalg.norm(p[:, None] - (a + t[..., None] * ab), axis=-1), axis=1)
 
 
-def numpy_replay(actions: list[int], goal: np.ndarray, substeps: int = 400):
+def numpy_replay(actions: list[int], goal: np.ndarray, substeps: int = 400, played=None):
     """(smallest clearance beyond the robot's radius over the whole drive, distance to
-    the goal at the end) of ``actions`` of the vw set from stage 3's start at time 0."""
+    the goal at the end) of ``actions`` of the vw set from stage 3's start at time 0,
+    which stops where the robot first comes within the goal radius; ``played``, a list,
+    gets the steps driven and the end position."""
     from jaxnav.core.settings import ACTION_SETS
     from jaxnav.world.maps import make_maze
 
@@ -73,6 +75,8 @@ def numpy_replay(actions: list[int], goal: np.ndarray, substeps: int = 400):
         x, y, yaw, time = float(px[-1]), float(py[-1]), yaw + w * dt, time + dt
         if math.hypot(x - goal[0], y - goal[1]) < GOAL_RADIUS:
             break
+    if played is not None:
+        played += [round(time / dt), np.array([x, y])]
     return clearance, math.hypot(x - goal[0], y - goal[1])
 
 
@@ -117,3 +121,90 @@ def test_a_drive_into_the_wall_is_refused_by_both_replays():
 def test_a_world_that_stands_still_is_one_line(capsys):
     assert search.main(["paper_no_obstacles", "--horizon", "2"]) == 2
     assert capsys.readouterr().err == "moving_search: square4: no moving obstacles\n"
+
+
+# -- the oracle's way out of stage 3's ring (jaxnav.planners.search.opening) ---------
+
+
+@pytest.fixture(scope="module")
+def stage3_vw():
+    from jaxnav.core.config import load_config
+    from jaxnav.env import from_config
+
+    return from_config(load_config("stage3", VW))
+
+
+@pytest.fixture(scope="module")
+def opening(stage3_vw):
+    from jaxnav.planners.search import opening
+
+    env, params = stage3_vw
+    return opening(env, params, cell=0.05, headings=16, horizon=55)
+
+
+def test_only_a_start_inside_turning_cylinders_needs_an_opening(stage3_vw):
+    from jaxnav.core.config import load_config
+    from jaxnav.env import from_config
+    from jaxnav.planners.search import encircled, needs_opening
+    from jaxnav.world.maps import make_maze
+
+    assert encircled(make_maze("stage3")) and encircled(make_maze("stage3_humble"))
+    assert not encircled(make_maze("stage4"))  # waypoint loops beside the start
+    assert not encircled(make_maze("square4"))  # nothing moves
+    assert needs_opening(*stage3_vw)
+    paper = from_config(load_config("stage3"))  # five yaw rates at 0.15 m/s: no stop
+    assert not needs_opening(*paper)
+    drawn_pace = from_config(load_config("stage3", [*VW, "env.motion_pace=[0,1]"]))
+    assert not needs_opening(*drawn_pace)
+
+
+def test_each_opening_enters_its_goal_once_at_its_end_where_the_robot_can_stand(opening):
+    """In the NumPy replay: clear all the way, the goal radius first entered at the last
+    action, and the cylinders, turned on for 3.2 s more, keep clear of the robot standing
+    there (the search samples them 4 times a step, this 100 times)."""
+    centres, radii, spin, _, _ = reach.spinning("stage3")
+    assert opening is not None and len(opening.goals) > 30
+    for g in range(0, len(opening.goals), 7):
+        actions = opening.actions[g, : opening.length[g]].tolist()
+        played = []
+        clearance, distance = numpy_replay(actions, opening.goals[g], played=played)
+        steps, end = played
+        assert clearance > -1e-4 and distance < GOAL_RADIUS
+        assert steps == len(actions)  # not inside the goal radius before the last step
+        times = steps * 0.2 + np.linspace(0.0, 3.2, 1601)
+        c, s = np.cos(spin * times)[:, None], np.sin(spin * times)[:, None]
+        cx = c * centres[None, :, 0] - s * centres[None, :, 1]
+        cy = s * centres[None, :, 0] + c * centres[None, :, 1]
+        gap = np.hypot(end[0] - cx, end[1] - cy) - radii[None] - ROBOT
+        assert gap.min() > 0.02, (g, gap.min())  # the 0.03 m margin, less the sampling's
+
+
+def test_the_oracle_leaves_the_ring_on_an_opening_and_not_without(stage3_vw, opening):
+    """From the start at ROBOTIS' pace the plain oracle finds no gap in the time the
+    opening takes; with the opening it reaches the goal at the opening's last step."""
+    import jax
+    import jax.numpy as jnp
+
+    from jaxnav.planners.oracle import Oracle
+    from jaxnav.planners.raster import raster_for
+
+    env, params = stage3_vw
+    raster = raster_for([params.maze], 0.05)
+    g = int(np.argmax(opening.length))  # the longest: its gap is the hardest to time
+    goal = jnp.asarray(opening.goals[g])
+    _, state0 = env.reset(jax.random.PRNGKey(3), params)
+    state0 = state0.replace(goal=goal, goal_distance0=jnp.linalg.norm(goal - state0.pos))
+    n = int(opening.length[g])
+
+    def drive(oracle):
+        plan, step = jax.jit(oracle.plan), jax.jit(env.step_env)
+        state, memory, key = state0, oracle.start(params, state0), jax.random.PRNGKey(0)
+        for i in range(n):
+            action, memory = plan(memory, None, state, params)
+            _, state, _, _, _, info = step(key, state, action, params)
+            if bool(info["goal_reached"]) or bool(info["collision"]):
+                return i + 1, bool(info["goal_reached"])
+        return n, False
+
+    assert drive(Oracle(env, raster, openings=(opening,))) == (n, True)
+    assert drive(Oracle(env, raster)) == (n, False)

@@ -26,7 +26,9 @@ BASELINES = {
             "oracle",
             "privileged planner: reads the map, the moving cylinders and the goal, simulates "
             "action sequences with the environment's own kinematics, never collides where "
-            "it can help it; what the robot, its actions and its time limit allow",
+            "it can help it (from a start inside turning cylinders it drives a way out "
+            "found by a search in space and time); what the robot, its actions and its "
+            "time limit allow",
         ),
         Baseline(
             "dwa",

@@ -33,6 +33,7 @@ from jaxnav.experiments.rollout import Policies, drawn_name, padded_mazes, run_t
 from jaxnav.planners.dwa import DWA
 from jaxnav.planners.oracle import Oracle
 from jaxnav.planners.raster import raster_for
+from jaxnav.planners.search import opening
 from jaxnav.report.navigation import (
     COLLISION,
     CUT,
@@ -57,15 +58,19 @@ def planner_problem(name: str, env: NavEnv) -> str | None:
     return None
 
 
-def planner_of(name: str, env: NavEnv, mazes: Sequence[Maze]):
+def planner_of(name: str, env: NavEnv, mazes: Sequence[Maze], env_params: EnvParams):
     """The reference driver ``name`` for ``env``, sized for ``mazes`` (the mazes it
-    will drive in: the test mazes, or a drawn family's template). JaxnavError if it
-    cannot drive there."""
+    will drive in: the test mazes, or a drawn family's template). The oracle gets the
+    searched way out of the start of each of ``mazes`` that needs one
+    (:func:`jaxnav.planners.search.opening`; ``env_params``: the test's settings).
+    JaxnavError if it cannot drive there."""
     why = planner_problem(name, env)
     if why:
         raise JaxnavError(why)
     if name == "oracle":
-        return Oracle(env, raster_for(mazes, RASTER_CELL))
+        found = (opening(env, env_params.replace(maze=maze)) for maze in mazes)
+        openings = tuple(o for o in found if o is not None)
+        return Oracle(env, raster_for(mazes, RASTER_CELL), openings=openings)
     return DWA(env)
 
 
@@ -87,7 +92,7 @@ def in_place_of(name: str, policies: Policies, mazes: Sequence[Maze]) -> Policie
         params=np.zeros(len(idx), np.float32),
         env=env,
         env_params=env_params,
-        network=planner_of(name, env, mazes),
+        network=planner_of(name, env, mazes, env_params),
         strategy=np.zeros(len(idx), np.int32),
         hyper=jax.tree.map(lambda a: np.asarray(a)[idx], policies.hyper),
     )
@@ -113,7 +118,7 @@ def world_policies(
         hyper=jax.tree.map(lambda a: np.repeat(np.asarray(a), n, axis=0), hyper),
         episodes_trained=0,
     )
-    return template._replace(network=planner_of(name, env, [env_params.maze]))
+    return template._replace(network=planner_of(name, env, [env_params.maze], env_params))
 
 
 def world_config(world: str, overrides: Sequence[str] = ()) -> Config:

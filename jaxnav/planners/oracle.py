@@ -17,6 +17,13 @@ against the moving cylinders at their exact positions. Where every sequence coll
 it takes the one that collides latest. The shortest-path field is computed again only
 when the goal or the maze changes (:func:`jaxnav.world.lazy.draw_where`: under vmap
 only for the environments whose goal changed).
+
+Where the robot starts inside the orbit of turning cylinders (stage 3), no plan a few
+seconds long finds the gap: the oracle is then given its ``openings``, the action
+sequences a search in space and time (:func:`jaxnav.planners.search.opening`) found from
+the start at time 0 to each goal a reset can set, replayed clean in the environment. At
+an episode's start it drives the one of its goal, step by step while the robot is where
+the sequence has it, and plans as above from there on.
 """
 
 from __future__ import annotations
@@ -31,6 +38,7 @@ import jax.numpy as jnp
 from jaxnav.core.settings import ACTION_SETS
 from jaxnav.env import EnvParams, EnvState, NavEnv
 from jaxnav.planners import raster as rs
+from jaxnav.planners.search import Opening
 from jaxnav.world import motion
 from jaxnav.world.geometry import displacement, wrap_angle
 from jaxnav.world.lazy import draw_where
@@ -69,6 +77,8 @@ class Oracle:
         control periods without one reaching it.
       delay_cost: metres of way a plan is charged per step it takes to its end, so that
         of two plans to the same place the sooner wins (a plan may wait).
+      openings: searched ways out of a start (:class:`jaxnav.planners.search.Opening`),
+        one per test maze that needs one; driven where the robot is on one.
     """
 
     env: NavEnv
@@ -80,6 +90,7 @@ class Oracle:
     lookahead: float = 0.1
     wait_steps: int = 16
     delay_cost: float = 0.01
+    openings: tuple[Opening, ...] = ()
 
     # -- memory ---------------------------------------------------------------
 
@@ -209,6 +220,8 @@ class Oracle:
         fallback = _BIG * (1 + T - hit_at) + jnp.minimum(way[:, -1], 1.0e4)
         cost = jnp.where(jnp.isfinite(cost), cost, fallback)
         choice = jnp.argmin(cost) // A ** (L - 1)
+        for opening in self.openings:  # on a searched way out of the start: its action
+            choice = _scripted(opening, state, maze, choice)
         return choice.astype(jnp.int32), mem
 
     @property
@@ -245,6 +258,22 @@ class Oracle:
             gap = jnp.linalg.norm(pts[..., None, :] - where, axis=-1) - maze.motion.radius
             bad = bad | (jnp.min(gap, axis=-1) < r + self.moving_margin)
         return jnp.any(bad, axis=-1)
+
+
+def _scripted(opening: Opening, state: EnvState, maze: Maze, choice: chex.Array) -> chex.Array:
+    """The opening's next action where the robot is on one of its sequences (its world,
+    its goal, its step, its position), else ``choice``."""
+    goals, poses = jnp.asarray(opening.goals), jnp.asarray(opening.poses)
+    actions, length = jnp.asarray(opening.actions), jnp.asarray(opening.length)
+    t = jnp.clip(state.t, 0, actions.shape[1] - 1)
+    world = jnp.all(jnp.abs(motion.positions(maze.motion, 0.0)[0] - opening.marker) < 1e-5)
+    on = (
+        world
+        & (state.t < length)
+        & jnp.all(jnp.abs(goals - state.goal) < 1e-5, axis=-1)
+        & jnp.all(jnp.abs(poses[:, t] - state.pos) < 1e-4, axis=-1)
+    )
+    return jnp.where(jnp.any(on), actions[jnp.argmax(on), t], choice)
 
 
 def _default_holds(n_actions: int, moving: bool) -> tuple[int, ...]:
