@@ -100,6 +100,7 @@ def make_trainer(config: Config) -> Trainer:
     ``active``; the settings of :class:`Hyper` are read from the run's state, so the
     runs of a sweep (:func:`run_inputs`) share the program."""
     env, base_params = from_config(config)
+    budget = config.total_steps or 1  # env steps: the pace curriculum's span
     d = config.dqn
     network = network_of(config, env)
     decay = lr_decay_steps(config)
@@ -120,7 +121,7 @@ def make_trainer(config: Config) -> Trainer:
     def step(ts: TrainState, _):
         run = active(ts)
         h = ts.hyper
-        env_params = h.env_params(base_params, ts.bank)
+        env_params = env.at_progress(h.env_params(base_params, ts.bank), ts.step / budget)
         # Each part is a named scope: the compiled program's operations carry its name
         # (bench/profile_train.py sums the time per part).
         with jax.named_scope("keys"):

@@ -130,6 +130,9 @@ class NavEnv(Commands, EpisodeMaze, GoalSampler, DrawnLayouts, Observer):
         uniformly from this range times their own (0: standing at their first pose),
         their loops unchanged: a training distribution; a run's test plays them at
         their own pace. (1, 1) is off.
+      pace_curriculum: f in (0, 1]: the range ``motion_pace`` draws from moves in a
+        straight line to the cylinders' own pace, [1, 1], over the first f of the
+        training budget (the trainer sets it, :meth:`at_progress`); 0 is off.
       collision_margin: metres the robot's footprint is padded by in training: a step
         that comes within ``robot_radius + collision_margin`` of a surface ends the
         episode as a collision (paying R-). A run's test, its periodic evaluations and
@@ -240,6 +243,7 @@ class NavEnv(Commands, EpisodeMaze, GoalSampler, DrawnLayouts, Observer):
     restart_goal: str = "keep"
     maze_scale: tuple[float, float] = (1.0, 1.0)
     motion_pace: tuple[float, float] = OWN_PACE
+    pace_curriculum: float = 0.0
     collision_margin: float = 0.0
     wheel_limit: bool = False
     collision: str = "disc"
@@ -332,7 +336,9 @@ class NavEnv(Commands, EpisodeMaze, GoalSampler, DrawnLayouts, Observer):
         pos, yaw = self._start_pose(key, params, goal, scale)
         scale = jnp.asarray(scale, jnp.float32)
         state = new_episode(pos, yaw, goal, scale, self.action_delay, maze, maze_episodes)
-        state = self._with_world(state.replace(pace=self._episode_pace(key)), params, cell_dist)
+        state = self._with_world(
+            state.replace(pace=self._episode_pace(key, params)), params, cell_dist
+        )
         obs = self.observe(
             k_obs, pos, yaw, goal, params, scale, cell_dist=state.cell_dist, pace=state.pace
         )
@@ -473,7 +479,7 @@ class NavEnv(Commands, EpisodeMaze, GoalSampler, DrawnLayouts, Observer):
         scale = jnp.asarray(scale, jnp.float32)
         if self.scales_maze and self.restart_goal == "keep":  # the kept goal moves with the maze
             goal = goal * (scale / state.scale)
-        pace = self._episode_pace(key)
+        pace = self._episode_pace(key, params)
         obs = self.observe(key, pos, yaw, goal, params, scale, pace=pace)
         state = new_episode(pos, yaw, goal, scale, self.action_delay).replace(pace=pace)
         return obs, self._first_scans(self._with_world(state, params), obs)

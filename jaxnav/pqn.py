@@ -152,6 +152,7 @@ class Rollouts(NamedTuple):
 def make_rollouts(config: Config) -> Rollouts:
     """The rollout and targets of a config's PQN runs (:class:`Rollouts`)."""
     env, base_params = from_config(config)
+    budget = config.total_steps or 1  # env steps: the pace curriculum's span
     p = config.pqn
     network = network_of(config, env)
     envs = p.num_envs
@@ -172,7 +173,10 @@ def make_rollouts(config: Config) -> Rollouts:
         action, explore = jax.vmap(act)(jax.random.split(k_act, envs), q)
         step = jax.vmap(env.step, in_axes=(0, 0, 0, None))
         new_obs, env_state, reward, terminated, truncated, info = step(
-            jax.random.split(k_env, envs), env_state, action, h.env_params(base_params, ts.bank)
+            jax.random.split(k_env, envs),
+            env_state,
+            action,
+            env.at_progress(h.env_params(base_params, ts.bank), ts.step / budget),
         )
         done = terminated | truncated
         metrics, episode = file_episodes(

@@ -342,3 +342,30 @@ def test_each_episode_draws_its_pace_and_off_leaves_the_state_as_it_was():
 def test_a_pace_where_nothing_moves_is_refused():
     with pytest.raises(ValueError, match="env.motion_pace paces moving cylinders"):
         jaxnav.make("square4_obstacles", motion_pace=(0.0, 1.0))
+
+
+def test_the_pace_curriculum_moves_the_range_to_the_own_pace_by_hand():
+    """env.pace_curriculum f: at a share p of the budget the range is motion_pace moved
+    min(p / f, 1) of the way to [1, 1]; every episode's pace is drawn from it."""
+    env, params = jaxnav.make("stage3", motion_pace=(0.0, 0.5), pace_curriculum=0.5)
+    for p, want in ((0.0, (0.0, 0.5)), (0.25, (0.5, 0.75)), (0.5, (1.0, 1.0)), (0.9, (1.0, 1.0))):
+        np.testing.assert_allclose(np.asarray(env.at_progress(params, p).pace_range), want)
+    late = env.at_progress(params, 0.25)
+    paces = [float(env.reset(jax.random.PRNGKey(k), late)[1].pace) for k in range(40)]
+    assert 0.5 <= min(paces) < 0.55 and 0.7 < max(paces) <= 0.75
+    _, restarted = env.restart(jax.random.PRNGKey(7), env.reset(jax.random.PRNGKey(0), params)[1],
+                               env.at_progress(params, 1.0))  # fmt: skip
+    assert float(restarted.pace) == 1.0
+    # off: the parameters pass through untouched, and the draw is motion_pace's
+    env, params = jaxnav.make("stage3", motion_pace=(0.0, 0.5))
+    assert env.at_progress(params, 0.7) is params and params.pace_range is None
+
+
+def test_a_pace_curriculum_without_a_pace_range_or_a_budget_is_refused():
+    from jaxnav.core.config import load_config
+    from jaxnav.core.errors import ConfigError
+
+    with pytest.raises(ValueError, match="env.pace_curriculum moves env.motion_pace"):
+        jaxnav.make("stage3", pace_curriculum=0.5)
+    with pytest.raises(ConfigError, match="env.pace_curriculum needs total_steps"):
+        load_config(None, ["env.maze=stage3", "env.motion_pace=[0,1]", "env.pace_curriculum=0.5"])

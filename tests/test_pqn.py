@@ -127,6 +127,25 @@ def test_rollout_targets_bootstrap_a_truncation_from_its_final_observation():
     assert not np.allclose(got[trunc], wrong[trunc], rtol=1e-4)
 
 
+def test_pqn_draws_restarted_episodes_paces_from_the_curriculum_at_its_progress():
+    """env.pace_curriculum in training: at the start of the budget every restart draws
+    from motion_pace's range; past the curriculum's share every restart runs the
+    cylinders at their own pace."""
+    over = ["env.maze=stage3", "env.max_steps=3", "seeds=1", "strategies=[ebe]"]
+    over += ["episodes=null", "total_steps=1000", "env.motion_pace=[0,0.5]"]
+    cfg = load_config(None, [*TINY, *over, "env.pace_curriculum=0.5"])
+    parts, tr = pqn.make_rollouts(cfg), pqn.make_trainer(cfg)
+    ts = tr.init(*jax.tree.map(lambda a: a[0], tuple(run_inputs(cfg))))
+    play = jax.jit(parts.play)
+    for step, low, high in ((0, 0.0, 0.5), (500, 1.0, 1.0)):
+        (_, env_state, _, _), ro = play(
+            ts.replace(step=jnp.int32(step)), True, jax.random.PRNGKey(3)
+        )
+        assert np.asarray(ro.truncated).any(0).all()  # every environment restarted
+        pace = np.asarray(env_state.pace)
+        assert np.all((pace >= low) & (pace <= high)), (step, pace)
+
+
 # -- Network and acting -----------------------------------------------------------
 
 

@@ -347,6 +347,8 @@ def _check(cfg: Config) -> Config:
         fail("run.keep_best", "chooses among the greedy evaluations: it needs run.eval_every > 0")
     if cfg.dqn.lr_decay and cfg.total_steps is None:
         fail("dqn.lr_decay", "needs total_steps: the decay spans the run's budget of env steps")
+    if cfg.env.pace_curriculum and cfg.total_steps is None:
+        fail("env.pace_curriculum", "needs total_steps: it spans the run's budget of env steps")
     says = agent_problem(cfg)
     if says:
         raise ConfigError(f"config: {says}")

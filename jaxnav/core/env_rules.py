@@ -51,6 +51,11 @@ def env_bank_problem(env: Any) -> str | None:
     """What is wrong with the maze bank's setting given the maze settings, or None."""
     if paces_motion(env.motion_pace) and env.generator:
         return "env.motion_pace paces moving cylinders: drawn mazes have none (env.generator)"
+    if env.pace_curriculum and not paces_motion(env.motion_pace):
+        return (
+            "env.pace_curriculum moves env.motion_pace's range to the cylinders' own pace: "
+            "set env.motion_pace"
+        )
     if env.restart_goal == "new" and env.generator and env.new_maze_every > 1:
         return (
             "env.restart_goal new draws a reset's goal: with drawn mazes it needs "

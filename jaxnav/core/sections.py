@@ -90,6 +90,13 @@ class EnvConfig:
         "their own pace",
         rule=PACE_RANGE,
     )
+    pace_curriculum: float = setting(
+        0.0,
+        "training: the range env.motion_pace draws from moves in a straight line to the "
+        "cylinders' own pace [1, 1] over this share of the budget of env steps, and stays "
+        "there (a curriculum: slow paces first); 0 is off",
+        rule=UNIT,
+    )
     collision_margin: float = setting(
         0.0,
         "training: an episode also ends as a collision when the robot's edge comes within "

@@ -154,7 +154,7 @@ def paces_motion(motion_pace) -> bool:
 
 # The env settings that shape training only, each with its value when off: a run's test,
 # its periodic evaluations and the reference drivers play the world with them off.
-TRAINING_ONLY = {"motion_pace": OWN_PACE, "collision_margin": 0.0}
+TRAINING_ONLY = {"motion_pace": OWN_PACE, "pace_curriculum": 0.0, "collision_margin": 0.0}
 
 
 def training_only_on(env: Any) -> dict[str, Any]:

@@ -85,6 +85,7 @@ def make_trainer(config: Config) -> Trainer:
     ``sac.actor_every``-th), ``chunk`` and
     ``active``, driven by the host loop as DQN and PQN are."""
     env, base_params = from_config(config)
+    budget = config.total_steps or 1  # env steps: the pace curriculum's span
     s = config.sac
     envs = s.num_envs
     actor, critic = network_of(config, env), critic_of(config, env)
@@ -157,7 +158,7 @@ def make_trainer(config: Config) -> Trainer:
         max_q = jnp.min(critic.apply(ts.critic, ts.obs, action), axis=0)
 
         # STEP every environment; file the finished episodes (PQN's numbering).
-        env_params = ts.hyper.env_params(base_params, ts.bank)
+        env_params = env.at_progress(ts.hyper.env_params(base_params, ts.bank), ts.step / budget)
         stepped = jax.vmap(env.step, in_axes=(0, 0, 0, None))
         obs, env_state, reward, terminated, truncated, info = stepped(
             jax.random.split(k_env, envs), ts.env_state, action, env_params

@@ -20,6 +20,7 @@ class EpisodeMaze:
     """The scaled, paced and moving maze of :class:`jaxnav.env.NavEnv`'s episodes."""
 
     motion_pace: tuple[float, float]
+    pace_curriculum: float
     scales_maze: bool
 
     def maze_at(self, params: EnvParams, scale: chex.Array, time=None, pace=None) -> Maze:
@@ -47,10 +48,22 @@ class EpisodeMaze:
         """Whether each episode draws its moving cylinders' pace (``motion_pace``)."""
         return paces_motion(self.motion_pace)
 
-    def _episode_pace(self, key: chex.PRNGKey) -> chex.Array | None:
-        """This episode's pace of the moving cylinders, from ``fold_in(key, 6)``; None
-        when ``motion_pace`` is off (no draw, no leaf in the state)."""
+    def _episode_pace(self, key: chex.PRNGKey, params: EnvParams) -> chex.Array | None:
+        """This episode's pace of the moving cylinders, from ``fold_in(key, 6)``, drawn
+        from ``params.pace_range`` where the pace curriculum has set it, else from
+        ``motion_pace``; None when ``motion_pace`` is off (no draw, no leaf in the state)."""
         if not self.paces_motion:
             return None
-        lo, hi = self.motion_pace
+        lo, hi = self.motion_pace if params.pace_range is None else params.pace_range
         return jax.random.uniform(jax.random.fold_in(key, 6), (), jnp.float32, lo, hi)
+
+    def at_progress(self, params: EnvParams, progress: chex.Array) -> EnvParams:
+        """``params`` for episodes begun at ``progress`` (f32[], the share of the
+        training budget done): with ``pace_curriculum`` f, the pace range moves in a
+        straight line from ``motion_pace`` to the cylinders' own pace, [1, 1], over the
+        first f of the budget and stays there; without it, ``params`` unchanged."""
+        if not self.pace_curriculum:
+            return params
+        w = jnp.clip(jnp.asarray(progress, jnp.float32) / self.pace_curriculum, 0.0, 1.0)
+        start = jnp.asarray(self.motion_pace, jnp.float32)
+        return params.replace(pace_range=start + w * (1.0 - start))

@@ -49,6 +49,9 @@ class EnvParams:
     # taken times the change of the driven command from the last step's (each over the
     # burger's limits), with the progress reward and the normalised observation
     change_penalty: float = 0.0
+    # f32[2]: the range each episode's pace is drawn from while the training's pace
+    # curriculum (NavEnv.pace_curriculum) moves it; None: NavEnv.motion_pace's
+    pace_range: chex.Array | None = None
     # Drawn mazes only: layouts drawn ahead (NavEnv.with_bank), (maze, goal, cell
     # distances or None) with a leading axis of NavEnv.maze_bank; None: each new layout
     # is drawn when it is needed.
