@@ -2,10 +2,11 @@
 witness.
 
 ROBOTIS' stage 3 spins four cylinders about the robot's start, inside the ring they
-sweep, and every goal lies beyond it. The oracle (``jaxnav/planners/oracle.py``) plans
-2.8 s ahead there, finds no plan clear of the cylinders and keeps clear, so it reaches no
-goal there; ``scripts/moving_reach.py`` shows that speed alone does not rule the world
-out. This script settles it for one action set: it searches, breadth first in time,
+sweep, and every goal lies beyond it. A plan 2.8 s ahead, the oracle's
+(``jaxnav/planners/oracle.py``), finds no gap there; ``scripts/moving_reach.py`` shows
+that speed alone does not rule the world out. This script settles it for one action set
+(:mod:`jaxnav.planners.search`, whose sequences the oracle now drives out of the ring):
+it searches, breadth first in time,
 the sequences of the world's actions from the start pose at time 0, each step with the
 environment's own kinematics and collision test (the step's exact path against the
 walls and against the moving cylinders over the step's time,
