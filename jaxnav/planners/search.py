@@ -74,13 +74,15 @@ def search(
     horizon: int = 0,
     stand: float = 0.0,
     stand_margin: float = 0.03,
+    patience: int = 0,
 ) -> Searched:
     """Search from the maze's start pose at time 0 for ``goals`` (f32[G, 2]), at most
     ``horizon`` steps (0: the attempt limit), on a raster of ``cell`` m and ``headings``
     yaw bins, the cylinders at ``pace`` times their own (None: their own). With
     ``stand`` (s), a goal counts as reached only where the robot could then stand
     still that long with no moving cylinder within ``stand_margin`` of it: the next
-    goal's drive starts there."""
+    goal's drive starts there. With ``patience``, it stops that many steps after it last
+    reached a new goal (0: it searches on to the horizon)."""
     maze = params.maze
     if pace is not None:
         maze = maze.replace(motion=motion.paced(maze.motion, jnp.float32(pace)))
@@ -164,6 +166,9 @@ def search(
             if len(idx):
                 first[g] = (step, int(idx[0]))
         if len(first) == len(goals):
+            break
+        last = max((s for s, _ in first.values()), default=step)
+        if patience and step - last >= patience:
             break
     seconds = time.perf_counter() - t0
 
@@ -273,17 +278,21 @@ def needs_opening(env: NavEnv, params: EnvParams) -> bool:
     )
 
 
-def opening(env: NavEnv, params: EnvParams, stand: float = 3.2, **kw) -> Opening | None:
+def opening(
+    env: NavEnv, params: EnvParams, stand: float = 3.2, patience: int = 50, **kw
+) -> Opening | None:
     """The :class:`Opening` of ``env``'s world, or None where it needs none
     (:func:`needs_opening`) or the search reaches no goal. Its sequences end only where
     the robot could stand ``stand`` seconds clear of the cylinders (the oracle's own
-    rule for where a plan may end); ``kw``: :func:`search`'s."""
+    rule for where a plan may end), and it stops ``patience`` steps after its last new
+    goal, since goals no stand can be found at keep it searching to the attempt limit;
+    ``kw``: :func:`search`'s."""
     if not needs_opening(env, params):
         return None
     t0 = time.perf_counter()
     pace = env.motion_pace[0] if env.paces_motion else None
     goals = first_goals(env, params)
-    found = search(env, params, goals, pace=pace, stand=stand, **kw)
+    found = search(env, params, goals, pace=pace, stand=stand, patience=patience, **kw)
     if not found.reached:
         return None
     index = list(found.reached)
