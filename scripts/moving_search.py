@@ -65,7 +65,6 @@ def search(
     ``cell`` m and ``headings`` yaw bins (:func:`jaxnav.planners.search.search`); replay
     the sequences found (``replay``: the first so many, 0 all) through the environment.
     ValueError names a world the search does not apply to."""
-    import jax
 
     from jaxnav.core.config import load_config
     from jaxnav.core.errors import JaxnavError
@@ -90,29 +89,23 @@ def search(
         searched.seconds,
     )
 
-    step_env = jax.jit(env.step_env)
-    key = jax.random.PRNGKey(0)
-    for g in list(found.reached)[: replay or None]:
-        if replays(env, params, step_env, key, goals[g], found.reached[g]):
-            found.proven.append(g)
+    chosen = list(found.reached)[: replay or None]
+    if chosen:
+        ok, _ = space_time.replay_all(
+            env, params, goals[chosen], [found.reached[g] for g in chosen]
+        )
+        found.proven = [g for g, good in zip(chosen, ok) if good]
     return found
 
 
-def replays(env, params, step_env, key, goal, actions: list[int]) -> bool:
+def replays(env, params, goal, actions: list[int]) -> bool:
     """Whether ``actions``, driven through the environment from a reset with ``goal``,
-    reach it at their last step and collide nowhere before."""
-    import jax.numpy as jnp
+    reach it at their last step and collide nowhere before
+    (:func:`jaxnav.planners.search.replay_all` of the one sequence)."""
+    from jaxnav.planners.search import replay_all
 
-    _, state = env.reset(key, params)
-    goal = jnp.asarray(goal, jnp.float32)
-    state = state.replace(goal=goal, goal_distance0=jnp.linalg.norm(goal - state.pos))
-    for i, a in enumerate(actions):
-        _, state, _, _, _, info = step_env(key, state, jnp.int32(a), params)
-        if bool(info["collision"]):
-            return False
-        if bool(info["goal_reached"]):
-            return i == len(actions) - 1
-    return False
+    ok, _ = replay_all(env, params, np.asarray(goal, np.float32)[None], [list(actions)])
+    return bool(ok[0])
 
 
 def main(argv: list[str] | None = None) -> int:

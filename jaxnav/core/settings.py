@@ -200,6 +200,14 @@ ACTION_SETS: dict[str, tuple[tuple[float, float], ...] | None] = {
     # vw and backing up at half speed: the robot can give way to what comes at it
     "vw_reverse": tuple((v, w) for v in (-0.11, 0.0, 0.11, 0.22) for w in PAPER_YAW_RATES),
 }
+
+
+def can_stop(actions: str) -> bool:
+    """Whether the action set ``actions`` holds a stop (the robot can wait where it is)."""
+    table = ACTION_SETS[actions]
+    return table is not None and (0.0, 0.0) in table
+
+
 # Continuous commands (env.actions continuous): an action is f32[2] in [-1, 1]^2, the
 # speed across env.speed_range and the yaw rate across +-env.max_yaw_rate. The
 # reference drivers, which search a finite set, plan over this discrete twin.

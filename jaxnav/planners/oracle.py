@@ -35,7 +35,7 @@ import chex
 import jax
 import jax.numpy as jnp
 
-from jaxnav.core.settings import ACTION_SETS
+from jaxnav.core.settings import can_stop
 from jaxnav.env import EnvParams, EnvState, NavEnv
 from jaxnav.planners import raster as rs
 from jaxnav.planners.search import Opening
@@ -227,8 +227,7 @@ class Oracle:
     @property
     def can_stop(self) -> bool:
         """Whether the action set holds a stop (the robot can wait where it is)."""
-        table = ACTION_SETS[self.env.actions]
-        return table is not None and (0.0, 0.0) in table
+        return can_stop(self.env.actions)
 
     def _no_wait(self, maze, state, params, where, offset: int) -> chex.Array:
         """bool[K, T]: whether a moving cylinder would come within reach of the robot

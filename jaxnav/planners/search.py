@@ -26,7 +26,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from jaxnav.core.settings import ACTION_SETS
+from jaxnav.core.settings import can_stop
 from jaxnav.env import EnvParams, NavEnv
 from jaxnav.world import motion
 from jaxnav.world.geometry import displacement, wrap_angle
@@ -267,12 +267,10 @@ def needs_opening(env: NavEnv, params: EnvParams) -> bool:
     (:func:`search_problem`), an action set that can stop (the robot must wait for its
     gap), a fixed start and cylinders at one pace."""
     maze = params.maze
-    table = ACTION_SETS[env.actions]
     return (
         search_problem(env, maze) is None
         and encircled(maze)
-        and table is not None
-        and (0.0, 0.0) in table
+        and can_stop(env.actions)
         and not env.random_start
         and env.motion_pace[0] == env.motion_pace[1]
     )
