@@ -2,9 +2,10 @@
 witness.
 
 ROBOTIS' stage 3 spins four cylinders about the robot's start, inside the ring they
-sweep, and every goal lies beyond it. A plan 2.8 s ahead, the oracle's
-(``jaxnav/planners/oracle.py``), finds no gap there; ``scripts/moving_reach.py`` shows
-that speed alone does not rule the world out. This script settles it for one action set
+sweep, and every goal lies beyond it. From the start, a plan 2.8 s ahead (the oracle's
+default where cylinders move, ``jaxnav/planners/oracle.py``) finds no gap there;
+``scripts/moving_reach.py`` shows that speed alone does not rule the world out. This
+script settles it for one action set
 (:mod:`jaxnav.planners.search`, whose sequences the oracle now drives out of the ring):
 it searches, breadth first in time,
 the sequences of the world's actions from the start pose at time 0, each step with the

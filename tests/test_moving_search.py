@@ -206,3 +206,55 @@ def test_the_oracle_leaves_the_ring_on_an_opening_and_not_without(stage3_vw, ope
 
     assert drive(Oracle(env, raster, openings=(opening,))) == (n, True)
     assert drive(Oracle(env, raster)) == (n, False)
+
+
+def test_where_cylinders_outrun_the_robot_the_oracle_plans_a_whole_crossing(stage3_vw):
+    """Stage 3's cylinders (0.5 rad/s on a 0.6 * sqrt(2) m orbit: 0.42 m/s) outrun the
+    burger (0.22 m/s), stage 4's (at most 0.21 m/s) do not: only stage 3 gets the 4.2 s
+    tree. With it the oracle crosses the ring mid-episode, inwards and outwards; with
+    the 2.8 s tree it waits at the sweep's edge and reaches neither goal."""
+    import jax
+    import jax.numpy as jnp
+
+    from jaxnav.core.config import load_config
+    from jaxnav.env import from_config
+    from jaxnav.planners.oracle import Oracle, holds_for
+    from jaxnav.planners.raster import raster_for
+
+    assert 0.5 * 0.6 * math.sqrt(2) > 0.22  # by hand: stage 3's cylinders outrun the robot
+    env, params = stage3_vw
+    assert holds_for(env, params, [params.maze]) == (1, 20)
+    for name, actions in (("stage4", "vw"), ("stage3", "paper"), ("square4", "vw")):
+        other_env, other = from_config(
+            load_config(None, [f"env.maze={name}", f"env.actions={actions}"])
+        )
+        assert holds_for(other_env, other, [other.maze]) is None, name
+
+    raster = raster_for([params.maze], 0.05)
+    _, state0 = env.reset(jax.random.PRNGKey(3), params)
+    polar = lambda r, a: (r * math.cos(a), r * math.sin(a))  # noqa: E731
+    crossings = [  # (start, heading, goal): into the ring from outside, and out of it
+        (polar(1.25, 0.0), math.pi, polar(0.45, 2.0)),
+        (polar(0.45, 2.0), 2.0, polar(1.4, 1.0)),
+    ]
+
+    def drive(oracle, start, heading, goal, n=60):
+        plan, step = jax.jit(oracle.plan), jax.jit(env.step_env)
+        goal = jnp.asarray(goal, jnp.float32)
+        pos = jnp.asarray(start, jnp.float32)
+        state = state0.replace(
+            pos=pos, yaw=jnp.float32(heading), goal=goal, goal_distance0=jnp.linalg.norm(goal - pos)
+        )
+        memory, key = oracle.start(params, state), jax.random.PRNGKey(0)
+        for _ in range(n):
+            action, memory = plan(memory, None, state, params)
+            _, state, _, _, _, info = step(key, state, action, params)
+            if bool(info["collision"]):
+                return "collision"
+            if bool(info["goal_reached"]):
+                return "goal"
+        return "waiting"
+
+    long_tree = Oracle(env, raster, holds=holds_for(env, params, [params.maze]))
+    assert [drive(long_tree, *c) for c in crossings] == ["goal", "goal"]
+    assert [drive(Oracle(env, raster), *c) for c in crossings] == ["waiting", "waiting"]

@@ -31,7 +31,7 @@ from jaxnav.env import EnvParams, NavEnv, from_config
 from jaxnav.experiments.navigation import ShortestPaths, attempt_paths
 from jaxnav.experiments.rollout import Policies, drawn_name, padded_mazes, run_tests
 from jaxnav.planners.dwa import DWA
-from jaxnav.planners.oracle import Oracle
+from jaxnav.planners.oracle import Oracle, holds_for
 from jaxnav.planners.raster import raster_for
 from jaxnav.planners.search import opening
 from jaxnav.report.navigation import (
@@ -70,7 +70,8 @@ def planner_of(name: str, env: NavEnv, mazes: Sequence[Maze], env_params: EnvPar
     if name == "oracle":
         found = (opening(env, env_params.replace(maze=maze)) for maze in mazes)
         openings = tuple(o for o in found if o is not None)
-        return Oracle(env, raster_for(mazes, RASTER_CELL), openings=openings)
+        holds = holds_for(env, env_params, mazes)
+        return Oracle(env, raster_for(mazes, RASTER_CELL), holds=holds, openings=openings)
     return DWA(env)
 
 

@@ -66,7 +66,8 @@ class Oracle:
       raster: the raster its fields live on (:func:`jaxnav.planners.raster.raster_for`).
       holds: steps each level of a candidate sequence holds its action; None: (1, 2, 4)
         (1.4 s ahead), or (1, 3, 10) (2.8 s) where cylinders move, to see them coming;
-        with more than 7 actions two levels, (1, 5) or (1, 13), so the tree stays small.
+        with more than 7 actions two levels, (1, 5) or (1, 13), so the tree stays small
+        (:func:`holds_for` gives (1, 20) where cylinders outrun the robot).
       margin: clearance kept from static surfaces beyond the robot's radius after the
         first step (m); the raster's lower bound adds its own slack.
       moving_margin: the same for the moving cylinders (m).
@@ -275,6 +276,32 @@ def _scripted(opening: Opening, state: EnvState, maze: Maze, choice: chex.Array)
     return jnp.where(jnp.any(on), actions[jnp.argmax(on), t], choice)
 
 
+def holds_for(env: NavEnv, params: EnvParams, mazes) -> tuple[int, ...] | None:
+    """The tree's levels for driving ``mazes`` (``params``: their settings): (1, 20),
+    4.2 s ahead, where the set has more than 7 actions and a moving cylinder of one
+    of them is faster than the robot's top speed; else None (:func:`_default_holds`).
+    The robot cannot outrun such a cylinder, so it must cross the cylinder's sweep
+    (stage 3's ring: about 2.5 s at full speed, with the margins) on one plan, from
+    where it may stand to where it may stand again; a 2.8 s plan is too short and the
+    oracle waits at the sweep's edge for a crossing it never finds."""
+    if env.num_actions <= 7:
+        return None
+    v, _ = env.command(params, jnp.arange(env.num_actions))
+    top = float(jnp.max(jnp.abs(v)))
+    dt = 0.05
+    for maze in mazes:
+        if maze.motion is None:
+            continue
+        span = max(float(jnp.max(maze.motion.period)), 1.0)
+        at = jax.vmap(lambda t, m=maze.motion: motion.positions(m, t))(
+            jnp.arange(0.0, span + dt, dt)
+        )  # [n, M, 2]
+        speed = jnp.linalg.norm(jnp.diff(at, axis=0), axis=-1) / dt
+        if float(jnp.max(speed)) > top:
+            return (1, 20)
+    return None
+
+
 def _default_holds(n_actions: int, moving: bool) -> tuple[int, ...]:
     """The tree's levels (steps each holds its action) for an action set and a world."""
     if n_actions > 7:
@@ -282,4 +309,4 @@ def _default_holds(n_actions: int, moving: bool) -> tuple[int, ...]:
     return (1, 3, 10) if moving else (1, 2, 4)
 
 
-__all__ = ["Oracle", "OracleMemory"]
+__all__ = ["Oracle", "OracleMemory", "holds_for"]
