@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import json
 import math
 import py_compile
@@ -119,13 +120,21 @@ def _scans(maze, pos, yaw, angle_min, increment, n_rays, n_beams=24):
     """
     rel, beam = _scan_angles(angle_min, increment, n_rays, n_beams)
     rel, on_beam, k = jnp.asarray(rel), jnp.asarray(beam >= 0), jnp.asarray(np.maximum(beam, 0))
+    return np.asarray(
+        _scan_rays(maze, jnp.asarray(pos), jnp.asarray(yaw), rel, on_beam, k, n_beams)
+    )
+
+
+@functools.partial(jax.jit, static_argnames=("n_beams",))
+def _scan_rays(maze, pos, yaw, rel, on_beam, k, n_beams):
+    """_scans' rays, compiled once per shape (not once per call)."""
 
     def scan(p, y):
         plain = jnp.stack([jnp.cos(y + rel), jnp.sin(y + rel)], axis=-1)
         dirs = jnp.where(on_beam[:, None], beam_directions(n_beams, y)[k], plain)
         return ray_distances_dir(maze, p, dirs)
 
-    return np.asarray(jax.jit(jax.vmap(scan))(pos, yaw))
+    return jax.vmap(scan)(pos, yaw)
 
 
 def _compare(setup, maze, angle_min, increment, n_rays, seed):

@@ -120,10 +120,11 @@ def test_the_rooms_path_heads_for_a_door_one_room_nearer_the_goal(rooms_states):
     rng = np.random.default_rng(0)
     half = np.array([grid.cols, grid.rows]) * grid.cell / 2
     checked_doors = 0
+    geodesic_target = jax.jit(env.family.geodesic_target)  # one compilation, not every op
     for i in range(state.pos.shape[0]):
         maze, dist, goal = _one(state.maze, i), state.cell_dist[i], np.asarray(state.goal[i])
         for p in rng.uniform(-half + 0.1, half - 0.1, (20, 2)).astype(np.float32):
-            target, along = env.family.geodesic_target(
+            target, along = geodesic_target(
                 jax.tree.map(jnp.asarray, maze), dist, jnp.asarray(p), jnp.asarray(goal)
             )
             options = _reference_targets(maze, grid, p, goal)
@@ -162,12 +163,13 @@ def test_the_carrot_walks_along_the_path_at_many_points(rooms_states):
     grid = env.family.grid
     rng = np.random.default_rng(1)
     half = np.array([grid.cols, grid.rows]) * grid.cell / 2
+    waypoint = jax.jit(env.family.waypoint)  # one compilation, not every op eagerly
     for i in range(state.pos.shape[0]):
         maze, dist, goal = _one(state.maze, i), state.cell_dist[i], np.asarray(state.goal[i])
         jmaze = jax.tree.map(jnp.asarray, maze)
         for p in rng.uniform(-half + 0.1, half - 0.1, (10, 2)).astype(np.float32):
             for lookahead in (0.2, 0.5, 2.5, 50.0):
-                got = env.family.waypoint(jmaze, dist, jnp.asarray(p), jnp.asarray(goal), lookahead)
+                got = waypoint(jmaze, dist, jnp.asarray(p), jnp.asarray(goal), lookahead)
                 want = _reference_carrot(maze, grid, p, goal, lookahead)
                 np.testing.assert_allclose(got, want, atol=2e-5)
 
