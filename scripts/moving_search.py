@@ -66,7 +66,6 @@ def search(
     ``cell`` m and ``headings`` yaw bins (:func:`jaxnav.planners.search.search`); replay
     the sequences found (``replay``: the first so many, 0 all) through the environment.
     ValueError names a world the search does not apply to."""
-
     from jaxnav.core.config import load_config
     from jaxnav.core.errors import JaxnavError
     from jaxnav.env import from_config

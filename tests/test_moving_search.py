@@ -104,7 +104,6 @@ def test_each_witness_stays_clear_in_an_independent_numpy_replay(found):
 
 
 def test_a_drive_into_the_wall_is_refused_by_both_replays():
-
     from jaxnav.core.config import load_config
     from jaxnav.env import from_config
 
@@ -220,9 +219,13 @@ def test_where_cylinders_outrun_the_robot_the_oracle_plans_a_whole_crossing(stag
     from jaxnav.env import from_config
     from jaxnav.planners.oracle import Oracle, holds_for
     from jaxnav.planners.raster import raster_for
+    from jaxnav.world.maps import make_maze
+    from jaxnav.world.motion import top_speed
 
-    assert 0.5 * 0.6 * math.sqrt(2) > 0.22  # by hand: stage 3's cylinders outrun the robot
     env, params = stage3_vw
+    # by hand: 0.5 rad/s on stage 3's orbit; stage 4's fastest leg (docs: 0.07-0.21 m/s)
+    assert top_speed(params.maze.motion) == pytest.approx(0.5 * 0.6 * math.sqrt(2), rel=1e-3)
+    assert top_speed(make_maze("stage4").motion) == pytest.approx(0.21, abs=0.005)
     assert holds_for(env, params, [params.maze]) == (1, 20)
     for name, actions in (("stage4", "vw"), ("stage3", "paper"), ("square4", "vw")):
         other_env, other = from_config(

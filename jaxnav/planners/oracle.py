@@ -288,18 +288,8 @@ def holds_for(env: NavEnv, params: EnvParams, mazes) -> tuple[int, ...] | None:
         return None
     v, _ = env.command(params, jnp.arange(env.num_actions))
     top = float(jnp.max(jnp.abs(v)))
-    dt = 0.05
-    for maze in mazes:
-        if maze.motion is None:
-            continue
-        span = max(float(jnp.max(maze.motion.period)), 1.0)
-        at = jax.vmap(lambda t, m=maze.motion: motion.positions(m, t))(
-            jnp.arange(0.0, span + dt, dt)
-        )  # [n, M, 2]
-        speed = jnp.linalg.norm(jnp.diff(at, axis=0), axis=-1) / dt
-        if float(jnp.max(speed)) > top:
-            return (1, 20)
-    return None
+    moving = [maze.motion for maze in mazes if maze.motion is not None]
+    return (1, 20) if any(motion.top_speed(m) > top for m in moving) else None
 
 
 def _default_holds(n_actions: int, moving: bool) -> tuple[int, ...]:

@@ -163,16 +163,29 @@ def paced(motion: Motion, pace: chex.Array) -> Motion:
     )
 
 
+def longest_cycle(motion: Motion) -> float:
+    """Host side: the longest cycle of any cylinder (s): its loop's period, or a full
+    turn when it spins."""
+    spin = np.abs(np.asarray(motion.spin, np.float64))
+    turn = np.where(spin > 0, 2 * np.pi / np.maximum(spin, 1e-9), 0.0)
+    return float(np.max(np.maximum(np.asarray(motion.period, np.float64), turn)))
+
+
 def loop_paths(motion: Motion, n: int = 400) -> np.ndarray:
     """f64[M, n, 2] host side: each cylinder's centre over its longest cycle (for
     drawing): the loop's period, or a full turn when it spins."""
-    spin = np.abs(np.asarray(motion.spin, np.float64))
-    turn = np.where(spin > 0, 2 * np.pi / np.maximum(spin, 1e-9), 0.0)
-    span = float(np.max(np.maximum(np.asarray(motion.period, np.float64), turn)))
-    times = jnp.linspace(0.0, span, n)
+    times = jnp.linspace(0.0, longest_cycle(motion), n)
     return np.asarray(jax.vmap(lambda t: positions(motion, t))(times), np.float64).transpose(
         1, 0, 2
     )
+
+
+def top_speed(motion: Motion, n: int = 2000) -> float:
+    """Host side: the fastest any cylinder moves (m/s), from the chords between ``n``
+    points of its longest cycle (:func:`loop_paths`)."""
+    paths = loop_paths(motion, n)
+    step = longest_cycle(motion) / (n - 1)
+    return float(np.max(np.linalg.norm(np.diff(paths, axis=1), axis=-1))) / step
 
 
 def frozen_at(maze, time):
