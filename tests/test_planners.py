@@ -185,3 +185,27 @@ def test_evaluate_baseline_writes_its_results_and_tables(tmp_path, capsys):
     }
     assert "| square2 | DWA |" in (out / "tables.md").read_text()
     assert "dwa" in capsys.readouterr().out
+
+
+def test_the_oracle_turns_round_where_an_obstacle_blocks_the_way_it_faces():
+    """Facing away from its way beside a cylinder, with a stop in its action set, no
+    plan of the oracle's tree turns round and then drives: it stood there for the rest
+    of the episode. Where nothing moves it turns in place towards the way instead."""
+    from jaxnav.env import from_config
+    from jaxnav.experiments.baselines import planner_of
+
+    env, params = from_config(world_config("drive_obstacles"))  # square4_obstacles, vw
+    oracle = planner_of("oracle", env, [params.maze], params)
+    _, state = env.reset(jax.random.PRNGKey(0), params)
+    pos, goal = jnp.array([0.8018632, 0.9227877]), jnp.array([-0.8, 0.1])
+    state = state.replace(
+        pos=pos, yaw=jnp.float32(-1.05), goal=goal, goal_distance0=jnp.linalg.norm(goal - pos)
+    )
+    mem = oracle.start(params, state)
+    plan, step = jax.jit(oracle.plan), jax.jit(env.step_env)
+    for t in range(60):
+        action, mem = plan(mem, None, state, params)
+        _, state, _, _, _, info = step(jax.random.PRNGKey(t), state, action, params)
+        if bool(info["goal_reached"]) or bool(info["collision"]):
+            break
+    assert bool(info["goal_reached"]) and not bool(info["collision"]), t

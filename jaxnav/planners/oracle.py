@@ -14,7 +14,9 @@ Collisions are checked exactly for the step about to be driven (the environment'
 :func:`~jaxnav.world.motion.step_clearance`) and, for the later steps of a plan,
 against a raster of the static clearance read as a lower bound, with a margin, and
 against the moving cylinders at their exact positions. Where every sequence collides
-it takes the one that collides latest. The shortest-path field is computed again only
+it takes the one that collides latest. Where nothing moves and the best plan stands,
+it turns in place towards the shortest way instead (a rotate recovery: the tree cannot
+turn round and then drive). The shortest-path field is computed again only
 when the goal or the maze changes (:func:`jaxnav.world.lazy.draw_where`: under vmap
 only for the environments whose goal changed).
 
@@ -220,7 +222,12 @@ class Oracle:
         # none stays clear: the plan that collides latest
         fallback = _BIG * (1 + T - hit_at) + jnp.minimum(way[:, -1], 1.0e4)
         cost = jnp.where(jnp.isfinite(cost), cost, fallback)
-        choice = jnp.argmin(cost) // A ** (L - 1)
+        best = jnp.argmin(cost)
+        choice = best // A ** (L - 1)
+        if self.can_stop and not moving:
+            plan = (best // A ** (L - 1 - jnp.arange(L))) % A  # each level's action
+            still = jnp.all(v_a[plan] == 0)  # the best plan does not leave where it is
+            choice = self._turn_to_way(choice, still, mem, origin, state, v_a, w_a, dt)
         for opening in self.openings:  # on a searched way out of the start: its action
             choice = _scripted(opening, state, maze, choice)
         return choice.astype(jnp.int32), mem
@@ -229,6 +236,25 @@ class Oracle:
     def can_stop(self) -> bool:
         """Whether the action set holds a stop (the robot can wait where it is)."""
         return can_stop(self.env.actions)
+
+    def _turn_to_way(self, choice, still, mem, origin, state, v_a, w_a, dt) -> chex.Array:
+        """The action where nothing moves and the best plan stays where the robot is
+        (``still``: it stands or only turns): a turn in place towards where the shortest
+        way leads, if one brings the heading nearer to it. Facing away from the way
+        beside an obstacle, no plan of the tree turns round and then drives (its first
+        level is one step), and a turn alone gains less than it is charged for delay:
+        the best plan stood, or turned one way and then back. Staying is never the way
+        to a goal that nothing will move out of the way of (a rotate recovery)."""
+        angles = jnp.linspace(-jnp.pi, jnp.pi, 16, endpoint=False)
+        around = state.pos + self.lookahead * jnp.stack([jnp.cos(angles), jnp.sin(angles)], -1)
+        d = rs.field_upper(mem.distance, origin, self.raster, around[:, 0], around[:, 1])
+        want = angles[jnp.argmin(d)]
+        off = jnp.abs(wrap_angle(want - state.yaw))
+        turns = (v_a == 0) & (w_a != 0)
+        after = jnp.where(turns, jnp.abs(wrap_angle(want - state.yaw - w_a * dt)), jnp.inf)
+        turn = jnp.argmin(after)
+        nearer = jnp.isfinite(jnp.min(d)) & (after[turn] < off)
+        return jnp.where(still & nearer, turn, choice)
 
     def _no_wait(self, maze, state, params, where, offset: int) -> chex.Array:
         """bool[K, T]: whether a moving cylinder would come within reach of the robot
