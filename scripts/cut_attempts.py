@@ -1,0 +1,110 @@
+"""How long the attempts that an episode's end cut off had lasted, per driver and maze.
+
+A cut attempt is left out of success (docs/reproducing.md, navigation metrics), so a
+driver that stands still for the rest of an episode is never counted as failing. This
+reads a test's per-episode rows (``eval/results.csv``, or a study's data folder of them)
+and says, for each driver and test maze, how many greedy episodes ended on a cut attempt
+and how many of those had lasted longer than ``--over`` seconds, beside the longest and
+the drivers' mean time to a goal. A cut attempt that lasted several times longer than a
+goal takes is a wait the count does not see.
+
+The cut attempt's time is the episode's driving time less its successful attempts'
+(``drive_s - time_s``). That is exact where the episode has no collision and no
+time-out (a collision ends an episode; with an attempt limit, a time-out may come
+before the cut attempt): such episodes are not read, and their number is given.
+
+    python scripts/cut_attempts.py docs/driving
+    python scripts/cut_attempts.py runs/drive_stage4/eval/results.csv --over 30
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import sys
+from collections import defaultdict
+from pathlib import Path
+
+NEEDED = ("strategy", "maze", "mode", "successes", "time_s", "cut", "drive_s")
+
+
+def files_of(paths: list[str]) -> list[Path]:
+    """Every results file named or in a folder named (sorted)."""
+    out = []
+    for p in map(Path, paths):
+        if p.is_dir():
+            out += sorted(f for f in p.glob("*.csv") if _has_columns(f))
+        elif p.is_file():
+            out.append(p)
+        else:
+            raise SystemExit(f"cut_attempts: no file or folder {p}")
+    return out
+
+
+def _has_columns(path: Path) -> bool:
+    with path.open() as f:
+        head = next(csv.reader(f), [])
+    return all(c in head for c in NEEDED)
+
+
+def table(path: Path, over: float) -> list[tuple]:
+    """(driver, maze, episodes, ending cut, cut and read, longer than over, longest cut
+    s, mean time to goal s, not read) per driver and maze of one results file."""
+    with path.open() as f:
+        reader = csv.DictReader(f)
+        missing = [c for c in NEEDED if c not in (reader.fieldnames or ())]
+        if missing:
+            raise SystemExit(f"cut_attempts: {path} has no column {missing[0]!r}")
+        groups = defaultdict(list)
+        for row in reader:
+            if row["mode"] == "greedy":
+                groups[(row["strategy"], row["maze"])].append(row)
+    rows = []
+    for (driver, maze), episodes in groups.items():
+        cut, unread, goals, goal_s = [], 0, 0.0, 0.0
+        for e in episodes:
+            goals += float(e["successes"])
+            goal_s += float(e["time_s"])
+            if float(e["cut"]) == 0:
+                continue
+            if float(e.get("collisions", 0) or 0) or float(e.get("timeouts", 0) or 0):
+                unread += 1
+                continue
+            cut.append(float(e["drive_s"]) - float(e["time_s"]))
+        rows.append(
+            (
+                driver,
+                maze,
+                len(episodes),
+                sum(1 for e in episodes if float(e["cut"]) > 0),
+                len(cut),
+                sum(1 for c in cut if c > over),
+                max(cut, default=0.0),
+                goal_s / goals if goals else float("nan"),
+                unread,
+            )
+        )
+    return rows
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("paths", nargs="+", help="results.csv files or folders of them")
+    p.add_argument("--over", type=float, default=60.0, help="seconds (default 60)")
+    args = p.parse_args(argv)
+    print(
+        f"| file | driver | maze | episodes | ending on a cut attempt | of those read, longer "
+        f"than {args.over:g} s | longest cut attempt (s) | mean time to a goal (s) | not read |"
+    )
+    print("|---|---|---|--:|--:|--:|--:|--:|--:|")
+    for path in files_of(args.paths):
+        for driver, maze, n, ending, read, longer, longest, ttg, unread in table(path, args.over):
+            print(
+                f"| {path.name} | {driver} | {maze} | {n} | {ending} | {longer} of {read} "
+                f"| {longest:.1f} | {ttg:.1f} | {unread} |"
+            )
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

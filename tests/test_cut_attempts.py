@@ -1,0 +1,70 @@
+"""scripts/cut_attempts.py: how long the attempts an episode's end cut off had lasted,
+by a hand-made table and against the test's own attempt records."""
+
+from __future__ import annotations
+
+import importlib.util
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from jaxnav.core.config import load_config
+from jaxnav.env import from_config
+from jaxnav.experiments.baselines import evaluate_world
+from jaxnav.report.navigation import CUT
+
+SCRIPTS = Path(__file__).resolve().parent.parent / "scripts"
+HEAD = "strategy,seed,mode,maze,episode,successes,timeouts,collisions,time_s,cut,drive_s\n"
+
+
+def _load(name: str):
+    spec = importlib.util.spec_from_file_location(name, SCRIPTS / f"{name}.py")
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[name] = module
+    spec.loader.exec_module(module)
+    return module
+
+
+cut = _load("cut_attempts")
+
+
+def test_a_wait_at_the_end_of_an_episode_is_read_and_a_failed_episode_is_not(tmp_path):
+    f = tmp_path / "results.csv"
+    f.write_text(
+        HEAD
+        + "a,0,greedy,m,0,3,0,0,30.0,1,100.0\n"  # a 70 s wait after three goals in 30 s
+        + "a,0,greedy,m,1,5,0,0,90.0,1,100.0\n"  # a 10 s cut attempt
+        + "a,0,greedy,m,2,2,0,1,20.0,0,40.0\n"  # ended in a collision: nothing cut
+        + "a,0,greedy,m,3,1,1,0,10.0,1,100.0\n"  # a time-out before its cut attempt
+        + "a,0,exploring,m,0,0,0,0,0.0,1,100.0\n"  # not a greedy test
+    )
+    ((driver, maze, n, ending, read, longer, longest, ttg, unread),) = cut.table(f, 60.0)
+    assert (driver, maze, n, ending, read, longer, unread) == ("a", "m", 4, 3, 2, 1, 1)
+    assert longest == pytest.approx(70.0) and ttg == pytest.approx(150.0 / 11)
+
+
+def test_the_cut_time_is_the_cut_attempt_the_test_recorded(tmp_path):
+    cfg = load_config(None, ["env.maze=square4", "env.max_steps=150"])
+    world = evaluate_world("oracle", cfg, n_seeds=2, n_episodes=3)
+    f = tmp_path / "results.csv"
+    f.write_text(world.text)
+    dt = float(from_config(cfg)[1].dt)
+    records = []
+    for a, _ in world.attempts["square4"]:
+        records += list(a.steps[a.outcome == CUT] * dt)
+    ((*_, read, longer, longest, _, unread),) = cut.table(f, 10.0)
+    assert unread == 0 and read == len(records) > 0
+    assert longer == sum(r > 10.0 for r in records)
+    assert longest == pytest.approx(max(records), abs=1e-3)
+    assert np.isfinite(longest)
+
+
+def test_a_missing_file_or_column_is_one_line(tmp_path, capsys):
+    with pytest.raises(SystemExit, match="no file or folder"):
+        cut.main([str(tmp_path / "none.csv")])
+    bad = tmp_path / "bad.csv"
+    bad.write_text("strategy,maze\na,m\n")
+    with pytest.raises(SystemExit, match="no column 'mode'"):
+        cut.main([str(bad)])
