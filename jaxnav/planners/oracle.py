@@ -14,9 +14,10 @@ Collisions are checked exactly for the step about to be driven (the environment'
 :func:`~jaxnav.world.motion.step_clearance`) and, for the later steps of a plan,
 against a raster of the static clearance read as a lower bound, with a margin, and
 against the moving cylinders at their exact positions. Where every sequence collides
-it takes the one that collides latest. Where nothing moves and the best plan stands,
-it turns in place towards the shortest way instead (a rotate recovery: the tree cannot
-turn round and then drive). The shortest-path field is computed again only
+it takes the one that collides latest. Where nothing moves and the best plan stays
+where the robot is (it stands, or only turns), it turns in place towards the shortest
+way instead (a rotate recovery: the tree cannot turn round and then drive). The
+shortest-path field is computed again only
 when the goal or the maze changes (:func:`jaxnav.world.lazy.draw_where`: under vmap
 only for the environments whose goal changed).
 
