@@ -30,7 +30,7 @@ from jaxnav.core.rundir import CsvLog
 from jaxnav.experiments.baselines import evaluate_world, world_config
 from jaxnav.experiments.evaluation import evaluate_to_dir
 from jaxnav.experiments.robustness import PERTURBATIONS, robustness_to_dir
-from jaxnav.report.nav_tables import navigation_text
+from jaxnav.report.nav_tables import long_waits_text, navigation_text
 from jaxnav.report.results import ordered_unique
 from jaxnav.report.tables import outcome_text, setting_text, tables_markdown
 
@@ -60,6 +60,9 @@ def print_summary(rows: list[dict[str, str]]) -> None:
         if nav:
             print("per goal attempt, every attempt of each seed, mean over seeds [95% CI]:")
             print(nav)
+        waits = long_waits_text(mine)
+        if waits:
+            print(waits)
 
 
 def baseline(args) -> None:

@@ -1,8 +1,10 @@
 """scripts/cut_attempts.py: how long the attempts an episode's end cut off had lasted,
-by a hand-made table and against the test's own attempt records."""
+by a hand-made table and against the test's own attempt records; and the line
+``jaxnav evaluate`` prints about such waits, against the script."""
 
 from __future__ import annotations
 
+import csv
 import importlib.util
 import sys
 from pathlib import Path
@@ -13,6 +15,7 @@ import pytest
 from jaxnav.core.config import load_config
 from jaxnav.env import from_config
 from jaxnav.experiments.baselines import evaluate_world
+from jaxnav.report.nav_tables import long_waits_text
 from jaxnav.report.navigation import CUT
 
 SCRIPTS = Path(__file__).resolve().parent.parent / "scripts"
@@ -68,3 +71,33 @@ def test_a_missing_file_or_column_is_one_line(tmp_path, capsys):
     bad.write_text("strategy,maze\na,m\n")
     with pytest.raises(SystemExit, match="no column 'mode'"):
         cut.main([str(bad)])
+
+
+def test_evaluate_says_which_drivers_waited_as_the_script_counts():
+    """The line ``jaxnav evaluate`` prints under its tables against this script, on
+    every test of the committed driving study: DWA waits on stage 4, nothing else does
+    for longer than a minute more than once a world."""
+    folder = Path(__file__).resolve().parent.parent / "docs" / "driving"
+    seen = 0
+    for f in cut.files_of([str(folder)]):
+        rows = [r for r in csv.DictReader(f.open()) if r["mode"] == "greedy"]
+        expected = {}
+        for driver, _maze, _, _, read, longer, *_ in cut.table(f, 60.0):
+            k, n = expected.get(driver, (0, 0))
+            expected[driver] = (k + longer, n + read)
+        lines = long_waits_text(rows).splitlines()
+        said = {line.split(":")[0]: line for line in lines}
+        for driver, (k, n) in expected.items():
+            if k:
+                assert f"{driver}: {k} of the {n} episodes" in said[driver], (f, driver)
+                seen += 1
+            else:
+                assert driver not in said, (f, driver)
+    assert seen > 0
+
+
+def test_no_line_where_nothing_waited():
+    row = dict(zip(HEAD.strip().split(","), "oracle,0,greedy,m,0,3,0,0,30.0,1,50.0".split(",")))
+    assert long_waits_text([row]) == ""
+    row["drive_s"] = "100.0"  # a 70 s wait
+    assert long_waits_text([row]).startswith("oracle: 1 of the 1 episodes")

@@ -154,6 +154,34 @@ def navigation_text(rows: list[dict[str, str]]) -> str:
     return aligned_table(table)
 
 
+LONG_WAIT_S = 60.0  # a cut attempt longer than this is a wait the success count leaves out
+
+
+def long_waits_text(rows: list[dict[str, str]], over: float = LONG_WAIT_S) -> str:
+    """One line per arm whose test episodes ended on a cut attempt that had lasted longer
+    than ``over`` seconds (empty if none, or without the driving time): a driver that
+    stands until its episode ends is never counted as failing. The cut attempt's time
+    is the episode's driving time less its successful attempts' (``drive_s - time_s``),
+    read where the episode has no collision and no time-out, where that is exact."""
+    if not rows or any(r.get(c) in (None, "") for r in rows for c in ("cut", "drive_s")):
+        return ""
+    long: dict[str, list[int]] = {}
+    for r in rows:
+        counts = long.setdefault(row_arm(r), [0, 0])
+        if float(r["cut"]) == 0 or float(r["collisions"]) or float(r["timeouts"]):
+            continue
+        counts[1] += 1
+        counts[0] += float(r["drive_s"]) - float(r["time_s"]) > over
+    return "\n".join(
+        f"{arm}: {k} of the {n} episodes that ended on a cut attempt had waited in it over "
+        f"{over:g} s; success leaves such waits out (env.attempt_limit counts them as "
+        "time-outs)"
+        for arm in arms_in(long)
+        for k, n in [long[arm]]
+        if k
+    )
+
+
 def _arrays(columns: dict[str, list[float]]) -> dict[str, np.ndarray]:
     return {c: np.asarray(v, np.float64) for c, v in columns.items()}
 
