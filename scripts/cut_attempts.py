@@ -9,9 +9,11 @@ the drivers' mean time to a goal. A cut attempt that lasted several times longer
 goal takes is a wait the count does not see.
 
 The cut attempt's time is the episode's driving time less its successful attempts'
-(``drive_s - time_s``). That is exact where the episode has no collision and no
-time-out (a collision ends an episode; with an attempt limit, a time-out may come
-before the cut attempt): such episodes are not read, and their number is given.
+(``drive_s - time_s``, :func:`jaxnav.report.nav_tables.cut_wait_s`). That is exact
+where the episode has no collision and no time-out (a collision ends an episode; with an
+attempt limit, a time-out may come before the cut attempt): such episodes are not read,
+and their number is given. ``jaxnav evaluate`` prints the same count, pooled over its
+test mazes, under its tables.
 
     python scripts/cut_attempts.py docs/driving
     python scripts/cut_attempts.py runs/drive_stage4/eval/results.csv --over 30
@@ -24,6 +26,8 @@ import csv
 import sys
 from collections import defaultdict
 from pathlib import Path
+
+from jaxnav.report.nav_tables import cut_wait_s
 
 NEEDED = ("strategy", "maze", "mode", "successes", "time_s", "cut", "drive_s")
 
@@ -65,12 +69,11 @@ def table(path: Path, over: float) -> list[tuple]:
         for e in episodes:
             goals += float(e["successes"])
             goal_s += float(e["time_s"])
-            if float(e["cut"]) == 0:
-                continue
-            if float(e.get("collisions", 0) or 0) or float(e.get("timeouts", 0) or 0):
+            wait = cut_wait_s(e)
+            if wait is not None:
+                cut.append(wait)
+            elif float(e["cut"]) > 0:
                 unread += 1
-                continue
-            cut.append(float(e["drive_s"]) - float(e["time_s"]))
         rows.append(
             (
                 driver,

@@ -3,26 +3,12 @@ and against the test's own count of collisions."""
 
 from __future__ import annotations
 
-import importlib.util
-import sys
-from pathlib import Path
-
 import numpy as np
 import pytest
+from _scripts import load_script
 from _tiny_run import tiny_run
 
-SCRIPTS = Path(__file__).resolve().parent.parent / "scripts"
-
-
-def _load(name: str):
-    spec = importlib.util.spec_from_file_location(name, SCRIPTS / f"{name}.py")
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[name] = module
-    spec.loader.exec_module(module)
-    return module
-
-
-causes = _load("collision_causes")
+causes = load_script("collision_causes")
 WALL = np.array([[0.2, -1.0, 0.2, 1.0]])  # x = 0.2, 0.2 m ahead of a robot at the origin
 NONE = np.zeros((0, 3))
 DT = 0.2

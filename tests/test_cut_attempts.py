@@ -5,12 +5,10 @@ by a hand-made table and against the test's own attempt records; and the line
 from __future__ import annotations
 
 import csv
-import importlib.util
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
+from _scripts import SCRIPTS, load_script
 
 from jaxnav.core.config import load_config
 from jaxnav.env import from_config
@@ -18,19 +16,9 @@ from jaxnav.experiments.baselines import evaluate_world
 from jaxnav.report.nav_tables import long_waits_text
 from jaxnav.report.navigation import CUT
 
-SCRIPTS = Path(__file__).resolve().parent.parent / "scripts"
 HEAD = "strategy,seed,mode,maze,episode,successes,timeouts,collisions,time_s,cut,drive_s\n"
 
-
-def _load(name: str):
-    spec = importlib.util.spec_from_file_location(name, SCRIPTS / f"{name}.py")
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[name] = module
-    spec.loader.exec_module(module)
-    return module
-
-
-cut = _load("cut_attempts")
+cut = load_script("cut_attempts")
 
 
 def test_a_wait_at_the_end_of_an_episode_is_read_and_a_failed_episode_is_not(tmp_path):
@@ -77,7 +65,7 @@ def test_evaluate_says_which_drivers_waited_as_the_script_counts():
     """The line ``jaxnav evaluate`` prints under its tables against this script, on
     every test of the committed driving study: DWA waits on stage 4, nothing else does
     for longer than a minute more than once a world."""
-    folder = Path(__file__).resolve().parent.parent / "docs" / "driving"
+    folder = SCRIPTS.parent / "docs" / "driving"
     seen = 0
     for f in cut.files_of([str(folder)]):
         rows = [r for r in csv.DictReader(f.open()) if r["mode"] == "greedy"]

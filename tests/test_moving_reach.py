@@ -7,15 +7,10 @@ than them crosses it."""
 
 from __future__ import annotations
 
-import importlib.util
-from pathlib import Path
-
 import pytest
+from _scripts import load_script
 
-SCRIPT = Path(__file__).resolve().parent.parent / "scripts" / "moving_reach.py"
-spec = importlib.util.spec_from_file_location("moving_reach", SCRIPT)
-reach = importlib.util.module_from_spec(spec)
-spec.loader.exec_module(reach)
+reach = load_script("moving_reach")
 
 COARSE = {"cell": 0.01, "dt": 0.25, "horizon": 60.0}  # still an over-approximation
 

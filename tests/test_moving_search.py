@@ -8,27 +8,14 @@ must be refused by the environment's replay and collide in the NumPy one too."""
 
 from __future__ import annotations
 
-import importlib.util
 import math
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
+from _scripts import load_script
 
-SCRIPTS = Path(__file__).resolve().parent.parent / "scripts"
-
-
-def _load(name: str):
-    spec = importlib.util.spec_from_file_location(name, SCRIPTS / f"{name}.py")
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[name] = module  # its dataclasses look their module up
-    spec.loader.exec_module(module)
-    return module
-
-
-search = _load("moving_search")
-reach = _load("moving_reach")
+search = load_script("moving_search")
+reach = load_script("moving_reach")
 
 VW = ["env.actions=vw"]
 ROBOT = 0.13  # m, the burger's disc

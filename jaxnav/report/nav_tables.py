@@ -157,21 +157,31 @@ def navigation_text(rows: list[dict[str, str]]) -> str:
 LONG_WAIT_S = 60.0  # a cut attempt longer than this is a wait the success count leaves out
 
 
+def cut_wait_s(row: dict[str, str]) -> float | None:
+    """How long (s) a test episode's cut attempt had lasted, from its results row: the
+    episode's driving time less its successful attempts' (``drive_s - time_s``). None
+    where the episode ended on no cut attempt, or had a collision or a time-out, where
+    that difference is not the cut attempt's alone."""
+    if float(row["cut"]) == 0:
+        return None
+    if float(row.get("collisions") or 0) or float(row.get("timeouts") or 0):
+        return None
+    return float(row["drive_s"]) - float(row["time_s"])
+
+
 def long_waits_text(rows: list[dict[str, str]], over: float = LONG_WAIT_S) -> str:
     """One line per arm whose test episodes ended on a cut attempt that had lasted longer
-    than ``over`` seconds (empty if none, or without the driving time): a driver that
-    stands until its episode ends is never counted as failing. The cut attempt's time
-    is the episode's driving time less its successful attempts' (``drive_s - time_s``),
-    read where the episode has no collision and no time-out, where that is exact."""
+    than ``over`` seconds (:func:`cut_wait_s`; empty if none, or without the driving
+    time): a driver that stands until its episode ends is never counted as failing."""
     if not rows or any(r.get(c) in (None, "") for r in rows for c in ("cut", "drive_s")):
         return ""
     long: dict[str, list[int]] = {}
     for r in rows:
         counts = long.setdefault(row_arm(r), [0, 0])
-        if float(r["cut"]) == 0 or float(r["collisions"]) or float(r["timeouts"]):
-            continue
-        counts[1] += 1
-        counts[0] += float(r["drive_s"]) - float(r["time_s"]) > over
+        wait = cut_wait_s(r)
+        if wait is not None:
+            counts[1] += 1
+            counts[0] += wait > over
     return "\n".join(
         f"{arm}: {k} of the {n} episodes that ended on a cut attempt had waited in it over "
         f"{over:g} s; success leaves such waits out (env.attempt_limit counts them as "
