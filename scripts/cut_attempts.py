@@ -101,7 +101,11 @@ def main(argv: list[str] | None = None) -> int:
     )
     print("|---|---|---|--:|--:|--:|--:|--:|--:|")
     for path in files_of(args.paths):
-        for driver, maze, n, ending, read, longer, longest, ttg, unread in table(path, args.over):
+        try:
+            rows = table(path, args.over)
+        except (ValueError, KeyError) as err:
+            raise SystemExit(f"cut_attempts: {path}: a row that is not a test's: {err}") from None
+        for driver, maze, n, ending, read, longer, longest, ttg, unread in rows:
             print(
                 f"| {path.name} | {driver} | {maze} | {n} | {ending} | {longer} of {read} "
                 f"| {longest:.1f} | {ttg:.1f} | {unread} |"

@@ -59,6 +59,9 @@ def test_a_missing_file_or_column_is_one_line(tmp_path, capsys):
     bad.write_text("strategy,maze\na,m\n")
     with pytest.raises(SystemExit, match="no column 'mode'"):
         cut.main([str(bad)])
+    bad.write_text(HEAD + "a,0,greedy,m,0,x,0,0,30.0,1,100.0\n")  # a count that is no number
+    with pytest.raises(SystemExit, match="a row that is not a test's"):
+        cut.main([str(bad)])
 
 
 def test_evaluate_says_which_drivers_waited_as_the_script_counts():
