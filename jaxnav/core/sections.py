@@ -520,6 +520,11 @@ class RunConfig:
     eval_episodes: int = setting(
         5, "consecutive episodes of each greedy evaluation (run.eval_every)", rule=AT_LEAST_1
     )
+    init_from: str = setting(
+        "",
+        "a finished run whose policies these runs start from (its params.npz: the same "
+        "strategy and seed, else the same seed; the same network); empty: fresh",
+    )
     keep_best: bool = setting(
         False,
         "params.npz keeps each run's policy at its best greedy evaluation on held-out "

@@ -11,12 +11,13 @@ from pathlib import Path
 from typing import Any
 
 import jax
+import jax.numpy as jnp
 import numpy as np
 
 from jaxnav.agent import replay
-from jaxnav.core import rundir
+from jaxnav.core import agents, rundir
 from jaxnav.core.config import Config
-from jaxnav.core.errors import RunError
+from jaxnav.core.errors import ConfigError, RunError
 
 # The replay buffer's per-slot arrays. A checkpoint stores them incrementally: each
 # chunk's checkpoint writes the slots written in that chunk to a segment file of its
@@ -130,3 +131,61 @@ def params_arrays(cfg: Config, params) -> dict[str, np.ndarray]:
             name = "/".join(str(getattr(k, "key", k)) for k in p)
             arrays[rundir.params_key(strategy, seed, name)] = np.asarray(leaf[r])
     return arrays
+
+
+# ----------------------------------------------------------------------------
+# A warm start: each run's first params from a finished run (run.init_from)
+# ----------------------------------------------------------------------------
+
+
+def start_params(cfg: Config, template) -> dict[str, Any] | None:
+    """Each run's starting params, stacked on the run axis like ``template`` (the
+    trainer state's params, shapes only), from the ``params.npz`` of the finished run
+    ``run.init_from``: the entry of the same strategy and seed, else of the same seed
+    under the source's first strategy (a policy trained with another strategy). None
+    without ``run.init_from``. ConfigError, one line, where the source is missing, lacks
+    a seed, or holds another network."""
+    source = cfg.run.init_from
+    if not source:
+        return None
+    where = f"config: run.init_from: {source}"
+    if agents.get(cfg.agent).actions != "discrete":
+        raise ConfigError(f"{where}: only a Q-learner starts from params.npz (it holds no critic)")
+    try:
+        arrays = rundir.read_npz(Path(source) / rundir.PARAMS, f"{source}/{rundir.PARAMS}")
+    except RunError as e:
+        raise ConfigError(f"config: run.init_from: {e}: give a finished training run") from None
+    first = next((k.split("/")[0] for k in arrays), None)  # the source's first strategy
+    seeds = sorted({int(k.split("/")[1][4:]) for k in arrays if k.startswith(f"{first}/seed")})
+    missing = sorted({seed for _, seed in cfg.run_labels()} - set(seeds))
+    if missing:
+        held = ", ".join(map(str, seeds)) or "none"
+        raise ConfigError(f"{where} has no seed {missing[0]} (it holds seeds {held})")
+    flat, treedef = jax.tree_util.tree_flatten_with_path(template)
+    leaves = []
+    for p, leaf in flat:
+        name = "/".join(str(getattr(k, "key", k)) for k in p)
+        per_run = []
+        for strategy, seed in cfg.run_labels():
+            key = rundir.params_key(strategy, seed, name)
+            if key not in arrays and first is not None:
+                key = rundir.params_key(first, seed, name)
+            if key not in arrays:
+                raise ConfigError(f"{where} has no {name} for seed {seed}")
+            if arrays[key].shape != leaf.shape[1:]:
+                raise ConfigError(
+                    f"{where} holds another network: {name} is {arrays[key].shape}, "
+                    f"this config's {tuple(leaf.shape[1:])}"
+                )
+            per_run.append(arrays[key].astype(leaf.dtype))
+        leaves.append(np.stack(per_run))
+    return jax.tree_util.tree_unflatten(treedef, leaves)
+
+
+def warm_started(ts: Any, params: Any) -> Any:
+    """The trainer state ``ts`` starting from ``params`` (and, with a target network,
+    its target too); the optimiser's state is as ``init`` made it."""
+    ts = ts.replace(params=params)
+    if hasattr(ts, "target_params"):  # buffers of its own: the chunk donates the state
+        ts = ts.replace(target_params=jax.tree.map(jnp.copy, params))
+    return ts

@@ -48,7 +48,9 @@ from jaxnav.run.checkpoint import (
     chunk_slots,
     params_arrays,
     rows_at,
+    start_params,
     state_from_checkpoint,
+    warm_started,
     without_rows,
 )
 from jaxnav.run.greedy import GreedyEval
@@ -89,6 +91,11 @@ class Run:
         self.shard = RunSharding(cfg.n_runs)
         sharding = self.shard.sharding
         self.init = jax.jit(jax.vmap(self.trainer.init), out_shardings=sharding)
+        # run.init_from: every run's first params, read (and checked) before any file
+        self.start_params = None
+        if cfg.run.init_from:
+            shapes = jax.eval_shape(jax.vmap(self.trainer.init), *run_inputs(cfg)).params
+            self.start_params = start_params(cfg, shapes)
         self.counts_attempts = bool(cfg.env.attempt_limit)
         columns = METRIC_COLUMNS + (ATTEMPT_COLUMNS if self.counts_attempts else ())
         self.metric_columns = sweep.with_swept(columns, cfg.sweep)
@@ -123,7 +130,10 @@ class Run:
     # -- state ---------------------------------------------------------------
 
     def fresh_state(self) -> Any:
-        return self.init(*self.shard.put(tuple(run_inputs(self.cfg))))
+        ts = self.init(*self.shard.put(tuple(run_inputs(self.cfg))))
+        if self.start_params is not None:
+            ts = warm_started(ts, self.shard.put(self.start_params))
+        return ts
 
     def restored_state(self) -> Any:
         """The last checkpoint's state, the logs cut back to what it covers."""
