@@ -150,6 +150,7 @@ def toy():
     agents.unregister("toy")
 
 
+@pytest.mark.slow
 def test_a_toy_agent_registered_here_trains_evaluates_and_exports(toy, tmp_path):
     out = tmp_path / "run"
     assert train_cmd.main([*TINY, "--out", str(out)]) == 0

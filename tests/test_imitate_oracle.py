@@ -32,6 +32,7 @@ def written(tmp_path_factory):
     return out
 
 
+@pytest.mark.slow
 def test_the_first_pair_is_the_resets_observation_and_the_oracles_plan_there():
     cfg = load_config("smoke", [])
     obs, action, *_ = imitate.demonstrations(cfg, 3, 5, seed=0, quiet=True)
@@ -47,6 +48,7 @@ def test_the_first_pair_is_the_resets_observation_and_the_oracles_plan_there():
     np.testing.assert_array_equal(action[:3], np.asarray(planned))
 
 
+@pytest.mark.slow
 def test_with_a_policy_the_policy_drives_and_the_oracle_labels(written):
     cfg = load_config("smoke", [])
     network = agents.get(cfg.agent).network_of(cfg)
@@ -76,6 +78,7 @@ def test_with_a_policy_the_policy_drives_and_the_oracle_labels(written):
     np.testing.assert_array_equal(action[:3], np.asarray(planned))  # what the oracle said
 
 
+@pytest.mark.slow
 def test_the_written_run_is_tested_like_a_trained_one_and_agrees_as_it_says(written):
     cfg = load_config(str(written / rundir.CONFIG))
     loaded = load_run(written)
@@ -95,6 +98,7 @@ def test_the_written_run_is_tested_like_a_trained_one_and_agrees_as_it_says(writ
         assert agree > commonest  # it learned more than the commonest action
 
 
+@pytest.mark.slow
 def test_training_starts_from_the_imitation(written):
     from jaxnav.run.training import Run
 
@@ -122,6 +126,7 @@ def test_bad_input_is_one_line_and_writes_nothing(argv, message, tmp_path, capsy
     assert not out.exists()
 
 
+@pytest.mark.slow
 def test_dagger_rounds_add_the_policies_states_to_the_demonstrations(tmp_path):
     out = tmp_path / "run"
     assert imitate.main([*ARGS, "--dagger", "1", "--out", str(out)]) == 0
@@ -131,6 +136,7 @@ def test_dagger_rounds_add_the_policies_states_to_the_demonstrations(tmp_path):
     assert set(summary["dagger_rounds"][0]) == {"goals", "collisions", "episodes"}
 
 
+@pytest.mark.slow
 def test_an_existing_directory_is_refused(written, capsys):
     assert imitate.main([*ARGS, "--out", str(written)]) == 2
     assert "exists already" in capsys.readouterr().err

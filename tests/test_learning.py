@@ -77,6 +77,7 @@ def test_verdicts_are_rliables_probability_of_improvement_on_each_measure(tmp_pa
     assert word == "no detectable difference" and p.low < 0.5 < p.high
 
 
+@pytest.mark.slow
 def test_the_page_and_its_sentence_come_from_the_data(tmp_path):
     folder = tmp_path / "d"
     _with_evals(folder)

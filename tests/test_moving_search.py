@@ -142,6 +142,7 @@ def test_only_a_start_inside_turning_cylinders_needs_an_opening(stage3_vw):
     assert not needs_opening(*drawn_pace)
 
 
+@pytest.mark.slow
 def test_each_opening_enters_its_goal_once_at_its_end_where_the_robot_can_stand(opening):
     """In the NumPy replay: clear all the way, the goal radius first entered at the last
     action, and the cylinders, turned on for 3.2 s more, keep clear of the robot standing
@@ -163,6 +164,7 @@ def test_each_opening_enters_its_goal_once_at_its_end_where_the_robot_can_stand(
         assert gap.min() > 0.02, (g, gap.min())  # the 0.03 m margin, less the sampling's
 
 
+@pytest.mark.slow
 def test_the_oracle_leaves_the_ring_on_an_opening_and_not_without(stage3_vw, opening):
     """From the start at ROBOTIS' pace the plain oracle finds no gap in the time the
     opening takes; with the opening it reaches the goal at the opening's last step."""
@@ -194,6 +196,7 @@ def test_the_oracle_leaves_the_ring_on_an_opening_and_not_without(stage3_vw, ope
     assert drive(Oracle(env, raster)) == (n, False)
 
 
+@pytest.mark.slow
 def test_where_cylinders_outrun_the_robot_the_oracle_plans_a_whole_crossing(stage3_vw):
     """Stage 3's cylinders (0.5 rad/s on a 0.6 * sqrt(2) m orbit: 0.42 m/s) outrun the
     burger (0.22 m/s), stage 4's (at most 0.21 m/s) do not: only stage 3 gets the 4.2 s

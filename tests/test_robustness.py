@@ -41,6 +41,7 @@ def test_robustness_files_are_written(swept):
     assert {r["perturbation"] for r in _rows(out / "rob" / "robustness.csv")} == set(SWEEP)
 
 
+@pytest.mark.slow
 def test_unperturbed_rows_equal_the_plain_evaluation_and_perturbed_rows_differ(swept):
     _, out = swept
     rob = _rows(out / "rob" / "robustness.csv")
@@ -53,6 +54,7 @@ def test_unperturbed_rows_equal_the_plain_evaluation_and_perturbed_rows_differ(s
     assert noisy != none
 
 
+@pytest.mark.slow
 def test_robustness_table_is_recomputed_from_the_csv(swept):
     _, out = swept
     text = (out / "rob" / "robustness.csv").read_text()
@@ -72,6 +74,7 @@ def test_robustness_table_is_recomputed_from_the_csv(swept):
         )
 
 
+@pytest.mark.slow
 def test_robustness_markdown_is_a_function_of_the_csv(swept, tmp_path_factory):
     """robustness.md is robustness_markdown(robustness.csv); its cells match the CSV."""
     cfg, out = swept

@@ -283,6 +283,7 @@ def test_the_exported_policy_drives_the_trained_mean_command(tiny_sac_run):
         np.testing.assert_allclose(policy.last_command, np.asarray(driven), rtol=1e-5, atol=1e-6)
 
 
+@pytest.mark.slow
 def test_a_sac_run_is_evaluated_beside_planners_of_its_discrete_twin(tiny_sac_run):
     import csv
 
