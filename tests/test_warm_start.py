@@ -96,3 +96,17 @@ def test_a_bad_source_on_the_command_line_is_one_line_and_writes_nothing(source,
     err = capsys.readouterr().err.strip()
     assert err.count("\n") == 0 and "holds another network" in err, err
     assert not target.exists()
+
+
+def test_a_swept_source_whose_arm_names_a_path_gives_its_first_arms_seeds(tmp_path):
+    arm = "ebe maze=mazes/a.yaml"  # a sweep arm's name may hold a slash
+    w = {s: np.full(3, s + 1.0, np.float32) for s in (0, 1)}
+    arrays = {rundir.params_key(arm, s, "params/w"): w[s] for s in (0, 1)}
+    arrays[rundir.params_key("ebe maze=mazes/b.yaml", 0, "params/w")] = np.zeros(3, np.float32)
+    (tmp_path / "src").mkdir()
+    np.savez(tmp_path / "src" / rundir.PARAMS, **arrays)
+    cfg = load_config("smoke", [f"run.init_from={tmp_path / 'src'}"])
+    template = {"params": {"w": jax.ShapeDtypeStruct((cfg.n_runs, 3), np.float32)}}
+    got = start_params(cfg, template)["params"]["w"]
+    want = np.stack([w[seed] for _, seed in cfg.run_labels()])
+    np.testing.assert_array_equal(got, want)

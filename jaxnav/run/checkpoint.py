@@ -7,6 +7,7 @@ the rest of the state, in ``checkpoints/last.npz``, says how many segments it co
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 from typing import Any
 
@@ -138,6 +139,9 @@ def params_arrays(cfg: Config, params) -> dict[str, np.ndarray]:
 # ----------------------------------------------------------------------------
 
 
+_RUN_KEY = re.compile(r"^(.+?)/seed(\d+)/")  # rundir.params_key's arm and seed
+
+
 def start_params(cfg: Config, template) -> dict[str, Any] | None:
     """Each run's starting params, stacked on the run axis like ``template`` (the
     trainer state's params, shapes only), from the ``params.npz`` of the finished run
@@ -155,12 +159,13 @@ def start_params(cfg: Config, template) -> dict[str, Any] | None:
         arrays = rundir.read_npz(Path(source) / rundir.PARAMS, f"{source}/{rundir.PARAMS}")
     except RunError as e:
         raise ConfigError(f"config: run.init_from: {e}: give a finished training run") from None
-    first = next((k.split("/")[0] for k in arrays), None)  # the source's first strategy
-    seeds = sorted({int(k.split("/")[1][4:]) for k in arrays if k.startswith(f"{first}/seed")})
+    held = [m.groups() for m in map(_RUN_KEY.match, arrays) if m]  # (arm, seed) per entry
+    first = held[0][0] if held else None  # the source's first strategy (or sweep arm)
+    seeds = sorted({int(seed) for arm, seed in held if arm == first})
     missing = sorted({seed for _, seed in cfg.run_labels()} - set(seeds))
     if missing:
-        held = ", ".join(map(str, seeds)) or "none"
-        raise ConfigError(f"{where} has no seed {missing[0]} (it holds seeds {held})")
+        have = ", ".join(map(str, seeds)) or "none"
+        raise ConfigError(f"{where} has no seed {missing[0]} (it holds seeds {have})")
     flat, treedef = jax.tree_util.tree_flatten_with_path(template)
     leaves = []
     for p, leaf in flat:
