@@ -123,13 +123,18 @@ def _records(leaf, segments: list[dict[str, np.ndarray]], path: Path) -> np.ndar
     return records
 
 
+def _entry_name(path) -> str:
+    """A params leaf's name in ``params.npz`` (``params/Dense_0/kernel``)."""
+    return "/".join(str(getattr(k, "key", k)) for k in path)
+
+
 def params_arrays(cfg: Config, params) -> dict[str, np.ndarray]:
     """``params.npz`` entries: every array of every run, by strategy, seed and layer."""
     arrays = {}
     flat, _ = jax.tree_util.tree_flatten_with_path(params)
     for r, (strategy, seed) in enumerate(cfg.run_labels()):
         for p, leaf in flat:
-            name = "/".join(str(getattr(k, "key", k)) for k in p)
+            name = _entry_name(p)
             arrays[rundir.params_key(strategy, seed, name)] = np.asarray(leaf[r])
     return arrays
 
@@ -169,7 +174,7 @@ def start_params(cfg: Config, template) -> dict[str, Any] | None:
     flat, treedef = jax.tree_util.tree_flatten_with_path(template)
     leaves = []
     for p, leaf in flat:
-        name = "/".join(str(getattr(k, "key", k)) for k in p)
+        name = _entry_name(p)
         per_run = []
         for strategy, seed in cfg.run_labels():
             key = rundir.params_key(strategy, seed, name)
