@@ -20,6 +20,7 @@ the first one, removes what the command made (:func:`interrupted_text` says whic
 from __future__ import annotations
 
 import contextlib
+import functools
 import json
 import os
 import platform
@@ -91,11 +92,6 @@ class Run:
         self.shard = RunSharding(cfg.n_runs)
         sharding = self.shard.sharding
         self.init = jax.jit(jax.vmap(self.trainer.init), out_shardings=sharding)
-        # run.init_from: every run's first params, read (and checked) before any file
-        self.start_params = None
-        if cfg.run.init_from:
-            shapes = jax.eval_shape(jax.vmap(self.trainer.init), *run_inputs(cfg)).params
-            self.start_params = start_params(cfg, shapes)
         self.counts_attempts = bool(cfg.env.attempt_limit)
         columns = METRIC_COLUMNS + (ATTEMPT_COLUMNS if self.counts_attempts else ())
         self.metric_columns = sweep.with_swept(columns, cfg.sweep)
@@ -129,6 +125,18 @@ class Run:
 
     # -- state ---------------------------------------------------------------
 
+    def state_shapes(self) -> Any:
+        """The shapes and dtypes of the trainer state of every run (nothing computed)."""
+        return jax.eval_shape(jax.vmap(self.trainer.init), *run_inputs(self.cfg))
+
+    @functools.cached_property
+    def start_params(self) -> Any:
+        """run.init_from's params of every run (None without it), read once: a new run
+        reads it before it writes anything, a resumed one only if it starts over."""
+        if not self.cfg.run.init_from:
+            return None
+        return start_params(self.cfg, self.state_shapes().params)
+
     def fresh_state(self) -> Any:
         ts = self.init(*self.shard.put(tuple(run_inputs(self.cfg))))
         if self.start_params is not None:
@@ -138,7 +146,7 @@ class Run:
     def restored_state(self) -> Any:
         """The last checkpoint's state, the logs cut back to what it covers."""
         cfg = self.cfg
-        template = jax.eval_shape(jax.vmap(self.trainer.init), *run_inputs(cfg))
+        template = self.state_shapes()
         template = jax.tree.map(lambda s: np.zeros((cfg.n_runs, *s.shape[1:]), s.dtype), template)
         arrays = rundir.read_npz(self.checkpoint, f"checkpoint {self.checkpoint}")
         host = {k[5:]: v for k, v in arrays.items() if k.startswith("host.")}
@@ -575,6 +583,7 @@ def train_new(
     directory is emptied first, under its lock) and train it to the end."""
     check_test_mazes(cfg)  # and Run builds the env first: a bad maze leaves no directory
     run = Run(cfg, out, quiet, keep_checkpoints)
+    _ = run.start_params  # run.init_from read and checked before any file is written
     replace = overwrite and (out / rundir.CONFIG).is_file()
     with _tidy_on_interrupt(out, made=not out.exists()):
         with startup.no_interrupt():
