@@ -26,6 +26,7 @@ import shutil
 import sys
 import time
 from pathlib import Path
+from typing import NamedTuple
 
 import jax
 import jax.numpy as jnp
@@ -35,23 +36,40 @@ import optax
 from jaxnav.core import agents, rundir
 from jaxnav.core.config import dump_config, load_config, resolve_config_path
 from jaxnav.core.errors import JaxnavError
-from jaxnav.env import from_config
+from jaxnav.env import EnvParams, NavEnv, from_config
 from jaxnav.experiments.baselines import planner_of
+from jaxnav.planners.oracle import Oracle
 from jaxnav.run.checkpoint import params_arrays
 
 BATCH = 512
 CHUNK = 100  # oracle steps per compiled call
 
 
-def demonstrations(cfg, envs: int, steps: int, seed: int, quiet: bool = False, policy=None):
+class Teacher(NamedTuple):
+    """The oracle in a config's world as its test plays it (its environment, settings)."""
+
+    env: NavEnv
+    params: EnvParams
+    oracle: Oracle
+
+
+def teacher_of(cfg) -> Teacher:
+    """The config's :class:`Teacher`: made once, since the oracle's way out of a start
+    can take a search of a minute (stage 3)."""
+    env, params = from_config(cfg.tested())
+    return Teacher(env, params, planner_of("oracle", env, [params.maze], params))
+
+
+def demonstrations(
+    teacher: Teacher, envs: int, steps: int, seed: int, quiet: bool = False, policy=None
+):
     """(observations f32[n, D], the oracle's actions i32[n], goals, collisions,
-    episodes) over ``envs`` x ``steps`` steps of the config's tested world. The oracle
+    episodes) over ``envs`` x ``steps`` steps of the teacher's world. The oracle
     drives; with ``policy`` (network, params stacked on the run axis) environment i is
     driven by run i mod runs's greedy policy instead, and the oracle only labels the
     states it visits with its own action (DAgger): goals and collisions are then the
     policies'."""
-    env, params = from_config(cfg.tested())
-    oracle = planner_of("oracle", env, [params.maze], params)
+    env, params, oracle = teacher
     reset = jax.vmap(env.reset, in_axes=(0, None))
     obs, state = reset(jax.random.split(jax.random.PRNGKey(seed), envs), params)
     memory = jax.vmap(oracle.start, in_axes=(None, 0))(params, state)
@@ -190,14 +208,15 @@ def main(argv: list[str] | None = None) -> int:
         if agents.get(cfg.agent).actions != "discrete":
             raise JaxnavError("the oracle's actions are discrete: give a Q-learner's config")
         t0 = time.perf_counter()
+        teacher, network = teacher_of(cfg), network_of(cfg)
         obs, action, goals, collisions, episodes = demonstrations(
-            cfg, args.envs, args.steps, args.seed, args.quiet
+            teacher, args.envs, args.steps, args.seed, args.quiet
         )
         params, agree = fit(cfg, obs, action, args.epochs, args.seed)
         first, rounds = len(action), []
         for k in range(args.dagger):  # the policies drive, the oracle labels
             more = demonstrations(
-                cfg, args.envs, args.steps, args.seed + 1 + k, args.quiet, (network_of(cfg), params)
+                teacher, args.envs, args.steps, args.seed + 1 + k, args.quiet, (network, params)
             )
             obs, action = np.concatenate([obs, more[0]]), np.concatenate([action, more[1]])
             rounds.append({"goals": more[2], "collisions": more[3], "episodes": more[4]})

@@ -35,7 +35,7 @@ def written(tmp_path_factory):
 @pytest.mark.slow
 def test_the_first_pair_is_the_resets_observation_and_the_oracles_plan_there():
     cfg = load_config("smoke", [])
-    obs, action, *_ = imitate.demonstrations(cfg, 3, 5, seed=0, quiet=True)
+    obs, action, *_ = imitate.demonstrations(imitate.teacher_of(cfg), 3, 5, seed=0, quiet=True)
     assert obs.shape == (15, from_config(cfg)[0].obs_size) and action.shape == (15,)
     env, params = from_config(cfg.tested())
     first_obs, state = jax.vmap(env.reset, in_axes=(0, None))(
@@ -56,7 +56,9 @@ def test_with_a_policy_the_policy_drives_and_the_oracle_labels(written):
         lambda *a: np.stack(a),
         *[rundir.load_params(written / rundir.PARAMS, s, n) for s, n in cfg.run_labels()],
     )
-    obs, action, *_ = imitate.demonstrations(cfg, 3, 2, 0, quiet=True, policy=(network, stacked))
+    obs, action, *_ = imitate.demonstrations(
+        imitate.teacher_of(cfg), 3, 2, 0, quiet=True, policy=(network, stacked)
+    )
     env, params = from_config(cfg.tested())
     obs0, state = jax.vmap(env.reset, in_axes=(0, None))(
         jax.random.split(jax.random.PRNGKey(0), 3), params
@@ -85,7 +87,9 @@ def test_the_written_run_is_tested_like_a_trained_one_and_agrees_as_it_says(writ
     assert [tuple(label) for label in loaded.policies.labels] == cfg.run_labels()
     summary = json.loads((written / rundir.SUMMARY).read_text())
     cfg_demo = load_config("smoke", [])
-    obs, action, goals, collisions, _ = imitate.demonstrations(cfg_demo, 3, 120, 0, quiet=True)
+    obs, action, goals, collisions, _ = imitate.demonstrations(
+        imitate.teacher_of(cfg_demo), 3, 120, 0, quiet=True
+    )
     assert (summary["oracle_goals"], summary["oracle_collisions"]) == (goals, collisions)
     assert summary["demonstration_steps"] == len(action) == 360
     network = agents.get(cfg.agent).network_of(cfg)
