@@ -58,7 +58,7 @@ from jaxnav.core.settings import (
     OWN_PACE,
     PRESETS,
 )
-from jaxnav.world import motion
+from jaxnav.world import motion, occupancy
 from jaxnav.world.commands import Commands
 from jaxnav.world.episode import EpisodeMaze
 from jaxnav.world.geometry import (
@@ -272,6 +272,8 @@ class NavEnv(Commands, EpisodeMaze, GoalSampler, DrawnLayouts, Observer):
     beyond_limits: bool = False
     moving_proximity_penalty: float = 0.0
     moving_proximity_distance: float = 0.5
+    # derived by make, not a setting: EpisodeMaze.fit_maze's (range, near), m
+    grid_fit: tuple[float, float] = (0.0, 0.0)
 
     def __post_init__(self):
         for f in dataclasses.fields(self):  # the rules of the config's env settings
@@ -555,6 +557,11 @@ def make(
         values["speeds"] = jnp.asarray([v for v, _ in table], jnp.float32)
         values["omegas"] = jnp.asarray([w for _, w in table], jnp.float32)
     params = EnvParams(maze=maze_obj, **values)
+    if maze_obj.grid is not None:  # the grid walked and windowed for this robot and sensor
+        if env.scales_maze:
+            raise ConfigError(f"env.maze_scale scales walls and cylinders: maze {maze!r} is a grid")
+        env = dataclasses.replace(env, grid_fit=occupancy.sized_for(env, params))
+        params = params.replace(maze=env.fit_maze(maze_obj))
     if env.paces_motion and maze_obj.motion is None:
         raise ConfigError(f"env.motion_pace paces moving cylinders: maze {maze!r} has none")
     if env.moving_proximity_penalty and maze_obj.motion is None:

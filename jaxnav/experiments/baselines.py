@@ -140,7 +140,7 @@ def _is_maze_file(path: str) -> bool:
             doc = yaml.safe_load(f)
     except (OSError, yaml.YAMLError):
         return False
-    return isinstance(doc, dict) and "outline" in doc
+    return isinstance(doc, dict) and ("outline" in doc or "image" in doc)  # a ROS map too
 
 
 class WorldTest(NamedTuple):

@@ -103,6 +103,7 @@ def run_tests(
     )
     out = []
     for maze in mazes:
+        maze = policies.env.fit_maze(maze)  # an occupancy grid sized for the robot
         res = fn(params, keys, strategy, hyper, policies.env_params.replace(maze=maze))
         out.append(shard.get(res))
     return out

@@ -58,6 +58,7 @@ class OracleMemory(NamedTuple):
     goal: chex.Array  # f32[2] the goal the distance field is of
     clearance: chex.Array  # f32[ny, nx] static clearance of each cell centre (m)
     distance: chex.Array  # f32[ny, nx] shortest path to the goal (m), inf if none
+    occupied: chex.Array | None = None  # bool[H, W] the occupancy grid's cells, if any
 
 
 @dataclasses.dataclass(frozen=True)
@@ -116,11 +117,15 @@ class Oracle:
         distance = self._distance(
             (clearance, state.goal, origin, params.goal_radius, params.robot_radius)
         )
-        return OracleMemory(maze.segments, maze.circles, state.goal, clearance, distance)
+        return OracleMemory(
+            maze.segments, maze.circles, state.goal, clearance, distance, _cells(maze)
+        )
 
     def _update(self, mem: OracleMemory, params: EnvParams, state: EnvState, maze: Maze):
         """The memory for this step: fields computed again where the maze or goal changed."""
         new_maze = jnp.any(maze.segments != mem.segments) | jnp.any(maze.circles != mem.circles)
+        if maze.grid is not None:
+            new_maze = new_maze | jnp.any(maze.grid.occupied != mem.occupied)
         new_goal = jnp.any(state.goal != mem.goal)
         clearance = draw_where(
             lambda m: rs.clearance_field(m, self.raster), new_maze, maze, mem.clearance, chunk=1
@@ -128,7 +133,9 @@ class Oracle:
         origin = rs.origin_of(maze, self.raster)
         inputs = (clearance, state.goal, origin, params.goal_radius, params.robot_radius)
         distance = draw_where(self._distance, new_maze | new_goal, inputs, mem.distance, chunk=1)
-        return OracleMemory(maze.segments, maze.circles, state.goal, clearance, distance)
+        return OracleMemory(
+            maze.segments, maze.circles, state.goal, clearance, distance, _cells(maze)
+        )
 
     # -- planning ---------------------------------------------------------------
 
@@ -285,6 +292,11 @@ class Oracle:
             gap = jnp.linalg.norm(pts[..., None, :] - where, axis=-1) - maze.motion.radius
             bad = bad | (jnp.min(gap, axis=-1) < r + self.moving_margin)
         return jnp.any(bad, axis=-1)
+
+
+def _cells(maze: Maze) -> chex.Array | None:
+    """The maze's occupancy grid's cells, or None without a grid."""
+    return None if maze.grid is None else maze.grid.occupied
 
 
 def _scripted(opening: Opening, state: EnvState, maze: Maze, choice: chex.Array) -> chex.Array:

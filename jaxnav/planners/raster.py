@@ -23,8 +23,12 @@ import numpy as np
 
 from jaxnav.world.geometry import hypot, min_over, point_segment_distance
 from jaxnav.world.maps import Maze
+from jaxnav.world.occupancy import point_clearance
 
 PAD = 2  # cells of raster beyond the maze's bounds on every side
+# m: an occupancy grid's clearance on the raster is exact up to this (the robot's radius,
+# the oracle's margin, a raster cell and its diagonal, for radii up to 0.45 m)
+GRID_NEAR = 0.6
 
 _DIAGONAL = math.sqrt(2.0)
 # 16 neighbours: the 8 around a cell and the 8 a knight's move away, so a way's length
@@ -68,7 +72,8 @@ def centres(raster: Raster, origin: chex.Array) -> tuple[chex.Array, chex.Array]
 
 def clearance_field(maze: Maze, raster: Raster) -> chex.Array:
     """f32[ny, nx]: each cell centre's distance to the nearest static wall or cylinder
-    surface (negative inside a cylinder)."""
+    surface (negative inside a cylinder), and to an occupancy grid's occupied cells
+    (capped where its window ends, :func:`jaxnav.world.occupancy.point_clearance`)."""
     x, y = centres(raster, origin_of(maze, raster))
     px, py = x.reshape(-1), y.reshape(-1)
 
@@ -82,6 +87,8 @@ def clearance_field(maze: Maze, raster: Raster) -> chex.Array:
         min_over(wall, maze.segments, maze.segment_mask),
         min_over(circle, maze.circles, maze.circle_mask),
     )
+    if maze.grid is not None:
+        d = jnp.minimum(d, point_clearance(maze.grid, px, py, GRID_NEAR))
     return d.reshape(raster.ny, raster.nx)
 
 

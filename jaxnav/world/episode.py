@@ -11,7 +11,7 @@ import jax
 import jax.numpy as jnp
 
 from jaxnav.core.settings import paces_motion
-from jaxnav.world import motion
+from jaxnav.world import motion, occupancy
 from jaxnav.world.maps import Maze
 from jaxnav.world.state import EnvParams, EnvState, scale_maze
 
@@ -22,6 +22,15 @@ class EpisodeMaze:
     motion_pace: tuple[float, float]
     pace_curriculum: float
     scales_maze: bool
+    grid_fit: tuple[float, float]  # (range, near) m an occupancy grid is sized for
+
+    def fit_maze(self, maze: Maze) -> Maze:
+        """``maze`` with its occupancy grid (if any) walked as far as this environment's
+        sensor sees and tested for collision as near as it asks
+        (:func:`jaxnav.world.occupancy.fit`); unchanged without a grid."""
+        if maze.grid is None or self.grid_fit == (0.0, 0.0):
+            return maze
+        return maze.replace(grid=occupancy.fit(maze.grid, *self.grid_fit))
 
     def maze_at(self, params: EnvParams, scale: chex.Array, time=None, pace=None) -> Maze:
         """The maze of an episode: ``params.maze``, scaled if ``maze_scale`` is on, its

@@ -64,10 +64,12 @@ import jax.numpy as jnp
 import numpy as np
 from flax import struct
 
+from jaxnav.core import worlds
 from jaxnav.core.config import shipped_path
 from jaxnav.core.errors import MazeError
 from jaxnav.world.builtins import BUILTIN_MAZES, builtin, square
 from jaxnav.world.motion import Motion, pad_motion, parked
+from jaxnav.world.occupancy import Occupancy, grid_circles, grid_walls, stack_grids
 from jaxnav.world.polygons import (
     centroid,
     clearance,
@@ -140,6 +142,9 @@ class Maze:
         leaves) for a maze that stands still; ``circles`` holds the static ones only.
       goal: f32[2] the first goal of every reset, from a maze file's ``goal``; None
         (no leaf) for the mazes whose goals are drawn, as every built-in's.
+      grid: an occupancy grid (:class:`jaxnav.world.occupancy.Occupancy`: a ROS map,
+        BARN's cylinders) whose occupied cells are surfaces too; None (no leaves) for
+        every maze of walls and cylinders alone.
     """
 
     segments: chex.Array
@@ -156,17 +161,26 @@ class Maze:
     robotis_scale: chex.Array
     motion: Motion | Any = None
     goal: chex.Array | None = None
+    grid: Occupancy | None = None
 
     # Host-side accessors (not for use under jit).
     def walls(self) -> np.ndarray:
-        """NumPy (S, 4) array of the real wall segments only."""
+        """NumPy (S, 4) array of the real wall segments only (and an occupancy grid's
+        outline, :func:`jaxnav.world.occupancy.grid_walls`)."""
         seg = np.asarray(self.segments)
-        return seg[np.asarray(self.segment_mask)]
+        seg = seg[np.asarray(self.segment_mask)]
+        if self.grid is not None:
+            seg = np.concatenate([seg, grid_walls(self.grid).astype(seg.dtype)])
+        return seg
 
     def obstacles(self) -> np.ndarray:
-        """NumPy (C, 3) array of the real circular obstacles only."""
+        """NumPy (C, 3) array of the real circular obstacles only (and a disc grid's
+        occupied cells, :func:`jaxnav.world.occupancy.grid_circles`)."""
         c = np.asarray(self.circles)
-        return c[np.asarray(self.circle_mask)]
+        c = c[np.asarray(self.circle_mask)]
+        if self.grid is not None:
+            c = np.concatenate([c, grid_circles(self.grid).astype(c.dtype)])
+        return c
 
     @property
     def has_obstacles(self) -> bool:
@@ -485,7 +499,11 @@ def _start_pose(doc, outline, polygons, segments, circles, where: str) -> np.nda
 
 
 def make_maze(name_or_path: str) -> Maze:
-    """A built-in maze by name, or a maze YAML file by path."""
+    """A built-in maze by name, a maze YAML file by path, or a maze of a registered
+    source of worlds (:mod:`jaxnav.core.worlds`: a ROS map, a BARN world)."""
+    source = worlds.source_of(name_or_path)
+    if source is not None:
+        return source.loader()(name_or_path)
     if name_or_path in STAGES:
         side, walls, start, motion = stage(name_or_path)
         where = f"maze {name_or_path}"
@@ -528,6 +546,7 @@ def pad_maze(maze: Maze, n_segments: int, n_circles: int, n_goal_points: int) ->
         robotis_scale=maze.robotis_scale,
         motion=maze.motion,
         goal=maze.goal,
+        grid=maze.grid,
     )
 
 
@@ -545,7 +564,7 @@ def stack_mazes(mazes: Sequence[Maze]) -> Maze:
         motions = [pad_motion(x, n, k) for x in motions]
         motion = jax.tree.map(lambda *a: jnp.stack(a), *motions)
     stacked = Maze(*(jnp.stack(leaves) for leaves in zip(*(_fields(m) for m in padded))))
-    stacked = stacked.replace(motion=motion)
+    stacked = stacked.replace(motion=motion, grid=stack_grids([m.grid for m in padded]))
     goals = [m.goal for m in padded]
     if all(x is not None for x in goals):
         return stacked.replace(goal=jnp.stack(goals))
@@ -555,6 +574,6 @@ def stack_mazes(mazes: Sequence[Maze]) -> Maze:
 
 
 def _fields(m: Maze) -> list:
-    """The maze's arrays in field order, without its optional goal and motion."""
-    optional = ("goal", "motion")
+    """The maze's arrays in field order, without its optional goal, motion and grid."""
+    optional = ("goal", "motion", "grid")
     return [getattr(m, f.name) for f in dataclasses.fields(m) if f.name not in optional]

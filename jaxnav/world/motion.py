@@ -30,7 +30,8 @@ import jax.numpy as jnp
 import numpy as np
 from flax import struct
 
-from jaxnav.world.geometry import displacement, path_clearance, point_segment_distance
+from jaxnav.world.geometry import arc, displacement, path_clearance, point_segment_distance
+from jaxnav.world.occupancy import grid_clearance
 
 SUBSTEPS = 16  # pieces of a step for the moving-obstacle collision test
 
@@ -231,6 +232,8 @@ def step_clearances(maze, pos: chex.Array, yaw: chex.Array, omega, v, dt, time0)
     """(:func:`step_clearance`, the moving cylinders' part of it): the second is
     :func:`moving_clearance` over the step, or None in a maze whose ``motion`` is None."""
     clearance = path_clearance(maze, pos, yaw, omega, v, dt)
+    if getattr(maze, "grid", None) is not None:  # an occupancy grid's cells near the step
+        clearance = jnp.minimum(clearance, grid_clearance(maze.grid, arc(pos, yaw, omega, v, dt)))
     moving = None
     if maze.motion is not None:
         moving = moving_clearance(maze.motion, pos, yaw, omega, v, dt, time0)

@@ -24,6 +24,7 @@ import numpy as np
 from jaxnav.core.settings import BURGER_MAX_OMEGA, BURGER_MAX_V
 from jaxnav.world.geometry import norm2, ray_distances_dir, wrap_angle
 from jaxnav.world.maps import Maze
+from jaxnav.world.occupancy import grid_ranges
 
 
 def beam_step(n_beams: int, inclusive: bool = False) -> float:
@@ -52,8 +53,13 @@ def beam_directions(n_beams: int, yaw: chex.Array, inclusive: bool = False) -> c
 def beam_ranges(
     maze: Maze, pos: chex.Array, yaw: chex.Array, n_beams: int, inclusive: bool = False
 ) -> chex.Array:
-    """True, unclipped beam ranges f32[n_beams] from pose (pos f32[2], yaw f32[])."""
-    return ray_distances_dir(maze, pos, beam_directions(n_beams, yaw, inclusive))
+    """True, unclipped beam ranges f32[n_beams] from pose (pos f32[2], yaw f32[]) (and
+    a maze's occupancy grid walked, :func:`jaxnav.world.occupancy.grid_ranges`)."""
+    dirs = beam_directions(n_beams, yaw, inclusive)
+    ranges = ray_distances_dir(maze, pos, dirs)
+    if maze.grid is not None:
+        ranges = jnp.minimum(ranges, grid_ranges(maze.grid, pos, dirs))
+    return ranges
 
 
 def pooled_ranges(ranges: chex.Array, n_beams: int) -> chex.Array:
