@@ -168,7 +168,7 @@ def make_trainer(config: Config) -> Trainer:
         # only the running sums are held; a select over the rings would copy them.
         slot = jnp.where(run & done, ts.episode % slots, slots)  # out of range: not filed
         metrics = ts.metrics.record(
-            slot, reward, info["goal_reached"], terminated, done, explore, env.attempt_limit
+            slot, reward, info["goal_reached"], info["collision"], done, explore, env.attempt_limit
         )
         held_sums = {k: select(run, getattr(metrics, k), getattr(ts.metrics, k)) for k in RUNNING}
         metrics = metrics.replace(**held_sums)

@@ -52,15 +52,14 @@ from jaxnav.core.env_rules import (
 )
 from jaxnav.core.errors import ConfigError
 from jaxnav.core.settings import (
-    ACTION_SETS,
     BURGER_MAX_OMEGA,
     BURGER_MAX_V,
     OWN_PACE,
     PRESETS,
 )
-from jaxnav.world import motion, occupancy
-from jaxnav.world.commands import Commands
-from jaxnav.world.episode import EpisodeMaze
+from jaxnav.world import motion
+from jaxnav.world.commands import Commands, set_commands
+from jaxnav.world.episode import EpisodeMaze, fitted
 from jaxnav.world.geometry import (
     displacement,
     norm2,
@@ -140,6 +139,10 @@ class NavEnv(Commands, EpisodeMaze, GoalSampler, DrawnLayouts, Observer):
       wheel_limit: drive each action's (v, omega) as the burger's firmware does
         (:func:`jaxnav.world.kinematics.firmware_limit`: a wheel at most 0.21 m/s).
     Range noise is ``EnvParams.lidar_noise_std``.
+      robot: a profile of :mod:`jaxnav.core.robots` (its limits scale the action sets'
+        commands and the normalised observation's); lidar_fov: degrees the beams span
+        (below 360: from the right edge to the left, both included); goal_ends: the
+        goal reached ends the episode (BARN's protocol).
 
     ROBOTIS-faithful switches (docs/paper.md; all off by default and in both presets):
       collision: "disc" (the exact 0.13 m disc along the step's arc) or "lidar"
@@ -235,6 +238,9 @@ class NavEnv(Commands, EpisodeMaze, GoalSampler, DrawnLayouts, Observer):
     """
 
     n_beams: int = 24
+    robot: str = "burger"  # jaxnav.core.robots: its limits scale the commands
+    lidar_fov: float = 360.0
+    goal_ends: bool = False
     obstacle_obs: bool = False
     goal_candidates: int = 16
     beam_dropout: float = 0.0
@@ -421,10 +427,12 @@ class NavEnv(Commands, EpisodeMaze, GoalSampler, DrawnLayouts, Observer):
             near = nearness(moving - params.robot_radius, self.moving_proximity_distance)
             shaped = reward - self.moving_proximity_penalty * near
             reward = jnp.where(reached | collided, reward, shaped)
-        new_goal = self.draw_goal(k_goal, state.goal, params, state.scale)
+        if self.goal_ends:  # the episode ends at its goal, which the restart keeps
+            new_goal, terminated = state.goal, collided | reached
+        else:
+            new_goal, terminated = self.draw_goal(k_goal, state.goal, params, state.scale), collided
         goal = jnp.where(reached, new_goal, state.goal)
         d0 = jnp.where(reached, norm2(new_goal - pos), state.goal_distance0)
-        terminated = collided
         truncated = (t >= params.max_steps) & ~terminated
         new_state = state.replace(
             pos=pos,
@@ -552,16 +560,8 @@ def make(
     if "omegas" in values:
         values["omegas"] = jnp.asarray(values["omegas"], jnp.float32)
     env = NavEnv(**env_kwargs)
-    table = ACTION_SETS.get(env.actions)
-    if table is not None:  # the set's commands: speeds and yaw rates as data
-        values["speeds"] = jnp.asarray([v for v, _ in table], jnp.float32)
-        values["omegas"] = jnp.asarray([w for _, w in table], jnp.float32)
-    params = EnvParams(maze=maze_obj, **values)
-    if maze_obj.grid is not None:  # the grid walked and windowed for this robot and sensor
-        if env.scales_maze:
-            raise ConfigError(f"env.maze_scale scales walls and cylinders: maze {maze!r} is a grid")
-        env = dataclasses.replace(env, grid_fit=occupancy.sized_for(env, params))
-        params = params.replace(maze=env.fit_maze(maze_obj))
+    values.update(set_commands(env.actions, env.robot))  # a set's speeds, yaw rates
+    env, params = fitted(env, EnvParams(maze=maze_obj, **values), maze)
     if env.paces_motion and maze_obj.motion is None:
         raise ConfigError(f"env.motion_pace paces moving cylinders: maze {maze!r} has none")
     if env.moving_proximity_penalty and maze_obj.motion is None:

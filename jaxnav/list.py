@@ -12,7 +12,7 @@ from __future__ import annotations
 import sys
 from collections.abc import Sequence
 
-from jaxnav.core import agents, cli, families, strategies
+from jaxnav.core import agents, cli, families, robots, strategies, worlds
 from jaxnav.core.config import SETTINGS, builtin_configs, shipped_studies
 from jaxnav.world.maps import BUILTIN_MAZES
 
@@ -47,6 +47,12 @@ def catalog() -> str:
     lines += ["", "exploration strategies (strategies=[...]):"]
     width = max(map(len, strategies.names()))
     lines += [f"  {n:<{width}}  {strategies.get(n).about}" for n in strategies.names()]
+    lines += ["", "robots (robot=NAME: their limits and LiDAR become defaults):"]
+    width = max(map(len, robots.names()))
+    lines += [f"  {n:<{width}}  {robots.get(n).about}" for n in robots.names()]
+    lines += ["", "sources of worlds (env.maze=..., --mazes ...):"]
+    width = max(len(src.name) for src in worlds.sources())
+    lines += [f"  {src.name:<{width}}  {src.about}" for src in worlds.sources()]
     lines += ["", "drawn-maze families (env.generator=NAME):"]
     width = max(map(len, families.names()))
     lines += [f"  {n:<{width}}  {families.get(n).about}" for n in families.names()]

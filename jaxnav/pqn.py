@@ -180,7 +180,7 @@ def make_rollouts(config: Config) -> Rollouts:
         )
         done = terminated | truncated
         metrics, episode = file_episodes(
-            metrics, episode, run, reward, info["goal_reached"], terminated, done, explore,
+            metrics, episode, run, reward, info["goal_reached"], info["collision"], done, explore,
             limit, slots, env.attempt_limit,
         )  # fmt: skip
         row = Rollout(

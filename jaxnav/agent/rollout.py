@@ -183,14 +183,20 @@ def make_rollout(
             done = terminated | truncated
             # RECORD the step and the finished episode (slot E: dropped, the test is over).
             slot = jnp.where(done & (ep < E), ep, E)
-            episodes = episodes.record(slot, reward, info["goal_reached"], terminated, done)
+            episodes = episodes.record(slot, reward, info["goal_reached"], info["collision"], done)
             steps = traj = None
             if navigation:
                 moved = env.travel(env_params, state, action)
                 v, omega = env.driven(env_params, state, action)
                 command = jnp.stack([v, omega]).astype(jnp.float32)
                 steps = Steps(
-                    state.pos, state.goal, info["goal_reached"], terminated, ep, moved, command
+                    state.pos,
+                    state.goal,
+                    info["goal_reached"],
+                    info["collision"],
+                    ep,
+                    moved,
+                    command,
                 )
             if record:
                 traj = Trajectory(
@@ -201,7 +207,7 @@ def make_rollout(
                     action=action,
                     reward=reward,
                     reached=info["goal_reached"],
-                    collided=terminated,
+                    collided=info["collision"],
                     episode=ep,
                     circles=state.circles if moves else None,
                 )

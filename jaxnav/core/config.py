@@ -27,7 +27,7 @@ from typing import Any
 
 import yaml
 
-from jaxnav.core import agents
+from jaxnav.core import agents, robots
 from jaxnav.core import strategies as registry
 from jaxnav.core import sweep as sweeps
 from jaxnav.core.env_rules import (
@@ -466,6 +466,7 @@ def build_config(values: dict[str, Any]) -> Config:
     merged: dict[str, Any] = {}
     if isinstance(preset, str) and preset in PRESETS:
         merged.update(PRESETS[preset].training())
+    merged.update(robots.config_defaults(values))  # the robot's (reads robot: as env.robot)
     merged.update(values)
     for name in merged:
         if name not in FIELD_TYPES:

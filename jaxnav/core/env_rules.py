@@ -12,10 +12,8 @@ from __future__ import annotations
 
 from typing import Any
 
-from jaxnav.core import families
+from jaxnav.core import families, robots
 from jaxnav.core.settings import (
-    BURGER_MAX_OMEGA,
-    BURGER_MAX_V,
     CONTINUOUS,
     MAX_LATTICE_CELLS,
     paces_motion,
@@ -124,11 +122,13 @@ def env_scan_problem(env: Any) -> str | None:
 
 
 def env_action_problem(env: Any) -> str | None:
-    """What is wrong with continuous actions given the other settings, or None: the
-    paper's and the geodesic reward score a discrete action's turn, a delayed action
-    is held as a number, and the limits stay within the burger's unless overridden."""
-    if env.actions != CONTINUOUS:
-        return None
+    """What is wrong with the commands and the robot given the other settings, or None:
+    the robot's own (:func:`env_robot_problem`); with continuous actions, the paper's and
+    the geodesic reward score a discrete action's turn, a delayed action is held as a
+    number, and the limits stay within the robot's unless overridden."""
+    robot_problem = env_robot_problem(env)
+    if robot_problem or env.actions != CONTINUOUS:
+        return robot_problem
     if env.reward not in ("progress", "sparse"):
         return (
             f"env.actions continuous needs env.reward progress or sparse (env.reward "
@@ -136,12 +136,31 @@ def env_action_problem(env: Any) -> str | None:
         )
     if env.action_delay:
         return "env.action_delay holds a discrete action: it needs discrete env.actions"
+    robot = robots.get(env.robot) if env.robot in robots.names() else robots.get("burger")
     if not env.beyond_limits and (
-        env.speed_range[1] > BURGER_MAX_V or env.max_yaw_rate > BURGER_MAX_OMEGA
+        env.speed_range[1] > robot.max_v or env.max_yaw_rate > robot.max_omega
     ):
         return (
-            f"env.speed_range and env.max_yaw_rate must stay within the burger's limits "
-            f"({BURGER_MAX_V} m/s, {BURGER_MAX_OMEGA} rad/s); set env.beyond_limits true to "
+            f"env.speed_range and env.max_yaw_rate must stay within the {robot.name}'s limits "
+            f"({robot.max_v} m/s, {robot.max_omega} rad/s); set env.beyond_limits true to "
             "go beyond them"
         )
+    return None
+
+
+def env_robot_problem(env: Any) -> str | None:
+    """What is wrong with the robot and its LiDAR given the other settings, or None:
+    the firmware wheel limit is the burger's, a scan narrower than 360 degrees is spread
+    from edge to edge (no pooled sectors, no turned history), and an acceleration limit
+    that would bind within one control period is not simulated."""
+    if env.wheel_limit and env.robot != "burger":
+        return f"env.wheel_limit is the burger's firmware: env.robot is {env.robot}"
+    if env.lidar_fov < 360.0:
+        if env.scan_beams or env.history_turned or env.beam_layout != "even":
+            return (
+                "env.lidar_fov below 360 spreads the beams from edge to edge: it needs "
+                "env.scan_beams 0, env.history_turned false and env.beam_layout even"
+            )
+        if env.n_beams < 2:
+            return "env.lidar_fov below 360 needs at least 2 beams (one at each edge)"
     return None

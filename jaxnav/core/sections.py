@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from jaxnav.core import families
+from jaxnav.core import families, robots
 from jaxnav.core.settings import (
     ACTION_KINDS,
     AT_LEAST_1,
@@ -36,8 +36,40 @@ from jaxnav.core.settings import (
 @dataclass(frozen=True)
 @families.settings_after("generator")
 class EnvConfig:
-    maze: str = setting("square4", "built-in maze name or a maze YAML file")
+    maze: str = setting(
+        "square4",
+        "built-in maze name, a maze YAML file, a ROS map_server map's YAML file or a "
+        "world of a source (barn:0, ...)",
+    )
+    robot: str = setting(
+        "burger",
+        "the robot (also the top-level key robot): its footprint, speed limits and LiDAR "
+        "become the defaults of env.robot_radius, env.n_beams, env.lidar_fov, "
+        "env.min_range, env.max_range, env.speed_range, env.max_yaw_rate, and scale the "
+        "action sets (jaxnav list)",
+        rule=(
+            lambda v: v in robots.names(),
+            lambda: "must be one of " + ", ".join(robots.names()),
+        ),
+    )
+    robot_radius: float = setting(
+        0.13, "the robot's disc for collisions, m (burger: ROBOTIS' 0.13)", rule=POSITIVE
+    )
     n_beams: int = setting(24, "LiDAR beams (360 on the robot)", rule=AT_LEAST_1)
+    lidar_fov: float = setting(
+        360.0,
+        "the LiDAR's field of view, degrees: 360 (beam 0 ahead, counter-clockwise) or less "
+        "(the beams spread from the right edge to the left edge, both included)",
+        rule=(lambda v: 0.0 < v <= 360.0, "must be in (0, 360]"),
+    )
+    min_range: float = setting(0.12, "the LiDAR's shortest reading, m", rule=NON_NEGATIVE)
+    max_range: float = setting(3.5, "the LiDAR's longest reading, m", rule=POSITIVE)
+    goal_radius: float = setting(0.2, "a goal is reached within this distance, m", rule=POSITIVE)
+    goal_ends: bool = setting(
+        False,
+        "reaching the goal ends the episode (BARN's protocol: one attempt per episode, "
+        "the next starting again from the start pose)",
+    )
     max_steps: int = setting(500, "an episode is truncated after this many steps", rule=AT_LEAST_1)
     attempt_limit: int = setting(
         0,
@@ -504,6 +536,13 @@ class RunConfig:
         ("square4", "square8", "square2", "triangle", "pentagon"), "mazes of the test"
     )
     test_episodes: int = setting(10, "consecutive test episodes per maze", rule=AT_LEAST_1)
+    dwa: str = setting(
+        "jaxnav",
+        "the DWA reference driver's parameters: jaxnav (its own, over the action set) or "
+        "barn (the BARN challenge's base_local_planner_params.yaml: its velocity samples, "
+        "2 s of forward simulation, its padded footprint; jaxnav evaluate --baseline dwa)",
+        rule=one_of("jaxnav", "barn"),
+    )
     on_divergence: str = setting(
         "stop",
         "a run whose numbers stop being finite: stop the command, or drop that run",

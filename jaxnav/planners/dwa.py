@@ -54,6 +54,10 @@ class DWA:
       alpha, beta, gamma: the weights of heading, clearance and velocity.
       lookahead: with ``env.waypoint`` in a drawn maze, how far along the shortest path
         the carrot it heads for lies (m).
+      velocities: its own candidate commands ((v, omega), ...), sampled as ROS's
+        planners sample them, instead of the environment's action set; the environment's
+        actions are then continuous and the chosen command is given as one
+        (:func:`continuous_action`). None: the action set's.
     """
 
     env: NavEnv
@@ -66,6 +70,7 @@ class DWA:
     beta: float = 0.2
     gamma: float = 0.2
     lookahead: float = 0.5
+    velocities: tuple[tuple[float, float], ...] | None = None
 
     def start(self, params: EnvParams, state: EnvState) -> Any:
         """DWA keeps no memory between steps."""
@@ -77,14 +82,13 @@ class DWA:
         """(action i32[], None): the best admissible velocity for this scan and goal (or
         the path's carrot, where the policies are given the path)."""
         env = self.env
-        n = env.n_beams
         ranges, heading, distance = env.read_observation(obs, params)
         if env.waypoint and env.generates:  # the global planner's carrot on the path
             carrot = env.family.waypoint(
                 state.maze, state.cell_dist, state.pos, state.goal, self.lookahead
             )
             heading, distance = sensor.goal_heading_distance(state.pos, state.yaw, carrot)
-        angles = sensor.beam_angles(n, env.beam_layout == "gazebo")
+        angles = env.beam_angles()
         returned = ranges < params.max_range - 1e-3  # a max-range reading hit nothing
         qx, qy = ranges * jnp.cos(angles), ranges * jnp.sin(angles)  # the robot's frame
         # wall pieces between neighbouring returns of nearly equal range
@@ -92,9 +96,14 @@ class DWA:
         joined = returned & jnp.roll(returned, -1)
         joined = joined & (jnp.abs(ranges - jnp.roll(ranges, -1)) < self.join)
 
-        A = env.num_actions
-        v, w = env.command(params, jnp.arange(A))
-        v = jnp.broadcast_to(v, (A,))
+        if self.velocities is not None:  # its own samples, driven as continuous commands
+            v = jnp.asarray([c[0] for c in self.velocities], jnp.float32)
+            w = jnp.asarray([c[1] for c in self.velocities], jnp.float32)
+            A = len(self.velocities)
+        else:
+            A = env.num_actions
+            v, w = env.command(params, jnp.arange(A))
+            v = jnp.broadcast_to(v, (A,))
         k = max(1, round(self.horizon * self.samples))
         times = self.horizon * (jnp.arange(k, dtype=jnp.float32) + 1) / k  # [k]
         path = jnp.moveaxis(displacement(0.0, w[:, None], v[:, None], times[None, :]), 0, -1)
@@ -120,7 +129,50 @@ class DWA:
             jnp.argmax(jnp.where(admissible, score, -jnp.inf)),
             jnp.argmax(clearance),
         )
+        if self.velocities is not None:
+            return continuous_action(env, v[best], w[best]), memory
         return best.astype(jnp.int32), memory
+
+
+def continuous_action(env: NavEnv, v, w) -> chex.Array:
+    """f32[2]: the continuous action in [-1, 1]^2 that commands (v, w) in ``env``
+    (:meth:`jaxnav.env.NavEnv.command`'s mapping undone)."""
+    low, high = env.speed_range
+    a0 = 2.0 * (v - low) / (high - low) - 1.0
+    return jnp.stack([a0, w / env.max_yaw_rate]).astype(jnp.float32)
+
+
+# The BARN challenge's DWA (jackal_helper/configs/params/base_local_planner_params.yaml,
+# TrajectoryPlannerROS with dwa: true; costmap_common_params.yaml): its velocity samples
+# (vx_samples 6 over min_vel_x 0.1 .. max_vel_x 0.5, vtheta_samples 20 over +-max_vel_theta
+# 1.57, the in-place turns from min_in_place_vel_theta 0.314 to 1.57), its forward
+# simulation (sim_time 2.0 s) and its footprint (0.42 x 0.33 m padded by 0.1 m: a disc of
+# its inscribed radius, 0.265 m, must stay clear). Its acceleration limits (acc_lim_x 10,
+# acc_lim_theta 20) at 20 Hz leave every sample within the window at jaxnav's 0.2 s.
+BARN_VX = tuple(0.1 + 0.4 * i / 5 for i in range(6))
+BARN_VTHETA = tuple(-1.57 + 3.14 * i / 19 for i in range(20))
+BARN_IN_PLACE = tuple(s * w for w in (0.314, 0.785, 1.57) for s in (-1.0, 1.0))
+BARN_VELOCITIES = tuple((v, w) for v in BARN_VX for w in BARN_VTHETA) + tuple(
+    (0.0, w) for w in BARN_IN_PLACE
+)
+BARN_FOOTPRINT = 0.165 + 0.1  # m: the padded footprint's inscribed radius
+BARN_SETTINGS = {  # the environment's continuous commands cover BARN's samples
+    "actions": "continuous",
+    "speed_range": (0.0, 0.5),
+    "max_yaw_rate": 1.57,
+}
+
+
+def barn_dwa(env: NavEnv, robot_radius: float) -> DWA:
+    """DWA with BARN's parameters for ``env`` (its actions :data:`BARN_SETTINGS`), the
+    robot a disc of ``robot_radius``."""
+    return DWA(
+        env,
+        horizon=2.0,
+        samples=25,
+        margin=max(BARN_FOOTPRINT - robot_radius, 0.0),
+        velocities=BARN_VELOCITIES,
+    )
 
 
 def _normalised(x: chex.Array, keep: chex.Array) -> chex.Array:
@@ -130,4 +182,4 @@ def _normalised(x: chex.Array, keep: chex.Array) -> chex.Array:
     return jnp.where(total > 0, x / jnp.where(total > 0, total, 1.0), 0.0)
 
 
-__all__ = ["DWA"]
+__all__ = ["BARN_SETTINGS", "BARN_VELOCITIES", "DWA", "barn_dwa", "continuous_action"]

@@ -69,6 +69,11 @@ def export_policy(
             f"{run_dir}: a policy trained with env.waypoint cannot be exported yet "
             "(the robot side has no path to take the next waypoint from)"
         )
+    if env.lidar_fov < 360.0 or env.robot != "burger":
+        raise PolicyError(
+            f"{run_dir}: a policy of the {env.robot} with a {env.lidar_fov:g}-degree LiDAR "
+            "cannot be exported yet (the robot side reads the burger's 360-degree scan)"
+        )
     if env.observe_moving:
         raise PolicyError(
             f"{run_dir}: a policy trained with env.observe_moving cannot be exported (it "

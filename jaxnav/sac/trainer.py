@@ -166,7 +166,7 @@ def make_trainer(config: Config) -> Trainer:
         done = terminated | truncated
         explore = jnp.full(envs, alpha)
         metrics, episode = file_episodes(
-            ts.metrics, ts.episode, run, reward, info["goal_reached"], terminated, done,
+            ts.metrics, ts.episode, run, reward, info["goal_reached"], info["collision"], done,
             explore, limit, slots, env.attempt_limit,
         )  # fmt: skip
 

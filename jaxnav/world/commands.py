@@ -11,6 +11,7 @@ from typing import Any
 import chex
 import jax.numpy as jnp
 
+from jaxnav.core import robots
 from jaxnav.core.settings import (
     ACTION_SETS,
     BURGER_MAX_OMEGA,
@@ -32,6 +33,7 @@ class Commands:
     speed_range: tuple[float, float]
     max_yaw_rate: float
     normalised: bool
+    robot: str
 
     def command(self, params: EnvParams, action: chex.Array) -> tuple[chex.Array, chex.Array]:
         """(v m/s, omega rad/s) the robot drives for ``action`` (any shape): the action's
@@ -66,10 +68,8 @@ class Commands:
         if not self.normalised:
             return None
         last = state.last_command
-        return (
-            jnp.abs(jnp.asarray(v, jnp.float32) - last[0]) / BURGER_MAX_V
-            + jnp.abs(omega - last[1]) / BURGER_MAX_OMEGA
-        )
+        sv, sw = command_scale(self.robot)
+        return jnp.abs(jnp.asarray(v, jnp.float32) - last[0]) / sv + jnp.abs(omega - last[1]) / sw
 
     def travel(self, params: EnvParams, state: EnvState, action: chex.Array) -> chex.Array:
         """f32[]: the length of the path the step from ``state`` drives (|v| dt along its
@@ -112,3 +112,27 @@ class Commands:
         if self.continuous:
             return Box(-1.0, 1.0, (2,))
         return Discrete(self.num_actions)
+
+
+def set_commands(actions: str, robot: str) -> dict[str, Any]:
+    """``EnvParams``' speeds and yaw rates (f32[A] each) of the action set ``actions``,
+    the burger's commands scaled by ``robot``'s limits over the burger's
+    (:attr:`jaxnav.core.robots.Robot.command_scale`); {} for the paper's actions and
+    continuous ones, which hold no set."""
+    table = ACTION_SETS.get(actions)
+    if table is None:
+        return {}
+    sv, sw = robots.get(robot).command_scale if robot != "burger" else (1.0, 1.0)
+    return {
+        "speeds": jnp.asarray([v * sv for v, _ in table], jnp.float32),
+        "omegas": jnp.asarray([w * sw for _, w in table], jnp.float32),
+    }
+
+
+def command_scale(robot: str) -> tuple[float, float]:
+    """(v m/s, omega rad/s): the robot's top speeds, which the normalised observation
+    and the change penalty divide the driven command by (the burger's teleop limits)."""
+    if robot == "burger":
+        return BURGER_MAX_V, BURGER_MAX_OMEGA
+    r = robots.get(robot)
+    return r.max_v, r.max_omega

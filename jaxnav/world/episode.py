@@ -6,10 +6,13 @@ environment's."""
 
 from __future__ import annotations
 
+import dataclasses
+
 import chex
 import jax
 import jax.numpy as jnp
 
+from jaxnav.core.errors import ConfigError
 from jaxnav.core.settings import paces_motion
 from jaxnav.world import motion, occupancy
 from jaxnav.world.maps import Maze
@@ -76,3 +79,15 @@ class EpisodeMaze:
         w = jnp.clip(jnp.asarray(progress, jnp.float32) / self.pace_curriculum, 0.0, 1.0)
         start = jnp.asarray(self.motion_pace, jnp.float32)
         return params.replace(pace_range=start + w * (1.0 - start))
+
+
+def fitted(env, params: EnvParams, name) -> tuple:
+    """(env, params) with the maze's occupancy grid, if any, walked and windowed for this
+    robot and sensor (``NavEnv.grid_fit``, :func:`jaxnav.world.occupancy.sized_for`);
+    unchanged without a grid. A grid cannot be scaled (``env.maze_scale``)."""
+    if params.maze.grid is None:
+        return env, params
+    if env.scales_maze:
+        raise ConfigError(f"env.maze_scale scales walls and cylinders: maze {name!r} is a grid")
+    env = dataclasses.replace(env, grid_fit=occupancy.sized_for(env, params))
+    return env, params.replace(maze=env.fit_maze(params.maze))

@@ -14,6 +14,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from jaxnav.world import motion, sensor
+from jaxnav.world.commands import command_scale
 from jaxnav.world.geometry import wrap_angle
 from jaxnav.world.spaces import Box
 from jaxnav.world.state import EnvParams, EnvState
@@ -37,6 +38,8 @@ class Observer:
     odom_noise: tuple[float, float]
     maze_scale: tuple[float, float]
     walks_lattice: bool
+    robot: str
+    lidar_fov: float
 
     @property
     def normalised(self) -> bool:
@@ -123,6 +126,7 @@ class Observer:
                 dropout=self.beam_dropout,
                 odom_std=self.odom_noise,
                 waypoint=waypoint,
+                scale=command_scale(self.robot),
             )
             if self.scan_history:  # the scans before (at an episode's start: this one)
                 if scans is None:
@@ -172,7 +176,11 @@ class Observer:
         if self.walks_lattice:
             dirs = sensor.beam_directions(n_beams, yaw, inclusive)
             return self.family.beam_ranges(maze, pos, dirs)
-        return sensor.beam_ranges(maze, pos, yaw, n_beams, inclusive)
+        return sensor.beam_ranges(maze, pos, yaw, n_beams, inclusive, self.lidar_fov)
+
+    def beam_angles(self) -> chex.Array:
+        """f32[n_beams]: each observed beam's angle from ahead (the robot's frame)."""
+        return sensor.beam_angles(self.n_beams, self.beam_layout == "gazebo", self.lidar_fov)
 
     def read_observation(
         self, obs: chex.Array, params: EnvParams

@@ -27,35 +27,54 @@ from jaxnav.world.maps import Maze
 from jaxnav.world.occupancy import grid_ranges
 
 
-def beam_step(n_beams: int, inclusive: bool = False) -> float:
+def beam_step(n_beams: int, inclusive: bool = False, fov: float = 360.0) -> float:
     """Angle between beams: 2 pi / n, or 2 pi / (n - 1) when n samples span [0, 2 pi]
-    inclusive (Gazebo's layout: the first and last beams both look ahead)."""
+    inclusive (Gazebo's layout: the first and last beams both look ahead); with a field
+    of view ``fov`` below 360 degrees, fov / (n - 1): edge to edge."""
+    if fov < 360.0:
+        return math.radians(fov) / (n_beams - 1)
     return 2 * math.pi / (n_beams - 1 if inclusive and n_beams > 1 else n_beams)
 
 
-def beam_angles(n_beams: int, inclusive: bool = False) -> jax.Array:
-    """Beam k points at yaw + k * beam_step (counter-clockwise from ahead): f32[n_beams]."""
+def _first_beam(fov: float) -> float:
+    """The first beam's angle from ahead: 0, or the right edge of a narrower scan."""
+    return -math.radians(fov) / 2 if fov < 360.0 else 0.0
+
+
+def beam_angles(n_beams: int, inclusive: bool = False, fov: float = 360.0) -> jax.Array:
+    """Beam k points at yaw + k * beam_step (counter-clockwise from ahead; from the right
+    edge where the field of view ``fov`` is below 360 degrees): f32[n_beams]."""
+    if fov < 360.0:
+        a = _first_beam(fov) + np.arange(n_beams) * beam_step(n_beams, inclusive, fov)
+        return jnp.asarray(a, jnp.float32)
     return jnp.arange(n_beams, dtype=jnp.float32) * beam_step(n_beams, inclusive)
 
 
-def beam_directions(n_beams: int, yaw: chex.Array, inclusive: bool = False) -> chex.Array:
+def beam_directions(
+    n_beams: int, yaw: chex.Array, inclusive: bool = False, fov: float = 360.0
+) -> chex.Array:
     """Unit vectors f32[n_beams, 2] of the beams at heading ``yaw``.
 
     The beams' own angles are constants; turning them by ``yaw`` is a rotation, so a
     scan costs one sine and one cosine instead of one per beam.
     """
-    a = np.arange(n_beams) * beam_step(n_beams, inclusive)
+    a = _first_beam(fov) + np.arange(n_beams) * beam_step(n_beams, inclusive, fov)
     ca, sa = np.cos(a).astype(np.float32), np.sin(a).astype(np.float32)
     cy, sy = jnp.cos(yaw), jnp.sin(yaw)
     return jnp.stack([cy * ca - sy * sa, sy * ca + cy * sa], axis=-1)
 
 
 def beam_ranges(
-    maze: Maze, pos: chex.Array, yaw: chex.Array, n_beams: int, inclusive: bool = False
+    maze: Maze,
+    pos: chex.Array,
+    yaw: chex.Array,
+    n_beams: int,
+    inclusive: bool = False,
+    fov: float = 360.0,
 ) -> chex.Array:
     """True, unclipped beam ranges f32[n_beams] from pose (pos f32[2], yaw f32[]) (and
     a maze's occupancy grid walked, :func:`jaxnav.world.occupancy.grid_ranges`)."""
-    dirs = beam_directions(n_beams, yaw, inclusive)
+    dirs = beam_directions(n_beams, yaw, inclusive, fov)
     ranges = ray_distances_dir(maze, pos, dirs)
     if maze.grid is not None:
         ranges = jnp.minimum(ranges, grid_ranges(maze.grid, pos, dirs))
@@ -217,12 +236,18 @@ def _seen(key, ranges, pos, yaw, goal, noise_std, min_range, max_range, dropout,
 
 
 def normalised_state(
-    ranges: chex.Array, heading: chex.Array, distance: chex.Array, last: chex.Array, max_range
+    ranges: chex.Array,
+    heading: chex.Array,
+    distance: chex.Array,
+    last: chex.Array,
+    max_range,
+    scale: tuple[float, float] = (BURGER_MAX_V, BURGER_MAX_OMEGA),
 ) -> chex.Array:
     """[ranges / max range, heading / pi, min(distance, max range) / max range, last v /
-    0.22, last omega / 2.84]: f32[B + 4], every entry within [-1, 1] (the burger's
-    teleop limits scale the command the robot drove last, ``last`` (v, omega))."""
-    scale = jnp.asarray([BURGER_MAX_V, BURGER_MAX_OMEGA], jnp.float32)
+    0.22, last omega / 2.84]: f32[B + 4], every entry within [-1, 1] (the robot's limits
+    ``scale``, the burger's teleop limits by default, scale the command the robot drove
+    last, ``last`` (v, omega))."""
+    scale = jnp.asarray(scale, jnp.float32)
     parts = [
         ranges / max_range,
         (heading / jnp.pi)[None],
@@ -275,6 +300,7 @@ def normalised_observation(
     dropout: float = 0.0,
     odom_std: tuple[float, float] = (0.0, 0.0),
     waypoint: chex.Array | None = None,
+    scale: tuple[float, float] = (BURGER_MAX_V, BURGER_MAX_OMEGA),
 ) -> chex.Array:
     """The normalised state (:func:`normalised_state`) seen from true ranges at the true
     pose, with the same noise as :func:`observation`'s; ``last``: the command driven
@@ -283,7 +309,7 @@ def normalised_observation(
     ranges, heading, distance = _seen(
         key, ranges, pos, yaw, goal, noise_std, min_range, max_range, dropout, odom_std
     )
-    state = normalised_state(ranges, heading, distance, last, max_range)
+    state = normalised_state(ranges, heading, distance, last, max_range, scale)
     if waypoint is None:
         return state
     if odom_std != (0.0, 0.0):  # the odometry pose of _seen (the same key)
