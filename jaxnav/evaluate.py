@@ -30,6 +30,7 @@ from jaxnav.core.rundir import CsvLog
 from jaxnav.experiments.baselines import evaluate_world, world_config
 from jaxnav.experiments.evaluation import evaluate_to_dir
 from jaxnav.experiments.robustness import PERTURBATIONS, robustness_to_dir
+from jaxnav.report.barn import summary_text as barn_summary
 from jaxnav.report.nav_tables import long_waits_text, navigation_text
 from jaxnav.report.results import ordered_unique
 from jaxnav.report.tables import outcome_text, setting_text, tables_markdown
@@ -63,6 +64,9 @@ def print_summary(rows: list[dict[str, str]]) -> None:
         waits = long_waits_text(mine)
         if waits:
             print(waits)
+    barn = barn_summary(rows)  # BARN's own metrics, where the test was BARN's
+    if barn:
+        print(barn)
 
 
 def baseline(args) -> None:

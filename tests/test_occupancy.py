@@ -279,3 +279,14 @@ def test_grid_mazes_stack_padded_with_free_cells():
     stacked = stack_mazes([a, b])
     assert stacked.grid.occupied.shape == (2, *a.grid.shape)
     assert not np.asarray(stacked.grid.occupied)[1, 50:].any()
+
+
+def test_a_map_too_large_for_memory_at_the_batch_is_refused_before_training(tmp_path, capsys):
+    import jaxnav.train as train_command
+
+    out = tmp_path / "run"
+    argv = ["smoke", f"env.maze={FLAT}", "agent=pqn", "preset=modern", "pqn.num_envs=4000000"]
+    assert train_command.main([*argv, "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "grid's LiDAR walk" in err and "\n" not in err
+    assert not out.exists()

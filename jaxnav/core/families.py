@@ -68,6 +68,9 @@ class Family:
     # whose LiDAR can walk that lattice (its shape gives beam_ranges(maze, origin, dirs)
     # and n_segments, jaxnav.world.lattice); None: the LiDAR tests every wall.
     lattice: Callable[[Any], int] | None = None
+    # a set of fixed worlds (jaxnav.core.worlds) whose test replaces the drawn splits'
+    # (a benchmark's test worlds, each tested as a fixed maze), or None
+    fixed_test: str | None = None
 
     def shape(self, env: Any) -> Any:
         """The family's static shape from ``env``'s settings (an EnvConfig or a
@@ -89,6 +92,7 @@ def register(
     about: str = "",
     shortest_paths: bool = False,
     lattice: Callable[[Any], int] | None = None,
+    fixed_test: str | None = None,
 ) -> Family:
     """Add a family named ``name`` (the value of ``env.generator``); ``text`` defaults to
     "NAME mazes", ``title`` to ``text``, ``problem`` to none."""
@@ -112,6 +116,7 @@ def register(
         about,
         shortest_paths,
         lattice,
+        fixed_test,
     )
     return _REGISTRY[name]
 
@@ -435,4 +440,26 @@ register(
     text=lambda e: f"{e.rooms_rows} x {e.rooms_cols} rooms mazes ({e.rooms_door:g} m doors)",
     about="a grid of square rooms joined by doors along a random spanning tree",
     shortest_paths=True,
+)
+
+
+# ----------------------------------------------------------------------------
+# barn: jaxnav.world.barn (The BARN Challenge's worlds, one of the split per layout)
+# ----------------------------------------------------------------------------
+
+
+def _barn_problem(env) -> str | None:
+    if tuple(env.maze_scale) != (1.0, 1.0):
+        return "env.maze_scale: BARN's worlds are grids of cylinders and are not scaled"
+    return None
+
+
+register(
+    "barn",
+    "jaxnav.world.barn:barn_family",
+    problem=_barn_problem,
+    text=lambda e: "BARN worlds",
+    about="The BARN Challenge's worlds: one of the split's drawn for each layout (train: "
+    "250, test: the 50 of its test.sh), BARN's start and goal",
+    fixed_test="barn:test",
 )

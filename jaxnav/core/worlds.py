@@ -105,4 +105,34 @@ register(
 )
 
 
-__all__ = ["Source", "expand", "register", "source_of", "sources"]
+# BARN (jaxnav.world.barn): its 300 worlds by name, barn:N, and the sets of the
+# challenge's test.sh (0, 6, ..., 294) and the other 250.
+BARN_WORLDS = 300
+BARN_SETS = {
+    "barn:test": tuple(range(0, BARN_WORLDS, 6)),
+    "barn:train": tuple(n for n in range(BARN_WORLDS) if n % 6),
+    "barn:all": tuple(range(BARN_WORLDS)),
+}
+
+
+def _is_barn_world(name: str) -> bool:
+    head, _, tail = name.partition(":")
+    return head == "barn" and tail.isdigit() and int(tail) < BARN_WORLDS
+
+
+def _barn_set(name: str) -> list[str] | None:
+    worlds = BARN_SETS.get(name)
+    return None if worlds is None else [f"barn:{n}" for n in worlds]
+
+
+register(
+    "barn",
+    claims=_is_barn_world,
+    load="jaxnav.world.barn:load_barn",
+    sets=_barn_set,
+    about="The BARN Challenge's 300 worlds (barn:0 ... barn:299; sets barn:test, the 50 of "
+    "its test.sh, barn:train, the other 250, barn:all), MIT licence",
+)
+
+
+__all__ = ["BARN_SETS", "BARN_WORLDS", "Source", "expand", "register", "source_of", "sources"]

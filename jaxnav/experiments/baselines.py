@@ -24,13 +24,13 @@ import numpy as np
 import yaml
 
 from jaxnav.agent.trainer import run_inputs
-from jaxnav.core import baselines, rundir
+from jaxnav.core import baselines, families, rundir, worlds
 from jaxnav.core.config import Config, load_config, resolve_config_path
 from jaxnav.core.errors import JaxnavError
 from jaxnav.env import EnvParams, NavEnv, from_config
 from jaxnav.experiments.navigation import ShortestPaths, attempt_paths
 from jaxnav.experiments.rollout import Policies, drawn_name, padded_mazes, run_tests
-from jaxnav.planners.dwa import DWA
+from jaxnav.planners.dwa import BARN_SETTINGS, DWA, barn_dwa
 from jaxnav.planners.oracle import Oracle, holds_for
 from jaxnav.planners.raster import raster_for
 from jaxnav.planners.search import opening
@@ -103,10 +103,15 @@ def world_policies(
     name: str, cfg: Config, seeds: Sequence[int], env: NavEnv, env_params: EnvParams
 ) -> Policies:
     """The reference driver ``name`` on its own in a config's world (``env``, its
-    ``env_params``), one driver per seed of ``seeds``."""
+    ``env_params``), one driver per seed of ``seeds``; with ``run.dwa: barn`` DWA is the
+    BARN challenge's (:func:`jaxnav.planners.dwa.barn_dwa`), driving continuous commands."""
     one = dataclasses.replace(cfg, strategies=cfg.strategies[:1], seeds=1, sweep=())
     hyper = run_inputs(one).hyper
-    env, env_params = env.discrete_twin(env_params)  # continuous actions: the vw set
+    barn = name == "dwa" and cfg.run.dwa == "barn"
+    if barn:  # its own velocity samples, commanded as continuous actions
+        env = dataclasses.replace(env, **BARN_SETTINGS)
+    else:
+        env, env_params = env.discrete_twin(env_params)  # continuous actions: the vw set
     n = len(seeds)
     template = Policies(
         labels=[(name, s) for s in seeds],
@@ -119,6 +124,8 @@ def world_policies(
         hyper=jax.tree.map(lambda a: np.repeat(np.asarray(a), n, axis=0), hyper),
         episodes_trained=0,
     )
+    if barn:
+        return template._replace(network=barn_dwa(env, float(env_params.robot_radius)))
     return template._replace(network=planner_of(name, env, [env_params.maze], env_params))
 
 
@@ -161,7 +168,13 @@ def evaluate_world(name: str, cfg: Config, n_seeds: int, n_episodes: int) -> Wor
     and test layouts."""
     env, env_params = from_config(cfg)
     seeds = [cfg.seed + i for i in range(n_seeds)]
-    if env.generates:
+    fixed_test = families.get(env.generator).fixed_test if env.generates else None
+    if fixed_test:  # a benchmark's test worlds, each a fixed maze (BARN's 50, or others)
+        names = worlds.expand(list(cfg.run.test_mazes) or [fixed_test])
+        fixed = dataclasses.replace(env, generator="", maze_bank=0, maze_bank_refresh=0)
+        tests = [(name, fixed) for name in names]
+        mazes = [[m] for m in padded_mazes(names)]
+    elif env.generates:
         tests = [(drawn_name(cfg, s), dataclasses.replace(env, split=s)) for s in SPLITS]
         mazes = [[env_params.maze]] * len(tests)
     else:

@@ -28,7 +28,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from jaxnav.agent.trainer import run_inputs
-from jaxnav.core import agents, baselines, rundir
+from jaxnav.core import agents, baselines, families, rundir, worlds
 from jaxnav.core.config import Config, load_config
 from jaxnav.core.errors import ConfigError, JaxnavError, RunError
 from jaxnav.core.families import family_text
@@ -164,7 +164,7 @@ def test_setup(
     run: LoadedRun, maze_names: Sequence[str] | None, n_episodes: int | None, default: list[str]
 ) -> tuple[list[str], int]:
     """The test mazes (default ``default``) and episode count (default the config's)."""
-    names = list(maze_names) if maze_names else list(default)
+    names = worlds.expand(maze_names if maze_names else default)  # a set: its worlds
     if not names and not run.config.env.generator:
         raise JaxnavError("no test mazes: name some, or set run.test_mazes in the config")
     if len(set(names)) != len(names):
@@ -254,7 +254,7 @@ def evaluate(
         # layouts, which training never saw: their difference is the gap.
         drawn_tests = [
             (drawn_name(run.config, split), drawn_policies(run, split))
-            for split in (SPLITS if run.config.env.generator else ())
+            for split in (SPLITS if drawn_splits(run.config) else ())
         ]
         drawn_tests += [
             (name, drawn_policies(run, cfg.env.split, cfg))
@@ -274,6 +274,13 @@ def evaluate(
                 rows += episode_rows(driver.fields, [name], res, n_episodes, mode, nav)
     columns = with_swept(RESULT_COLUMNS, run.config.sweep)
     return run, names, rundir.csv_text(columns, rows), episodes, failures
+
+
+def drawn_splits(cfg: Config) -> bool:
+    """Whether a run's test draws its family's layouts: a drawn family without a set of
+    fixed test worlds (BARN's are tested by name, run.test_mazes)."""
+    e = cfg.env
+    return bool(e.generator) and families.get(e.generator).fixed_test is None
 
 
 def _usable(references: Sequence[str], env) -> list[str]:

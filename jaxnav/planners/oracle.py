@@ -122,17 +122,24 @@ class Oracle:
         )
 
     def _update(self, mem: OracleMemory, params: EnvParams, state: EnvState, maze: Maze):
-        """The memory for this step: fields computed again where the maze or goal changed."""
+        """The memory for this step: both fields computed again where the maze or the
+        goal changed. One draw for both: with the clearance drawn apart and fed to the
+        distance's draw, XLA computed the distance field at every step of a one-seed test
+        (95 ms a step on a BARN world), the goal unchanged or not."""
         new_maze = jnp.any(maze.segments != mem.segments) | jnp.any(maze.circles != mem.circles)
         if maze.grid is not None:
             new_maze = new_maze | jnp.any(maze.grid.occupied != mem.occupied)
         new_goal = jnp.any(state.goal != mem.goal)
-        clearance = draw_where(
-            lambda m: rs.clearance_field(m, self.raster), new_maze, maze, mem.clearance, chunk=1
-        )
-        origin = rs.origin_of(maze, self.raster)
-        inputs = (clearance, state.goal, origin, params.goal_radius, params.robot_radius)
-        distance = draw_where(self._distance, new_maze | new_goal, inputs, mem.distance, chunk=1)
+
+        def fields(inputs):
+            m, goal, goal_radius, radius = inputs
+            clearance = rs.clearance_field(m, self.raster)
+            origin = rs.origin_of(m, self.raster)
+            return clearance, self._distance((clearance, goal, origin, goal_radius, radius))
+
+        inputs = (maze, state.goal, params.goal_radius, params.robot_radius)
+        old = (mem.clearance, mem.distance)
+        clearance, distance = draw_where(fields, new_maze | new_goal, inputs, old, chunk=1)
         return OracleMemory(
             maze.segments, maze.circles, state.goal, clearance, distance, _cells(maze)
         )

@@ -160,6 +160,18 @@ def _baselines_page(root: Path) -> str:
     return baselines_markdown(text, meta["command"], meta["machine"], meta["notes"])
 
 
+def _barn_page(root: Path) -> str:
+    from jaxnav.report.barn_page import barn_markdown
+
+    return barn_markdown(root)
+
+
+def _barn_readme(root: Path) -> str:
+    from jaxnav.report.barn_page import readme_line
+
+    return readme_line(root)
+
+
 def _campaign_page(stem: str) -> Callable[[Path], str]:
     """A sim-to-sim campaign's page (``stem``.md) from ``stem``.csv and ``stem``.json."""
 
@@ -227,6 +239,8 @@ PUBLISHED: tuple[Published, ...] = (
         slow=True,
     ),
     Published("sim2sim-drive", ("docs/sim2sim.md",), _sim2sim_drive, slow=True),
+    Published("barn", ("README.md",), _barn_readme),
+    Published("barn-page", ("docs/barn.md",), _barn_page, block=False),
     Published(
         "sim2sim-realism-page",
         (f"{REALISM}.md",),

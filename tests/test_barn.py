@@ -1,0 +1,157 @@
+"""BARN: the shipped worlds honour the facts of the challenge's files, the converter
+reads a world file as it should and refuses one that breaks a fact, the protocol's
+numbers and splits are the challenge's, and BARN's metrics recomputed from its own
+published DWA runs are those of its report_test.py."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import _nav_reference as ref
+import numpy as np
+import pytest
+
+from jaxnav.core import worlds
+from jaxnav.core.config import load_config
+from jaxnav.report import barn as rb
+from jaxnav.world import barn, barn_convert
+from jaxnav.world.maps import make_maze
+from jaxnav.world.sensor import lidar_scan
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def test_every_world_is_a_field_of_cylinders_between_full_side_walls_above_the_corridor():
+    d = barn.data()
+    cyl, occ = d["cylinders"], d["occupied"]
+    assert cyl.shape == occ.shape == (300, 64, 30)
+    field = cyl[:, barn_convert.FIELD_ROW :]  # 30 rows of y above 5.1 m
+    assert field.shape[1] == 30
+    assert field[:, :, 0].all() and field[:, :, 29].all()  # BARN's grid rows 0 and 29
+    corridor = barn_convert.corridor()[: barn_convert.FIELD_ROW]
+    assert (cyl[:, : barn_convert.FIELD_ROW] == corridor).all()
+    assert (occ >= cyl).all()  # the filled cells are added, none taken away
+
+
+def test_the_filled_cells_are_sealed_off_by_touching_cylinders():
+    d = barn.data()
+    added = d["occupied"] & ~d["cylinders"]
+    assert added.sum() > 0
+    for n in np.unique(np.nonzero(added)[0])[:40]:
+        occ, cyl = d["occupied"][n], d["cylinders"][n]
+        # every filled cell's 4 orthogonal neighbours are occupied (a cylinder or filled
+        # too): nothing free touches it along a side, so no gap between cylinders opens
+        rows, cols = np.nonzero(occ & ~cyl)
+        for i, j in zip(rows, cols):
+            for di, dj in ((1, 0), (-1, 0), (0, 1), (0, -1)):
+                assert occ[i + di, j + dj], (n, i, j)
+        # and through diagonal gaps neither: every 8-neighbour is occupied
+        for i, j in zip(rows, cols):
+            assert occ[i - 1 : i + 2, j - 1 : j + 2].all()
+
+
+def test_sealed_filling_by_hand():
+    cyl = np.zeros((64, 30), bool)
+    cyl[40:43, 10:13] = True
+    cyl[41, 11] = False  # a free cell inside a ring of eight: sealed
+    cyl[50:53, 10:13] = True
+    cyl[51, 11] = cyl[50, 10] = False  # a free cell opening diagonally: not sealed
+    occ = barn_convert.sealed_filled(cyl)
+    assert occ[41, 11] and not occ[51, 11]
+
+
+def _world_text(cylinders, radius="0.075000", lifted=0.0):
+    models = "".join(
+        f"<model name='unit_cylinder_{k}'>\n<static>1</static>\n"
+        f"<pose frame=''>{x:.6f} {y:.6f} {lifted:.6f} 0 0 0</pose>\n"
+        f"<link name='link'><collision name='collision'><geometry><cylinder><radius>{radius}"
+        "</radius><length>1</length></cylinder></geometry></collision></link></model>\n"
+        for k, (x, y) in enumerate(cylinders)
+    )
+    return f"<sdf version='1.6'><world name='default'>{models}<state world_name='default'>" + (
+        "<model name='unit_cylinder_0'><pose frame=''>9 9 9 0 0 0</pose></model></state>"
+    )
+
+
+def test_a_world_file_is_read_from_its_models_first_poses():
+    grid = barn_convert.cylinders_of(_world_text([(-4.425, 0.075), (-2.25 + 0.075, 5.175)]), "w")
+    assert grid.sum() == 2 and grid[0, 0] and grid[34, 15]  # the state block's pose is not read
+    with pytest.raises(barn_convert.BarnFormatError, match="radius"):
+        barn_convert.cylinders_of(_world_text([(-4.425, 0.075)], radius="0.1"), "w")
+    with pytest.raises(barn_convert.BarnFormatError, match="lattice"):
+        barn_convert.cylinders_of(_world_text([(-4.4, 0.075)]), "w")
+    with pytest.raises(barn_convert.BarnFormatError, match="lifted"):
+        barn_convert.cylinders_of(_world_text([(-4.425, 0.075)], lifted=0.5), "w")
+
+
+def test_the_reference_paths_are_measured_as_run_py_measures_them():
+    d = barn.data()
+    lengths = d["path_length"]
+    assert lengths.min() == pytest.approx(10.05, abs=0.005)
+    assert lengths.max() == pytest.approx(13.74, abs=0.005)
+    assert lengths.mean() == pytest.approx(11.42, abs=0.005)
+    # by hand: a path of one cell (15, 0) at (-2.325, 5.075), from (-2.25, 3) to (-2.25, 13)
+    one = np.array([[15, 0]])
+    want = np.hypot(0.075, 2.075) + np.hypot(0.075, 7.925)
+    assert barn_convert.path_length(one, barn_convert.START) == pytest.approx(want)
+
+
+def test_the_protocol_and_the_splits_are_the_challenges():
+    maze = make_maze("barn:0")
+    np.testing.assert_allclose(np.asarray(maze.start), [-2.25, 3.0, np.pi / 2], atol=1e-6)
+    np.testing.assert_allclose(np.asarray(maze.goal), [-2.25, 13.0])
+    assert barn.GOAL_RADIUS == 1.0 and barn.TIME_LIMIT == 100.0
+    assert barn.TEST == tuple(range(0, 300, 6)) and len(barn.TEST) == 50
+    assert len(barn.TRAIN) == 250 and not set(barn.TEST) & set(barn.TRAIN)
+    assert worlds.expand(["barn:test"]) == [f"barn:{n}" for n in range(0, 300, 6)]
+    cfg = load_config("barn")
+    assert cfg.env.robot == "jackal" and cfg.env.goal_ends and cfg.env.goal_radius == 1.0
+    assert cfg.env.max_steps * 0.2 == pytest.approx(barn.TIME_LIMIT)
+
+
+def test_a_barn_worlds_scan_equals_a_brute_force_caster_of_its_cylinders():
+    maze = make_maze("barn:150")
+    walls, circles = ref.maze_geometry(maze)
+    assert len(walls) == 0 and len(circles) == int(np.asarray(maze.grid.occupied).sum())
+    rng = np.random.default_rng(0)
+    pts = rng.uniform([-4.4, 0.2], [-0.1, 9.5], (400, 2))
+    pts = pts[ref.clearance(pts, walls, circles) > 0.01][:60]
+    yaw = rng.uniform(-np.pi, np.pi, len(pts))
+    for p, y in zip(pts, yaw):
+        got = np.asarray(lidar_scan(maze, p.astype(np.float32), np.float32(y), 72, 0.1, 10.0))
+        angles = (y + np.arange(72) * 2 * np.pi / 72)[None]
+        want = np.clip(ref.ray_distances(p[None], angles, walls, circles)[0], 0.1, 10.0)
+        np.testing.assert_allclose(got, want, atol=1e-4)
+
+
+def test_barns_published_dwa_runs_give_report_test_pys_figures():
+    runs = rb.dwa_out_runs((ROOT / "docs" / "barn" / "dwa_out.txt").read_text())
+    assert len(runs) == 500 and len({r["world"] for r in runs}) == 50
+    m = rb.seed_metrics(runs)
+    assert m["success"] == pytest.approx(0.85) and m["collision"] == pytest.approx(0.056)
+    assert m["timeout"] == pytest.approx(0.094) and m["time_s"] == pytest.approx(34.0925, abs=1e-4)
+    assert m["score_2022"] == pytest.approx(0.1580, abs=5e-5)  # start (-2, 3), clip 4-8 OT
+    assert m["score"] == pytest.approx(0.1586, abs=5e-5)  # start (-2.25, 3), clip 2-8 OT
+
+
+def test_the_score_by_hand():
+    # OT 5 s: 8 s clips to 10 (2 OT) -> 0.5; 30 s -> 5/30; 60 s clips to 40 (8 OT); a failure 0
+    got = rb.score([1, 1, 1, 0], [8.0, 30.0, 60.0, 8.0], 5.0)
+    np.testing.assert_allclose(got, [0.5, 5 / 30, 5 / 40, 0.0])
+    np.testing.assert_allclose(rb.score([1], [8.0], 5.0, rb.CLIPS["score_2022"]), [0.25])
+
+
+def test_unknown_barn_names_are_refused_in_one_line():
+    with pytest.raises(Exception, match="unknown maze 'barn:300'"):
+        make_maze("barn:300")
+
+
+def test_the_page_sets_the_published_rows_beside_jaxnavs():
+    from jaxnav.report.barn_page import table
+
+    lines = table(ROOT)
+    readme = next(ln for ln in lines if ln.startswith("| DWA, the challenge's README"))
+    assert "0.880" in readme and "0.1693" in readme
+    recomputed = next(ln for ln in lines if "dwa_out.txt" in ln)
+    assert "0.850" in recomputed and "0.056" in recomputed and "0.1580" in recomputed
+    assert any(ln.startswith("| DRL-VO") and "0.2339" in ln for ln in lines)
