@@ -155,3 +155,28 @@ def test_the_page_sets_the_published_rows_beside_jaxnavs():
     recomputed = next(ln for ln in lines if "dwa_out.txt" in ln)
     assert "0.850" in recomputed and "0.056" in recomputed and "0.1580" in recomputed
     assert any(ln.startswith("| DRL-VO") and "0.2339" in ln for ln in lines)
+
+
+def test_dwa_with_barns_parameters_samples_its_velocities_and_commands_them_exactly():
+    import dataclasses
+
+    import jax.numpy as jnp
+
+    import jaxnav
+    from jaxnav.planners import dwa
+
+    vx = sorted({v for v, _ in dwa.BARN_VELOCITIES if v > 0})
+    np.testing.assert_allclose(vx, np.linspace(0.1, 0.5, 6))
+    turns = sorted({w for v, w in dwa.BARN_VELOCITIES if v > 0})
+    np.testing.assert_allclose(turns, np.linspace(-1.57, 1.57, 20))
+    env, params = jaxnav.make("square4", robot="jackal", reward="progress", **dwa.BARN_SETTINGS)
+    for v, w in dwa.BARN_VELOCITIES[::7]:
+        got = env.command(params, dwa.continuous_action(env, v, w))
+        np.testing.assert_allclose([float(got[0]), float(got[1])], [v, w], atol=1e-5)
+    planner = dwa.barn_dwa(dataclasses.replace(env), 0.25)
+    v = jnp.asarray([0.0, 0.0, 0.3]), jnp.asarray([0.785, -0.785, -0.5])
+    turned = planner._remember_turn((jnp.float32(0), jnp.zeros(2)), jnp.zeros(2), v[0][0], v[1][0])
+    allowed, _ = planner._no_reversal(turned, jnp.asarray([0.01, 0.0]), *v)
+    assert list(np.asarray(allowed)) == [True, False, True]  # no turning back in place
+    allowed, _ = planner._no_reversal(turned, jnp.asarray([0.06, 0.0]), *v)
+    assert np.asarray(allowed).all()  # once it has moved 0.05 m

@@ -540,8 +540,9 @@ class RunConfig:
         "jaxnav",
         "the DWA reference driver's parameters: jaxnav (its own, over the action set) or "
         "barn (the BARN challenge's base_local_planner_params.yaml: its velocity samples, "
-        "2 s of forward simulation, its padded footprint; jaxnav evaluate --baseline dwa)",
-        rule=one_of("jaxnav", "barn"),
+        "2 s of forward simulation, its padded footprint; jaxnav evaluate --baseline dwa) "
+        "or barn_map (those, under a global planner that knows the map)",
+        rule=one_of("jaxnav", "barn", "barn_map"),
     )
     on_divergence: str = setting(
         "stop",

@@ -107,7 +107,7 @@ def world_policies(
     BARN challenge's (:func:`jaxnav.planners.dwa.barn_dwa`), driving continuous commands."""
     one = dataclasses.replace(cfg, strategies=cfg.strategies[:1], seeds=1, sweep=())
     hyper = run_inputs(one).hyper
-    barn = name == "dwa" and cfg.run.dwa == "barn"
+    barn = name == "dwa" and cfg.run.dwa in ("barn", "barn_map")
     if barn:  # its own velocity samples, commanded as continuous actions
         env = dataclasses.replace(env, **BARN_SETTINGS)
     else:
@@ -125,7 +125,8 @@ def world_policies(
         episodes_trained=0,
     )
     if barn:
-        return template._replace(network=barn_dwa(env, float(env_params.robot_radius)))
+        plan = raster_for([env_params.maze], RASTER_CELL) if cfg.run.dwa == "barn_map" else None
+        return template._replace(network=barn_dwa(env, float(env_params.robot_radius), plan))
     return template._replace(network=planner_of(name, env, [env_params.maze], env_params))
 
 

@@ -35,8 +35,10 @@ import chex
 import jax.numpy as jnp
 
 from jaxnav.env import EnvParams, EnvState, NavEnv
+from jaxnav.planners import raster as rs
 from jaxnav.world import sensor
 from jaxnav.world.geometry import displacement, point_segment_distance, wrap_angle
+from jaxnav.world.lazy import draw_where
 
 
 @dataclasses.dataclass(frozen=True)
@@ -58,6 +60,10 @@ class DWA:
         planners sample them, instead of the environment's action set; the environment's
         actions are then continuous and the chosen command is given as one
         (:func:`continuous_action`). None: the action set's.
+      global_plan: a raster (:class:`jaxnav.planners.raster.Raster`) on which a global
+        planner that knows the map (move_base's navfn, given the whole costmap) finds the
+        shortest way to the goal; DWA then heads for the point ``lookahead`` m along it
+        instead of the goal. None: no global planner (the goal's own direction).
     """
 
     env: NavEnv
@@ -71,10 +77,53 @@ class DWA:
     gamma: float = 0.2
     lookahead: float = 0.5
     velocities: tuple[tuple[float, float], ...] | None = None
+    global_plan: rs.Raster | None = None
 
     def start(self, params: EnvParams, state: EnvState) -> Any:
-        """DWA keeps no memory between steps."""
-        return None
+        """DWA keeps no memory between steps, but its global planner's distance field
+        and, with its own samples, the way it last turned in place
+        (:meth:`_no_reversal`)."""
+        plan = None if self.global_plan is None else self._plan_field(params, state.goal)
+        if self.velocities is None:
+            return plan
+        return plan, jnp.zeros((), jnp.float32), state.pos
+
+    def _no_reversal(self, turn_memory, pos, v, w):
+        """(bool[A] the candidates allowed, ROS's oscillation rule): after turning in place
+        one way, turning in place the other way is refused until the robot has moved
+        ``OSCILLATION_RESET`` m from where that turn began (base_local_planner's
+        oscillation_reset_dist, BARN's 0.05 m)."""
+        turned, anchor = turn_memory
+        turned = jnp.where(jnp.hypot(*(pos - anchor)) > OSCILLATION_RESET, 0.0, turned)
+        in_place = v == 0.0
+        return ~(in_place & (jnp.sign(w) == -turned) & (turned != 0.0)), (turned, anchor)
+
+    def _remember_turn(self, turn_memory, pos, v, w):
+        turned, anchor = turn_memory
+        spin = v == 0.0
+        anchor = jnp.where(spin & (turned == 0.0), pos, anchor)
+        return jnp.where(spin, jnp.sign(w), turned), anchor
+
+    def _plan_field(self, params: EnvParams, goal: chex.Array):
+        """(goal f32[2], f32[ny, nx] the shortest way to it from each raster cell)."""
+        maze, raster = params.maze, self.global_plan
+        free = rs.clearance_field(maze, raster) >= params.robot_radius
+        field = rs.goal_distance(free, goal, params.goal_radius, rs.origin_of(maze, raster), raster)
+        return goal, field
+
+    def _carrot(self, memory, state: EnvState, params: EnvParams):
+        """(memory, carrot f32[2]): the point ``lookahead`` m from the robot in the
+        direction (of 32) whose way to the goal is shortest; the field drawn again where
+        the goal changed."""
+        fresh = jnp.any(memory[0] != state.goal)
+        memory = draw_where(
+            lambda g, prm: self._plan_field(prm, g), fresh, state.goal, memory, shared=params
+        )
+        angles = jnp.linspace(-jnp.pi, jnp.pi, 32, endpoint=False)
+        around = state.pos + self.lookahead * jnp.stack([jnp.cos(angles), jnp.sin(angles)], -1)
+        origin = rs.origin_of(params.maze, self.global_plan)
+        d = rs.field_upper(memory[1], origin, self.global_plan, around[:, 0], around[:, 1])
+        return memory, jnp.where(jnp.isfinite(jnp.min(d)), around[jnp.argmin(d)], state.goal)
 
     def plan(
         self, memory: Any, obs: chex.Array, state: EnvState, params: EnvParams
@@ -88,6 +137,10 @@ class DWA:
                 state.maze, state.cell_dist, state.pos, state.goal, self.lookahead
             )
             heading, distance = sensor.goal_heading_distance(state.pos, state.yaw, carrot)
+        plan, turns = (memory, None) if self.velocities is None else (memory[0], memory[1:])
+        if self.global_plan is not None:  # head along the global plan
+            plan, carrot = self._carrot(plan, state, params)
+            heading, distance = sensor.goal_heading_distance(state.pos, state.yaw, carrot)
         angles = env.beam_angles()
         returned = ranges < params.max_range - 1e-3  # a max-range reading hit nothing
         qx, qy = ranges * jnp.cos(angles), ranges * jnp.sin(angles)  # the robot's frame
@@ -95,6 +148,8 @@ class DWA:
         nx_, ny_ = jnp.roll(qx, -1), jnp.roll(qy, -1)
         joined = returned & jnp.roll(returned, -1)
         joined = joined & (jnp.abs(ranges - jnp.roll(ranges, -1)) < self.join)
+        if env.lidar_fov < 360.0:  # the last beam and the first face across the blind arc
+            joined = joined.at[-1].set(False)
 
         if self.velocities is not None:  # its own samples, driven as continuous commands
             v = jnp.asarray([c[0] for c in self.velocities], jnp.float32)
@@ -112,6 +167,9 @@ class DWA:
         to_walls = jnp.where(joined, point_segment_distance(px, py, qx, qy, nx_, ny_), jnp.inf)
         clearance = jnp.min(jnp.minimum(to_points, to_walls), axis=(1, 2))  # [A]
         admissible = clearance >= params.robot_radius + self.margin
+        if turns is not None:  # ROS's: no turning back and forth in place
+            allowed, turns = self._no_reversal(turns, state.pos, v, w)
+            admissible = admissible & allowed
 
         # heading after one control period: the goal's direction seen from there
         p1 = jnp.moveaxis(displacement(0.0, w, v, params.dt), 0, -1)  # [A, 2]
@@ -130,8 +188,9 @@ class DWA:
             jnp.argmax(clearance),
         )
         if self.velocities is not None:
-            return continuous_action(env, v[best], w[best]), memory
-        return best.astype(jnp.int32), memory
+            turns = self._remember_turn(turns, state.pos, v[best], w[best])
+            return continuous_action(env, v[best], w[best]), (plan, *turns)
+        return best.astype(jnp.int32), plan
 
 
 def continuous_action(env: NavEnv, v, w) -> chex.Array:
@@ -156,6 +215,7 @@ BARN_VELOCITIES = tuple((v, w) for v in BARN_VX for w in BARN_VTHETA) + tuple(
     (0.0, w) for w in BARN_IN_PLACE
 )
 BARN_FOOTPRINT = 0.165 + 0.1  # m: the padded footprint's inscribed radius
+OSCILLATION_RESET = 0.05  # m: oscillation_reset_dist
 BARN_SETTINGS = {  # the environment's continuous commands cover BARN's samples
     "actions": "continuous",
     "speed_range": (0.0, 0.5),
@@ -163,15 +223,18 @@ BARN_SETTINGS = {  # the environment's continuous commands cover BARN's samples
 }
 
 
-def barn_dwa(env: NavEnv, robot_radius: float) -> DWA:
+def barn_dwa(env: NavEnv, robot_radius: float, global_plan: rs.Raster | None = None) -> DWA:
     """DWA with BARN's parameters for ``env`` (its actions :data:`BARN_SETTINGS`), the
-    robot a disc of ``robot_radius``."""
+    robot a disc of ``robot_radius``; ``global_plan``: the raster of a global planner
+    that knows the map, heading for the point 1 m along its way (None: the goal)."""
     return DWA(
         env,
         horizon=2.0,
         samples=25,
         margin=max(BARN_FOOTPRINT - robot_radius, 0.0),
+        lookahead=1.0 if global_plan is not None else 0.5,
         velocities=BARN_VELOCITIES,
+        global_plan=global_plan,
     )
 
 
