@@ -51,7 +51,7 @@ def render_maze(
     drawn = bool(env_kwargs and env_kwargs.get("generator"))
     if drawn:
         kwargs = dict(env_kwargs, n_beams=max(n_beams, 1))
-        env, params = make(**kwargs)
+        env, params = make(prepare=False, **kwargs)
     else:
         env, params = make(make_maze(maze_name), n_beams=max(n_beams, 1))
     _, state = jax.jit(env.reset)(jax.random.PRNGKey(seed), params)

@@ -59,7 +59,7 @@ from jaxnav.world.maps import ROBOTIS_FIRST_GOAL, ROBOTIS_GOAL_SEPARATION, Maze,
 
 def task_of(cfg: Config) -> Task:
     """The test constants of a run's config (its env's params and settings)."""
-    env, p = from_config(cfg)
+    env, p = from_config(cfg, prepare=False)
     if env.reward == "geodesic" or env.progress_path == "geodesic":
         raise JaxnavError(
             "sim2sim scores the dense, sparse and progress (straight) rewards in MuJoCo, "
