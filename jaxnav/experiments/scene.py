@@ -1,6 +1,6 @@
 """A maze scene: walls, obstacles, the robot at a pose, a goal drawn by ``reset`` and
 what the LiDAR beams see, cast by the environment's own sensor. The drawing itself
-is :mod:`jaxnav.report.drawing`; ``python -m jaxnav.render`` and the Gymnasium
+is :mod:`jaxnav.report.drawing`; ``jaxnav render`` and the Gymnasium
 wrapper's ``render()`` use this module.
 """
 

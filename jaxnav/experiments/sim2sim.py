@@ -21,7 +21,7 @@ cover the same mazes, strategies and seeds, else a fresh greedy test
 
 MuJoCo is imported only by this pipeline (optional extra ``sim``): without it, every
 other module of jaxnav works and :func:`sim2sim` says how to install it. The command
-is :mod:`jaxnav.sim2sim`.
+is :mod:`jaxnav.commands.sim2sim`.
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""``python -m jaxnav.export RUN_DIR [--strategy ebe] [--seed K] [--out policy.npz]``
+"""``jaxnav export RUN_DIR [--strategy ebe] [--seed K] [--out policy.npz]``
 
 Exports one trained Q-network of a run to a portable policy file (plain NumPy
 arrays, no pickle) with everything needed to feed it on a robot: the observation
