@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 import jaxnav
-import jaxnav.evaluate as evaluate_command
+import jaxnav.commands.evaluate as evaluate_command
 from jaxnav.core.errors import MazeError
 from jaxnav.world import occupancy as oc
 from jaxnav.world.geometry import arc
@@ -282,7 +282,7 @@ def test_grid_mazes_stack_padded_with_free_cells():
 
 
 def test_a_map_too_large_for_memory_at_the_batch_is_refused_before_training(tmp_path, capsys):
-    import jaxnav.train as train_command
+    import jaxnav.commands.train as train_command
 
     out = tmp_path / "run"
     argv = ["smoke", f"env.maze={FLAT}", "agent=pqn", "preset=modern", "pqn.num_envs=4000000"]
