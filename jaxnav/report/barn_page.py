@@ -25,7 +25,8 @@ from jaxnav.report.stats import mean_ci
 # (folder, the row's driver label, its simulator)
 JAXNAV_ROWS = (
     ("oracle", "oracle (privileged planner)", "jaxnav"),
-    ("dwa", "DWA with BARN's parameters", "jaxnav"),
+    ("dwa", "DWA with BARN's parameters (`run.dwa: barn`)", "jaxnav"),
+    ("dwa_map", "the same DWA under a global planner that knows the map (`barn_map`)", "jaxnav"),
     ("policy", "`drive_barn` policy (PQN)", "jaxnav"),
 )
 GAZEBO = "Gazebo (the challenge's)"
@@ -36,7 +37,7 @@ def _cell(values: list[float], digits: int) -> str:
     v = [x for x in values if not math.isnan(x)]
     if not v:
         return "n/a"
-    return interval(mean_ci(np.asarray(v)), digits)
+    return interval(mean_ci(np.asarray(v)), digits, missing="")
 
 
 def _row(label: str, simulator: str, seeds: dict[int, dict[str, float]]) -> list[str]:

@@ -74,19 +74,13 @@ def grid_of(n: int):
 
 @functools.cache
 def load_barn(name: str) -> Maze:
-    """The maze of ``barn:N``: its grid, BARN's start and goal."""
+    """The maze of ``barn:N``: its grid, BARN's start and goal (:func:`_base`'s maze with
+    world N's cells)."""
     n = world_index(name)
     if n is None:
         raise ValueError(f"{name!r} is not a BARN world (barn:0 ... barn:299)")
     cells = int(data()["cylinders"][n].sum())
-    return grid_maze(
-        grid_of(n),
-        np.asarray(START),
-        f"BARN world {n}",
-        goal=np.asarray(GOAL),
-        bounds=np.asarray(BOUNDS),
-        obstacles=cells,
-    )
+    return _base().replace(grid=grid_of(n), n_obstacles=jnp.asarray(cells, jnp.int32))
 
 
 class BarnWorlds(NamedTuple):
@@ -107,19 +101,28 @@ class BarnWorlds(NamedTuple):
 
 
 @functools.cache
-def _template() -> Maze:
-    """The family's maze of world 0, whose cells each draw replaces: the goals drawn
-    after BARN's own (none in BARN's protocol, ``env.goal_ends``) are world 0's free
-    points, which in every world lie in the corridor or past the field."""
-    maze = load_barn("barn:0")
-    return maze.replace(goal_points=_common_goals(maze))
-
-
-def _common_goals(maze: Maze):
-    """The maze's goal points outside the field (y < 5.1 or y > 9.6): free in every world."""
+def _base() -> Maze:
+    """World 0's maze (:func:`jaxnav.world.gridmaze.grid_maze`: its start checked), its
+    goals cut to those outside the field (y < 5.1 or y > 9.6): free in every world, the
+    corridor and the ground past the field being the same in all 300. Each world's maze
+    is this one with its own cells (goals beyond BARN's own are drawn only with
+    ``env.goal_ends`` off or ``env.random_start``)."""
+    maze = grid_maze(
+        grid_of(0), np.asarray(START), "BARN world 0", goal=np.asarray(GOAL),
+        bounds=np.asarray(BOUNDS),
+    )  # fmt: skip
     pts = np.asarray(maze.goal_points)[: int(maze.n_goal_points)]
     keep = pts[(pts[:, 1] < 5.1) | (pts[:, 1] > 9.6)]
-    return jnp.asarray(np.resize(keep, np.asarray(maze.goal_points).shape), jnp.float32)
+    shape = np.asarray(maze.goal_points).shape
+    return maze.replace(
+        goal_points=jnp.asarray(np.resize(keep, shape), jnp.float32),
+        n_goal_points=jnp.asarray(len(keep), jnp.int32),
+    )
+
+
+def _template() -> Maze:
+    """The family's maze, whose cells each draw replaces."""
+    return _base()
 
 
 def barn_family(env) -> BarnWorlds:
