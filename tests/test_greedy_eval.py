@@ -25,6 +25,8 @@ TINY = [
     "run.chunk_steps=400",
     "dqn.batch_size=16",
     "run.eval_episodes=3",
+    "run.chunk_s=0",  # chunks of 400 (cut by the evaluations) and a checkpoint after each,
+    "run.checkpoint_s=0",  # as the kill below counts them
 ]
 EVAL = ["run.eval_every=300"]
 PQN = [

@@ -330,7 +330,7 @@ def test_resume_after_sigkill_gives_identical_results(tmp_path):
 
     root = Path(__file__).resolve().parent.parent
     tiny = [o for o in TINY if not o.startswith(("total_steps", "run.chunk_steps"))]
-    tiny += ["total_steps=8192", "run.chunk_steps=512"]
+    tiny += ["total_steps=8192", "run.chunk_steps=512", "run.chunk_s=0", "run.checkpoint_s=0"]
     ref, killed = tmp_path / "ref", tmp_path / "killed"
     cmd = [sys.executable, "-m", "jaxnav.commands.train", "smoke", *tiny, "--quiet"]
     subprocess.run(cmd + ["--out", str(ref)], check=True, cwd=root)

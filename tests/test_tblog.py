@@ -13,7 +13,8 @@ tensorboardX = pytest.importorskip("tensorboardX", reason="optional extra 'tenso
 from tensorboardX.proto import event_pb2  # noqa: E402
 
 TINY = ["configs/smoke.yaml", "seeds=2", "episodes=6", "env.max_steps=100"]
-TINY += ["run.chunk_steps=250", "run.tensorboard=true", "--quiet"]
+TINY += ["run.chunk_steps=250", "run.chunk_s=0", "run.checkpoint_s=0"]  # chunks of 250
+TINY += ["run.tensorboard=true", "--quiet"]
 
 
 def events(run_dir):

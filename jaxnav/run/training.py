@@ -20,6 +20,7 @@ the first one, removes what the command made (:func:`interrupted_text` says whic
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import functools
 import json
 import os
@@ -32,6 +33,7 @@ from pathlib import Path
 from typing import Any
 
 import jax
+import jax.numpy as jnp
 import numpy as np
 
 from jaxnav.agent import replay
@@ -122,6 +124,15 @@ class Run:
         self.computed = 0
         self.compile_s = self.startup_s = None  # this session's, see compile_chunk
         self.diverged: dict[int, int] = {}  # run index -> env step it diverged at
+        # Chunks are cut by time (run.chunk_s), after whole steps of the trainer, at least
+        # a block of the logs' each (a one-step chunk would cost more than it trains);
+        # the logs and evaluations are those of any other cut (explore_blocks, GreedyEval).
+        size = self.trainer.step_size
+        self.grain = -(-EXPLORE_BLOCK // size) * size
+        self.rate: float | None = None  # lockstep env steps per second, last chunk
+        # per run, the explore.csv block a chunk ended inside: (its first step, values)
+        self.pending: list[tuple[int, list]] = [(0, [])] * cfg.n_runs
+        self.ring_at = jax.jit(ring_at)
 
     # -- state ---------------------------------------------------------------
 
@@ -162,6 +173,7 @@ class Run:
         self.diverged = {int(r): int(diverged_at[r]) for r in np.flatnonzero(diverged_at >= 0)}
         self.logged = host["logged"].astype(np.int64)
         self.wall = float(host["wall"])
+        self._restore_pending(host)
         # -1: unknown (a checkpoint of an earlier version did not count)
         self.computed = int(host.get("computed", -1))
         metrics_size, explore_size = (int(x) for x in host["csv_sizes"])
@@ -196,7 +208,22 @@ class Run:
             return 0
         size = trainer.step_size
         n = int(min(trainer.chunk_length, -(-left[active].max() // size) * size))
-        return n if self.greedy is None else self.greedy.chunk_end(int(step.max()), n)
+        now = int(step.max())
+        n = n if self.greedy is None else self.greedy.chunk_end(now, n)
+        return min(n, self.timed_steps(now))
+
+    def timed_steps(self, step: int) -> int:
+        """The env steps a chunk from lockstep ``step`` takes to last about ``run.chunk_s``
+        at the last chunk's pace (one trainer step for the first): whole steps of the
+        trainer, never past the end of the ``chunk_length`` window the chunk lies in."""
+        length, aim = self.trainer.chunk_length, self.cfg.run.chunk_s
+        to_end = (step // length + 1) * length - step
+        if not aim:  # every chunk as long as compiled
+            return to_end
+        if self.rate is None:
+            return min(to_end, self.grain)
+        grains = max(1, int(self.rate * aim) // self.grain)
+        return min(to_end, grains * self.grain)
 
     def check_divergence(self, ts: Any) -> list[str]:
         """Runs that diverged in the last chunk, each described in words."""
@@ -218,42 +245,71 @@ class Run:
     # -- per chunk -----------------------------------------------------------
 
     def new_episodes(self, ts: Any) -> list[tuple]:
-        """metrics.csv rows of the episodes finished in the last chunk."""
-        m, episodes = self.shard.get((ts.metrics, ts.episode))
+        """metrics.csv rows of the episodes finished in the last chunk (only their
+        slots of the ring are copied to the host)."""
+        episodes = self.shard.get(ts.episode)
         slots = self.trainer.metric_slots
+        new = int((episodes - self.logged).max(initial=0))
+        if new == 0:
+            return []
+        width = 1 << (new - 1).bit_length()  # few program shapes: powers of two
+        at = (self.logged[:, None] + np.arange(width)[None, :]) % slots
+        m = self.shard.get(self.ring_at(ts.metrics, self.shard.put(at.astype(np.int32))))
         rows = []
         for r, label in enumerate(self.labels):
             for e in range(self.logged[r], episodes[r]):
-                i = e % slots
-                ret = float(m.ep_return[r, i])
+                i = e - self.logged[r]
+                ret = float(m["ep_return"][r, i])
                 row = (
                     *self.fields[r],
                     e,
                     f"{ret:.6g}",
-                    int(m.ep_length[r, i]),
-                    int(m.ep_goals[r, i]),
-                    int(m.ep_collided[r, i]),
-                    f"{float(m.ep_explore[r, i]):.6g}",
+                    int(m["ep_length"][r, i]),
+                    int(m["ep_goals"][r, i]),
+                    int(m["ep_collided"][r, i]),
+                    f"{float(m['ep_explore'][r, i]):.6g}",
                 )
                 if self.counts_attempts:
-                    row += tuple(int(getattr(m, f"ep_{c}")[r, i]) for c in ATTEMPT_COLUMNS)
+                    row += tuple(int(m[f"ep_{c}"][r, i]) for c in ATTEMPT_COLUMNS)
                 rows.append(row)
                 self._remember(label, dict(zip(self.metric_columns, map(str, row))))
             self.logged[r] = episodes[r]
         return rows
 
-    def explore_blocks(self, explore: np.ndarray, step_before: np.ndarray) -> list[tuple]:
-        """explore.csv rows: mean exploration per block of steps; ``explore`` is
-        [n_runs, chunk_steps], NaN once a run has finished."""
+    def explore_blocks(
+        self, explore: np.ndarray, step_before: np.ndarray, finished: np.ndarray
+    ) -> list[tuple]:
+        """explore.csv rows: mean exploration per block of ``EXPLORE_BLOCK`` env steps
+        (counted from each ``chunk_length`` window's start, the last block of a window
+        as long as what is left of it); ``explore`` is [n_runs, chunk steps], NaN once
+        a run has finished. A block the chunk ended inside waits for the next chunk
+        (its values so far kept in :attr:`pending`), unless its run has ``finished``: so
+        the rows are the same wherever the chunks end."""
+        length = self.trainer.chunk_length
         rows = []
         for r, fields in enumerate(self.fields):
             col = explore[r]
-            for b in range(0, col.shape[0], EXPLORE_BLOCK):
-                block = col[b : b + EXPLORE_BLOCK]
-                block = block[~np.isnan(block)]
-                if len(block):
-                    mean = float(block.mean())
-                    rows.append((*fields, int(step_before[r]) + b, f"{mean:.6g}"))
+            pos = np.arange(col.shape[0])
+            real = ~np.isnan(col)
+            steps = int(step_before[r]) + pos[real]
+            values = col[real]
+            base = steps // length * length
+            starts = base + (steps - base) // EXPLORE_BLOCK * EXPLORE_BLOCK
+            start, kept = self.pending[r]
+            blocks = [(start, list(kept))] if kept else []
+            for b, v in zip(starts.tolist(), values):
+                if not blocks or blocks[-1][0] != b:
+                    blocks.append((b, []))
+                blocks[-1][1].append(v)
+            self.pending[r] = (0, [])
+            if blocks and not finished[r]:
+                b, v = blocks[-1]
+                end = min(b + EXPLORE_BLOCK, b // length * length + length)
+                if int(step_before[r]) + int(real.sum()) < end:  # not over yet
+                    self.pending[r] = blocks.pop()
+            for b, v in blocks:
+                mean = float(np.asarray(v, explore.dtype).mean())
+                rows.append((*fields, b, f"{mean:.6g}"))
         return rows
 
     def save(
@@ -273,7 +329,7 @@ class Run:
         stays as it was (a segment it does not count is never read); the error goes on
         to the command's one-line report."""
         # every process: a gather across hosts is collective
-        state = self.shard.get(without_rows(ts))
+        state = self.shard.get(without_rows(ts)) if checkpoint else None
         rows = self.shard.get(self.rows_at(ts, slots)) if checkpoint else None
         if not is_writer():
             return
@@ -303,6 +359,7 @@ class Run:
                 "csv_sizes": sizes,
                 "segments": np.int64(segments),
                 "computed": np.int64(self.computed),
+                **self._pending_arrays(),
             }
             if self.greedy is not None and self.greedy.best is not None:
                 host |= self.greedy.best.arrays()
@@ -312,6 +369,26 @@ class Run:
             for log, size in zip(logs, before):
                 log.restore(size)
             raise
+
+    def _pending_arrays(self) -> dict[str, np.ndarray]:
+        """The explore.csv blocks chunks ended inside, as a checkpoint keeps them."""
+        values = np.full((len(self.pending), EXPLORE_BLOCK), np.nan, np.float32)
+        for r, (_, v) in enumerate(self.pending):
+            values[r, : len(v)] = v
+        return {
+            "explore_pending_start": np.asarray([b for b, _ in self.pending], np.int64),
+            "explore_pending_count": np.asarray([len(v) for _, v in self.pending], np.int64),
+            "explore_pending": values,
+        }
+
+    def _restore_pending(self, host: dict[str, np.ndarray]) -> None:
+        if "explore_pending" not in host:  # written where every chunk ended on a block
+            return
+        starts, counts, values = (host[f"explore_pending{k}"] for k in ("_start", "_count", ""))
+        self.pending = [
+            (int(b), list(values[r, :n].astype(np.float32)))
+            for r, (b, n) in enumerate(zip(starts, counts))
+        ]
 
     def _remember(self, label: tuple[str, int], row: dict[str, str]) -> None:
         """Keep an episode's return and attempts (its metrics.csv row) for the progress."""
@@ -397,6 +474,8 @@ class Run:
         bar = self._progress_bar(ts)
         tb = self._tensorboard(ts)
         chunk = self.compile_chunk(ts) if self.active(ts).any() else None
+        saved_step = self.shard.get(ts.step).copy()  # at the last checkpoint
+        saved_at = time.perf_counter()
         try:
             while self.active(ts).any():
                 before = self._done(ts)
@@ -406,6 +485,7 @@ class Run:
                 ts, log = chunk(ts, np.int32(n))
                 log = self.shard.get(log)  # waits for the chunk
                 dt = time.perf_counter() - t0
+                self.rate = n / max(dt, 1e-9)
                 self.wall += dt
                 if self.computed >= 0:
                     self.computed += n * self.cfg.n_runs
@@ -414,18 +494,26 @@ class Run:
                 stop = bool(diverged) and self.cfg.run.on_divergence == "stop"
                 # On a stop the finished episodes are kept and the last checkpoint
                 # (before the divergence) stays: a resume replays this chunk.
-                rows = self.new_episodes(ts), self.explore_blocks(log.explore, step_before)
-                done = not self.active(ts).any()
+                still = self.active(ts)
+                rows = self.new_episodes(ts), self.explore_blocks(log.explore, step_before, ~still)
+                done = not still.any()
                 evals = [] if self.greedy is None else self.greedy.evaluate(ts, done)
                 if tb is not None:  # before the checkpoint: a resume purges it, never misses it
                     tb.add_episodes(rows[0])
                     tb.add_steps(log.loss, log.max_q, int(step_before.max()))
                     tb.add_evals(evals)
                     tb.flush()
-                slots = chunk_slots(step_before, self.shard.get(ts.step), self.cfg.buffer_capacity)
+                # A checkpoint every run.checkpoint_s of training, and at the end; it
+                # holds the replay slots written since the last one.
+                due = time.perf_counter() - saved_at >= self.cfg.run.checkpoint_s
+                checkpoint = not stop and (due or done)
+                step_now = self.shard.get(ts.step)
+                slots = chunk_slots(saved_step, step_now, self.cfg.buffer_capacity)
                 if not has_replay(self.cfg):
                     slots = slots[:0]
-                self.save(ts, *rows, slots, checkpoint=not stop, eval_rows=evals)
+                self.save(ts, *rows, slots, checkpoint=checkpoint, eval_rows=evals)
+                if checkpoint:
+                    saved_step, saved_at = step_now.copy(), time.perf_counter()
                 if stop:
                     raise RunError(
                         f"training diverged: {diverged[0]}"
@@ -482,6 +570,8 @@ class Run:
             params = params_arrays(self.cfg, params)
             text = json.dumps(summary, indent=2) + "\n"
             with startup.no_interrupt():  # Ctrl-C: a finished run, or one to resume
+                for log in (self.metrics, self.explore):  # the same whatever the chunks
+                    log.group_by_run(self.fields)
                 rundir.atomic_write_npz(self.out / rundir.PARAMS, params)
                 rundir.atomic_write_text(self.out / rundir.SUMMARY, text)
                 if not self.keep_checkpoints:  # only after both: until then, resume needs them
@@ -490,6 +580,17 @@ class Run:
         if len(self.diverged) == self.cfg.n_runs:
             raise RunError("training diverged: every run (summary.json lists them; lower dqn.lr)")
         return summary
+
+
+def ring_at(metrics: Any, at: jax.Array) -> Any:
+    """The ring of finished episodes (the trainer's ``metrics``, every run) at slots
+    ``at`` (i32[runs, k]): each ``ep_*`` field f[runs, k]."""
+    ring = {
+        f.name: getattr(metrics, f.name)
+        for f in dataclasses.fields(metrics)
+        if f.name.startswith("ep_") and getattr(metrics, f.name) is not None
+    }
+    return {k: jnp.take_along_axis(v, at, axis=1) for k, v in ring.items()}
 
 
 def trainer_of(cfg: Config) -> Trainer:
