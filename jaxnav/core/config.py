@@ -303,6 +303,9 @@ def _check(cfg: Config) -> Config:
         says = problem(s.rule, _get(cfg, name))
         if says:
             fail(name, says)
+    says = agent_switch_problem(cfg)  # before the settings it names are checked one by one
+    if says:
+        raise ConfigError(f"config: {says}")
     if cfg.env.generator:
         says = env_family_problem(cfg.env)
         if says:
@@ -373,6 +376,47 @@ def agent_problem(cfg: Config) -> str | None:
                     f"{key} is a {section.upper()} setting: it needs agent {' or '.join(readers)}"
                 )
     return action_problem(cfg, agent) or agent.settings_problem(cfg)
+
+
+def agent_switch_problem(cfg: Config) -> str | None:
+    """Every setting a config's agent needs changed, in one line, or None: an agent of
+    the other kind of actions (``agent=sac`` on a discrete config, ``agent=dqn`` on a
+    continuous one) needs its actions, the reward that scores them and its own
+    exploration, and these would otherwise be refused one at a time."""
+    if cfg.agent not in agents.names():
+        return None  # agent_problem names the choices
+    agent = agents.get(cfg.agent)
+    continuous = cfg.env.actions == CONTINUOUS
+    own = registry.names("continuous")
+    need = []
+    if agent.actions == "continuous":
+        if not continuous:
+            need.append(f"env.actions={CONTINUOUS}")
+        if cfg.env.reward not in ("progress", "sparse"):
+            need.append("env.reward=progress")
+        if cfg.env.action_delay:
+            need.append("env.action_delay=false")
+        if list(cfg.strategies) != list(own[:1]) and not (
+            len(cfg.strategies) == 1 and cfg.strategies[0] in own
+        ):
+            need.append(f"strategies=[{own[0]}]")
+        kind = "drives continuous commands and explores by sampling its own policy"
+    else:
+        if continuous:
+            actions = PRESETS[cfg.preset].training().get("env.actions", "paper")
+            need.append(f"env.actions={actions if actions != CONTINUOUS else 'paper'}")
+        if any(s in own for s in cfg.strategies):
+            need.append(f"strategies=[{', '.join(PAPER_STRATEGIES)}]")
+        kind = "picks one of a set of discrete actions"
+    if len(need) < 2:  # one setting: the checks below name it in their own words
+        return None
+    shipped = [
+        name
+        for name in builtin_configs()
+        if f"agent: {agent.name}" in (CONFIG_DIR / f"{name}.yaml").read_text()
+    ]
+    start = f", or start from {' or '.join(shipped[:2])}" if shipped else ""
+    return f"agent {agent.name} {kind}: add {' '.join(need)}{start}"
 
 
 def action_problem(cfg: Config, agent: agents.Agent) -> str | None:
@@ -539,8 +583,9 @@ def builtin_configs() -> dict[str, str]:
     return out
 
 
-def shipped_studies() -> dict[str, str]:
-    """Each shipped study file's name and its title (``configs/studies/NAME.yaml``)."""
+def shipped_studies(key: str = "title") -> dict[str, str]:
+    """Each shipped study file's name and its ``key`` (``configs/studies/NAME.yaml``):
+    its title, or ``cost``, what a whole run of it took (empty where it says none)."""
     out = {}
     for path in sorted(STUDY_DIR.glob("*.yaml")):
         try:
@@ -548,8 +593,33 @@ def shipped_studies() -> dict[str, str]:
         except yaml.YAMLError:
             doc = None
         if isinstance(doc, dict):
-            out[path.stem] = str(doc.get("title", "")).strip()
+            out[path.stem] = str(doc.get(key, "")).strip()
     return out
+
+
+def studies_text() -> str:
+    """The shipped studies, a line each with what a whole run of it took."""
+    titles, costs = shipped_studies(), shipped_studies("cost")
+    if not titles:
+        return ""
+    width = max(map(len, titles))
+    pad = " " * (width + 4)
+    lines = []
+    for name, title in titles.items():
+        lines.append(f"  {name:<{width}}  {title}")
+        if costs[name]:
+            lines.append(f"{pad}cost: {costs[name]}")
+    return "\n".join(lines)
+
+
+def did_you_mean_config(name: str) -> str:
+    """`` (did you mean 'smoke'?)`` for a mistyped shipped config's or study's name, or
+    nothing: the nearest of them to ``name``, if near enough."""
+    from difflib import get_close_matches
+
+    names = [*builtin_configs(), *shipped_studies()]
+    near = get_close_matches(Path(name).stem, names, n=1, cutoff=0.75)
+    return f" (did you mean {near[0]!r}? jaxnav list shows them)" if near else ""
 
 
 def load_config(path: str | None, overrides: list[str] = ()) -> Config:
@@ -561,7 +631,7 @@ def load_config(path: str | None, overrides: list[str] = ()) -> Config:
             with open(path) as f:
                 doc = yaml.safe_load(f)
         except FileNotFoundError:
-            raise ConfigError(f"config: no such file {path}") from None
+            raise ConfigError(f"config: no such file {path}{did_you_mean_config(path)}") from None
         except IsADirectoryError:
             raise ConfigError(f"config: {path} is a directory, not a YAML file") from None
         except yaml.YAMLError as e:

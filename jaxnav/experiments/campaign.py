@@ -50,6 +50,7 @@ STUDY_KEYS = {
     "settings": dict,
     "arms": dict,
     "note": str,
+    "cost": str,  # what a whole run of it took, measured (jaxnav list studies)
 }
 REQUIRED = ("kind", "title", "config", "seeds", "episodes", "arms")
 ARM_KEYS = {"label": str, "settings": dict, "run": str, "policies": str, "wheel_limit": bool}

@@ -71,6 +71,7 @@ STUDY_KEYS = {
     "test_episodes": int,
     "settings": dict,
     "tests": list,
+    "cost": str,  # what a whole run of it took, measured (jaxnav list studies)
 }
 REQUIRED = ("kind", "title", "configs")
 TIMING = "command_s.json"  # in a cell's run: the whole training command's seconds

@@ -67,6 +67,7 @@ STUDY_KEYS = {
     "notes": list,
     "left_out": list,
     "previous": str,
+    "cost": str,  # what a whole run of it took, measured (jaxnav list studies)
 }
 REQUIRED = ("title", "seeds", "total_steps", "strategies", "agents", "rungs")
 AGENT_KEYS = {"label": str, "settings": dict, "rungs": list}
