@@ -127,3 +127,19 @@ def test_an_agent_switch_names_every_setting_it_needs_in_one_line():
     # and back: a continuous config switched to a discrete agent
     with pytest.raises(ConfigError, match=r"agent pqn .*env.actions=vw strategies=\[ebe"):
         load_config("drive_sac_obstacles", ["agent=pqn"])
+
+
+@pytest.mark.parametrize(
+    "text, line",
+    [
+        ("seeds: 2\nepisodes 40\nenv:\n  maze: square4\n", 2),  # a key without its colon
+        ("seeds: 2\nstrategies: [ebe, epsilon_greedy\nepisodes: 3\n", 2),  # an open bracket
+        ('seeds: 2\nenv:\n  maze: "square4\nepisodes: 3\n', 3),  # an open quote
+    ],
+)
+def test_malformed_yaml_names_the_line_the_mistake_is_on(tmp_path, text, line):
+    """PyYAML notices these a line after the mistake; the line it was reading is named."""
+    path = tmp_path / "c.yaml"
+    path.write_text(text)
+    with pytest.raises(ConfigError, match=rf"at line {line}\b"):
+        load_config(str(path))

@@ -57,7 +57,7 @@ from jaxnav.core.settings import (
     setting,
     training_only_on,
 )
-from jaxnav.core.values import coerce, flatten, parse_override
+from jaxnav.core.values import coerce, flatten, parse_override, yaml_mark
 
 # The strategies the paper compares; jaxnav.core.strategies has every registered one.
 PAPER_STRATEGIES = ("ebe", "epsilon_greedy")
@@ -635,7 +635,7 @@ def load_config(path: str | None, overrides: list[str] = ()) -> Config:
         except IsADirectoryError:
             raise ConfigError(f"config: {path} is a directory, not a YAML file") from None
         except yaml.YAMLError as e:
-            mark = getattr(e, "problem_mark", None)
+            mark = yaml_mark(e)
             at = f" at line {mark.line + 1}" if mark is not None else ""
             raise ConfigError(f"config: {path} is not valid YAML{at}") from None
         except UnicodeDecodeError:

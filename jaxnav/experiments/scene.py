@@ -107,7 +107,9 @@ def _legend(fig, maze, n_beams: int, goal_radius: float) -> int:
     if maze.motion is not None and (np.asarray(maze.motion.radius) > 0).any():
         handles += [
             Patch(
-                fc=drawing.OBSTACLE_COLOR, ec=drawing.WALL_COLOR, hatch="//",
+                fc=drawing.OBSTACLE_COLOR,
+                ec=drawing.WALL_COLOR,
+                hatch="//",
                 label="moving cylinder, at its first pose",
             ),  # fmt: skip
             Line2D([], [], ls=":", color=drawing.WALL_COLOR, lw=1, label="its loop"),

@@ -5,9 +5,10 @@ where the robot stood when its attempt ran out), over all its greedy test episod
 Clusters show what a success rate cannot: a doorway the policies clip, a corner they
 circle in, a moving cylinder's path they cross. Failures that ended at the same place
 (a greedy policy replaying one failure at every restart) are one marker, larger, with
-their count beside it (:func:`stacked`), so every failure the title counts is seen. Drawn from ``eval/failures.npz``
-(``jaxnav evaluate`` writes it for the fixed test mazes; a drawn family's layouts
-differ from episode to episode, so they have no one map).
+their count beside it (:func:`stacked`), so every failure the title counts is seen.
+Drawn from ``eval/failures.npz`` (``jaxnav evaluate`` writes it for the fixed test
+mazes; a drawn family's layouts differ from episode to episode, so they have no one
+map).
 """
 
 from __future__ import annotations
