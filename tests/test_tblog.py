@@ -151,3 +151,16 @@ def test_a_run_without_evaluation_writes_no_evaluation_curves(tmp_path):
 
     TensorBoardLog(tmp_path, [("ebe", 0)], METRIC_COLUMNS).close()
     assert not (tmp_path / "tensorboard" / "eval").exists()
+
+
+def test_a_run_with_tensorboard_says_where_its_curves_are(tmp_path, capsys):
+    from jaxnav.core import rundir
+    from jaxnav.core.config import load_config
+
+    cfg = load_config("smoke", ["seeds=1", "episodes=1", "run.tensorboard=true"])
+    out = tmp_path / "run"
+    rundir.create(out)
+    run = Run(cfg, out, quiet=False)
+    run._tensorboard(run.fresh_state()).close()
+    err = capsys.readouterr().err
+    assert f"tensorboard --logdir {out / 'tensorboard'}" in err

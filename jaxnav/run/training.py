@@ -456,6 +456,9 @@ class Run:
         columns = self.metric_columns
         evals = None if self.greedy is None else self.greedy.log.header
         tb = tblog.TensorBoardLog(self.out, self.labels, columns, resumed, step, evals)
+        if not self.quiet:
+            where = self.out / "tensorboard"
+            print(f"TensorBoard: tensorboard --logdir {where} shows the curves", file=sys.stderr)
         if resumed and self.metrics.size():
             tb.add_episodes([tuple(r[c] for c in columns) for r in self.metrics.read()])
         return tb
