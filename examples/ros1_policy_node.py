@@ -11,6 +11,7 @@ robot's dynamics, latency and odometry drift are not. Keep a hand on the stop bu
     # on the robot (ROS 1 sourced, e.g. after roslaunch turtlebot3_bringup
     # turtlebot3_robot.launch; needs NumPy, not JAX)
     python3 ros1_policy_node.py _policy:=policy.npz
+    python3 ros1_policy_node.py --policy drive_anywhere    # a policy that ships with jaxnav
     # a goal 1 m ahead and 0.5 m to the left of where odometry started
     rostopic pub -1 /move_base_simple/goal geometry_msgs/PoseStamped \\
         "{header: {frame_id: odom}, pose: {position: {x: 1.0, y: 0.5}, orientation: {w: 1.0}}}"
@@ -33,7 +34,8 @@ one), the scan or pose cannot be used (e.g. a scan that does not cover 360 degre
 and on shutdown. The decisions are jaxnav.robot.deploy.Controller's, shared with
 ros2_policy_node.py.
 
-Private parameters: ~policy (path of the exported .npz), ~goal_topic
+Private parameters: ~policy (path of the exported .npz, or the name of a policy that
+ships with jaxnav; ``--policy NAME`` sets it too), ~goal_topic
 (/move_base_simple/goal), ~stale_after (0.5 s), ~goal_tolerance (default the
 policy's goal radius, 0.2 m), ~invalid_range (value for 0 / nan readings; negative
 means the policy's max range, the default; see jaxnav/robot/deploy.py).
@@ -72,7 +74,32 @@ def _load_deploy():
         ) from None
 
 
+def policy_arg(argv: list[str]) -> str | None:
+    """``--policy NAME|FILE`` from the command line (taken out of ``argv``), or None."""
+    if "--policy" not in argv:
+        return None
+    i = argv.index("--policy")
+    value = argv[i + 1] if i + 1 < len(argv) else None
+    del argv[i : i + 2]
+    return value
+
+
+def policy_file(name_or_file: str) -> str:
+    """The policy file to drive with: a file by its path, else a policy that ships with
+    jaxnav by its name (``drive_anywhere``: jaxnav.robot.shipped), else ``NAME.npz``
+    beside this file (a robot without jaxnav)."""
+    if Path(name_or_file).is_file():
+        return name_or_file
+    beside = Path(__file__).resolve().parent / f"{name_or_file}.npz"
+    try:
+        from jaxnav.robot.shipped import policy_path
+    except ImportError:
+        return str(beside) if beside.is_file() else name_or_file
+    return str(beside) if beside.is_file() else str(policy_path(name_or_file))
+
+
 deploy = _load_deploy()
+POLICY = ["policy.npz"]  # the policy parameter's default: --policy NAME|FILE sets it
 THROTTLE_S = 2.0  # at most one repeated warning per this many seconds
 
 
@@ -84,7 +111,7 @@ class PolicyNode:
     """
 
     def __init__(self):
-        path = rospy.get_param("~policy", "policy.npz")
+        path = policy_file(rospy.get_param("~policy", POLICY[0]))
         policy = deploy.Policy.load(path)
         goal_topic = rospy.get_param("~goal_topic", "/move_base_simple/goal")
         invalid = float(rospy.get_param("~invalid_range", -1.0))
@@ -160,6 +187,7 @@ class PolicyNode:
 
 
 def main() -> int:
+    POLICY[0] = policy_arg(sys.argv) or POLICY[0]  # --policy NAME|FILE
     rospy.init_node("jaxnav_policy")
     try:
         PolicyNode()

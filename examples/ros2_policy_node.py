@@ -30,6 +30,7 @@ On a robot:
     # on the robot (ROS 2 sourced; needs NumPy, not JAX: jaxnav/robot/deploy.py next to
     # this file, or jaxnav importable)
     python3 ros2_policy_node.py --ros-args -p policy:=policy.npz
+    python3 ros2_policy_node.py --policy drive_anywhere    # a policy that ships with jaxnav
     # a goal 1 m ahead and 0.5 m to the left of where odometry started
     ros2 topic pub --once /goal_pose geometry_msgs/msg/PoseStamped \\
         "{header: {frame_id: odom}, pose: {position: {x: 1.0, y: 0.5}}}"
@@ -72,7 +73,8 @@ new goal (not one per message):
 
 An exception in a callback is logged once and stops the robot; it never loops.
 
-Parameters: policy (path of the exported .npz), goal_topic (/goal_pose), stale_after
+Parameters: policy (path of the exported .npz, or the name of a policy that ships with
+jaxnav: ``--policy NAME`` before ``--ros-args`` sets it too), goal_topic (/goal_pose), stale_after
 (0.5 s), goal_tolerance (default the policy's goal radius, 0.2 m), invalid_range
 (value for 0 / nan readings; negative means the policy's max range, the default),
 enable_stamped_cmd_vel (see /cmd_vel), odom_jump (0.5 m).
@@ -109,7 +111,32 @@ def _load_deploy():
         ) from None
 
 
+def policy_arg(argv: list[str]) -> str | None:
+    """``--policy NAME|FILE`` from the command line (taken out of ``argv``), or None."""
+    if "--policy" not in argv:
+        return None
+    i = argv.index("--policy")
+    value = argv[i + 1] if i + 1 < len(argv) else None
+    del argv[i : i + 2]
+    return value
+
+
+def policy_file(name_or_file: str) -> str:
+    """The policy file to drive with: a file by its path, else a policy that ships with
+    jaxnav by its name (``drive_anywhere``: jaxnav.robot.shipped), else ``NAME.npz``
+    beside this file (a robot without jaxnav)."""
+    if Path(name_or_file).is_file():
+        return name_or_file
+    beside = Path(__file__).resolve().parent / f"{name_or_file}.npz"
+    try:
+        from jaxnav.robot.shipped import policy_path
+    except ImportError:
+        return str(beside) if beside.is_file() else name_or_file
+    return str(beside) if beside.is_file() else str(policy_path(name_or_file))
+
+
 deploy = _load_deploy()
+POLICY = ["policy.npz"]  # the policy parameter's default: --policy NAME|FILE sets it
 
 # ----------------------------------------------------------------------------
 # What the node decides without ROS (tests/test_ros2.py calls these directly)
@@ -195,7 +222,7 @@ class PolicyNode:
         from sensor_msgs.msg import LaserScan
 
         self.node = node
-        path = node.declare_parameter("policy", "policy.npz").value
+        path = policy_file(node.declare_parameter("policy", POLICY[0]).value)
         policy = self.policy = deploy.Policy.load(path)
         goal_topic = node.declare_parameter("goal_topic", "/goal_pose").value
         invalid = float(node.declare_parameter("invalid_range", -1.0).value)
@@ -392,7 +419,9 @@ def main(args=None) -> int:
 
     # Python's own SIGINT handling (KeyboardInterrupt), not rclpy's: rclpy's would shut
     # the context down first, and the final stop could no longer be published.
-    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
+    argv = list(sys.argv if args is None else args)
+    POLICY[0] = policy_arg(argv) or POLICY[0]  # --policy NAME|FILE, before --ros-args
+    rclpy.init(args=argv, signal_handler_options=SignalHandlerOptions.NO)
     signal.signal(signal.SIGTERM, _interrupt)
     node = rclpy.create_node("jaxnav_policy")
     try:

@@ -215,7 +215,9 @@ def test_a_rendered_maze_names_what_stands_in_it_and_its_legend_every_thing_draw
     from jaxnav.experiments.scene import _legend, contents
     from jaxnav.world.maps import make_maze
 
-    assert contents(make_maze("stage4")) == "8 inner walls, 2 moving cylinders"
+    assert contents(make_maze("stage4")) == "8 blocks, 2 moving cylinders"
+    office = "configs/mazes/heldout/office.yaml"
+    assert contents(make_maze(office)) == "4 inner walls, 2 blocks, 1 cylinder"
     assert contents(make_maze("square4_obstacles")) == "4 cylinders"
     assert contents(make_maze("square4")) == "no obstacles"
     fig = Figure()

@@ -14,6 +14,7 @@ from collections.abc import Sequence
 
 from jaxnav.core import agents, cli, families, strategies
 from jaxnav.core.config import SETTINGS, builtin_configs, studies_text
+from jaxnav.robot.shipped import shipped_policies
 from jaxnav.world.maps import BUILTIN_MAZES
 
 
@@ -39,6 +40,9 @@ def catalog() -> str:
     studies = studies_text()
     if studies:
         lines += ["", "shipped studies (jaxnav study NAME [key=value ...] --out DIR):", studies]
+    policies = shipped_policies()
+    lines += ["", "shipped policies (jaxnav drive WORLD --policy NAME; ROS nodes: --policy NAME):"]
+    lines += [f"  {name}" for name in policies] or ["  none"]
     lines += ["", "agents (agent=...):"]
     width = max(map(len, agents.names()))
     lines += [f"  {n:<{width}}  {agents.get(n).about}" for n in agents.names()]

@@ -73,16 +73,17 @@ def render_maze(
 
 
 def contents(maze) -> str:
-    """What stands inside a maze's outline, in words: its inner walls (polygons and
-    free wall segments) and its cylinders, standing and moving ("8 inner walls, 2
-    moving cylinders"; "no obstacles")."""
-    walls = drawing.inner_walls(maze.walls())
+    """What stands inside a maze's outline, in words: its inner walls (free wall
+    segments), blocks (polygonal obstacles) and cylinders, standing and moving ("8
+    blocks, 2 moving cylinders"; "no obstacles")."""
+    blocks, walls = drawing.inner_walls(maze.walls())
     standing = int(np.asarray(maze.circle_mask).sum())
     moving = 0
     if maze.motion is not None:
         moving = int((np.asarray(maze.motion.radius) > 0).sum())
     parts = []
-    for n, what in ((walls, "inner wall"), (standing, "cylinder"), (moving, "moving cylinder")):
+    things = (walls, "inner wall"), (blocks, "block"), (standing, "cylinder")
+    for n, what in (*things, (moving, "moving cylinder")):
         if n:
             parts.append(f"{n} {what}{'s' if n != 1 else ''}")
     return ", ".join(parts) or "no obstacles"
