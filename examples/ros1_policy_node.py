@@ -31,7 +31,7 @@ The node publishes a zero twist (stop) when there is no goal, the scan or odomet
 is older than ~stale_after seconds (a timer keeps stopping the robot while no scan
 arrives), the goal is within ~goal_tolerance (then the goal is cleared: send a new
 one), the scan or pose cannot be used (e.g. a scan that does not cover 360 degrees),
-and on shutdown. The decisions are jaxnav.robot.deploy.Controller's, shared with
+and on shutdown. The decisions are jaxnav.robot.controller.Controller's, shared with
 ros2_policy_node.py.
 
 Private parameters: ~policy (path of the exported .npz, or the name of a policy that
@@ -43,6 +43,7 @@ means the policy's max range, the default; see jaxnav/robot/deploy.py).
 
 from __future__ import annotations
 
+import importlib
 import importlib.util
 import sys
 import threading
@@ -55,22 +56,23 @@ from nav_msgs.msg import Odometry
 from sensor_msgs.msg import LaserScan
 
 
-def _load_deploy():
-    """jaxnav.robot.deploy, or deploy.py by path where jaxnav (or JAX) is not installed."""
+def _load(name: str):
+    """jaxnav.robot.NAME (deploy, controller), or NAME.py by path where jaxnav (or JAX)
+    is not installed: the robot side's files (deploy.py, scan.py, controller.py) copied
+    next to this node, or a checkout's."""
     try:
-        from jaxnav.robot import deploy
-
-        return deploy
+        return importlib.import_module(f"jaxnav.robot.{name}")
     except ImportError:
         here = Path(__file__).resolve().parent
-        for path in (here / "deploy.py", here.parent / "jaxnav" / "robot" / "deploy.py"):
+        for path in (here / f"{name}.py", here.parent / "jaxnav" / "robot" / f"{name}.py"):
             if path.is_file():
-                spec = importlib.util.spec_from_file_location("jaxnav_deploy", path)
+                spec = importlib.util.spec_from_file_location(f"jaxnav_{name}", path)
                 module = importlib.util.module_from_spec(spec)
                 spec.loader.exec_module(module)
                 return module
         raise ImportError(
-            "cannot find jaxnav.robot.deploy: install jaxnav or copy deploy.py next to this file"
+            f"cannot find jaxnav.robot.{name}: install jaxnav or copy the robot side's files "
+            "(jaxnav/robot/deploy.py, scan.py, controller.py) next to this file"
         ) from None
 
 
@@ -98,13 +100,14 @@ def policy_file(name_or_file: str) -> str:
     return str(beside) if beside.is_file() else str(policy_path(name_or_file))
 
 
-deploy = _load_deploy()
+deploy, controller = _load("deploy"), _load("controller")
+scan = _load("scan")
 POLICY = ["policy.npz"]  # the policy parameter's default: --policy NAME|FILE sets it
 THROTTLE_S = 2.0  # at most one repeated warning per this many seconds
 
 
 class PolicyNode:
-    """The ROS 1 side of :class:`deploy.Controller`: messages in, twists out.
+    """The ROS 1 side of :class:`controller.Controller`: messages in, twists out.
 
     rospy runs each subscription and the timer in a thread of its own, so every call
     into the controller holds ``lock``.
@@ -115,7 +118,7 @@ class PolicyNode:
         policy = deploy.Policy.load(path)
         goal_topic = rospy.get_param("~goal_topic", "/move_base_simple/goal")
         invalid = float(rospy.get_param("~invalid_range", -1.0))
-        self.control = deploy.Controller(
+        self.control = controller.Controller(
             policy,
             stale_after=float(rospy.get_param("~stale_after", 0.5)),
             goal_tolerance=float(rospy.get_param("~goal_tolerance", policy.goal_radius)),
@@ -144,7 +147,7 @@ class PolicyNode:
 
     def on_odom(self, msg: Odometry):
         q, p = msg.pose.pose.orientation, msg.pose.pose.position
-        pose = (p.x, p.y, deploy.yaw_from_quaternion(q.x, q.y, q.z, q.w))
+        pose = (p.x, p.y, scan.yaw_from_quaternion(q.x, q.y, q.z, q.w))
         with self.lock:
             self.control.on_odom(pose, msg.header.frame_id, rospy.get_time())
 
@@ -165,7 +168,7 @@ class PolicyNode:
                 self.publish(cmd)
 
     def publish(self, cmd):
-        """Publish a deploy.Command and log why it stops (caller holds the lock)."""
+        """Publish a controller.Command and log why it stops (caller holds the lock)."""
         if self.shutting_down:
             return
         twist = Twist()

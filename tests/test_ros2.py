@@ -157,7 +157,7 @@ def test_cmd_vel_type_follows_the_distribution(distro, version, stamped):
 def test_an_lds01_scan_matches_the_policy_and_single_invalid_readings_are_its_business():
     assert _problem() is None
     ranges = np.full(360, 1.0)
-    ranges[[0, 15, 30]] = [np.nan, np.inf, 0.0]  # no return, as deploy.clean_ranges reads it
+    ranges[[0, 15, 30]] = [np.nan, np.inf, 0.0]  # no return, as scan.clean_ranges reads it
     assert _problem(ranges) is None
     # Gazebo's 360 samples from 0 to 2 pi inclusive, and the LDS-01 driver's angle_max 2 pi.
     assert _problem(angle_max=2 * math.pi, angle_increment=2 * math.pi / 359) is None
