@@ -44,7 +44,7 @@ MAX_CYLINDERS = 64
 MIN_CYLINDER_ROOM = 1.5  # m: every start has a goal 0.4 m away (GOAL_START_CLEARANCE)
 MAX_CYLINDER_ROOM = 16.0  # m: the occupancy raster of a cylinder room is 0.1 m cells
 # A cylinder field is refused when its cylinders, each grown by CYLINDER_GROWTH (about
-# jaxnav.world.families.PASS_CLEARANCE: the robot's radius and half a raster cell's
+# jaxnav.world.cylinders.PASS_CLEARANCE: the robot's radius and half a raster cell's
 # diagonal), could cover more than MAX_CYLINDER_COVER of the room: a free path and a
 # far goal would then be rare.
 CYLINDER_GROWTH = 0.2
@@ -259,7 +259,7 @@ register(
 
 
 # ----------------------------------------------------------------------------
-# cylinders: jaxnav.world.families
+# cylinders: jaxnav.world.cylinders
 # ----------------------------------------------------------------------------
 
 
@@ -340,7 +340,7 @@ def _cylinders_text(e: Any) -> str:
 
 register(
     "cylinders",
-    "jaxnav.world.families:cylinders_family",
+    "jaxnav.world.cylinders:cylinders_family",
     CylinderSettings,
     problem=lambda e: cylinders_problem(
         e.cyl_count, e.cyl_radius, e.cyl_room, e.cyl_min_path, min(e.maze_scale)
@@ -351,7 +351,7 @@ register(
 
 
 # ----------------------------------------------------------------------------
-# rooms: jaxnav.world.families
+# rooms: jaxnav.world.rooms
 # ----------------------------------------------------------------------------
 
 
@@ -421,7 +421,7 @@ def rooms_problem(
 
 register(
     "rooms",
-    "jaxnav.world.families:rooms_family",
+    "jaxnav.world.rooms:rooms_family",
     RoomsSettings,
     problem=lambda e: rooms_problem(
         e.rooms_rows,
