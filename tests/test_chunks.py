@@ -14,7 +14,8 @@ import pytest
 
 from jaxnav.core import rundir
 from jaxnav.core.config import load_config
-from jaxnav.run.training import Run, train_new
+from jaxnav.run.launch import train_new
+from jaxnav.run.training import Run
 
 DQN = [
     "seeds=2",
@@ -119,3 +120,27 @@ def test_a_checkpoint_leaves_out_the_ring_of_finished_episodes(tmp_path):
     assert any(n.startswith("state.metrics.cur_") for n in names)  # the episodes under way
     ring = run.trainer.metric_slots * cfg.n_runs * 4  # one field of the ring, 4 bytes a slot
     assert size < ring
+
+
+def test_explore_rows_are_the_same_wherever_a_window_is_cut():
+    """explore.csv's blocks of one run, from one chunk of 700 steps and from the same
+    steps cut into chunks of random sizes: the same rows (a block a chunk ends inside
+    carried to the next one), blocks counted from each 350-step window's start."""
+    from jaxnav.run.logs import NONE_PENDING, explore_rows
+
+    rng = np.random.default_rng(0)
+    values = rng.random(700).astype(np.float32)
+    whole, left = explore_rows(values, 0, 350, NONE_PENDING, True, ("ebe", 0))
+    assert left == NONE_PENDING
+    assert [r[2] for r in whole] == [0, 100, 200, 300, 350, 450, 550, 650]
+    assert whole[3][3] == f"{float(values[300:350].mean()):.6g}"  # a window's short block
+    for _ in range(5):
+        cuts = np.sort(rng.choice(np.arange(1, 700), size=6, replace=False))
+        rows, pending, start = [], NONE_PENDING, 0
+        for end in [*cuts, 700]:
+            col = np.full(700, np.nan, np.float32)  # a chunk's log, NaN past its steps
+            col[: end - start] = values[start:end]
+            got, pending = explore_rows(col, start, 350, pending, end == 700, ("ebe", 0))
+            rows += got
+            start = end
+        assert rows == whole, cuts

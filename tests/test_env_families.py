@@ -146,7 +146,7 @@ def test_the_shipped_configs_load_and_are_listed():
 @pytest.mark.parametrize("name", ["cylinders", "rooms"])
 def test_a_short_run_trains_and_tests_on_its_drawn_family(name, tmp_path):
     from jaxnav.experiments.evaluation import evaluate_to_dir
-    from jaxnav.run.training import train_new
+    from jaxnav.run.launch import train_new
 
     cfg = load_config(
         name,

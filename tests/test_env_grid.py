@@ -17,7 +17,7 @@ from jaxnav.core.errors import ConfigError
 from jaxnav.env import from_config
 from jaxnav.experiments.evaluation import drawn_policies, evaluate_to_dir, load_run
 from jaxnav.experiments.rollout import eval_keys, run_tests
-from jaxnav.run.training import train_new
+from jaxnav.run.launch import train_new
 from jaxnav.world import generators as gen
 
 GRID = {"generator": "grid", "grid_rows": 4, "grid_cols": 4, "min_path_cells": 3}

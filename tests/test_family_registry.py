@@ -20,7 +20,7 @@ from jaxnav.core.config import SETTINGS, load_config
 from jaxnav.core.errors import ConfigError
 from jaxnav.env import NavEnv
 from jaxnav.experiments.evaluation import evaluate_to_dir
-from jaxnav.run.training import train_new
+from jaxnav.run.launch import train_new
 from jaxnav.world.generators import SPLITS
 from jaxnav.world.maps import GOAL_CLEARANCE, ROBOTIS_ARENA, Maze
 

@@ -272,7 +272,7 @@ def trained(ros2_sim, tmp_path_factory) -> Path:
     """A few trained policies, each exported to DIR/policy<seed>.npz."""
     from jaxnav.core.config import load_config
     from jaxnav.robot.export import export_policy, save_policy
-    from jaxnav.run.training import train_new
+    from jaxnav.run.launch import train_new
 
     root = tmp_path_factory.mktemp("ros2")
     cfg = load_config(str(ROOT / "configs" / "paper_no_obstacles.yaml"), TRAIN)
@@ -287,7 +287,7 @@ def trained_continuous(ros2_sim, tmp_path_factory) -> Path:
     """A few trained continuous (SAC) policies, each exported to DIR/policy<seed>.npz."""
     from jaxnav.core.config import load_config
     from jaxnav.robot.export import export_policy, save_policy
-    from jaxnav.run.training import train_new
+    from jaxnav.run.launch import train_new
 
     root = tmp_path_factory.mktemp("ros2_sac")
     cfg = load_config(None, TRAIN_CONTINUOUS)

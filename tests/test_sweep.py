@@ -14,7 +14,8 @@ from jaxnav.core import strategies as registry
 from jaxnav.core import sweep
 from jaxnav.core.config import SWEEPABLE, load_config
 from jaxnav.core.errors import ConfigError
-from jaxnav.run.training import Run, resume, train_new
+from jaxnav.run.launch import resume, train_new
+from jaxnav.run.training import Run
 
 TINY = [
     "seeds=2",

@@ -19,9 +19,10 @@ from jaxnav.core import rundir
 from jaxnav.core.config import load_config
 from jaxnav.env import from_config
 from jaxnav.experiments.evaluation import evaluate_to_dir
-from jaxnav.run import training
+from jaxnav.run import launch
 from jaxnav.run.checkpoint import chunk_slots
-from jaxnav.run.training import Run, train_new
+from jaxnav.run.launch import train_new
+from jaxnav.run.training import Run
 
 ROOT = Path(__file__).resolve().parent.parent
 TINY = ["seeds=2", "episodes=8", "env.max_steps=100", "run.chunk_steps=100", "dqn.batch_size=16"]
@@ -323,4 +324,4 @@ def test_interrupted_before_the_first_checkpoint_leaves_nothing_of_its_own(
         assert err.endswith(f"{out} was left empty") and out.is_dir() and not any(out.iterdir())
     else:
         assert err.endswith(f"{out} was removed") and not out.exists()
-    assert training.interrupted_text().endswith(("was left empty", "was removed"))
+    assert launch.interrupted_text().endswith(("was left empty", "was removed"))

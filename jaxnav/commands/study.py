@@ -27,8 +27,8 @@ from jaxnav.core.config import load_config, resolve_config_path, studies_text
 from jaxnav.experiments import studies
 from jaxnav.experiments.study import doc_files, study
 from jaxnav.report import stats
+from jaxnav.run.launch import check_test_mazes
 from jaxnav.run.memory import confirm_memory
-from jaxnav.run.training import check_test_mazes
 
 
 def main(argv: list[str] | None = None) -> int:

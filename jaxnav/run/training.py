@@ -19,29 +19,25 @@ the first one, removes what the command made (:func:`interrupted_text` says whic
 
 from __future__ import annotations
 
-import contextlib
-import dataclasses
 import functools
 import json
 import os
 import platform
-import shlex
-import shutil
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 import jax
-import jax.numpy as jnp
 import numpy as np
 
 from jaxnav.agent import replay
 from jaxnav.agent.sharding import RunSharding, is_writer
 from jaxnav.agent.trainer import Trainer, run_inputs, run_limits, still_training
 from jaxnav.core import agents, rundir, startup, sweep
-from jaxnav.core.config import Config, dump_config, load_config
-from jaxnav.core.errors import ConfigError, RunError
+from jaxnav.core.config import Config
+from jaxnav.core.errors import RunError
 from jaxnav.core.startup import process_age
 from jaxnav.report.navigation import last_episodes, training_outcomes
 from jaxnav.run import tblog
@@ -57,7 +53,15 @@ from jaxnav.run.checkpoint import (
     without_rows,
 )
 from jaxnav.run.greedy import GreedyEval
-from jaxnav.world.maps import make_maze
+from jaxnav.run.logs import (
+    EXPLORE_BLOCK,
+    NONE_PENDING,
+    Pending,
+    explore_rows,
+    pending_arrays,
+    restored_pending,
+    ring_at,
+)
 
 # A swept run's logs have one more column per swept key, named by it, after "strategy"
 # (jaxnav.core.sweep.with_swept).
@@ -67,7 +71,6 @@ METRIC_COLUMNS = ("strategy", "seed", "episode", "return", "length", "goals", "c
 ATTEMPT_COLUMNS = ("successes", "collisions", "timeouts", "cut")
 EXPLORE_COLUMNS = ("strategy", "seed", "step", "explore")
 
-EXPLORE_BLOCK = 100  # env steps averaged per row of explore.csv
 PROGRESS_EPISODES = 20  # episodes per seed in the progress bar's mean return
 
 # ----------------------------------------------------------------------------
@@ -124,14 +127,17 @@ class Run:
         self.computed = 0
         self.compile_s = self.startup_s = None  # this session's, see compile_chunk
         self.diverged: dict[int, int] = {}  # run index -> env step it diverged at
+        # called once the final files are written, inside the block a Ctrl-C waits for
+        # (jaxnav.run.launch says so in the interrupted line)
+        self.on_finished: Callable[[], None] = lambda: None
         # Chunks are cut by time (run.chunk_s), after whole steps of the trainer, at least
         # a block of the logs' each (a one-step chunk would cost more than it trains);
         # the logs and evaluations are those of any other cut (explore_blocks, GreedyEval).
         size = self.trainer.step_size
         self.grain = -(-EXPLORE_BLOCK // size) * size
         self.rate: float | None = None  # lockstep env steps per second, last chunk
-        # per run, the explore.csv block a chunk ended inside: (its first step, values)
-        self.pending: list[tuple[int, list]] = [(0, [])] * cfg.n_runs
+        # per run, the explore.csv block a chunk ended inside (jaxnav.run.logs.Pending)
+        self.pending: list[Pending] = [NONE_PENDING] * cfg.n_runs
         self.ring_at = jax.jit(ring_at)
 
     # -- state ---------------------------------------------------------------
@@ -173,7 +179,7 @@ class Run:
         self.diverged = {int(r): int(diverged_at[r]) for r in np.flatnonzero(diverged_at >= 0)}
         self.logged = host["logged"].astype(np.int64)
         self.wall = float(host["wall"])
-        self._restore_pending(host)
+        self.pending = restored_pending(host, cfg.n_runs)
         # -1: unknown (a checkpoint of an earlier version did not count)
         self.computed = int(host.get("computed", -1))
         metrics_size, explore_size = (int(x) for x in host["csv_sizes"])
@@ -279,37 +285,20 @@ class Run:
     def explore_blocks(
         self, explore: np.ndarray, step_before: np.ndarray, finished: np.ndarray
     ) -> list[tuple]:
-        """explore.csv rows: mean exploration per block of ``EXPLORE_BLOCK`` env steps
-        (counted from each ``chunk_length`` window's start, the last block of a window
-        as long as what is left of it); ``explore`` is [n_runs, chunk steps], NaN once
-        a run has finished. A block the chunk ended inside waits for the next chunk
-        (its values so far kept in :attr:`pending`), unless its run has ``finished``: so
-        the rows are the same wherever the chunks end."""
-        length = self.trainer.chunk_length
+        """explore.csv rows of the last chunk, run by run (:func:`jaxnav.run.logs.explore_rows`);
+        ``explore`` is [n_runs, chunk steps]. The blocks a chunk ended inside wait in
+        :attr:`pending` for the next chunk."""
         rows = []
         for r, fields in enumerate(self.fields):
-            col = explore[r]
-            pos = np.arange(col.shape[0])
-            real = ~np.isnan(col)
-            steps = int(step_before[r]) + pos[real]
-            values = col[real]
-            base = steps // length * length
-            starts = base + (steps - base) // EXPLORE_BLOCK * EXPLORE_BLOCK
-            start, kept = self.pending[r]
-            blocks = [(start, list(kept))] if kept else []
-            for b, v in zip(starts.tolist(), values):
-                if not blocks or blocks[-1][0] != b:
-                    blocks.append((b, []))
-                blocks[-1][1].append(v)
-            self.pending[r] = (0, [])
-            if blocks and not finished[r]:
-                b, v = blocks[-1]
-                end = min(b + EXPLORE_BLOCK, b // length * length + length)
-                if int(step_before[r]) + int(real.sum()) < end:  # not over yet
-                    self.pending[r] = blocks.pop()
-            for b, v in blocks:
-                mean = float(np.asarray(v, explore.dtype).mean())
-                rows.append((*fields, b, f"{mean:.6g}"))
+            mine, self.pending[r] = explore_rows(
+                explore[r],
+                int(step_before[r]),
+                self.trainer.chunk_length,
+                self.pending[r],
+                bool(finished[r]),
+                fields,
+            )
+            rows += mine
         return rows
 
     def save(
@@ -359,7 +348,7 @@ class Run:
                 "csv_sizes": sizes,
                 "segments": np.int64(segments),
                 "computed": np.int64(self.computed),
-                **self._pending_arrays(),
+                **pending_arrays(self.pending),
             }
             if self.greedy is not None and self.greedy.best is not None:
                 host |= self.greedy.best.arrays()
@@ -369,26 +358,6 @@ class Run:
             for log, size in zip(logs, before):
                 log.restore(size)
             raise
-
-    def _pending_arrays(self) -> dict[str, np.ndarray]:
-        """The explore.csv blocks chunks ended inside, as a checkpoint keeps them."""
-        values = np.full((len(self.pending), EXPLORE_BLOCK), np.nan, np.float32)
-        for r, (_, v) in enumerate(self.pending):
-            values[r, : len(v)] = v
-        return {
-            "explore_pending_start": np.asarray([b for b, _ in self.pending], np.int64),
-            "explore_pending_count": np.asarray([len(v) for _, v in self.pending], np.int64),
-            "explore_pending": values,
-        }
-
-    def _restore_pending(self, host: dict[str, np.ndarray]) -> None:
-        if "explore_pending" not in host:  # written where every chunk ended on a block
-            return
-        starts, counts, values = (host[f"explore_pending{k}"] for k in ("_start", "_count", ""))
-        self.pending = [
-            (int(b), list(values[r, :n].astype(np.float32)))
-            for r, (b, n) in enumerate(zip(starts, counts))
-        ]
 
     def _remember(self, label: tuple[str, int], row: dict[str, str]) -> None:
         """Keep an episode's return and attempts (its metrics.csv row) for the progress."""
@@ -579,21 +548,10 @@ class Run:
                 rundir.atomic_write_text(self.out / rundir.SUMMARY, text)
                 if not self.keep_checkpoints:  # only after both: until then, resume needs them
                     rundir.remove_checkpoints(self.out)
-                _interrupt.update(finished=True)  # before the block ends: a Ctrl-C acts then
+                self.on_finished()  # before the block ends: a Ctrl-C acts then
         if len(self.diverged) == self.cfg.n_runs:
             raise RunError("training diverged: every run (summary.json lists them; lower dqn.lr)")
         return summary
-
-
-def ring_at(metrics: Any, at: jax.Array) -> Any:
-    """The ring of finished episodes (the trainer's ``metrics``, every run) at slots
-    ``at`` (i32[runs, k]): each ``ep_*`` field f[runs, k]."""
-    ring = {
-        f.name: getattr(metrics, f.name)
-        for f in dataclasses.fields(metrics)
-        if f.name.startswith("ep_") and getattr(metrics, f.name) is not None
-    }
-    return {k: jnp.take_along_axis(v, at, axis=1) for k, v in ring.items()}
 
 
 def trainer_of(cfg: Config) -> Trainer:
@@ -604,127 +562,3 @@ def trainer_of(cfg: Config) -> Trainer:
 def has_replay(cfg: Config) -> bool:
     """Whether a config's agent keeps a replay memory (DQN does, PQN does not)."""
     return agents.get(cfg.agent).replay
-
-
-# ----------------------------------------------------------------------------
-# Starting and resuming
-# ----------------------------------------------------------------------------
-
-
-def _writer_lock(out: Path):
-    """The run directory's lock, held by the process that writes (process 0)."""
-    return rundir.Lock(out) if is_writer() else contextlib.nullcontext()
-
-
-# What a Ctrl-C left of the run this process trains: its directory, whether the
-# command made it, and how far it got; interrupted_text says it in words.
-_interrupt: dict[str, Any] = {}
-
-
-def interrupted_text() -> str:
-    """The line ``jaxnav train`` ends with on Ctrl-C: what it left and how to go on."""
-    out, left = _interrupt.get("out"), _interrupt.get("left")
-    if out is None:
-        return "interrupted"
-    if _interrupt.get("finished"):
-        return (
-            f"interrupted after training finished: the results are in {out} "
-            f"({startup.invocation('plots')} {out} draws its figures)"
-        )
-    if left == "removed":
-        return f"interrupted before the first checkpoint; {out} was removed"
-    if left == "emptied":
-        return f"interrupted before the first checkpoint; {out} was left empty"
-    resume = startup.invocation("train")
-    return f"interrupted; the run can be resumed with {resume} --resume {shlex.quote(str(out))}"
-
-
-@contextlib.contextmanager
-def _tidy_on_interrupt(out: Path, made: bool | None):
-    """On Ctrl-C within the block: a run without a checkpoint has nothing worth
-    resuming, so what this command wrote goes (``made``: the whole directory, which it
-    created; False: its contents, the directory was there before; None, a resume:
-    nothing). Otherwise only this process's half-written temporary files go."""
-    _interrupt.clear()
-    _interrupt.update(out=out)
-
-    def tidy() -> None:
-        if not is_writer() or not out.is_dir():
-            return
-        resumable = (out / rundir.CHECKPOINT).is_file() or (out / rundir.PARAMS).is_file()
-        if resumable or made is None:
-            rundir.remove_stale_temps(out, pid=os.getpid())
-        elif made:
-            shutil.rmtree(out, ignore_errors=True)
-            _interrupt.update(left="removed")
-        else:
-            rundir.empty(out)
-            _interrupt.update(left="emptied")
-
-    with startup.on_interrupt(tidy):
-        yield
-
-
-def check_test_mazes(cfg: Config) -> None:
-    """Read every maze of ``run.test_mazes`` (a name or a maze file): one that does not
-    exist or load is a ConfigError naming it, before anything is trained or written,
-    not a failure at the test after training."""
-    for maze in cfg.run.test_mazes:
-        try:
-            make_maze(maze)
-        except ValueError as e:
-            raise ConfigError(f"config: run.test_mazes: {e}") from None
-
-
-def train_new(
-    cfg: Config,
-    out: Path,
-    quiet: bool = False,
-    overwrite: bool = False,
-    keep_checkpoints: bool = False,
-) -> dict[str, Any]:
-    """Start a new run in ``out`` (absent or empty; with ``overwrite``, an existing run
-    directory is emptied first, under its lock) and train it to the end."""
-    check_test_mazes(cfg)  # and Run builds the env first: a bad maze leaves no directory
-    run = Run(cfg, out, quiet, keep_checkpoints)
-    _ = run.start_params  # run.init_from read and checked before any file is written
-    replace = overwrite and (out / rundir.CONFIG).is_file()
-    with _tidy_on_interrupt(out, made=not out.exists()):
-        with startup.no_interrupt():
-            if is_writer() and not replace:
-                rundir.create(out)
-        with _writer_lock(out):
-            if is_writer():
-                with startup.no_interrupt():
-                    if replace:
-                        rundir.clear(out)
-                    rundir.atomic_write_text(out / rundir.CONFIG, dump_config(cfg))
-            return run.finish(run.train(run.fresh_state()))
-
-
-def resume(out: Path, quiet: bool = False, keep_checkpoints: bool = False) -> dict[str, Any]:
-    """Continue a run from its last checkpoint (or from the start if it has none). A
-    finished run whose checkpoints are gone has nothing left to train: its summary."""
-    out = rundir.existing(out)
-    cfg = load_config(str(out / rundir.CONFIG))
-    if rundir.finished(out):
-        with _writer_lock(out):
-            if is_writer():
-                rundir.remove_stale_temps(out)
-                rundir.remove_checkpoints(out)  # left by a finish that was killed
-            # as a resume with nothing left to train reports it: no start-up this time
-            return {**rundir.read_summary(out), "startup_s": None, "compile_s": None}
-    run = Run(cfg, out, quiet, keep_checkpoints)
-    with _tidy_on_interrupt(out, made=None), _writer_lock(out):
-        if is_writer():
-            rundir.remove_stale_temps(out)
-            run.checkpoint.parent.mkdir(exist_ok=True)  # killed before create() finished
-        if run.checkpoint.is_file():
-            ts = run.restored_state()
-        else:  # killed before its first checkpoint: start over
-            if is_writer():
-                run.metrics.path.unlink(missing_ok=True)
-                run.explore.path.unlink(missing_ok=True)
-                (out / rundir.EVAL).unlink(missing_ok=True)
-            ts = run.fresh_state()
-        return run.finish(run.train(ts))
