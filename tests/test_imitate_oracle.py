@@ -178,8 +178,11 @@ def test_the_run_is_written_beside_and_replaces_a_run_only_whole(tmp_path, monke
     imitate.write_run(out, cfg, np.zeros(2), {"n": 1})
     (out / "plots").mkdir()  # what a run's commands add later
     assert json.loads((out / rundir.SUMMARY).read_text()) == {"n": 1}
+    with pytest.raises(RunError, match="exists already"):
+        imitate.write_run(out, cfg, np.ones(2), {"n": 2})  # not without overwrite
+    assert json.loads((out / rundir.SUMMARY).read_text()) == {"n": 1}
     imitate.replaceable(out)  # a run directory: it may be replaced
-    imitate.write_run(out, cfg, np.ones(2), {"n": 2})
+    imitate.write_run(out, cfg, np.ones(2), {"n": 2}, overwrite=True)
     assert json.loads((out / rundir.SUMMARY).read_text()) == {"n": 2}
     np.testing.assert_array_equal(np.load(out / rundir.PARAMS)["w"], np.ones(2))
     assert sorted(p.name for p in tmp_path.iterdir()) == ["run"]  # no .part, no old copy

@@ -214,7 +214,7 @@ def imitate(
         "env_steps": 0,
         "wall_s": round(time.perf_counter() - t0, 1),
     }
-    write_run(out, cfg, params, summary)
+    write_run(out, cfg, params, summary, overwrite)
     return summary, agree
 
 
@@ -238,10 +238,10 @@ def replaceable(out: Path) -> None:
         raise RunError(f"run directory {out} is in use by another process")
 
 
-def write_run(out: Path, cfg, params, summary: dict) -> None:
+def write_run(out: Path, cfg, params, summary: dict, overwrite: bool = False) -> None:
     """The run directory ``out``, whole or not at all: written beside it, then renamed
-    (over the run directory there, where one is: :func:`replaceable`). Ctrl-C or an
-    error on the way removes what was written."""
+    (with ``overwrite``, over the run directory there, where one is: :func:`replaceable`).
+    Ctrl-C or an error on the way removes what was written."""
     part = out.with_name(out.name + ".part")
     shutil.rmtree(part, ignore_errors=True)
     with startup.on_interrupt(lambda: shutil.rmtree(part, ignore_errors=True)):
@@ -251,7 +251,10 @@ def write_run(out: Path, cfg, params, summary: dict) -> None:
             rundir.atomic_write_npz(part / rundir.PARAMS, params_arrays(cfg, params))
             rundir.atomic_write_text(part / rundir.SUMMARY, json.dumps(summary, indent=1) + "\n")
             with startup.no_interrupt():  # the old run goes only when the new one is there
-                if out.exists():
+                if out.exists():  # checked before the work; checked again now
+                    if not overwrite:
+                        raise RunError(f"{out} exists already: give a new run directory")
+                    replaceable(out)
                     old = out.with_name(f".{out.name}.old{os.getpid()}")
                     with rundir.Lock(out):
                         out.rename(old)
