@@ -68,6 +68,7 @@ def test_the_command_says_the_verdict_of_each_stage(capsys):
         (["nowhere"], "unknown maze 'nowhere'"),
         (["stage3", "stage4"], "stage4: its cylinders do not all spin"),
         (["stage3", "--cell", "0"], "--cell must be positive"),
+        (["stage3", "--speed", "-1"], "--speed must be 0 or more"),
     ],
 )
 def test_bad_input_is_one_line_and_exit_2(argv, message, capsys):

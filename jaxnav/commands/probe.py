@@ -44,7 +44,9 @@ def reach(args) -> None:
     from jaxnav.world.maps import make_maze
     from jaxnav.world.reach import farthest_reach, spinning, verdict_line
 
-    for what in ("speed", "cell", "dt", "horizon"):
+    if not args.speed >= 0:
+        raise JaxnavError(f"--speed must be 0 or more, got {args.speed}")
+    for what in ("cell", "dt", "horizon"):
         if not getattr(args, what) > 0:
             raise JaxnavError(f"--{what} must be positive, got {getattr(args, what)}")
     stages = {name: spinning(make_maze(name), name) for name in args.stages}  # all checked
