@@ -187,21 +187,21 @@ def test_ctrl_c_at_every_stage_of_training(tmp_path):
     # importing: nothing written yet
     proc = _train(tmp_path / "importing")
     time.sleep(0.3)
-    line = _one_line(_interrupted(proc)[1], "jaxnav.commands.train")
+    line = _one_line(_interrupted(proc)[1], "jaxnav train")
     assert line == "jaxnav train: interrupted" and not (tmp_path / "importing").exists()
 
     # compiling: the directory is made, nothing resumable yet, so it goes
     out = tmp_path / "compiling"
     proc = _train(out, cold=True)
     _when(proc, out / rundir.CONFIG)
-    line = _one_line(_interrupted(proc)[1], "jaxnav.commands.train")
+    line = _one_line(_interrupted(proc)[1], "jaxnav train")
     left["compiling"] = _left_resumable_finished_or_nothing(out, line)
 
     # training: after the first checkpoint (of 40); then --resume ends the run
     out = tmp_path / "training"
     proc = _train(out, "episodes=40")
     _when(proc, out / rundir.CHECKPOINT)
-    line = _one_line(_interrupted(proc)[1], "jaxnav.commands.train")
+    line = _one_line(_interrupted(proc)[1], "jaxnav train")
     left["training"] = _left_resumable_finished_or_nothing(out, line)
     resume = [sys.executable, "-m", "jaxnav.commands.train", "--resume", str(out), "--quiet"]
     subprocess.run(resume, cwd=ROOT, check=True, capture_output=True)
@@ -211,7 +211,7 @@ def test_ctrl_c_at_every_stage_of_training(tmp_path):
     out = tmp_path / "finished"
     proc = _train(out)
     _when(proc, out / rundir.SUMMARY)
-    line = _one_line(_interrupted(proc)[1], "jaxnav.commands.train")
+    line = _one_line(_interrupted(proc)[1], "jaxnav train")
     left["finished"] = _left_resumable_finished_or_nothing(out, line)
 
     assert left == {
@@ -252,4 +252,4 @@ def test_ctrl_c_in_evaluate_is_the_same_one_line(tmp_path):
         proc.send_signal(signal.SIGINT)
         _, err = proc.communicate(timeout=60)
         assert proc.returncode == 130, err
-        assert _one_line(err.decode(), "jaxnav.commands.evaluate") == "jaxnav evaluate: interrupted"
+        assert _one_line(err.decode(), "jaxnav evaluate") == "jaxnav evaluate: interrupted"
