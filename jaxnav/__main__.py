@@ -32,6 +32,8 @@ COMMANDS: dict[str, tuple[str, bool]] = {
         True,
     ),
     "sim2sim": ("a run's policies driving a TurtleBot3 burger in MuJoCo physics", True),
+    "imitate": ("policies fit to the oracle's actions, written as a finished run", True),
+    "probe": ("diagnostics: collisions' causes, cut attempts' waits, moving worlds' reach", True),
     "list": ("the built-in mazes, the shipped configs and every setting", False),
     "publish": ("rewrite the docs' parts computed from committed data", False),
 }
