@@ -89,9 +89,9 @@ def test_evaluate_says_which_drivers_waited_as_the_table_counts():
             expected[driver] = (k + longer, n + read)
         lines = long_waits_text(rows).splitlines()
         said = {line.split(":")[0]: line for line in lines}
-        for driver, (k, n) in expected.items():
+        for driver, (k, _n) in expected.items():
             if k:
-                assert f"{driver}: {k} of the {n} episodes" in said[driver], (f, driver)
+                assert f"{driver}: stalled in {k} of its " in said[driver], (f, driver)
                 seen += 1
             else:
                 assert driver not in said, (f, driver)
@@ -102,4 +102,6 @@ def test_no_line_where_nothing_waited():
     row = dict(zip(HEAD.strip().split(","), "oracle,0,greedy,m,0,3,0,0,30.0,1,50.0".split(",")))
     assert long_waits_text([row]) == ""
     row["drive_s"] = "100.0"  # a 70 s wait
-    assert long_waits_text([row]).startswith("oracle: 1 of the 1 episodes")
+    line = long_waits_text([row])
+    assert line.startswith("oracle: stalled in 1 of its 1 test episodes: on one goal for over 60 s")
+    assert "env.attempt_limit=300 " in line and "\n" not in line
