@@ -16,9 +16,10 @@ from pathlib import Path
 import pytest
 import yaml
 
-from jaxnav.core.config import CONFIG_DIR, builtin_configs, config_to_dict, load_config
+from jaxnav.core.config import config_to_dict, load_config
 from jaxnav.core.errors import ConfigError, JaxnavError
 from jaxnav.core.rundir import csv_text
+from jaxnav.core.shipped import CONFIG_DIR, builtin_configs
 from jaxnav.experiments import driving, studies, studyfile
 from jaxnav.report.agents_sac import FIGURE
 from jaxnav.report.driving_page import (

@@ -12,8 +12,9 @@ import numpy as np
 import pytest
 
 import jaxnav
-from jaxnav.core.config import builtin_configs, load_config
+from jaxnav.core.config import load_config
 from jaxnav.core.errors import ConfigError
+from jaxnav.core.shipped import builtin_configs
 from jaxnav.env import from_config
 from jaxnav.world import cylinders, maps, rooms
 

@@ -8,7 +8,8 @@ import pytest
 
 from jaxnav.__main__ import main as jaxnav_main
 from jaxnav.commands.train import main as train_main
-from jaxnav.core.config import ConfigError, builtin_configs, load_config
+from jaxnav.core.config import ConfigError, load_config
+from jaxnav.core.shipped import builtin_configs
 
 
 @pytest.mark.parametrize(
@@ -54,7 +55,7 @@ def test_a_seed_option_a_key_cannot_hold_is_refused_in_one_line(command, seed, t
 def test_a_study_seed_a_key_cannot_hold_is_refused_in_one_line():
     import yaml
 
-    from jaxnav.core.config import STUDY_DIR
+    from jaxnav.core.shipped import STUDY_DIR
     from jaxnav.experiments.ladder import parse_study
 
     doc = yaml.safe_load((STUDY_DIR / "when_ebe_helps.yaml").read_text())
@@ -223,7 +224,7 @@ def test_a_mistyped_or_missing_name_gets_one_line_that_helps(
 def test_the_studies_are_listed_with_what_each_costs(capsys):
     from jaxnav.commands.list import main as list_main
     from jaxnav.commands.study import main as study_main
-    from jaxnav.core.config import shipped_studies
+    from jaxnav.core.shipped import shipped_studies
 
     assert list_main(["studies"]) == 0
     out = capsys.readouterr().out

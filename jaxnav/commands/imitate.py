@@ -18,8 +18,9 @@ import sys
 from pathlib import Path
 
 from jaxnav.core import cli
-from jaxnav.core.config import load_config, resolve_config_path
+from jaxnav.core.config import load_config
 from jaxnav.core.errors import JaxnavError
+from jaxnav.core.shipped import resolve_config_path
 from jaxnav.experiments.imitation import imitate
 
 

@@ -13,7 +13,8 @@ import sys
 from collections.abc import Sequence
 
 from jaxnav.core import agents, cli, families, strategies
-from jaxnav.core.config import SETTINGS, builtin_configs, studies_text
+from jaxnav.core.config import SETTINGS
+from jaxnav.core.shipped import builtin_configs, studies_text
 from jaxnav.robot.shipped import shipped_policies
 from jaxnav.world.maps import BUILTIN_MAZES
 

@@ -23,7 +23,8 @@ import sys
 from pathlib import Path
 
 from jaxnav.core import cli
-from jaxnav.core.config import load_config, resolve_config_path, studies_text
+from jaxnav.core.config import load_config
+from jaxnav.core.shipped import resolve_config_path, studies_text
 from jaxnav.experiments import studies
 from jaxnav.experiments.study import doc_files, study
 from jaxnav.report import stats

@@ -17,8 +17,9 @@ from typing import Any
 
 import yaml
 
-from jaxnav.core.config import CONFIG_DIR, Config, build_config
+from jaxnav.core.config import Config, build_config
 from jaxnav.core.errors import ConfigError
+from jaxnav.core.shipped import CONFIG_DIR
 from jaxnav.core.values import flatten, parse_override, yaml_mark
 
 KINDS = ("ladder", "driving", "sim2sim")

@@ -64,8 +64,8 @@ import jax.numpy as jnp
 import numpy as np
 from flax import struct
 
-from jaxnav.core.config import shipped_path
 from jaxnav.core.errors import MazeError
+from jaxnav.core.shipped import shipped_path
 from jaxnav.core.values import yaml_mark
 from jaxnav.world.builtins import BUILTIN_MAZES, builtin, square
 from jaxnav.world.motion import Motion, pad_motion, parked
