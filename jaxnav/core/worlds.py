@@ -81,7 +81,7 @@ def _is_ros_map(name: str) -> bool:
 
     if os.path.splitext(name)[1] not in (".yaml", ".yml"):
         return False
-    from jaxnav.core.config import shipped_path
+    from jaxnav.core.shipped import shipped_path
 
     path = shipped_path(name)
     if not os.path.isfile(path):

@@ -32,7 +32,7 @@ import os
 
 import numpy as np
 
-from jaxnav.core.config import shipped_path
+from jaxnav.core.shipped import shipped_path
 from jaxnav.core.errors import MazeError
 from jaxnav.world.gridmaze import grid_bounds, grid_maze, reachable_raster
 from jaxnav.world.maps import MAX_COORDINATE, ROBOT_RADIUS, Maze
