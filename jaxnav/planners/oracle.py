@@ -121,14 +121,18 @@ class Oracle:
 
     def _update(self, mem: OracleMemory, params: EnvParams, state: EnvState, maze: Maze):
         """The memory for this step: fields computed again where the maze or goal changed."""
-        new_maze = jnp.any(maze.segments != mem.segments) | jnp.any(maze.circles != mem.circles)
-        new_goal = jnp.any(state.goal != mem.goal)
-        clearance = draw_where(
-            lambda m: rs.clearance_field(m, self.raster), new_maze, maze, mem.clearance, chunk=1
-        )
+        fresh = jnp.any(state.goal != mem.goal)
+        clearance = mem.clearance  # one maze the whole test: the first step's field
+        if self.env.generates or self.env.scales_maze:  # each episode may have its own
+            new_maze = jnp.any(maze.segments != mem.segments)
+            new_maze = new_maze | jnp.any(maze.circles != mem.circles)
+            clearance = draw_where(
+                lambda m: rs.clearance_field(m, self.raster), new_maze, maze, clearance, chunk=1
+            )
+            fresh = fresh | new_maze
         origin = rs.origin_of(maze, self.raster)
         inputs = (clearance, state.goal, origin, params.goal_radius, params.robot_radius)
-        distance = draw_where(self._distance, new_maze | new_goal, inputs, mem.distance, chunk=1)
+        distance = draw_where(self._distance, fresh, inputs, mem.distance, chunk=1)
         return OracleMemory(maze.segments, maze.circles, state.goal, clearance, distance)
 
     # -- planning ---------------------------------------------------------------
