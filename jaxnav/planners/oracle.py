@@ -185,7 +185,7 @@ class Oracle:
                     )  # [N, A, samples, 2]
                     unsafe = self._unsafe(mem, maze, origin, state, params, pts, step)
                     pos, yaw = pts[..., -1, :], wrap_angle(yaw + w_a * dt)
-                    at_goal = jnp.linalg.norm(pos - state.goal, axis=-1) < params.goal_radius
+                    at_goal = _length(pos - state.goal) < params.goal_radius
                     rec.append((unsafe, at_goal, pos, yaw))
                     step += 1
                 levels.append(
@@ -218,7 +218,7 @@ class Oracle:
                 mem.distance, origin, self.raster, ahead[..., 0], ahead[..., 1]
             )
             d_ahead = jnp.where(jnp.isfinite(d_ahead), d_ahead, d_end + 2 * self.lookahead)
-            straight = jnp.linalg.norm(where - state.goal, axis=-1)  # where the raster has no way
+            straight = _length(where - state.goal)  # where the raster has no way
             way = jnp.where(
                 jnp.isfinite(d_end), 0.5 * (d_end + d_ahead), 1.0e3 + straight
             )  # [K, T]
@@ -283,7 +283,7 @@ class Oracle:
         at = jax.vmap(lambda k: motion.positions(maze.motion, (state.t + k) * params.dt))(ahead)
         # the cylinders' centres over the wait after each end: [T, wait, M, 2]
         window = jnp.stack([at[j : j + self.wait_steps] for j in range(T)])
-        gap = jnp.linalg.norm(where[:, :, None, None, :] - window[None], axis=-1)
+        gap = _length(where[:, :, None, None, :] - window[None])
         gap = _least(gap - maze.motion.radius, 2, 3)
         return gap < params.robot_radius + self.moving_margin
 
@@ -298,9 +298,20 @@ class Oracle:
             frac = (jnp.arange(self.samples, dtype=jnp.float32) + 1) / self.samples
             times = (state.t + step + frac) * params.dt  # [samples]
             where = jax.vmap(lambda t: motion.positions(maze.motion, t))(times)  # [samples, M, 2]
-            gap = jnp.linalg.norm(pts[..., None, :] - where, axis=-1) - maze.motion.radius
+            gap = _length(pts[..., None, :] - where) - maze.motion.radius
             bad = bad | (_least(gap, gap.ndim - 1) < r + self.moving_margin)
         return jnp.any(bad, axis=-1)
+
+
+def _length(v: chex.Array) -> chex.Array:
+    """f32[...]: the length of each vector of ``v`` (f32[..., 2]), exactly as
+    ``jnp.linalg.norm(v, axis=-1)`` computes it on a CPU, each square rounded before
+    their sum, but elementwise, so that it fuses with what is around it instead of
+    being a library reduction of its own. The maximum with 0 changes no square; it keeps
+    the compiler from contracting a square and the sum into one fused multiply-add,
+    which rounds once and would move the last bit."""
+    x, y = v[..., 0], v[..., 1]
+    return jnp.sqrt(jnp.maximum(x * x, 0.0) + jnp.maximum(y * y, 0.0))
 
 
 def _least(x: chex.Array, *axes: int) -> chex.Array:
