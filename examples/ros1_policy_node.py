@@ -7,7 +7,7 @@ master against a simulated TurtleBot3 (jaxnav's own LiDAR and motion behind /sca
 robot's dynamics, latency and odometry drift are not. Keep a hand on the stop button.
 
     # on the training machine
-    python -m jaxnav.export runs/paper_no_obstacles --strategy ebe --seed 0 --out policy.npz
+    jaxnav export runs/paper_no_obstacles --strategy ebe --seed 0 --out policy.npz
     # on the robot (ROS 1 sourced, e.g. after roslaunch turtlebot3_bringup
     # turtlebot3_robot.launch; needs NumPy, not JAX)
     python3 ros1_policy_node.py _policy:=policy.npz

@@ -26,7 +26,7 @@ run that test:
 On a robot:
 
     # on the training machine
-    python -m jaxnav.export runs/paper_no_obstacles --strategy ebe --seed 0 --out policy.npz
+    jaxnav export runs/paper_no_obstacles --strategy ebe --seed 0 --out policy.npz
     # on the robot (ROS 2 sourced; needs NumPy, not JAX: jaxnav/robot/deploy.py next to
     # this file, or jaxnav importable)
     python3 ros2_policy_node.py --ros-args -p policy:=policy.npz

@@ -1,7 +1,9 @@
 """``jaxnav COMMAND [ARGS ...]``: every command under one name.
 
-``jaxnav train CONFIG`` is ``python -m jaxnav.train CONFIG``, and so on for each
-command below; ``jaxnav --help`` lists them, ``jaxnav COMMAND --help`` shows one.
+Each command is a module of :mod:`jaxnav.commands` (``jaxnav train CONFIG`` runs
+:mod:`jaxnav.commands.train`); ``python -m jaxnav train CONFIG`` is the same without
+the entry point, and ``python -m jaxnav.train CONFIG`` the main command's own form;
+``jaxnav --help`` lists them, ``jaxnav COMMAND --help`` shows one.
 """
 
 from __future__ import annotations
@@ -68,7 +70,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     catch_interrupts_in_command()  # first thing: Ctrl-C ends any command cleanly
     if COMMANDS[name][1]:  # before JAX starts: one CPU device per core, compile cache
         before_jax()
-    return importlib.import_module(f"jaxnav.{name}").main(rest)
+    return importlib.import_module(f"jaxnav.commands.{name}").main(rest)
 
 
 if __name__ == "__main__":

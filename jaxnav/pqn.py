@@ -56,7 +56,7 @@ from jaxnav.env import EnvParams, EnvState, NavEnv, bank_key, from_config
 def network_of(config: Config, env: NavEnv | None = None) -> QNetwork:
     """PQN's Q-network of a config's runs: the paper's with LayerNorm before each hidden
     ReLU (``env``: the config's environment, if already made)."""
-    env = from_config(config)[0] if env is None else env
+    env = from_config(config, prepare=False)[0] if env is None else env
     d = config.dqn
     conv = {"scan_conv": tuple(d.scan_conv), "scan_layout": env.scan_layout}
     return QNetwork(env.num_actions, tuple(d.hidden), d.dropout, d.dueling, layer_norm=True, **conv)
@@ -151,7 +151,7 @@ class Rollouts(NamedTuple):
 
 def make_rollouts(config: Config) -> Rollouts:
     """The rollout and targets of a config's PQN runs (:class:`Rollouts`)."""
-    env, base_params = from_config(config)
+    env, base_params = from_config(config, prepare=False)
     budget = config.total_steps or 1  # env steps: the pace curriculum's span
     p = config.pqn
     network = network_of(config, env)

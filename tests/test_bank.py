@@ -290,12 +290,12 @@ def test_train_says_the_banks_memory_and_refuses_one_larger_than_the_machine(tmp
     import sys
 
     out = tmp_path / "r"
-    big = ["jaxnav.train", "drive_cylinders", "env.maze_bank=10000000", "--out", str(out)]
+    big = ["jaxnav.commands.train", "drive_cylinders", "env.maze_bank=10000000", "--out", str(out)]
     run = subprocess.run([sys.executable, "-m", *big], capture_output=True, text=True, timeout=120)
     assert run.returncode == 2, run.stderr
     lines = run.stderr.splitlines()
     assert lines[0].startswith("maze bank: 10000000 layouts of 12.7 KiB"), lines
-    assert lines[-1].startswith("jaxnav.train: error: this run needs about ")
+    assert lines[-1].startswith("jaxnav train: error: this run needs about ")
     assert "of replay and maze-bank memory" in lines[-1] and len(lines) == 2
     assert not out.exists()
     # The per-layout figure is the layout's own arrays.

@@ -18,8 +18,8 @@ from _nav_reference import turned_changes_by_hand
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from jaxnav import export as export_command
 from jaxnav.agent.networks import QNetwork
+from jaxnav.commands import export as export_command
 from jaxnav.core import agents
 from jaxnav.core.config import dump_config, load_config
 from jaxnav.core.rundir import atomic_write_bytes, atomic_write_text, load_params, npz_bytes
@@ -556,7 +556,7 @@ def test_export_with_bad_input_fails_with_exit_2_and_one_line(runs, tmp_path, ca
         argv += ["--out", str(out), "--overwrite"]  # the error is the input's, not the file's
     assert export_command.main(argv) == 2
     err = capsys.readouterr().err
-    assert err.count("\n") == 1 and err.startswith("jaxnav.export: error: ")
+    assert err.count("\n") == 1 and err.startswith("jaxnav export: error: ")
     assert out.read_bytes() == b"old"  # the old file is untouched
 
 
@@ -573,7 +573,7 @@ def test_export_refuses_an_existing_file_before_exporting(runs, tmp_path, capsys
         m.setattr(export_command, "export_policy", no_export)
         assert export_command.main([str(run), "--out", str(out)]) == 2
         err = capsys.readouterr().err
-        assert err == f"jaxnav.export: error: {out} exists already (--overwrite replaces it)\n"
+        assert err == f"jaxnav export: error: {out} exists already (--overwrite replaces it)\n"
         m.chdir(tmp_path)  # the default name, policy-ebe-seed0.npz, in the working directory
         (tmp_path / "policy-ebe-seed0.npz").write_bytes(b"old")
         assert export_command.main([str(run)]) == 2
@@ -587,7 +587,7 @@ def test_export_refuses_an_existing_file_before_exporting(runs, tmp_path, capsys
 
 def test_command_line_error_is_one_line_without_traceback(tmp_path):
     r = subprocess.run(
-        [sys.executable, "-m", "jaxnav.export", str(tmp_path / "missing")],
+        [sys.executable, "-m", "jaxnav.commands.export", str(tmp_path / "missing")],
         capture_output=True,
         text=True,
         cwd=tmp_path,

@@ -98,7 +98,7 @@ def test_a_wrong_study_is_one_line_naming_the_problem(items, message):
 
 
 def test_an_unknown_kind_is_one_line_and_exit_2(tmp_path, capsys):
-    from jaxnav.study import main
+    from jaxnav.commands.study import main
 
     path = tmp_path / "s.yaml"
     path.write_text("kind: drivng\ntitle: x\n")
@@ -235,7 +235,7 @@ def test_a_tiny_driving_study_end_to_end_and_its_resume(tmp_path):
     assert float(rows[0]["command_s"]) > 0
     results = (doc.parent / "drive" / "smoke.csv").read_text()
     assert {r["strategy"] for r in csv.DictReader(io.StringIO(results))} >= {"oracle", "dwa"}
-    assert "`smoke`" in doc.read_text() and "Written by `python -m jaxnav.study" in doc.read_text()
+    assert "`smoke`" in doc.read_text() and "Written by `jaxnav study" in doc.read_text()
     params = out / "smoke" / "params.npz"
     before = params.stat().st_mtime_ns
     again = subprocess.run([*cmd, "--resume"], capture_output=True, text=True)

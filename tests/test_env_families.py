@@ -122,7 +122,7 @@ def test_bad_family_settings_are_one_line_naming_the_setting(generator, override
 
 
 def test_a_bad_setting_on_the_command_line_is_one_line_and_a_failure(tmp_path, capsys):
-    from jaxnav.train import main
+    from jaxnav.commands.train import main
 
     code = main(["cylinders", "--out", str(tmp_path / "run"), "env.cyl_room=0.5"])
     err = capsys.readouterr().err.strip()
@@ -176,7 +176,7 @@ def test_a_short_run_trains_and_tests_on_its_drawn_family(name, tmp_path):
 @pytest.mark.slow
 @pytest.mark.parametrize("name", ["cylinders", "rooms"])
 def test_render_draws_a_maze_of_the_family(name, tmp_path, capsys):
-    from jaxnav.render import main
+    from jaxnav.commands.render import main
 
     out = tmp_path / f"{name}.png"
     assert main([name, "--out", str(out)]) == 0

@@ -14,12 +14,12 @@ import numpy as np
 import pytest
 
 import jaxnav
+from jaxnav.commands.list import catalog
 from jaxnav.core import families
 from jaxnav.core.config import SETTINGS, load_config
 from jaxnav.core.errors import ConfigError
 from jaxnav.env import NavEnv
 from jaxnav.experiments.evaluation import evaluate_to_dir
-from jaxnav.list import catalog
 from jaxnav.run.training import train_new
 from jaxnav.world.generators import SPLITS
 from jaxnav.world.maps import GOAL_CLEARANCE, ROBOTIS_ARENA, Maze

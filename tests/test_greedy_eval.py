@@ -6,6 +6,7 @@ import csv
 import numpy as np
 import pytest
 
+from jaxnav.commands.train import main
 from jaxnav.core import rundir
 from jaxnav.core.config import load_config
 from jaxnav.experiments.evaluation import load_run
@@ -13,7 +14,6 @@ from jaxnav.experiments.rollout import padded_mazes, run_tests
 from jaxnav.report.navigation import CUT, SUCCESS, split_attempts
 from jaxnav.run import training
 from jaxnav.run.training import train_new
-from jaxnav.train import main
 
 # 1,000 env steps per run in chunks of 400; evaluations every 300 cut the chunks at
 # 300, 600 and 900 (whole blocks of 100 steps), and the end at 1,000 is evaluated too.

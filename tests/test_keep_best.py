@@ -11,6 +11,7 @@ from test_greedy_eval import EVAL, Killed
 from test_greedy_eval import TINY as PLAIN
 
 from jaxnav.agent.rollout import EVAL_SALT, VALID_SALT, eval_keys
+from jaxnav.commands.train import main
 from jaxnav.core import rundir
 from jaxnav.core.config import load_config
 from jaxnav.experiments import rollout as experiments_rollout
@@ -20,7 +21,6 @@ from jaxnav.report.navigation import CUT, SUCCESS, split_attempts
 from jaxnav.run import training
 from jaxnav.run.greedy import BestPolicy
 from jaxnav.run.training import train_new
-from jaxnav.train import main
 
 # test_greedy_eval's tiny DQN run: evaluations at 300, 600, 900 and 1,000 env steps
 TINY = PLAIN + EVAL

@@ -7,8 +7,8 @@ from __future__ import annotations
 import pytest
 
 from jaxnav.__main__ import main as jaxnav_main
+from jaxnav.commands.train import main as train_main
 from jaxnav.core.config import ConfigError, builtin_configs, load_config
-from jaxnav.train import main as train_main
 
 
 @pytest.mark.parametrize(
@@ -38,7 +38,7 @@ def test_settings_a_run_cannot_use_are_refused_in_one_line(overrides, message):
 def test_a_seed_option_a_key_cannot_hold_is_refused_in_one_line(command, seed, tmp_path, capsys):
     import importlib
 
-    main = importlib.import_module(f"jaxnav.{command}").main
+    main = importlib.import_module(f"jaxnav.commands.{command}").main
     out = tmp_path / ("mazes" if command == "mazes" else "maze.png")
     argv = ["grid", "--seed", seed, "--out", str(out)] + (
         ["--n", "2"] if command == "mazes" else []
@@ -76,7 +76,7 @@ def test_an_unknown_test_maze_is_refused_before_training_and_leaves_no_directory
 
 
 def test_an_unknown_test_maze_is_refused_before_a_study_makes_its_folder(tmp_path, capsys):
-    from jaxnav.study import main as study_main
+    from jaxnav.commands.study import main as study_main
 
     out = tmp_path / "study"
     assert study_main(["temperature", "run.test_mazes=[square4,nosuch]", "--out", str(out)]) == 2
@@ -103,7 +103,7 @@ def test_list_gives_each_shipped_config_its_whole_first_sentence():
 @pytest.mark.parametrize("maze", ["grid4", "square4"])
 def test_a_sheet_too_large_to_draw_is_refused_in_one_line(maze, tmp_path, capsys):
     """render square4 --samples 100000 grew to 15.7 GB in 10 minutes without a word."""
-    from jaxnav.render import main as render_main
+    from jaxnav.commands.render import main as render_main
 
     out = tmp_path / "sheet.png"
     assert render_main([maze, "--samples", "100000", "--out", str(out)]) == 2
@@ -143,7 +143,7 @@ def test_the_advice_after_ctrl_c_repeats_the_options_that_sized_the_run():
 
 def test_the_advice_after_ctrl_c_in_a_study_is_a_whole_command(monkeypatch):
     """It was "continue with --resume --out DIR": without the config, which study needs."""
-    import jaxnav.study as command
+    import jaxnav.commands.study as command
 
     told = []
     monkeypatch.setattr(
@@ -179,7 +179,7 @@ def test_evaluate_and_export_of_a_run_another_process_trains_say_so(command, tmp
     from jaxnav.core import rundir
     from jaxnav.core.config import dump_config
 
-    main = importlib.import_module(f"jaxnav.{command}").main
+    main = importlib.import_module(f"jaxnav.commands.{command}").main
     run = tmp_path / "run"
     run.mkdir()
     (run / rundir.CONFIG).write_text(dump_config(load_config("smoke")))
@@ -187,7 +187,7 @@ def test_evaluate_and_export_of_a_run_another_process_trains_say_so(command, tmp
         assert main([str(run)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert err == [
-        f"jaxnav.{command}: error: {run} is being trained by another process: wait for it to finish"
+        f"jaxnav {command}: error: {run} is being trained by another process: wait for it to finish"
     ]
     assert main([str(run)]) == 2  # not training, not finished: a resume finishes it
     assert "resume it first" in capsys.readouterr().err

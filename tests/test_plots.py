@@ -14,8 +14,8 @@ from matplotlib.colors import to_hex, to_rgb
 from matplotlib.figure import Figure
 from PIL import Image
 
-from jaxnav import plots as plots_command
-from jaxnav import reproduce
+from jaxnav.commands import plots as plots_command
+from jaxnav.commands import reproduce
 from jaxnav.core import strategies as registry
 from jaxnav.core.sweep import row_arm
 from jaxnav.experiments.evaluation import evaluate_to_dir
@@ -75,7 +75,7 @@ def test_a_run_not_yet_evaluated_gets_its_training_figures_and_a_hint(run, tmp_p
     written = plots.make_plots(d)
     assert [p.name for p in written] == ["training_curves.png", "exploration.png"]
     assert not (d / "eval").exists()
-    assert f"python -m jaxnav.evaluate {d}" in capsys.readouterr().err
+    assert f"jaxnav evaluate {d}" in capsys.readouterr().err
 
 
 def test_safe_name_of_a_maze_file():

@@ -12,6 +12,7 @@ from jaxnav import dqn, pqn
 from jaxnav.agent.exploration import epsilon_schedule, normalised_entropy
 from jaxnav.agent.qlearning import td_target
 from jaxnav.agent.trainer import make_train, run_inputs
+from jaxnav.commands.train import main
 from jaxnav.core import agents, rundir
 from jaxnav.core import strategies as registry
 from jaxnav.core.config import dump_config, load_config
@@ -19,7 +20,6 @@ from jaxnav.robot.deploy import FORMAT_VERSION, NORMS_VERSION, Policy
 from jaxnav.robot.export import export_policy
 from jaxnav.run import training
 from jaxnav.run.training import Run, train_new
-from jaxnav.train import main
 
 STRATEGIES = registry.names("discrete")
 TINY = [

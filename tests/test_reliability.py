@@ -9,11 +9,11 @@ import shutil
 import numpy as np
 import pytest
 
+from jaxnav.commands.evaluate import main as evaluate_main
+from jaxnav.commands.train import main as train_main
 from jaxnav.core import rundir
 from jaxnav.core.errors import MazeError, PolicyError
-from jaxnav.evaluate import main as evaluate_main
 from jaxnav.robot.deploy import Policy
-from jaxnav.train import main as train_main
 from jaxnav.world.maps import load_maze_file
 
 # Learning starts at step 64: with this learning rate the first update is not finite.

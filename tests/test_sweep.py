@@ -234,7 +234,7 @@ def _train_state(cfg):
 
 @pytest.mark.slow
 def test_the_command_trains_strategies_and_points_in_one_program(tmp_path, capsys):
-    from jaxnav.train import main
+    from jaxnav.commands.train import main
 
     out = tmp_path / "run"
     argv = [
@@ -325,7 +325,7 @@ def test_a_swept_environment_setting_changes_the_reward_of_its_runs():
 
 @pytest.mark.slow
 def test_the_study_command_tests_tabulates_and_draws_a_sweep(tmp_path, capsys):
-    from jaxnav.study import main
+    from jaxnav.commands.study import main
 
     out, doc = tmp_path / "study", tmp_path / "docs" / "temperature.md"
     doc.parent.mkdir()

@@ -6,8 +6,8 @@ import struct
 import numpy as np
 import pytest
 
+from jaxnav.commands.train import main as train_main
 from jaxnav.run.training import Run
-from jaxnav.train import main as train_main
 
 tensorboardX = pytest.importorskip("tensorboardX", reason="optional extra 'tensorboard'")
 from tensorboardX.proto import event_pb2  # noqa: E402

@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 from jaxnav.agent.trainer import make_train, run_inputs
+from jaxnav.commands.train import main
 from jaxnav.core import rundir
 from jaxnav.core.config import load_config
 from jaxnav.env import from_config
@@ -21,7 +22,6 @@ from jaxnav.experiments.evaluation import evaluate_to_dir
 from jaxnav.run import training
 from jaxnav.run.checkpoint import chunk_slots
 from jaxnav.run.training import Run, train_new
-from jaxnav.train import main
 
 ROOT = Path(__file__).resolve().parent.parent
 TINY = ["seeds=2", "episodes=8", "env.max_steps=100", "run.chunk_steps=100", "dqn.batch_size=16"]
@@ -146,7 +146,7 @@ def test_compiled_train_function_matches_the_host_loop(tmp_path):
 @pytest.mark.slow
 def test_resume_after_sigkill_gives_identical_results(tmp_path):
     ref, killed = tmp_path / "ref", tmp_path / "killed"
-    cmd = [sys.executable, "-m", "jaxnav.train", *TINY, "--quiet"]
+    cmd = [sys.executable, "-m", "jaxnav.commands.train", *TINY, "--quiet"]
     subprocess.run(cmd + ["--out", str(ref)], check=True, cwd=ROOT)
     proc = subprocess.Popen(cmd + ["--out", str(killed)], cwd=ROOT)
     ckpt = killed / "checkpoints" / "last.npz"
@@ -157,7 +157,7 @@ def test_resume_after_sigkill_gives_identical_results(tmp_path):
     proc.wait()
     assert not (killed / "params.npz").exists(), "the run finished before it could be killed"
     subprocess.run(
-        [sys.executable, "-m", "jaxnav.train", "--resume", str(killed), "--quiet"],
+        [sys.executable, "-m", "jaxnav.commands.train", "--resume", str(killed), "--quiet"],
         check=True,
         cwd=ROOT,
     )

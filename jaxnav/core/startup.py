@@ -151,11 +151,12 @@ _state = _Interrupts()
 
 
 def _command_name() -> str:
-    """``jaxnav.train`` for ``python -m jaxnav.train``, ``jaxnav`` for ``python -m
-    jaxnav``; the script's name otherwise."""
+    """``jaxnav train`` for ``python -m jaxnav.commands.train`` and ``python -m
+    jaxnav.train``, ``jaxnav`` for ``python -m jaxnav``; the script's name otherwise."""
     spec = getattr(sys.modules.get("__main__"), "__spec__", None)
     if spec is not None and spec.name:
-        return spec.name.removesuffix(".__main__")
+        name = spec.name.removesuffix(".__main__").removeprefix("jaxnav.commands.")
+        return f"jaxnav {name.removeprefix('jaxnav.')}" if name != "jaxnav" else name
     return Path(sys.argv[0]).name if sys.argv and sys.argv[0] else "jaxnav"
 
 
@@ -171,14 +172,12 @@ def in_command() -> bool:
 
 def invocation(command: str) -> str:
     """How to run a command the way this process was run: ``jaxnav train`` from the
-    ``jaxnav`` script, ``python -m jaxnav train`` from ``python -m jaxnav``, ``python
-    -m jaxnav.train`` otherwise."""
+    ``jaxnav`` script, ``python -m jaxnav train`` from ``python -m`` (where the script
+    may not be on the PATH)."""
     spec = getattr(sys.modules.get("__main__"), "__spec__", None)
     if spec is None and sys.argv and Path(sys.argv[0]).name == "jaxnav":
         return f"jaxnav {command}"
-    if spec is not None and spec.name == "jaxnav.__main__":
-        return f"python -m jaxnav {command}"
-    return f"python -m jaxnav.{command}"
+    return f"python -m jaxnav {command}"
 
 
 def catch_interrupts_in_command() -> None:

@@ -1,4 +1,4 @@
-"""``python -m jaxnav.ablation [--seeds N] [--out DIR] [--quick] [--resume] [--variants A,B]``
+"""``jaxnav ablation [--seeds N] [--out DIR] [--quick] [--resume] [--variants A,B]``
 
 Why are jaxnav's test returns two to three times the paper's? ROBOTIS' simulation,
 which the paper ran on, differs from jaxnav's environment in four ways, each a

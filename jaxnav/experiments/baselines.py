@@ -166,7 +166,7 @@ def evaluate_world(name: str, cfg: Config, n_seeds: int, n_episodes: int) -> Wor
     test keys (the seeds ``cfg.seed``, ... that a run of the config would have),
     ``n_episodes`` consecutive episodes each, on its maze, or on a drawn family's train
     and test layouts."""
-    env, env_params = from_config(cfg)
+    env, env_params = from_config(cfg, prepare=False)
     seeds = [cfg.seed + i for i in range(n_seeds)]
     if env.generates:
         tests = [(drawn_name(cfg, s), dataclasses.replace(env, split=s)) for s in SPLITS]

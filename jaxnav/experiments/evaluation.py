@@ -73,7 +73,7 @@ def load_run(run_dir: str | Path, overrides: Sequence[str] = ()) -> LoadedRun:
     run_dir = rundir.existing(run_dir, finished=True)
     cfg_path, params_path = run_dir / rundir.CONFIG, run_dir / rundir.PARAMS
     cfg = tested_config(cfg_path, overrides)
-    env, env_params = from_config(cfg)
+    env, env_params = from_config(cfg, prepare=False)
     if env.generates:  # trained on drawn mazes: tested on the fixed test mazes by name
         # (and on drawn ones: drawn_policies). A fixed maze has no grid of shortest
         # paths, so a geodesic run's test there scores the dense reward (progress
@@ -300,7 +300,7 @@ def drawn_policies(run: LoadedRun, split: str = "test", cfg: Config | None = Non
     episode, so N test episodes are N layouts); the test split's layouts are those
     training never draws. ``cfg``: draw from this config's family instead (the same
     sensor and observation)."""
-    env, env_params = from_config(cfg if cfg is not None else run.config)
+    env, env_params = from_config(cfg if cfg is not None else run.config, prepare=False)
     env = dataclasses.replace(env, split=split, new_maze_every=1)
     return run.policies._replace(env=env, env_params=env_params)
 

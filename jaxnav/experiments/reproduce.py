@@ -1,8 +1,8 @@
-"""``python -m jaxnav.reproduce [--seeds N] [--out DIR] [--quick] [--resume]``
+"""``jaxnav reproduce [--seeds N] [--out DIR] [--quick] [--resume]``
 
 The paper's two experiments end to end: train ``configs/paper_no_obstacles.yaml``
 (Table 3, Fig. 2) and ``configs/paper_obstacles.yaml`` (Table 4, Fig. 4), both
-strategies and N seeds each, test them (``jaxnav.evaluate``), draw the figures
+strategies and N seeds each, test them (``jaxnav evaluate``), draw the figures
 (``jaxnav.report.plots``) and write ``DIR/report.md`` with the tables, the figures, the
 wall-clock of every stage and the machine.
 
@@ -11,7 +11,7 @@ episodes of at most 500 steps: 18 minutes in all, measured on 2 shared CPU cores
 (AMD EPYC) with one CPU device per core, 13.7 of them training without obstacles
 and 3.7 with (episodes end sooner there); ``--seeds 4`` takes about half.
 Each experiment's policies are also tested under sensor perturbations on its
-training maze (``jaxnav.evaluate --robustness``). The paper's claims compare the two
+training maze (``jaxnav evaluate --robustness``). The paper's claims compare the two
 strategies, so the reference drivers that ``jaxnav evaluate`` drives beside a run's
 policies (the oracle and DWA) are left out of the test; ``--baselines`` adds them.
 
@@ -27,7 +27,7 @@ refused and tested by the same rule as every study's cells.
 Layout::
 
     DIR/report.md
-    DIR/paper_no_obstacles/   a training run (see jaxnav.train) + eval/ + plots/
+    DIR/paper_no_obstacles/   a training run (see jaxnav train) + eval/ + plots/
     DIR/paper_obstacles/
 """
 
@@ -192,7 +192,7 @@ def references(baselines: bool) -> tuple[str, ...]:
 
 
 def sim_to_sim(run_dir: Path, seeds: list[int]) -> Path:
-    """``python -m jaxnav.sim2sim RUN_DIR --seeds ...`` (its own process: only that
+    """``jaxnav sim2sim RUN_DIR --seeds ...`` (its own process: only that
     command imports MuJoCo); the path of its markdown table."""
     done = subprocess.run(runner.sim2sim_argv(run_dir, seeds), capture_output=True, text=True)
     if done.returncode != 0:

@@ -1,6 +1,6 @@
 """A maze scene: walls, obstacles, the robot at a pose, a goal drawn by ``reset`` and
 what the LiDAR beams see, cast by the environment's own sensor. The drawing itself
-is :mod:`jaxnav.report.drawing`; ``python -m jaxnav.render`` and the Gymnasium
+is :mod:`jaxnav.report.drawing`; ``jaxnav render`` and the Gymnasium
 wrapper's ``render()`` use this module.
 """
 
@@ -51,7 +51,7 @@ def render_maze(
     drawn = bool(env_kwargs and env_kwargs.get("generator"))
     if drawn:
         kwargs = dict(env_kwargs, n_beams=max(n_beams, 1))
-        env, params = make(**kwargs)
+        env, params = make(prepare=False, **kwargs)
     else:
         env, params = make(make_maze(maze_name), n_beams=max(n_beams, 1))
     _, state = jax.jit(env.reset)(jax.random.PRNGKey(seed), params)

@@ -1,7 +1,7 @@
 """Drawing a maze with matplotlib: walls, obstacles, the robot, a goal, LiDAR beams.
 
 Every function draws data it is given onto a matplotlib ``Axes``; nothing here
-computes a scan or runs the environment (``jaxnav.render`` does that for its
+computes a scan or runs the environment (``jaxnav render`` does that for its
 pictures; ``jaxnav.report.fig_trajectory`` puts trajectories on top).
 """
 

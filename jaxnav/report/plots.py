@@ -19,13 +19,13 @@
 * ``episode.gif``: that test episode of one arm (EBE if trained) on the first test
   maze: robot, LiDAR beams, goal (:mod:`jaxnav.report.fig_episode`).
 
-``python -m jaxnav.evaluate RUN_DIR --robustness`` draws ``robustness.png`` beside its
+``jaxnav evaluate RUN_DIR --robustness`` draws ``robustness.png`` beside its
 table with :func:`plot_robustness` (:mod:`jaxnav.report.fig_robustness`).
 
-The test episodes are those ``jaxnav.evaluate`` recorded in eval/trajectories.npz
+The test episodes are those ``jaxnav evaluate`` recorded in eval/trajectories.npz
 (episode 1 of the config's seed, greedy test); a run that has not been evaluated on
 these mazes gets the training figures only. Every figure is drawn from files: nothing
-here runs the environment or a network. The command is ``python -m jaxnav.plots``.
+here runs the environment or a network. The command is ``jaxnav plots``.
 """
 
 from __future__ import annotations
@@ -181,8 +181,8 @@ def make_plots(
     tests = plot_test_episodes(run_dir, out, maze_names)
     if not tests:
         print(
-            f"jaxnav.plots: {run_dir} has no test episodes of these mazes: run "
-            f"python -m jaxnav.evaluate {run_dir} for the trajectory figures",
+            f"jaxnav plots: {run_dir} has no test episodes of these mazes: run "
+            f"jaxnav evaluate {run_dir} for the trajectory figures",
             file=sys.stderr,
         )
     return written + tests

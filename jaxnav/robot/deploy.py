@@ -1,6 +1,6 @@
 """A trained policy on a real TurtleBot3: a policy file, read and run with NumPy alone.
 
-``python -m jaxnav.export RUN_DIR [--strategy ebe] [--seed K] [--out policy.npz]``
+``jaxnav export RUN_DIR [--strategy ebe] [--seed K] [--out policy.npz]``
 writes one trained Q-network of a run to a portable ``.npz`` (plain arrays, no
 pickle), together with everything needed to feed it:
 
@@ -15,7 +15,7 @@ pickle), together with everything needed to feed it:
                     (format version 7)
     maze/walls, maze/obstacles, maze/start   the training maze's geometry
 
-``python -m jaxnav.export --info POLICY.npz`` prints the metadata.
+``jaxnav export --info POLICY.npz`` prints the metadata.
 
 On the robot, :class:`Policy` needs only NumPy: this module imports nothing else
 of jaxnav (a contract in pyproject.toml checks that it never imports JAX), so
@@ -517,7 +517,7 @@ class Policy:
 
     @classmethod
     def load(cls, path: str | os.PathLike) -> Policy:
-        """Read a policy written by ``python -m jaxnav.robot.deploy export``."""
+        """Read a policy written by ``jaxnav export``."""
         try:
             with np.load(path, allow_pickle=False) as data:
                 arrays = {k: data[k] for k in data.files}

@@ -1,4 +1,4 @@
-"""``python -m jaxnav.export RUN_DIR [--strategy ebe] [--seed K] [--out policy.npz]``
+"""``jaxnav export RUN_DIR [--strategy ebe] [--seed K] [--out policy.npz]``
 
 Exports one trained Q-network of a run to a portable policy file (plain NumPy
 arrays, no pickle) with everything needed to feed it on a robot: the observation
@@ -63,7 +63,7 @@ def export_policy(
         raise PolicyError(
             f"{params_path} has no parameters for {strategy} seed {seed} (it has {have or 'none'})"
         )
-    env, params = from_config(cfg)
+    env, params = from_config(cfg, prepare=False)
     if env.waypoint:
         raise PolicyError(
             f"{run_dir}: a policy trained with env.waypoint cannot be exported yet "

@@ -518,7 +518,7 @@ _interrupt: dict[str, Any] = {}
 
 
 def interrupted_text() -> str:
-    """The line ``jaxnav.train`` ends with on Ctrl-C: what it left and how to go on."""
+    """The line ``jaxnav train`` ends with on Ctrl-C: what it left and how to go on."""
     out, left = _interrupt.get("out"), _interrupt.get("left")
     if out is None:
         return "interrupted"

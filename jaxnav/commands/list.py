@@ -1,4 +1,4 @@
-"""``python -m jaxnav.list`` (``jaxnav list``): what there is to choose from.
+"""``jaxnav list``: what there is to choose from.
 
 The built-in mazes with a line each, the shipped configs (a built-in config's name
 works wherever a config path does: ``jaxnav train smoke``), the shipped studies, the
@@ -87,7 +87,7 @@ def settings_markdown() -> str:
 
 def main(argv: Sequence[str] | None = None) -> int:
     parser = cli.Parser(
-        prog="python -m jaxnav.list",
+        prog="jaxnav list",
         description="List the built-in mazes, the shipped configs and every setting.",
     )
     parser.add_argument(

@@ -1,4 +1,4 @@
-"""``python -m jaxnav.study CONFIG [key=value ...] --out DIR [--resume] [--doc PATH]``
+"""``jaxnav study CONFIG [key=value ...] --out DIR [--resume] [--doc PATH]``
 
 A config's sweep trained, tested in both modes and written up in ``DIR/study.md``:
 the work is :func:`jaxnav.experiments.study.study` (its module describes the
@@ -32,7 +32,7 @@ from jaxnav.run.training import check_test_mazes
 
 def main(argv: list[str] | None = None) -> int:
     p = cli.Parser(
-        prog="python -m jaxnav.study",
+        prog="jaxnav study",
         description="Train a config's sweep, test every arm in both test modes and write "
         "DIR/study.md with the sweep's tables, computed answers and figures; or run a study "
         "file (a ladder, the driving study, a sim-to-sim campaign: jaxnav list shows the "
@@ -51,7 +51,7 @@ def main(argv: list[str] | None = None) -> int:
     )
     p.add_argument("--quiet", action="store_true", help="no progress output")
     args = p.parse_intermixed_args(argv)
-    command = "python -m jaxnav.study " + shlex.join(argv if argv is not None else sys.argv[1:])
+    command = "jaxnav study " + shlex.join(argv if argv is not None else sys.argv[1:])
 
     def work() -> None:
         items = list(args.items)

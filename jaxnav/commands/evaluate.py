@@ -94,7 +94,7 @@ def baseline(args) -> None:
 
 def main(argv: list[str] | None = None) -> int:
     p = cli.Parser(
-        prog="python -m jaxnav.evaluate",
+        prog="jaxnav evaluate",
         description="Test every trained policy of a run on the test mazes (the paper's "
         "protocol: N consecutive greedy episodes) and write eval/results.csv and eval/tables.md; "
         "with --robustness, test them under sensor perturbations instead.",
