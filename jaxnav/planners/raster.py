@@ -36,7 +36,7 @@ _MOVES = tuple(
     for dx in (-2, -1, 0, 1, 2)
     if (dy or dx) and max(abs(dy), abs(dx)) == 1 or {abs(dy), abs(dx)} == {1, 2}
 )
-_ROUNDS = 4  # relaxation rounds per loop iteration (one convergence test each)
+_ROUNDS = 1  # relaxations per loop iteration (one convergence test each): one fuses best
 
 
 class Raster(NamedTuple):
