@@ -35,6 +35,7 @@ CONFIG = [
     "episodes=30",
     "env.max_steps=100",
     "run.chunk_steps=100",
+    "run.checkpoint_s=0",  # a checkpoint after every chunk (the chunks cut by time)
     "--quiet",
 ]
 FILES = ("metrics.csv", "explore.csv", "params.npz")

@@ -24,6 +24,7 @@ COMMANDS: dict[str, tuple[str, bool]] = {
     "render": ("draw a maze with the robot, a goal and LiDAR beams, or a sheet of samples", True),
     "mazes": ("write drawn mazes of a family as maze files (start, goal, shortest path)", True),
     "export": ("write one trained policy to a portable NumPy file for a robot", True),
+    "drive": ("play a pretrained policy in any world without training, beside the oracle", True),
     "reproduce": ("the paper's two experiments end to end, and report.md", True),
     "ablation": ("both experiments under each ROBOTIS-faithful switch", True),
     "study": (
@@ -31,6 +32,8 @@ COMMANDS: dict[str, tuple[str, bool]] = {
         True,
     ),
     "sim2sim": ("a run's policies driving a TurtleBot3 burger in MuJoCo physics", True),
+    "imitate": ("policies fit to the oracle's actions, written as a finished run", True),
+    "probe": ("diagnostics: collisions' causes, cut attempts' waits, moving worlds' reach", True),
     "list": ("the built-in mazes, the shipped configs and every setting", False),
     "publish": ("rewrite the docs' parts computed from committed data", False),
 }

@@ -284,9 +284,10 @@ class NavEnv(Commands, EpisodeMaze, GoalSampler, DrawnLayouts, Observer):
         problem = problem or env_action_problem(self)
         if problem:
             raise ValueError(problem)
-        for f in dataclasses.fields(self):  # pairs (a list works too) as tuples of floats
+        for f in dataclasses.fields(self):  # number pairs (a list works too) as tuples
             if isinstance(f.default, tuple):
-                object.__setattr__(self, f.name, tuple(float(x) for x in getattr(self, f.name)))
+                kind = str if "str" in str(f.type) else float
+                object.__setattr__(self, f.name, tuple(kind(x) for x in getattr(self, f.name)))
 
     @property
     def generates(self) -> bool:

@@ -8,7 +8,7 @@ evaluation of it shares one compiled rollout: compiling dominates these tests.
 from __future__ import annotations
 
 from jaxnav.experiments.reproduce import experiment_config
-from jaxnav.run.training import train_new
+from jaxnav.run.launch import train_new
 
 REPRODUCE_TINY = [
     "--quick",

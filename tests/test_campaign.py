@@ -14,8 +14,9 @@ from pathlib import Path
 
 import pytest
 
-from jaxnav.core.config import CONFIG_DIR, load_config
+from jaxnav.core.config import load_config
 from jaxnav.core.errors import ConfigError, JaxnavError
+from jaxnav.core.shipped import CONFIG_DIR
 from jaxnav.experiments import campaign, studyfile
 from jaxnav.report.sim2sim_tables import REALISM_COLUMNS, SUMMARY_COLUMNS, campaign_markdown
 

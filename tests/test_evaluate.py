@@ -521,3 +521,17 @@ def test_a_paced_run_is_tested_at_the_worlds_own_pace(tmp_path):
     plain = tmp_path / "plain.yaml"
     plain.write_text(dump_config(load_config(None, ["env.maze=stage4"])))
     assert tested_config(plain) == load_config(str(plain))
+
+
+def test_a_drawn_run_is_tested_with_new_goals_at_restarts_whatever_training_kept(tmp_path):
+    """``evaluate --mazes FILE env.restart_goal=new`` of a run trained on drawn mazes
+    that kept each layout for several episodes was refused ("needs env.new_maze_every
+    1"), though its test draws a new layout every episode anyway."""
+    from jaxnav.core.config import dump_config, load_config
+    from jaxnav.experiments.evaluation import tested_config
+
+    path = tmp_path / "config.yaml"
+    path.write_text(dump_config(load_config("grid4", ["env.new_maze_every=4"])))
+    cfg = tested_config(path, ["env.restart_goal=new"])
+    assert cfg.env.restart_goal == "new" and cfg.env.new_maze_every == 1
+    assert tested_config(path).env.new_maze_every == 1  # as the test plays it anyway

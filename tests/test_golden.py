@@ -41,7 +41,7 @@ CASES = {
     "jaxnav train smoke": (
         [["train", "smoke", "--out", "RUN", "--quiet"]],
         {
-            "metrics.csv": "93019c7d54cb3a3a1f315230b6c02cfaa7ea22333d9327e3047fdebea0531563",
+            "metrics.csv": "9d98c25d0e80b409f60a56e99efb3d43158ff3a9838d275ee4b9bb13d8bdd442",
             "params.npz": "fb920276f5a35d3fe26a9d81902b8978a16ee399057fee1173053359bbe4077e",
         },
     ),

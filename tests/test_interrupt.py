@@ -140,7 +140,13 @@ def test_ctrl_c_while_the_process_exits_is_130_too(tmp_path):
 # -- jaxnav train ------------------------------------------------------
 
 TINY = ["configs/smoke.yaml", "seeds=1", "episodes=6", "env.max_steps=100"]
-TINY += ["run.chunk_steps=100", "dqn.batch_size=16", "--quiet"]
+TINY += [
+    "run.chunk_steps=100",
+    "dqn.batch_size=16",
+    "run.chunk_s=0",
+    "run.checkpoint_s=0",
+    "--quiet",
+]
 
 
 def _train(

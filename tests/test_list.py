@@ -12,7 +12,8 @@ from jaxnav.__main__ import COMMANDS
 from jaxnav.__main__ import main as jaxnav_main
 from jaxnav.commands.list import catalog, settings_markdown
 from jaxnav.core import agents
-from jaxnav.core.config import FIELD_TYPES, SETTINGS, SWEEPABLE, builtin_configs, load_config
+from jaxnav.core.config import FIELD_TYPES, SETTINGS, SWEEPABLE, load_config
+from jaxnav.core.shipped import builtin_configs
 from jaxnav.world.maps import BUILTIN_MAZES, make_maze
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -8,7 +8,8 @@ import pytest
 
 from jaxnav.__main__ import main as jaxnav_main
 from jaxnav.commands.train import main as train_main
-from jaxnav.core.config import ConfigError, builtin_configs, load_config
+from jaxnav.core.config import ConfigError, load_config
+from jaxnav.core.shipped import builtin_configs
 
 
 @pytest.mark.parametrize(
@@ -54,7 +55,7 @@ def test_a_seed_option_a_key_cannot_hold_is_refused_in_one_line(command, seed, t
 def test_a_study_seed_a_key_cannot_hold_is_refused_in_one_line():
     import yaml
 
-    from jaxnav.core.config import STUDY_DIR
+    from jaxnav.core.shipped import STUDY_DIR
     from jaxnav.experiments.ladder import parse_study
 
     doc = yaml.safe_load((STUDY_DIR / "when_ebe_helps.yaml").read_text())
@@ -192,3 +193,45 @@ def test_evaluate_and_export_of_a_run_another_process_trains_say_so(command, tmp
     assert main([str(run)]) == 2  # not training, not finished: a resume finishes it
     assert "resume it first" in capsys.readouterr().err
     assert {p.name for p in run.iterdir()} == {rundir.CONFIG, rundir.LOCK}  # nothing written
+
+
+@pytest.mark.parametrize(
+    "command, argv, message",
+    [
+        ("train", ["smok"], "no such file smok (did you mean 'smoke'?"),
+        ("study", ["drivng", "--out", "OUT"], "no such file drivng (did you mean 'driving'?"),
+        ("study", [], "name a config or a shipped study (jaxnav list studies"),
+        ("study", ["worlds"], "--out DIR is required"),
+    ],
+)
+def test_a_mistyped_or_missing_name_gets_one_line_that_helps(
+    command, argv, message, tmp_path, capsys
+):
+    import importlib
+
+    main = importlib.import_module(f"jaxnav.commands.{command}").main
+    argv = [str(tmp_path / "out") if a == "OUT" else a for a in argv]
+    try:
+        code = main(argv)
+    except SystemExit as e:  # the parser's own errors
+        code = e.code
+    assert code == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and message in err[0], err
+    assert not (tmp_path / "out").exists()
+
+
+def test_the_studies_are_listed_with_what_each_costs(capsys):
+    from jaxnav.commands.list import main as list_main
+    from jaxnav.commands.study import main as study_main
+    from jaxnav.core.shipped import shipped_studies
+
+    assert list_main(["studies"]) == 0
+    out = capsys.readouterr().out
+    costs = shipped_studies("cost")
+    assert costs and all(costs.values())  # every shipped study says what it took
+    for name, cost in costs.items():
+        assert name in out and f"cost: {cost}" in out
+    with pytest.raises(SystemExit):
+        study_main(["--help"])
+    assert "when_ebe_helps" in capsys.readouterr().out

@@ -17,6 +17,7 @@ from PIL import Image
 from jaxnav.commands import plots as plots_command
 from jaxnav.commands import reproduce
 from jaxnav.core import strategies as registry
+from jaxnav.core.config import load_config
 from jaxnav.core.sweep import row_arm
 from jaxnav.experiments.evaluation import evaluate_to_dir
 from jaxnav.experiments.rollout import run_tests
@@ -75,7 +76,10 @@ def test_a_run_not_yet_evaluated_gets_its_training_figures_and_a_hint(run, tmp_p
     written = plots.make_plots(d)
     assert [p.name for p in written] == ["training_curves.png", "exploration.png"]
     assert not (d / "eval").exists()
-    assert f"jaxnav evaluate {d}" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert f"jaxnav evaluate {d}" in err and "was not tested yet" in err
+    cfg = load_config(str(d / "config.yaml"))
+    assert all(m in err for m in cfg.run.test_mazes), err  # it names the mazes it would test
 
 
 def test_safe_name_of_a_maze_file():

@@ -205,3 +205,27 @@ def test_the_worlds_pictures_are_what_render_worlds_draws(tmp_path):
 
     for path in render_world_pictures(tmp_path):
         assert path.read_bytes() == (ROOT / "docs" / "worlds" / path.name).read_bytes(), path.name
+
+
+def test_a_rendered_maze_names_what_stands_in_it_and_its_legend_every_thing_drawn():
+    """``jaxnav render`` of a maze with inner walls said "0 obstacles"; stage 4's dotted
+    loops of its moving cylinders were in no legend, and the legend hid the x label."""
+    from matplotlib.figure import Figure
+
+    from jaxnav.experiments.scene import _legend, contents
+    from jaxnav.world.maps import make_maze
+
+    assert contents(make_maze("stage4")) == "8 blocks, 2 moving cylinders"
+    office = "configs/mazes/heldout/office.yaml"
+    assert contents(make_maze(office)) == "4 inner walls, 2 blocks, 1 cylinder"
+    assert contents(make_maze("square4_obstacles")) == "4 cylinders"
+    assert contents(make_maze("square4")) == "no obstacles"
+    fig = Figure()
+    fig.add_subplot()
+    _legend(fig, make_maze("stage4"), 24, 0.2)
+    labels = [t.get_text() for t in fig.legends[0].get_texts()]
+    assert "its loop" in labels and any("moving cylinder" in t for t in labels)
+    fig = Figure()
+    fig.add_subplot()
+    _legend(fig, make_maze("square4"), 24, 0.2)
+    assert not any("loop" in t.get_text() for t in fig.legends[0].get_texts())

@@ -27,9 +27,10 @@ from jaxnav.env import from_config  # noqa: E402
 from jaxnav.experiments.sim2sim import goals_of, task_of  # noqa: E402
 from jaxnav.report.sim2sim_tables import SUMMARY_COLUMNS, gap_markdown  # noqa: E402
 from jaxnav.robot import mujoco_model, mujoco_rollout  # noqa: E402
-from jaxnav.robot.deploy import FORMAT, FORMAT_VERSION, Policy, clean_ranges  # noqa: E402
+from jaxnav.robot.deploy import FORMAT, FORMAT_VERSION, Policy  # noqa: E402
 from jaxnav.robot.mujoco_model import wheel_speeds  # noqa: E402
 from jaxnav.robot.mujoco_rollout import Burger  # noqa: E402
+from jaxnav.robot.scan import clean_ranges  # noqa: E402
 from jaxnav.world.maps import make_maze  # noqa: E402
 from jaxnav.world.reward import progress_reward, reward_fn  # noqa: E402
 from jaxnav.world.sensor import lidar_scan  # noqa: E402
@@ -400,7 +401,7 @@ def test_the_reproduction_says_at_once_when_mujoco_is_missing(monkeypatch, tmp_p
 
 def test_a_continuous_policy_drives_the_burger_in_mujoco(tmp_path):
     """A SAC run's policies (continuous commands) through the same command."""
-    from jaxnav.run.training import train_new
+    from jaxnav.run.launch import train_new
 
     cfg = load_config(
         "smoke",

@@ -14,13 +14,16 @@ from jaxnav.core import strategies as registry
 from jaxnav.core import sweep
 from jaxnav.core.config import SWEEPABLE, load_config
 from jaxnav.core.errors import ConfigError
-from jaxnav.run.training import Run, resume, train_new
+from jaxnav.run.launch import resume, train_new
+from jaxnav.run.training import Run
 
 TINY = [
     "seeds=2",
     "episodes=6",
     "env.max_steps=80",
     "run.chunk_steps=120",
+    "run.chunk_s=0",
+    "run.checkpoint_s=0",  # a checkpoint after every chunk, as the kill below counts them
     "dqn.batch_size=16",
     "run.test_mazes=[square4]",
     "run.test_episodes=2",

@@ -20,11 +20,12 @@ from typing import Any
 
 from jaxnav.agent.sharding import initialize, is_writer
 from jaxnav.core import cli
-from jaxnav.core.config import load_config, resolve_config_path
+from jaxnav.core.config import load_config
 from jaxnav.core.errors import RunError
 from jaxnav.core.rundir import CONFIG, METRICS, CsvLog
+from jaxnav.core.shipped import resolve_config_path
+from jaxnav.run.launch import check_test_mazes, interrupted_text, resume, train_new
 from jaxnav.run.memory import confirm_memory
-from jaxnav.run.training import check_test_mazes, interrupted_text, resume, train_new
 
 LAST = 50  # training episodes per seed in the summary (summary.json's last50)
 

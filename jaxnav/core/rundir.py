@@ -205,6 +205,23 @@ class CsvLog:
         with open(self.path, newline="") as f:
             return list(csv.DictReader(f))
 
+    def group_by_run(self, runs: Sequence[Sequence[Any]]) -> None:
+        """Rewrite the file (atomically) with its rows grouped by run, in the order of
+        ``runs`` (each run's leading fields), each run's rows in the order they were
+        appended. The host loop appends each chunk's rows run by run, so without this
+        the rows' order would follow where the chunks ended, which the host sets by
+        time; grouped, a finished run's file is the same whatever its chunks were. The
+        bytes are the same lines, so the file keeps its size."""
+        if not self.path.is_file():
+            return
+        order = {tuple(map(str, fields)): i for i, fields in enumerate(runs)}
+        width = len(runs[0]) if runs else 0
+        head, *lines = self.path.read_text().splitlines(keepends=True)
+        rank = [order.get(tuple(row[:width]), len(order)) for row in csv.reader(lines)]
+        ranked = sorted(range(len(lines)), key=rank.__getitem__)  # stable
+        if ranked != list(range(len(lines))):
+            atomic_write_text(self.path, head + "".join(lines[i] for i in ranked))
+
 
 # ----------------------------------------------------------------------------
 # The directory

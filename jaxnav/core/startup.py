@@ -50,7 +50,11 @@ from pathlib import Path
 
 from jaxnav.core.cpu import use_all_cores
 
-_IMPORTED = time.monotonic()  # fallback start where /proc is missing
+# When Python first read jaxnav (jaxnav/__init__.py), else when this module was.
+_IMPORTED = getattr(sys.modules.get("jaxnav"), "_STARTED", time.monotonic())
+# Python's own start-up before it reads jaxnav takes well under this; a longer gap
+# between the process's start and that means the process ran something else first.
+STARTUP_SLACK_S = 2.0
 # The JAX_COMPILATION_CACHE_DIR a jaxnav command set itself, not the user: a command
 # started by another (a study's training commands, a benchmark's) inherits both.
 _SET_BY_JAXNAV = "JAXNAV_CACHE_SET"
@@ -58,15 +62,22 @@ _OFF = ("off", "0", "false", "no")  # what turns a cache off
 
 
 def process_age() -> float:
-    """Seconds since this process started: from /proc on Linux (interpreter start-up
-    included), elsewhere since this module was imported."""
+    """Seconds since this command started: from /proc on Linux (interpreter start-up
+    included), elsewhere since Python first read jaxnav. /proc counts from the
+    process's creation, and a shell that runs Python as its last command (``bash -c
+    'pip install ... && jaxnav train ...'``, a CI step, a Docker ``RUN``) hands it its
+    own process: where /proc's start lies more than :data:`STARTUP_SLACK_S` before
+    Python read jaxnav, the shell's time is not the command's, and the age counts
+    from that read instead."""
+    read = time.monotonic() - _IMPORTED
     try:
         with open("/proc/self/stat") as f:  # field 22: start time in clock ticks since boot
             start = int(f.read().rsplit(")", 1)[1].split()[19]) / os.sysconf("SC_CLK_TCK")
         with open("/proc/uptime") as f:
-            return max(float(f.read().split()[0]) - start, 0.0)
+            age = max(float(f.read().split()[0]) - start, 0.0)
     except (OSError, ValueError, IndexError):
-        return time.monotonic() - _IMPORTED
+        return read
+    return age if age - read <= STARTUP_SLACK_S else read
 
 
 def cache_dir() -> Path | None:

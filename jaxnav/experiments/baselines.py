@@ -25,8 +25,9 @@ import yaml
 
 from jaxnav.agent.trainer import run_inputs
 from jaxnav.core import baselines, rundir
-from jaxnav.core.config import Config, load_config, resolve_config_path
+from jaxnav.core.config import Config, load_config
 from jaxnav.core.errors import JaxnavError
+from jaxnav.core.shipped import resolve_config_path
 from jaxnav.env import EnvParams, NavEnv, from_config
 from jaxnav.experiments.navigation import ShortestPaths, attempt_paths
 from jaxnav.experiments.rollout import Policies, drawn_name, padded_mazes, run_tests

@@ -144,8 +144,15 @@ def tested_config(cfg_path: Path, overrides: Sequence[str] = ()) -> Config:
     """The config a run's policies are tested in: the run's, with ``overrides``
     (:func:`test_overrides`), and every training-only setting off (the moving
     cylinders at their own pace, real collisions: :meth:`Config.tested`) unless an
-    override sets it."""
-    return load_config(str(cfg_path), list(test_overrides(overrides))).tested(overrides)
+    override sets it. A run trained on drawn mazes is tested with a new layout every
+    episode whatever ``env.new_maze_every`` it trained with, so its config is read
+    with that (an override such as ``env.restart_goal=new``, which needs it, holds)."""
+    overrides = list(test_overrides(overrides))
+    if load_config(str(cfg_path)).env.generator and not any(
+        o.startswith("env.new_maze_every=") for o in overrides
+    ):
+        overrides = ["env.new_maze_every=1", *overrides]
+    return load_config(str(cfg_path), overrides).tested(overrides)
 
 
 def trained_on(cfg: Config) -> str:

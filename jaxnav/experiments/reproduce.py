@@ -40,9 +40,10 @@ import time
 from pathlib import Path
 
 from jaxnav.core import baselines as reference_drivers
-from jaxnav.core.config import CONFIG_DIR, Config, load_config
+from jaxnav.core.config import Config, load_config
 from jaxnav.core.errors import JaxnavError
 from jaxnav.core.rundir import METRICS, CsvLog, atomic_write_text
+from jaxnav.core.shipped import CONFIG_DIR
 from jaxnav.experiments import runner
 from jaxnav.experiments.robustness import robustness_to_dir
 from jaxnav.report import plots

@@ -26,7 +26,7 @@ import jax
 from jaxnav.core.config import Config, load_config
 from jaxnav.core.errors import JaxnavError
 from jaxnav.experiments.evaluation import evaluate_to_dir
-from jaxnav.run.training import resume, train_new
+from jaxnav.run.launch import resume, train_new
 
 Say = Callable[[str], None]
 

@@ -189,6 +189,14 @@ def draw_path(ax, points: np.ndarray, label: str | None = None) -> None:
     ax.plot(pts[:, 0], pts[:, 1], "--", color=PATH_COLOR, lw=1.6, zorder=4, label=label)
 
 
+def inner_walls(walls: np.ndarray) -> tuple[int, int]:
+    """What stands inside a maze's outline besides cylinders: (its blocks, the polygonal
+    obstacles: closed loops after the outline's; its free wall segments, in no loop)."""
+    loops = _closed_loops(walls)
+    in_loops = sum(len(loop) for loop in loops)
+    return max(len(loops) - 1, 0), len(walls) - in_loops
+
+
 def _closed_loops(walls: np.ndarray) -> list[np.ndarray]:
     """Split consecutive wall segments into closed polygons (outline first, then
     polygonal obstacles, as maps.py lays them out); open runs are left out."""

@@ -31,8 +31,8 @@ from jaxnav.robot.deploy import (
     INVALID_READING,
     NORMS_VERSION,
     TURNED_VERSION,
-    scan_torso,
 )
+from jaxnav.robot.scan import scan_torso
 from jaxnav.world import kinematics
 from jaxnav.world.sensor import HISTORY_CHANGE_GAIN
 
@@ -197,7 +197,7 @@ def _dense_layers(net: dict, obs_size: int, num_actions: int, params_path: Path)
 
 def _torso_width(env, torso: dict, convs: list[str]) -> int:
     """The first dense layer's input width: the observation's, or what the robot's
-    NumPy twin of the scan convolutions (:func:`jaxnav.robot.deploy.scan_torso`) makes
+    NumPy twin of the scan convolutions (:func:`jaxnav.robot.scan.scan_torso`) makes
     of one."""
     if not convs:
         return env.obs_size
