@@ -320,11 +320,19 @@ def test_reproduce_quick_end_to_end(run, tmp_path, capsys):
     assert claims.split("\n", 1)[1].strip() in report
     assert "## The paper's claims, judged" in report and "not conclusive" in report
     assert "| Fig. 2(b) | EBE learns faster (no obstacles) | training |" in report
+    # the claims compare the strategies: no reference driver drives unless asked
+    results = out / "paper_obstacles" / "eval" / "results.csv"
+    assert "\noracle," not in results.read_text() and "\ndwa," not in results.read_text()
     # without --resume a finished reproduction is not overwritten
     before = (out / "report.md").read_bytes()
     assert reproduce.main([*REPRODUCE_TINY, "--out", str(out), "--quiet"]) == 2
     assert "already exists" in capsys.readouterr().err
     assert (out / "report.md").read_bytes() == before
+    # --baselines tests the oracle and DWA beside the policies (the trainings reused)
+    argv = [*REPRODUCE_TINY, "--out", str(out), "--resume", "--baselines", "--quiet"]
+    assert reproduce.main(argv) == 0
+    assert "\noracle," in results.read_text() and "\ndwa," in results.read_text()
+    assert "the oracle and DWA beside them" in (out / "report.md").read_text()
 
 
 def test_reproduce_refuses_a_run_trained_with_other_settings(run, tmp_path, capsys):

@@ -55,6 +55,12 @@ def _parser() -> cli.Parser:
     p.add_argument("--resume", action="store_true", help="reuse finished runs in --out")
     p.add_argument("--quiet", action="store_true", help="no progress output")
     p.add_argument(
+        "--baselines",
+        action="store_true",
+        help="also drive the oracle and DWA through every greedy test, beside the policies "
+        "(their rows judge none of the paper's claims, which compare the strategies)",
+    )
+    p.add_argument(
         "--merge",
         nargs="+",
         metavar="DIR",
@@ -112,6 +118,7 @@ def main(argv: list[str] | None = None) -> int:
             args.quiet,
             experiments,
             command.strip(),
+            args.baselines,
         )
         print(f"ablation: {path}")
 

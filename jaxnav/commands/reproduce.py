@@ -83,6 +83,12 @@ def _parser() -> cli.Parser:
         "at 10 test episodes of 500 steps) and add the sim-to-sim gap to the report",
     )
     p.add_argument(
+        "--baselines",
+        action="store_true",
+        help="also drive the oracle and DWA through every greedy test, beside the policies "
+        "(their rows judge none of the paper's claims, which compare the strategies)",
+    )
+    p.add_argument(
         "--yes",
         action="store_true",
         help="start a run that needs over half of this machine's memory without asking",
@@ -124,7 +130,14 @@ def main(argv: list[str] | None = None) -> int:
         need = max(experiment_config(name, *sizes).memory_estimate() for name, _ in EXPERIMENTS)
         cli.confirm_memory(need, args.yes)
         report = reproduce(
-            out, *sizes, args.quick, args.resume, args.quiet, command.strip(), args.sim2sim
+            out,
+            *sizes,
+            args.quick,
+            args.resume,
+            args.quiet,
+            command.strip(),
+            args.sim2sim,
+            args.baselines,
         )
         print(f"report: {report}")
 

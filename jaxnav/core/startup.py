@@ -10,7 +10,8 @@ Where the cache lives: ``JAX_COMPILATION_CACHE_DIR`` if the user set it; else
 ``$JAXNAV_CACHE``; else ``$XDG_CACHE_HOME/jaxnav/jax`` (``~/.cache/jaxnav/jax``).
 ``JAXNAV_CACHE=off`` turns it off. The cache is not pruned (a program of the paper
 config is a few MB); delete the directory to empty it. No JAX here: it must run
-before JAX is imported.
+before JAX is imported. The reference drivers' test rows have a cache of their own
+beside it (:func:`reference_cache_dir`).
 
 Ctrl-C (:func:`catch_interrupts`). Python's own answer to SIGINT, a
 ``KeyboardInterrupt`` raised wherever the main thread happens to be, is unsafe in a
@@ -57,6 +58,7 @@ STARTUP_SLACK_S = 2.0
 # The JAX_COMPILATION_CACHE_DIR a jaxnav command set itself, not the user: a command
 # started by another (a study's training commands, a benchmark's) inherits both.
 _SET_BY_JAXNAV = "JAXNAV_CACHE_SET"
+_OFF = ("off", "0", "false", "no")  # what turns a cache off
 
 
 def process_age() -> float:
@@ -81,12 +83,27 @@ def process_age() -> float:
 def cache_dir() -> Path | None:
     """The compilation cache's directory, or None when it is off."""
     chosen = os.environ.get("JAXNAV_CACHE", "")
-    if chosen.lower() in ("off", "0", "false", "no"):
+    if chosen.lower() in _OFF:
         return None
     if chosen:
         return Path(chosen).expanduser()
     base = os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache"
     return Path(base) / "jaxnav" / "jax"
+
+
+def reference_cache_dir() -> Path | None:
+    """Where the reference drivers' test rows are kept
+    (:mod:`jaxnav.experiments.refcache`), or None when that cache is off:
+    ``$JAXNAV_REFERENCE_CACHE`` if set (``off`` turns it off), else ``references``
+    beside the compilation cache's default, ``$XDG_CACHE_HOME/jaxnav/references``
+    (``~/.cache/jaxnav/references``). ``JAXNAV_CACHE=off`` turns both caches off."""
+    chosen = os.environ.get("JAXNAV_REFERENCE_CACHE", "")
+    if chosen.lower() in _OFF or os.environ.get("JAXNAV_CACHE", "").lower() in _OFF:
+        return None
+    if chosen:
+        return Path(chosen).expanduser()
+    base = os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache"
+    return Path(base) / "jaxnav" / "references"
 
 
 def use_compilation_cache() -> None:

@@ -82,6 +82,13 @@ def in_place_of(name: str, policies: Policies, mazes: Sequence[Maze]) -> Policie
     environment settings apply as they do to the run). A run with continuous actions
     gets drivers that plan over the discrete twin (``NavEnv.discrete_twin``: the vw
     set) in the same world, on the same test keys."""
+    seats = seats_of(name, policies)
+    return seats._replace(network=planner_of(name, seats.env, mazes, seats.env_params))
+
+
+def seats_of(name: str, policies: Policies) -> Policies:
+    """:func:`in_place_of` without its planner (``network`` None): the drivers' labels,
+    fields, test settings and world, everything but the planner built for the mazes."""
     first: dict[int, int] = {}
     for i, (_, seed) in enumerate(policies.labels):
         first.setdefault(seed, i)
@@ -94,7 +101,7 @@ def in_place_of(name: str, policies: Policies, mazes: Sequence[Maze]) -> Policie
         params=np.zeros(len(idx), np.float32),
         env=env,
         env_params=env_params,
-        network=planner_of(name, env, mazes, env_params),
+        network=None,
         strategy=np.zeros(len(idx), np.int32),
         hyper=jax.tree.map(lambda a: np.asarray(a)[idx], policies.hyper),
     )
@@ -301,6 +308,7 @@ __all__ = [
     "in_place_of",
     "planner_of",
     "planner_problem",
+    "seats_of",
     "world_config",
     "world_policies",
 ]

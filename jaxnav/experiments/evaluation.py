@@ -12,6 +12,10 @@ layout) stay as trained and only the maze changes. Writes, atomically::
                                     metrics, the paper's numbers
     RUN_DIR/eval/trajectories.npz   the first test episode of the config's seed, per strategy
                                     and maze, step by step (for jaxnav.report.plots)
+
+The reference drivers' rows (the oracle's and DWA's, on the same test keys) are read
+from the user's cache where an earlier test drove exactly the same test
+(:mod:`jaxnav.experiments.refcache`), and driven and kept there otherwise.
 """
 
 from __future__ import annotations
@@ -34,8 +38,9 @@ from jaxnav.core.errors import ConfigError, JaxnavError, RunError
 from jaxnav.core.families import family_text
 from jaxnav.core.sweep import with_swept
 from jaxnav.env import from_config
-from jaxnav.experiments.baselines import in_place_of, planner_problem
+from jaxnav.experiments.baselines import planner_problem
 from jaxnav.experiments.navigation import ShortestPaths, failure_points, navigation_counts
+from jaxnav.experiments.refcache import ReferenceTest
 from jaxnav.experiments.rollout import (
     MODES,
     Policies,
@@ -233,12 +238,10 @@ def evaluate(
         rows += episode_rows(run.policies.fields, names, results, n_episodes, mode, nav)
         refs = _usable(references, run.policies.env) if mode == "greedy" else []
         for ref in refs if mazes else ():
-            tell(f"the {ref} on {', '.join(names)}")
-            driver = in_place_of(ref, run.policies, mazes)
-            res = run_tests(driver, mazes, n_episodes, navigation=True)
-            rows += episode_rows(
-                driver.fields, names, res, n_episodes, mode, counts(driver, mazes, res)
-            )
+            test = ReferenceTest(ref, run.policies, mazes, n_episodes)
+            tell(f"the {ref} on {', '.join(names)}{_FROM_CACHE if test.cached else ''}")
+            res, nav = test.run(counts)
+            rows += episode_rows(test.fields, names, res, n_episodes, mode, nav)
         if mode == "greedy":
             limit = run.policies.env.attempt_steps(run.policies.env_params)
             for name, res in zip(names, results):
@@ -274,11 +277,10 @@ def evaluate(
             nav = counts(drawn, template, results)
             rows += episode_rows(drawn.fields, [name], results, n_episodes, mode, nav)
             for ref in _usable(refs, drawn.env):
-                tell(f"the {ref} on {name}")
-                driver = in_place_of(ref, drawn, template)
-                res = run_tests(driver, template, n_episodes, navigation=True)
-                nav = counts(driver, template, res)
-                rows += episode_rows(driver.fields, [name], res, n_episodes, mode, nav)
+                test = ReferenceTest(ref, drawn, template, n_episodes)
+                tell(f"the {ref} on {name}{_FROM_CACHE if test.cached else ''}")
+                res, nav = test.run(counts)
+                rows += episode_rows(test.fields, [name], res, n_episodes, mode, nav)
     columns = with_swept(RESULT_COLUMNS, run.config.sweep)
     return run, names, rundir.csv_text(columns, rows), episodes, failures
 
@@ -288,6 +290,9 @@ def drawn_splits(cfg: Config) -> bool:
     fixed test worlds (BARN's are tested by name, run.test_mazes)."""
     e = cfg.env
     return bool(e.generator) and families.get(e.generator).fixed_test is None
+
+
+_FROM_CACHE = " (its rows from the cache of earlier tests)"
 
 
 def _usable(references: Sequence[str], env) -> list[str]:

@@ -32,8 +32,8 @@ import os
 
 import numpy as np
 
-from jaxnav.core.shipped import shipped_path
 from jaxnav.core.errors import MazeError
+from jaxnav.core.shipped import shipped_path
 from jaxnav.world.gridmaze import grid_bounds, grid_maze, reachable_raster
 from jaxnav.world.maps import MAX_COORDINATE, ROBOT_RADIUS, Maze
 from jaxnav.world.occupancy import make_occupancy
