@@ -34,7 +34,7 @@ import jax.numpy as jnp
 import optax
 from flax import struct
 
-from jaxnav.agent import replay
+from jaxnav.agent import noisy, replay
 from jaxnav.agent.episodes import Episodes
 from jaxnav.agent.exploration import explore_action
 from jaxnav.agent.hyper import Hyper
@@ -275,23 +275,29 @@ def batch_loss(
     kept) and ``kind`` (:func:`td_loss`) are the run's dqn.double and dqn.loss. With
     ``weights`` (prioritised replay's importance weights, f32[B]): (the weighted loss,
     the TD errors f32[B] for the new priorities). ``noise``: a noisy network's switch of
-    the run (None: none); the online and target networks draw their own noise."""
+    the run (None: none); the online and target networks draw their own noise, one draw
+    for the batch (NoisyNet-DQN's one per optimisation step)."""
 
-    def noisy(salt: int) -> dict:
+    def with_noise(variables, salt: int) -> tuple[dict, dict]:
+        """(``variables`` with one draw of the noise for the batch, the switch)."""
         if noise is None:
-            return {}
-        return {"noise": noise, "rngs": {"noise": jax.random.fold_in(key, NOISE_SALT + salt)}}
+            return variables, {}
+        k = jax.random.fold_in(key, NOISE_SALT + salt)
+        drawn = noisy.draw(network, jax.lax.stop_gradient(variables), batch.obs[0], noise, k)
+        return noisy.with_draw(variables, drawn), {"noise": noise}
 
-    rngs = {"dropout": key, **noisy(0).get("rngs", {})}
-    extra = {"noise": noise} if noise is not None else {}
-    q = network.apply(params, batch.obs, train=True, dropout=h.dropout, rngs=rngs, **extra)
-    next_q = network.apply(target_params, batch.next_obs, **noisy(1))  # dropout off (Keras)
+    online_vars, extra = with_noise(params, 0)
+    rngs = {"dropout": key}
+    q = network.apply(online_vars, batch.obs, train=True, dropout=h.dropout, rngs=rngs, **extra)
+    target_vars, extra = with_noise(target_params, 1)
+    next_q = network.apply(target_vars, batch.next_obs, **extra)  # dropout off (Keras)
     gamma = h.gamma if batch.discount is None else batch.discount  # n-step: gamma^k
     y = None
     if double is not True:  # False, or data (bool[]): the plain target
         y = td_target(batch.reward, batch.terminated, next_q, gamma)
     if double is not False:  # the online network picks the next action, dropout off
-        online = network.apply(jax.lax.stop_gradient(params), batch.next_obs, **noisy(2))
+        online_vars, extra = with_noise(jax.lax.stop_gradient(params), 2)
+        online = network.apply(online_vars, batch.next_obs, **extra)
         y_double = td_target(batch.reward, batch.terminated, next_q, gamma, online)
         y = y_double if y is None else jnp.where(double, y_double, y)
     if weights is None:

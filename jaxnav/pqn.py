@@ -35,7 +35,7 @@ import numpy as np
 import optax
 from flax import struct
 
-from jaxnav.agent import bonus
+from jaxnav.agent import bonus, noisy
 from jaxnav.agent.bonus import Steps
 from jaxnav.agent.episodes import Episodes
 from jaxnav.agent.exploration import explore_action
@@ -197,27 +197,34 @@ def make_rollouts(config: Config) -> Rollouts:
     length = _updates(config) * envs * p.rollout
     slots = config.episodes if config.episodes is not None else length
     limit = run_limits(config)[0]
-    noisy = registry.noisy_of(config.strategies)
+    noisy_ones = registry.noisy_of(config.strategies)
     # where the robot stands after each step: for a count bonus, and run.coverage
     places = config.run.coverage or bool(registry.with_bonus(config.strategies))
 
     def noise(ts: PQNState) -> chex.Array | None:
-        if not noisy:
+        if not noisy_ones:
             return None
-        return (ts.strategy == registry.index(noisy[0])).astype(jnp.float32)
+        return (ts.strategy == registry.index(noisy_ones[0])).astype(jnp.float32)
 
-    def q_values(params, obs, switch, key):
-        """Q-values of ``obs``; a noisy network's with the run's noise ``switch``."""
+    def q_values(params, obs, switch, drawn):
+        """Q-values of ``obs``; a noisy network's with the run's noise ``switch`` and a
+        draw of its noise (:func:`jaxnav.agent.noisy.draw`)."""
         if switch is None:
             return network.apply(params, obs)
-        return network.apply(params, obs, noise=switch, rngs={"noise": key})
+        return network.apply(noisy.with_draw(params, drawn), obs, noise=switch)
 
-    def env_step(ts: PQNState, run: chex.Array, carry, key: chex.PRNGKey):
+    def drawn_for(params, obs, switch, key):
+        """A draw of a noisy network's noise for ``obs`` (None without noise)."""
+        if switch is None:
+            return None
+        return noisy.draw(network, jax.lax.stop_gradient(params), obs, switch, key)
+
+    def env_step(ts: PQNState, run: chex.Array, drawn, carry, key: chex.PRNGKey):
         """One step of every environment: act, step, file the finished episodes."""
         obs, env_state, metrics, episode = carry
         h = ts.hyper
         k_act, k_env = jax.random.split(key)
-        q = q_values(ts.params, obs, noise(ts), jax.random.fold_in(key, NOISE_SALT))  # f32[E, A]
+        q = q_values(ts.params, obs, noise(ts), drawn)  # f32[E, A]
 
         def act(k, q_env):
             return explore_action(ts.strategy, k, q_env, episode, h, config.strategies)
@@ -253,10 +260,13 @@ def make_rollouts(config: Config) -> Rollouts:
     def play(ts: PQNState, run: chex.Array, key: chex.PRNGKey):
         carry = (ts.obs, ts.env_state, ts.metrics, ts.episode)
         keys = jax.random.split(key, p.rollout)
-        return jax.lax.scan(lambda c, k: env_step(ts, run, c, k), carry, keys)
+        # a noisy network: each environment's own draw, held for the rollout
+        drawn = drawn_for(ts.params, ts.obs, noise(ts), jax.random.fold_in(key, NOISE_SALT))
+        return jax.lax.scan(lambda c, k: env_step(ts, run, drawn, c, k), carry, keys)
 
     def targets(params, ro: Rollout, gamma, switch=None, key=None) -> chex.Array:
-        next_v = jnp.max(q_values(params, ro.next_obs, switch, key), -1)  # before any reset
+        drawn = drawn_for(params, ro.next_obs[0, 0], switch, key)  # one draw for them all
+        next_v = jnp.max(q_values(params, ro.next_obs, switch, drawn), -1)  # before any reset
         return lambda_returns(ro.reward, ro.terminated, ro.truncated, next_v, gamma, p.td_lambda)
 
     return Rollouts(env, base_params, network, slots, play, targets, noise)
@@ -447,13 +457,16 @@ def _learn(
 
     def loss_fn(params, batch, k):
         obs, action, target = batch
-        noisy = {} if switch is None else {"noise": switch}
-        rngs = {} if switch is None else {"noise": jax.random.fold_in(k, NOISE_SALT)}
+        variables, extra = params, {}
+        if switch is not None:  # one draw of the noise for the minibatch
+            k_noise = jax.random.fold_in(k, NOISE_SALT)
+            drawn = noisy.draw(network, jax.lax.stop_gradient(params), obs[0], switch, k_noise)
+            variables, extra = noisy.with_draw(params, drawn), {"noise": switch}
         if dropout:
-            rngs["dropout"] = k
-            q = network.apply(params, obs, train=True, dropout=h.dropout, rngs=rngs, **noisy)
+            rngs = {"dropout": k}
+            q = network.apply(variables, obs, train=True, dropout=h.dropout, rngs=rngs, **extra)
         else:
-            q = network.apply(params, obs, rngs=rngs, **noisy)
+            q = network.apply(variables, obs, **extra)
         return td_loss(q, action, target, kind)
 
     def minibatch(carry, x):

@@ -163,18 +163,28 @@ def test_noisy_layer_output_is_the_mean_weights_plus_the_drawn_noise_by_hand():
     params = layer.init(jax.random.PRNGKey(0), x)
     p = {k: np.asarray(v, np.float64) for k, v in params["params"].items()}
     np.testing.assert_allclose(p["kernel_sigma"], 0.5 / math.sqrt(3))  # sigma_0 / sqrt(p)
-    y, sown = layer.apply(
-        params, x, noise=jnp.float32(1.0), rngs={"noise": jax.random.PRNGKey(9)},
-        mutable=["intermediates"],
-    )  # fmt: skip
-    f_in, f_out = (np.asarray(a, np.float64) for a in sown["intermediates"]["noise"][0])
+    on = jnp.float32(1.0)
+    drawn = noisy.draw(layer, params, x, on, jax.random.PRNGKey(9))  # one per sample
+    y = layer.apply(noisy.with_draw(params, drawn), x, noise=on)
+    f_in, f_out = (np.asarray(a, np.float64) for a in drawn["draw"])
+    assert f_in.shape == (7, 3) and f_out.shape == (7, 5)
     xs = np.asarray(x, np.float64)
     for b in range(len(xs)):  # each sample's own weights, formed whole
         w = p["kernel"] + p["kernel_sigma"] * np.outer(f_in[b], f_out[b])
         bias = p["bias"] + p["bias_sigma"] * f_out[b]
         np.testing.assert_allclose(np.asarray(y[b]), xs[b] @ w + bias, rtol=1e-5, atol=1e-6)
+    # a draw for one observation is one set of weights for a whole batch
+    one = noisy.draw(layer, params, x[0], on, jax.random.PRNGKey(9))
+    f_in, f_out = (np.asarray(a, np.float64) for a in one["draw"])
+    w = p["kernel"] + p["kernel_sigma"] * np.outer(f_in, f_out)
+    np.testing.assert_allclose(
+        np.asarray(layer.apply(noisy.with_draw(params, one), x, noise=on)),
+        xs @ w + p["bias"] + p["bias_sigma"] * f_out,
+        rtol=1e-5,
+        atol=1e-6,
+    )
     # switched off (0) or without noise: exactly the mean layer
-    off = layer.apply(params, x, noise=jnp.float32(0.0), rngs={"noise": jax.random.PRNGKey(9)})
+    off = layer.apply(noisy.with_draw(params, drawn), x, noise=jnp.float32(0.0))
     np.testing.assert_array_equal(np.asarray(off), np.asarray(layer.apply(params, x)))
 
 

@@ -12,10 +12,16 @@ N(0, 1)^q and uses (paper, eq. 10-11)
     f(x) = sign(x) sqrt(|x|),
 
 computed without forming W: x W = x kernel + ((x f(eps_in)) kernel_sigma) f(eps_out).
-Each sample of a batch (each environment when acting, each transition when learning)
-draws its own noise. The mean weights start as the plain layer's (LeCun uniform, as
-every jaxnav Q-network), the sigmas at sigma_0 / sqrt(p) (the paper's factorised
-initialisation; sigma_0 is ``exploration.noisy_sigma``).
+The mean weights start as the plain layer's (LeCun uniform, as every jaxnav Q-network),
+the sigmas at sigma_0 / sqrt(p) (the paper's factorised initialisation; sigma_0 is
+``exploration.noisy_sigma``).
+
+A draw is a set of (f(eps_in), f(eps_out)) per layer, kept in the ``noise`` collection:
+:func:`draw` makes one for a batch of observations (one per leading index: the
+trainers draw one per environment for a whole rollout, as NoisyNet-A3C's actors hold
+theirs, and one per minibatch of learning, as NoisyNet-DQN draws one per optimisation
+step), :func:`with_draw` hands it to the network; a noisy layer called without one
+draws its own from the ``noise`` PRNG stream.
 
 ``noise`` is a run's switch as data (f32[], 1 or 0): the runs of other strategies in the
 same program pass 0 and their outputs are exactly the mean network's.
@@ -27,6 +33,8 @@ import chex
 import flax.linen as nn
 import jax
 import jax.numpy as jnp
+
+COLLECTION = "noise"  # the flax collection a draw of the layers' noise is kept in
 
 
 def scaled(x: chex.Array) -> chex.Array:
@@ -63,9 +71,25 @@ class NoisyDense(nn.Module):
         y = x @ kernel + bias
         if noise is None:
             return y
-        f_in, f_out = factorised_noise(self.make_rng("noise"), x.shape[:-1], p, self.features)
-        self.sow("intermediates", "noise", (f_in, f_out))  # kept only where asked (tests)
+        if self.has_variable(COLLECTION, "draw"):  # a draw handed in (with_draw)
+            f_in, f_out = self.get_variable(COLLECTION, "draw")
+        else:
+            f_in, f_out = factorised_noise(self.make_rng("noise"), x.shape[:-1], p, self.features)
+            if self.is_mutable_collection(COLLECTION):  # kept for later calls (draw)
+                self.put_variable(COLLECTION, "draw", (f_in, f_out))
         return y + noise * (((x * f_in) @ kernel_sigma) * f_out + bias_sigma * f_out)
 
 
-__all__ = ["NoisyDense", "factorised_noise", "scaled"]
+def draw(network: nn.Module, params, obs: chex.Array, switch, key: chex.PRNGKey):
+    """A draw of every noisy layer of ``network`` for observations ``obs`` f32[..., D]:
+    one per leading index (a single observation: one draw for any batch)."""
+    _, drawn = network.apply(params, obs, noise=switch, rngs={"noise": key}, mutable=[COLLECTION])
+    return drawn[COLLECTION]
+
+
+def with_draw(params, drawn):
+    """``params`` with a draw (:func:`draw`) for the network's noisy layers to use."""
+    return {**params, COLLECTION: drawn}
+
+
+__all__ = ["COLLECTION", "NoisyDense", "draw", "factorised_noise", "scaled", "with_draw"]
