@@ -124,7 +124,7 @@ def test_rnd_predictor_learns_the_observations_it_sees_and_not_others():
 
     before = err(state, seen), err(state, unseen)
     learn = jax.jit(bonus.learn)
-    for i in range(30):
+    for i in range(150):
         state = learn(state, steps, jax.random.PRNGKey(i))
     after = err(state, seen), err(state, unseen)
     assert after[0] < 0.5 * before[0]  # the seen observations are learnt

@@ -14,8 +14,10 @@ is a novelty reward for reaching s'. As in the paper:
 * the bonus is divided by the running standard deviation of its discounted sum, each
   environment's sum running on across episodes (the paper's ``RewardForwardFilter``,
   discount :data:`INTRINSIC_GAMMA`);
-* the predictor learns by Adam at the paper's 1e-4, in the trainer's epochs of
-  minibatches over each rollout's observations; the target never learns; both have
+* the predictor learns by Adam at the paper's 1e-4, one pass over each rollout's
+  observations in the trainer's minibatches (the paper trains it in PPO's 4 epochs on
+  a quarter of the experience with 128 environments: as many samples as one pass over
+  all of it); the target never learns; both have
   leaky ReLUs, the predictor one hidden layer deeper. Their weights start He-normal
   (variance 2 / inputs, the scale of the paper's orthogonal initialisation with gain
   sqrt 2: the QR decomposition an orthogonal draw needs stalled XLA's CPU backend
@@ -147,8 +149,7 @@ def make(config, env) -> Bonus:
             batches = x[order].reshape(p.minibatches, size, x.shape[-1])
             return jax.lax.scan(minibatch, carry, batches)
 
-        carry = (state.predictor, state.opt_state)
-        (predictor, opt_state), _ = jax.lax.scan(epoch, carry, jax.random.split(key, p.epochs))
+        (predictor, opt_state), _ = epoch((state.predictor, state.opt_state), key)
         return state.replace(predictor=predictor, opt_state=opt_state)
 
     return Bonus(init, reward, learn)
