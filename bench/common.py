@@ -61,7 +61,7 @@ def ours_train(
     devices: int | None = None,
 ) -> dict:
     """Our trainer's transitions/s (``train_throughput.run_case``) in its own process, on
-    one CPU device per core unless ``devices`` says otherwise (as ``jaxnav.train``)."""
+    one CPU device per core unless ``devices`` says otherwise (as ``jaxnav train``)."""
     cmd = [
         python or sys.executable,
         str(BENCH / "train_throughput.py"),
@@ -139,7 +139,7 @@ def budget(args: argparse.Namespace) -> None:
 
 
 def train_evaluating(items: list[str], args: argparse.Namespace, log) -> dict:
-    """One whole ``python -m jaxnav.train ITEMS`` command of ``args.seeds`` seeds and
+    """One whole ``jaxnav train ITEMS`` command of ``args.seeds`` seeds and
     ``args.steps`` env steps per run, with a greedy evaluation of ``args.eval_episodes``
     episodes every ``args.eval_every`` steps, timed from launch to exit with an empty
     compilation cache. Chunks are one evaluation period long (PQN: whole updates), so
@@ -150,7 +150,7 @@ def train_evaluating(items: list[str], args: argparse.Namespace, log) -> dict:
         cmd = [
             sys.executable,
             "-m",
-            "jaxnav.train",
+            "jaxnav.commands.train",
             *items,
             f"seeds={args.seeds}",
             "episodes=null",
@@ -173,7 +173,7 @@ def train_evaluating(items: list[str], args: argparse.Namespace, log) -> dict:
         wall = time.perf_counter() - t0
         if p.returncode != 0:
             err = p.stderr.decode(errors="replace").strip().splitlines() or ["?"]
-            raise RuntimeError(f"jaxnav.train failed: {err[-1]}")
+            raise RuntimeError(f"jaxnav.commands.train failed: {err[-1]}")
         with open(out / "eval.csv") as f:
             rows = list(csv.DictReader(f))
         summary = json.loads((out / "summary.json").read_text())
@@ -193,7 +193,7 @@ def reference_success(items: list[str], seeds: int, episodes: int, log) -> dict[
     with tempfile.TemporaryDirectory() as tmp:
         for name in ("oracle", "dwa"):
             dest = Path(tmp) / name
-            cmd = [sys.executable, "-m", "jaxnav.evaluate", "--baseline", name, config,
+            cmd = [sys.executable, "-m", "jaxnav.commands.evaluate", "--baseline", name, config,
                    *overrides, "--seeds", str(seeds), "--episodes", str(episodes),
                    "--out", str(dest)]  # fmt: skip
             log("$ " + " ".join(["python", *cmd[1:]]))

@@ -4,7 +4,7 @@ In one run, one measurement after the other (never two at once):
 
 1. **steady state**: training transitions/s at 64 runs, 24 beams, full-run replay
    capacity, compilation excluded (``bench/train_throughput.py``'s case);
-2. **the whole command, cold**: ``python -m jaxnav.train configs/paper_no_obstacles.yaml
+2. **the whole command, cold**: ``jaxnav train configs/paper_no_obstacles.yaml
    seeds=32 episodes=E`` (64 runs) with an empty compilation cache, timed from launch
    to exit; its transitions/s (real env steps over the whole wall-clock) as a share
    of (1), its peak RSS (``wait4``), and from its ``summary.json`` the share of the
@@ -13,7 +13,7 @@ In one run, one measurement after the other (never two at once):
    after launch a second run starts training (``summary.json``'s ``startup_s``:
    imports, set-up, and the compiled program loaded from the cache), as the median
    of three one-episode runs after one that fills the cache for them;
-4. **against Stable-Baselines3, whole processes**: ``jaxnav.train`` with 16 seeds x 2
+4. **against Stable-Baselines3, whole processes**: ``jaxnav train`` with 16 seeds x 2
    strategies for E2 episodes (cold cache), against SB3's DQN
    (``bench/peers_sb3.py``'s model: same network, loss and hyperparameters) doing the
    same 32 runs the way SB3 does them on this machine: one one-thread process per
@@ -24,7 +24,7 @@ In one run, one measurement after the other (never two at once):
    its start-up once plus its share of runs at its measured time per run (the
    slowest process). Skipped when stable-baselines3 is not installed
    (bench/README.md);
-5. without ``--quick``, ``python -m jaxnav.reproduce --seeds 32`` timed whole.
+5. without ``--quick``, ``jaxnav reproduce --seeds 32`` timed whole.
 
 ``--only sb3`` or ``--only reproduce`` runs step 4 (E2 = 100 by default) or step 5 alone.
 
@@ -55,11 +55,11 @@ CONFIG = "configs/paper_no_obstacles.yaml"
 
 
 def train_command(seeds: int, episodes: int, out: Path, cache: Path, log) -> dict:
-    """The whole ``jaxnav.train`` command: wall-clock, peak RSS and its summary.json."""
+    """The whole ``jaxnav train`` command: wall-clock, peak RSS and its summary.json."""
     cmd = [
         sys.executable,
         "-m",
-        "jaxnav.train",
+        "jaxnav.commands.train",
         CONFIG,
         f"seeds={seeds}",
         f"episodes={episodes}",
@@ -79,7 +79,9 @@ def train_command(seeds: int, episodes: int, out: Path, cache: Path, log) -> dic
         errf.seek(0)
         err = errf.read().decode(errors="replace")
     if os.waitstatus_to_exitcode(status) != 0:
-        raise RuntimeError(f"jaxnav.train failed: {(err.strip().splitlines() or ['?'])[-1]}")
+        raise RuntimeError(
+            f"jaxnav.commands.train failed: {(err.strip().splitlines() or ['?'])[-1]}"
+        )
     summary = json.loads((out / "summary.json").read_text())
     steps = summary["env_steps"]
     r = {
@@ -157,7 +159,15 @@ def sb3_whole(processes: int, runs: int, transitions: int, capacity: int, python
 
 
 def reproduce_whole(seeds: int, out: Path, cache: Path, log) -> dict:
-    cmd = [sys.executable, "-m", "jaxnav.reproduce", "--seeds", str(seeds), "--out", str(out)]
+    cmd = [
+        sys.executable,
+        "-m",
+        "jaxnav.commands.reproduce",
+        "--seeds",
+        str(seeds),
+        "--out",
+        str(out),
+    ]
     cmd.append("--quiet")
     env = child_env({"JAXNAV_CACHE": str(cache)})
     log("$ " + " ".join(["python", *cmd[1:]]))
@@ -197,7 +207,7 @@ def measure(
 
 
 def against_sb3(episodes: int, d: Path, log) -> dict:
-    """Step 4: ``jaxnav.train`` with 16 seeds x 2 strategies for ``episodes`` episodes
+    """Step 4: ``jaxnav train`` with 16 seeds x 2 strategies for ``episodes`` episodes
     (cold cache) against SB3's whole processes; {} when SB3 is not installed."""
     sb3_py = find_python("stable_baselines3")
     if not sb3_py:
@@ -239,7 +249,7 @@ def targets(res: dict) -> list[tuple[str, str, str, str]]:
     )
     cold, steady = res["cold"], res["steady"]["transitions_per_s"]
     add(
-        "whole `jaxnav.train` at 64 runs >= 90% of steady state",
+        "whole `jaxnav.commands.train` at 64 runs >= 90% of steady state",
         f"{100 * res['whole_over_steady']:.0f}% ({cold['transitions_per_s']:,.0f} of "
         f"{steady:,.0f}/s; {cold['episodes']} episodes; "
         f"{100 * cold['lockstep_useful']:.0f}% of lockstep steps real)",

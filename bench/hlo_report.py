@@ -1,6 +1,6 @@
 """What one training step executes, read from the compiled program (no timing).
 
-Lowers and compiles the chunk of ``jaxnav.train`` exactly as the command does (its
+Lowers and compiles the chunk of ``jaxnav train`` exactly as the command does (its
 ``Run``, vmapped over the runs, the run axis laid over the CPU devices), from shapes
 alone (no buffer is allocated), and reads the per-device program XLA emits
 (``compile().as_text()``). The step is the body of the chunk's loop; every
@@ -137,7 +137,7 @@ def inner_ops(comps, op: Op) -> collections.Counter:
 
 
 def compiled_text(config: str, overrides: list[str], devices: int) -> str:
-    """The per-device HLO of jaxnav.train's chunk, compiled from shapes."""
+    """The per-device HLO of jaxnav train's chunk, compiled from shapes."""
     flag = f"--xla_force_host_platform_device_count={devices}"
     os.environ["XLA_FLAGS"] = f"{os.environ.get('XLA_FLAGS', '')} {flag}".strip()
     import jax
@@ -237,7 +237,7 @@ def main() -> int:
     p.add_argument("config", nargs="?", default="configs/paper_no_obstacles.yaml")
     p.add_argument("overrides", nargs="*", help="key=value (default seeds=32)")
     p.add_argument(
-        "--devices", type=int, default=2, help="CPU devices (jaxnav.train: one per core)"
+        "--devices", type=int, default=2, help="CPU devices (jaxnav train: one per core)"
     )
     p.add_argument("--big", type=int, default=4096, help="bytes below which selects are summed")
     p.add_argument("--dump", help="also write the compiled program's text here")

@@ -6,7 +6,7 @@ the last one finishes. From a finished run's ``metrics.csv`` (each run's total e
 steps), this replays the host loop's schedule and prints the share of computed
 run-steps that were real steps:
 
-* **lockstep**: what ``jaxnav.train`` does (each chunk as long as the longest
+* **lockstep**: what ``jaxnav train`` does (each chunk as long as the longest
   remaining run needs, at most ``chunk_steps``); ``summary.json``'s
   ``lockstep_useful`` is the same figure, measured;
 * **compacted**: at each chunk boundary, the finished runs moved out of the batch,

@@ -4,7 +4,7 @@
 On two worlds, square4 (``configs/paper_no_obstacles.yaml``) and the drawn 4 x 4 grid
 mazes (``configs/grid4.yaml``, a new train-split layout every episode), it trains:
 
-* **ours, double DQN**: ``python -m jaxnav.train CONFIG dqn.double=true``, EBE and
+* **ours, double DQN**: ``jaxnav train CONFIG dqn.double=true``, EBE and
   epsilon-greedy, every seed of both in one command;
 * **rejax 0.1.3 DQN** with ``ddqn=True`` (its default) and the same network, gamma,
   batch, replay capacity, learning start and 2,000-step hard target copy; the paper's
@@ -202,7 +202,7 @@ def success(r: dict) -> float:
 
 
 def run_ours(world: str, agent: str, args, log) -> dict:
-    """One ``jaxnav.train`` command: both strategies, every seed; curves per strategy."""
+    """One ``jaxnav train`` command: both strategies, every seed; curves per strategy."""
     items = [WORLDS[world], *AGENTS[agent], "strategies=[ebe,epsilon_greedy]"]
     res = train_evaluating(items, args, log)
     rows, wall = res["rows"], res["wall_s"]

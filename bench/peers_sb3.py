@@ -29,7 +29,7 @@ gains, and the environment's XLA runtime has the second core. SB3 trains one see
 per process, so for many seeds a user runs one SB3 process per core: our 32-seed
 figure is compared with that (``--parallel``, measured with the processes running at
 once), our 1-seed figure with one process. Ours runs on one CPU device per core, as
-``jaxnav.train`` does.
+``jaxnav train`` does.
 
 Measured, in one run: SB3's transitions/s (median of ``--segments`` segments of
 ``--steps`` steps after ``--warmup`` steps, timed by a callback); the wrapper alone

@@ -6,7 +6,7 @@ summed per XLA operation and grouped by the part of the step it comes from.
     python bench/profile_train.py --set env.generator=grid --set env.maze_bank=64  # any config key
 
 Runs the paper config's chunk (EBE, full-run replay capacity) on one CPU device per
-core, as ``jaxnav.train`` does, compiles it, then traces ``--reps`` chunks and reads
+core, as ``jaxnav train`` does, compiles it, then traces ``--reps`` chunks and reads
 the trace back (Perfetto JSON): every event on the XLA threads is an operation of the
 compiled program (a fusion, a dot, a gather, a while loop, ...), named by XLA, and
 an operation's time is its own, without the operations nested in it. The part of an
@@ -112,7 +112,7 @@ def profile(args) -> int:
             *args.set,
         ],
     )
-    run = Run(cfg, None, quiet=True)  # jaxnav.train's own programs, no files
+    run = Run(cfg, None, quiet=True)  # jaxnav train's own programs, no files
     shard, n = run.shard, np.int32(args.steps)
     ts = run.fresh_state()
     compiled = run.chunk.lower(ts, n).compile()

@@ -23,7 +23,7 @@ everything else in a training step counts as overhead against it.
 
 The learner alone is also measured: the same gradient step (``jaxnav.dqn``'s loss,
 dropout and RMSprop update, vmapped over the runs and laid over the devices as
-``jaxnav.train`` lays them) on a fixed batch per run, with no environment, acting
+``jaxnav train`` lays them) on a fixed batch per run, with no environment, acting
 or replay. Its rate bounds what the whole trainer can reach on this machine with
 this arithmetic: whatever else a step does only adds to it.
 

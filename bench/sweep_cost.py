@@ -50,7 +50,7 @@ def run_case(case: str, seeds: int, steps: int, reps: int) -> dict:
     }[case]
     t0 = time.perf_counter()
     cfg = load_config(None, items)
-    run = Run(cfg, None, quiet=True)  # jaxnav.train's own programs, no files
+    run = Run(cfg, None, quiet=True)  # jaxnav train's own programs, no files
     chunk = run.chunk
     ts = run.fresh_state()
     ts, _ = chunk(ts, np.int32(steps))

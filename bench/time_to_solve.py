@@ -1,7 +1,7 @@
 """Time to solve: how long after a training command starts its greedy policy solves a world.
 
 For each maze (square4, and square4_obstacles, the stage-2 maze with four cylinders)
-and each agent, one ``python -m jaxnav.train`` command trains every seed of EBE and
+and each agent, one ``jaxnav train`` command trains every seed of EBE and
 epsilon-greedy at once with ``run.eval_every`` (``jaxnav/run/greedy.py``); this
 script starts it in a subprocess with an empty compilation cache, so compilation is
 part of the time, and reads its ``eval.csv``. A world is solved by a success within

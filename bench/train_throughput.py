@@ -16,7 +16,7 @@ other, each set its flags' names without the leading dashes, comma-separated, or
 XNNPACK, then the default again.
 
 ``--devices`` forces that many CPU devices (XLA_FLAGS) and lays the seeds over them
-with jaxnav's run sharding. The default is one device per core, as ``jaxnav.train``
+with jaxnav's run sharding. The default is one device per core, as ``jaxnav train``
 runs; ``--devices 1 2 4`` shows what the layout gains (devices beyond the core
 count share cores, so they cannot be faster).
 
@@ -60,7 +60,7 @@ def run_case(seeds: int, beams: int, steps: int, reps: int, capacity: int) -> di
     tr = make_trainer(cfg)
     shard = RunSharding(cfg.n_runs)
     init = jax.jit(jax.vmap(tr.init), out_shardings=shard.sharding)
-    # as jaxnav.train compiles it: each device's runs as one batch
+    # as jaxnav train compiles it: each device's runs as one batch
     chunk = jax.jit(
         shard.per_device(jax.vmap(tr.chunk), 1), donate_argnums=0, out_shardings=shard.sharding
     )
@@ -106,7 +106,7 @@ def main() -> None:
         type=int,
         nargs="+",
         default=[cores()],
-        help="CPU device counts (default: one per core, as jaxnav.train)",
+        help="CPU device counts (default: one per core, as jaxnav train)",
     )
     p.add_argument(
         "--xla-flags",

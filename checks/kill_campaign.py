@@ -4,7 +4,7 @@
 
 Trains a small config once without interruption (the reference), then trains it
 again, killing the process (SIGKILL, no chance to clean up) at ``--kills`` random
-moments and resuming with ``python -m jaxnav.train --resume`` after each. At the
+moments and resuming with ``jaxnav train --resume`` after each. At the
 end metrics.csv, explore.csv and params.npz must equal the reference's byte for
 byte. Chunks are short (100 steps) so checkpoints are frequent. Every other kill
 waits for the process's k-th checkpoint write to begin (k random in 1..6; its
@@ -35,6 +35,7 @@ CONFIG = [
     "episodes=30",
     "env.max_steps=100",
     "run.chunk_steps=100",
+    "run.checkpoint_s=0",  # a checkpoint after every chunk (the chunks cut by time)
     "--quiet",
 ]
 FILES = ("metrics.csv", "explore.csv", "params.npz")
@@ -42,7 +43,7 @@ FILES = ("metrics.csv", "explore.csv", "params.npz")
 
 def _train(args: list[str]) -> subprocess.Popen:
     return subprocess.Popen(
-        [sys.executable, "-m", "jaxnav.train", *args],
+        [sys.executable, "-m", "jaxnav.commands.train", *args],
         cwd=ROOT,
         stdout=subprocess.DEVNULL,
         stderr=subprocess.PIPE,

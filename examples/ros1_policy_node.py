@@ -7,10 +7,11 @@ master against a simulated TurtleBot3 (jaxnav's own LiDAR and motion behind /sca
 robot's dynamics, latency and odometry drift are not. Keep a hand on the stop button.
 
     # on the training machine
-    python -m jaxnav.export runs/paper_no_obstacles --strategy ebe --seed 0 --out policy.npz
+    jaxnav export runs/paper_no_obstacles --strategy ebe --seed 0 --out policy.npz
     # on the robot (ROS 1 sourced, e.g. after roslaunch turtlebot3_bringup
     # turtlebot3_robot.launch; needs NumPy, not JAX)
     python3 ros1_policy_node.py _policy:=policy.npz
+    python3 ros1_policy_node.py --policy drive_anywhere    # a policy that ships with jaxnav
     # a goal 1 m ahead and 0.5 m to the left of where odometry started
     rostopic pub -1 /move_base_simple/goal geometry_msgs/PoseStamped \\
         "{header: {frame_id: odom}, pose: {position: {x: 1.0, y: 0.5}, orientation: {w: 1.0}}}"
@@ -30,10 +31,11 @@ The node publishes a zero twist (stop) when there is no goal, the scan or odomet
 is older than ~stale_after seconds (a timer keeps stopping the robot while no scan
 arrives), the goal is within ~goal_tolerance (then the goal is cleared: send a new
 one), the scan or pose cannot be used (e.g. a scan that does not cover 360 degrees),
-and on shutdown. The decisions are jaxnav.robot.deploy.Controller's, shared with
+and on shutdown. The decisions are jaxnav.robot.controller.Controller's, shared with
 ros2_policy_node.py.
 
-Private parameters: ~policy (path of the exported .npz), ~goal_topic
+Private parameters: ~policy (path of the exported .npz, or the name of a policy that
+ships with jaxnav; ``--policy NAME`` sets it too), ~goal_topic
 (/move_base_simple/goal), ~stale_after (0.5 s), ~goal_tolerance (default the
 policy's goal radius, 0.2 m), ~invalid_range (value for 0 / nan readings; negative
 means the policy's max range, the default; see jaxnav/robot/deploy.py).
@@ -41,6 +43,7 @@ means the policy's max range, the default; see jaxnav/robot/deploy.py).
 
 from __future__ import annotations
 
+import importlib
 import importlib.util
 import sys
 import threading
@@ -53,42 +56,69 @@ from nav_msgs.msg import Odometry
 from sensor_msgs.msg import LaserScan
 
 
-def _load_deploy():
-    """jaxnav.robot.deploy, or deploy.py by path where jaxnav (or JAX) is not installed."""
+def _load(name: str):
+    """jaxnav.robot.NAME (deploy, controller), or NAME.py by path where jaxnav (or JAX)
+    is not installed: the robot side's files (deploy.py, scan.py, controller.py) copied
+    next to this node, or a checkout's."""
     try:
-        from jaxnav.robot import deploy
-
-        return deploy
+        return importlib.import_module(f"jaxnav.robot.{name}")
     except ImportError:
         here = Path(__file__).resolve().parent
-        for path in (here / "deploy.py", here.parent / "jaxnav" / "robot" / "deploy.py"):
+        for path in (here / f"{name}.py", here.parent / "jaxnav" / "robot" / f"{name}.py"):
             if path.is_file():
-                spec = importlib.util.spec_from_file_location("jaxnav_deploy", path)
+                spec = importlib.util.spec_from_file_location(f"jaxnav_{name}", path)
                 module = importlib.util.module_from_spec(spec)
                 spec.loader.exec_module(module)
                 return module
         raise ImportError(
-            "cannot find jaxnav.robot.deploy: install jaxnav or copy deploy.py next to this file"
+            f"cannot find jaxnav.robot.{name}: install jaxnav or copy the robot side's files "
+            "(jaxnav/robot/deploy.py, scan.py, controller.py) next to this file"
         ) from None
 
 
-deploy = _load_deploy()
+def policy_arg(argv: list[str]) -> str | None:
+    """``--policy NAME|FILE`` from the command line (taken out of ``argv``), or None."""
+    if "--policy" not in argv:
+        return None
+    i = argv.index("--policy")
+    value = argv[i + 1] if i + 1 < len(argv) else None
+    del argv[i : i + 2]
+    return value
+
+
+def policy_file(name_or_file: str) -> str:
+    """The policy file to drive with: a file by its path, else a policy that ships with
+    jaxnav by its name (``drive_anywhere``: jaxnav.robot.shipped), else ``NAME.npz``
+    beside this file (a robot without jaxnav)."""
+    if Path(name_or_file).is_file():
+        return name_or_file
+    beside = Path(__file__).resolve().parent / f"{name_or_file}.npz"
+    try:
+        from jaxnav.robot.shipped import policy_path
+    except ImportError:
+        return str(beside) if beside.is_file() else name_or_file
+    return str(beside) if beside.is_file() else str(policy_path(name_or_file))
+
+
+deploy, controller = _load("deploy"), _load("controller")
+scan = _load("scan")
+POLICY = ["policy.npz"]  # the policy parameter's default: --policy NAME|FILE sets it
 THROTTLE_S = 2.0  # at most one repeated warning per this many seconds
 
 
 class PolicyNode:
-    """The ROS 1 side of :class:`deploy.Controller`: messages in, twists out.
+    """The ROS 1 side of :class:`controller.Controller`: messages in, twists out.
 
     rospy runs each subscription and the timer in a thread of its own, so every call
     into the controller holds ``lock``.
     """
 
     def __init__(self):
-        path = rospy.get_param("~policy", "policy.npz")
+        path = policy_file(rospy.get_param("~policy", POLICY[0]))
         policy = deploy.Policy.load(path)
         goal_topic = rospy.get_param("~goal_topic", "/move_base_simple/goal")
         invalid = float(rospy.get_param("~invalid_range", -1.0))
-        self.control = deploy.Controller(
+        self.control = controller.Controller(
             policy,
             stale_after=float(rospy.get_param("~stale_after", 0.5)),
             goal_tolerance=float(rospy.get_param("~goal_tolerance", policy.goal_radius)),
@@ -117,7 +147,7 @@ class PolicyNode:
 
     def on_odom(self, msg: Odometry):
         q, p = msg.pose.pose.orientation, msg.pose.pose.position
-        pose = (p.x, p.y, deploy.yaw_from_quaternion(q.x, q.y, q.z, q.w))
+        pose = (p.x, p.y, scan.yaw_from_quaternion(q.x, q.y, q.z, q.w))
         with self.lock:
             self.control.on_odom(pose, msg.header.frame_id, rospy.get_time())
 
@@ -138,7 +168,7 @@ class PolicyNode:
                 self.publish(cmd)
 
     def publish(self, cmd):
-        """Publish a deploy.Command and log why it stops (caller holds the lock)."""
+        """Publish a controller.Command and log why it stops (caller holds the lock)."""
         if self.shutting_down:
             return
         twist = Twist()
@@ -160,6 +190,7 @@ class PolicyNode:
 
 
 def main() -> int:
+    POLICY[0] = policy_arg(sys.argv) or POLICY[0]  # --policy NAME|FILE
     rospy.init_node("jaxnav_policy")
     try:
         PolicyNode()

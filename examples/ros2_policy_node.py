@@ -26,10 +26,11 @@ run that test:
 On a robot:
 
     # on the training machine
-    python -m jaxnav.export runs/paper_no_obstacles --strategy ebe --seed 0 --out policy.npz
-    # on the robot (ROS 2 sourced; needs NumPy, not JAX: jaxnav/robot/deploy.py next to
-    # this file, or jaxnav importable)
+    jaxnav export runs/paper_no_obstacles --strategy ebe --seed 0 --out policy.npz
+    # on the robot (ROS 2 sourced; needs NumPy, not JAX: jaxnav/robot's deploy.py, scan.py
+    # and controller.py next to this file, or jaxnav importable)
     python3 ros2_policy_node.py --ros-args -p policy:=policy.npz
+    python3 ros2_policy_node.py --policy drive_anywhere    # a policy that ships with jaxnav
     # a goal 1 m ahead and 0.5 m to the left of where odometry started
     ros2 topic pub --once /goal_pose geometry_msgs/msg/PoseStamped \\
         "{header: {frame_id: odom}, pose: {position: {x: 1.0, y: 0.5}}}"
@@ -72,7 +73,8 @@ new goal (not one per message):
 
 An exception in a callback is logged once and stops the robot; it never loops.
 
-Parameters: policy (path of the exported .npz), goal_topic (/goal_pose), stale_after
+Parameters: policy (path of the exported .npz, or the name of a policy that ships with
+jaxnav: ``--policy NAME`` before ``--ros-args`` sets it too), goal_topic (/goal_pose), stale_after
 (0.5 s), goal_tolerance (default the policy's goal radius, 0.2 m), invalid_range
 (value for 0 / nan readings; negative means the policy's max range, the default),
 enable_stamped_cmd_vel (see /cmd_vel), odom_jump (0.5 m).
@@ -80,6 +82,7 @@ enable_stamped_cmd_vel (see /cmd_vel), odom_jump (0.5 m).
 
 from __future__ import annotations
 
+import importlib
 import importlib.util
 import math
 import os
@@ -90,33 +93,60 @@ from pathlib import Path
 import numpy as np
 
 
-def _load_deploy():
-    """jaxnav.robot.deploy, or deploy.py by path where jaxnav (or JAX) is not installed."""
+def _load(name: str):
+    """jaxnav.robot.NAME (deploy, controller), or NAME.py by path where jaxnav (or JAX)
+    is not installed: the robot side's files (deploy.py, scan.py, controller.py) copied
+    next to this node, or a checkout's."""
     try:
-        from jaxnav.robot import deploy
-
-        return deploy
+        return importlib.import_module(f"jaxnav.robot.{name}")
     except ImportError:
         here = Path(__file__).resolve().parent
-        for path in (here / "deploy.py", here.parent / "jaxnav" / "robot" / "deploy.py"):
+        for path in (here / f"{name}.py", here.parent / "jaxnav" / "robot" / f"{name}.py"):
             if path.is_file():
-                spec = importlib.util.spec_from_file_location("jaxnav_deploy", path)
+                spec = importlib.util.spec_from_file_location(f"jaxnav_{name}", path)
                 module = importlib.util.module_from_spec(spec)
                 spec.loader.exec_module(module)
                 return module
         raise ImportError(
-            "cannot find jaxnav.robot.deploy: install jaxnav or copy deploy.py next to this file"
+            f"cannot find jaxnav.robot.{name}: install jaxnav or copy the robot side's files "
+            "(jaxnav/robot/deploy.py, scan.py, controller.py) next to this file"
         ) from None
 
 
-deploy = _load_deploy()
+def policy_arg(argv: list[str]) -> str | None:
+    """``--policy NAME|FILE`` from the command line (taken out of ``argv``), or None."""
+    if "--policy" not in argv:
+        return None
+    i = argv.index("--policy")
+    value = argv[i + 1] if i + 1 < len(argv) else None
+    del argv[i : i + 2]
+    return value
+
+
+def policy_file(name_or_file: str) -> str:
+    """The policy file to drive with: a file by its path, else a policy that ships with
+    jaxnav by its name (``drive_anywhere``: jaxnav.robot.shipped), else ``NAME.npz``
+    beside this file (a robot without jaxnav)."""
+    if Path(name_or_file).is_file():
+        return name_or_file
+    beside = Path(__file__).resolve().parent / f"{name_or_file}.npz"
+    try:
+        from jaxnav.robot.shipped import policy_path
+    except ImportError:
+        return str(beside) if beside.is_file() else name_or_file
+    return str(beside) if beside.is_file() else str(policy_path(name_or_file))
+
+
+deploy, controller = _load("deploy"), _load("controller")
+scan = _load("scan")
+POLICY = ["policy.npz"]  # the policy parameter's default: --policy NAME|FILE sets it
 
 # ----------------------------------------------------------------------------
 # What the node decides without ROS (tests/test_ros2.py calls these directly)
 # ----------------------------------------------------------------------------
 
-# Twist on Humble and older, TwistStamped after (deploy.py says why).
-default_stamped = deploy.default_stamped
+# Twist on Humble and older, TwistStamped after (controller.py says why).
+default_stamped = controller.default_stamped
 RANGE_MIN_SLACK = 0.05  # m: a LiDAR blind this much nearer than training is a mismatch
 MAX_NAN_FRACTION = 0.5  # of the policy's beams: more NaN than this and the scan is unusable
 
@@ -135,7 +165,7 @@ def scan_problem(
     Checks what a scan must share with the policy: enough rays over 360 degrees,
     consistent angles, range limits that cover the trained ones, and mostly non-NaN
     readings at the trained beams. Single invalid readings are the policy's business
-    (deploy.clean_ranges).
+    (scan.clean_ranges).
     """
     n = len(ranges)
     fields = (angle_min, angle_max, angle_increment, range_min, range_max)
@@ -164,7 +194,7 @@ def scan_problem(
             f"{policy.min_range:g} m: near walls would read as no return"
         )
     try:
-        idx = deploy.nearest_rays(n, angle_min, angle_increment, policy.n_beams, policy.beam_layout)
+        idx = scan.nearest_rays(n, angle_min, angle_increment, policy.n_beams, policy.beam_layout)
     except ValueError as e:
         return f"scan does not match the policy: {e}"
     nan = int(np.isnan(np.asarray(ranges, np.float64)[idx]).sum())
@@ -185,7 +215,7 @@ def odom_jump(previous, pose) -> float:
 
 
 class PolicyNode:
-    """The ROS 2 side of :class:`deploy.Controller`: messages in, twists out (one
+    """The ROS 2 side of :class:`controller.Controller`: messages in, twists out (one
     executor thread, so no lock)."""
 
     def __init__(self, node):
@@ -195,11 +225,11 @@ class PolicyNode:
         from sensor_msgs.msg import LaserScan
 
         self.node = node
-        path = node.declare_parameter("policy", "policy.npz").value
+        path = policy_file(node.declare_parameter("policy", POLICY[0]).value)
         policy = self.policy = deploy.Policy.load(path)
         goal_topic = node.declare_parameter("goal_topic", "/goal_pose").value
         invalid = float(node.declare_parameter("invalid_range", -1.0).value)
-        self.control = deploy.Controller(
+        self.control = controller.Controller(
             policy,
             stale_after=float(node.declare_parameter("stale_after", 0.5).value),
             goal_tolerance=float(
@@ -208,7 +238,7 @@ class PolicyNode:
             invalid=None if invalid < 0 else invalid,
         )
         self.jump_limit = float(node.declare_parameter("odom_jump", 0.5).value)
-        stamped, why = default_stamped(os.environ.get("ROS_DISTRO"), deploy.rclpy_version())
+        stamped, why = default_stamped(os.environ.get("ROS_DISTRO"), controller.rclpy_version())
         self.stamped = bool(node.declare_parameter("enable_stamped_cmd_vel", stamped).value)
         self.twist_type = TwistStamped if self.stamped else Twist
         self.last_pose = None  # the previous odometry pose, for the jump check
@@ -254,10 +284,10 @@ class PolicyNode:
             )
             if why is not None:  # the previous scan is not acted on either: no decide()
                 self.bad_scan_at = now
-                self.publish(deploy.Command(0.0, 0.0, "bad input", f"{why}: stopped"))
+                self.publish(controller.Command(0.0, 0.0, "bad input", f"{why}: stopped"))
                 return
             if self.odom_bad is not None:  # nor is the last good pose
-                self.publish(deploy.Command(0.0, 0.0, "bad input", self.odom_bad))
+                self.publish(controller.Command(0.0, 0.0, "bad input", self.odom_bad))
                 return
             self.control.on_scan(msg.ranges, msg.angle_min, msg.angle_increment, now)
             self.publish(self.control.decide(now))
@@ -267,10 +297,10 @@ class PolicyNode:
     def on_odom(self, msg) -> None:
         try:
             q, p = msg.pose.pose.orientation, msg.pose.pose.position
-            pose = (p.x, p.y, deploy.yaw_from_quaternion(q.x, q.y, q.z, q.w))
+            pose = (p.x, p.y, scan.yaw_from_quaternion(q.x, q.y, q.z, q.w))
             if not all(math.isfinite(v) for v in pose):
                 self.odom_bad = "odometry pose is not finite: stopped"
-                self.publish(deploy.Command(0.0, 0.0, "bad input", self.odom_bad))
+                self.publish(controller.Command(0.0, 0.0, "bad input", self.odom_bad))
                 return
             self.odom_bad = None
             previous, self.last_pose = self.last_pose, pose
@@ -279,7 +309,7 @@ class PolicyNode:
                 if jump > self.jump_limit and self.control.goal is not None:
                     self.control.goal = None
                     self.publish(
-                        deploy.Command(
+                        controller.Command(
                             0.0,
                             0.0,
                             "bad input",
@@ -299,7 +329,7 @@ class PolicyNode:
             if odom_frame and goal_frame and goal_frame != odom_frame:
                 self.control.goal = None
                 self.publish(
-                    deploy.Command(
+                    controller.Command(
                         0.0,
                         0.0,
                         "frame",
@@ -313,7 +343,7 @@ class PolicyNode:
                 self.control.on_goal((x, y), frame)
             except ValueError as e:
                 self.control.goal = None
-                self.publish(deploy.Command(0.0, 0.0, "bad input", f"goal refused: {e}"), True)
+                self.publish(controller.Command(0.0, 0.0, "bad input", f"goal refused: {e}"), True)
                 return
             self.logged.clear()
             self.log().info(f"new goal ({x:.2f}, {y:.2f}) in frame '{frame}'")
@@ -355,7 +385,7 @@ class PolicyNode:
         return msg
 
     def publish(self, cmd, force_log: bool = False) -> None:
-        """Publish a deploy.Command; log why it stops, once per stop (see ``logged``)."""
+        """Publish a controller.Command; log why it stops, once per stop (see ``logged``)."""
         if self.shutting_down:
             return
         self.cmd_pub.publish(self.twist(cmd.linear, cmd.angular))
@@ -392,7 +422,9 @@ def main(args=None) -> int:
 
     # Python's own SIGINT handling (KeyboardInterrupt), not rclpy's: rclpy's would shut
     # the context down first, and the final stop could no longer be published.
-    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
+    argv = list(sys.argv if args is None else args)
+    POLICY[0] = policy_arg(argv) or POLICY[0]  # --policy NAME|FILE, before --ros-args
+    rclpy.init(args=argv, signal_handler_options=SignalHandlerOptions.NO)
     signal.signal(signal.SIGTERM, _interrupt)
     node = rclpy.create_node("jaxnav_policy")
     try:

@@ -5,6 +5,11 @@ computer without JAX.
 """
 
 import importlib
+import time as _time
+
+# When Python first read jaxnav (a command's process: near its start). A process that
+# a shell replaced by Python (the last command of ``bash -c``) began long before.
+_STARTED = _time.monotonic()
 
 __version__ = "0.1.0"
 

@@ -1,7 +1,9 @@
 """``jaxnav COMMAND [ARGS ...]``: every command under one name.
 
-``jaxnav train CONFIG`` is ``python -m jaxnav.train CONFIG``, and so on for each
-command below; ``jaxnav --help`` lists them, ``jaxnav COMMAND --help`` shows one.
+Each command is a module of :mod:`jaxnav.commands` (``jaxnav train CONFIG`` runs
+:mod:`jaxnav.commands.train`); ``python -m jaxnav train CONFIG`` is the same without
+the entry point, and ``python -m jaxnav.train CONFIG`` the main command's own form;
+``jaxnav --help`` lists them, ``jaxnav COMMAND --help`` shows one.
 """
 
 from __future__ import annotations
@@ -22,6 +24,7 @@ COMMANDS: dict[str, tuple[str, bool]] = {
     "render": ("draw a maze with the robot, a goal and LiDAR beams, or a sheet of samples", True),
     "mazes": ("write drawn mazes of a family as maze files (start, goal, shortest path)", True),
     "export": ("write one trained policy to a portable NumPy file for a robot", True),
+    "drive": ("play a pretrained policy in any world without training, beside the oracle", True),
     "reproduce": ("the paper's two experiments end to end, and report.md", True),
     "ablation": ("both experiments under each ROBOTIS-faithful switch", True),
     "study": (
@@ -29,6 +32,8 @@ COMMANDS: dict[str, tuple[str, bool]] = {
         True,
     ),
     "sim2sim": ("a run's policies driving a TurtleBot3 burger in MuJoCo physics", True),
+    "imitate": ("policies fit to the oracle's actions, written as a finished run", True),
+    "probe": ("diagnostics: collisions' causes, cut attempts' waits, moving worlds' reach", True),
     "list": ("the built-in mazes, the shipped configs and every setting", False),
     "publish": ("rewrite the docs' parts computed from committed data", False),
 }
@@ -68,7 +73,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     catch_interrupts_in_command()  # first thing: Ctrl-C ends any command cleanly
     if COMMANDS[name][1]:  # before JAX starts: one CPU device per core, compile cache
         before_jax()
-    return importlib.import_module(f"jaxnav.{name}").main(rest)
+    return importlib.import_module(f"jaxnav.commands.{name}").main(rest)
 
 
 if __name__ == "__main__":

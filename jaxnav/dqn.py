@@ -60,7 +60,7 @@ from jaxnav.env import EnvState, NavEnv, bank_key, from_config
 def network_of(config: Config, env: NavEnv | None = None) -> QNetwork:
     """DQN's Q-network of a config's runs (``env``: its environment, if already made),
     its layers noisy where a strategy of the config explores by noise (NoisyNets)."""
-    env = from_config(config)[0] if env is None else env
+    env = from_config(config, prepare=False)[0] if env is None else env
     d = config.dqn
     conv = {"scan_conv": tuple(d.scan_conv), "scan_layout": env.scan_layout}
     noisy = {"noisy": True, "noisy_sigma": config.exploration.noisy_sigma}
@@ -115,7 +115,7 @@ def make_trainer(config: Config) -> Trainer:
     """The run of a config as pure ``init(key, strategy, hyper)``, ``step``, ``chunk``,
     ``active``; the settings of :class:`Hyper` are read from the run's state, so the
     runs of a sweep (:func:`run_inputs`) share the program."""
-    env, base_params = from_config(config)
+    env, base_params = from_config(config, prepare=False)
     budget = config.total_steps or 1  # env steps: the pace curriculum's span
     d = config.dqn
     network = network_of(config, env)

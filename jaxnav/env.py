@@ -284,9 +284,10 @@ class NavEnv(Commands, EpisodeMaze, GoalSampler, DrawnLayouts, Observer):
         problem = problem or env_action_problem(self)
         if problem:
             raise ValueError(problem)
-        for f in dataclasses.fields(self):  # pairs (a list works too) as tuples of floats
+        for f in dataclasses.fields(self):  # number pairs (a list works too) as tuples
             if isinstance(f.default, tuple):
-                object.__setattr__(self, f.name, tuple(float(x) for x in getattr(self, f.name)))
+                kind = str if "str" in str(f.type) else float
+                object.__setattr__(self, f.name, tuple(kind(x) for x in getattr(self, f.name)))
 
     @property
     def generates(self) -> bool:
@@ -521,9 +522,15 @@ ENV_FIELDS = frozenset(f.name for f in dataclasses.fields(NavEnv))
 
 
 def make(
-    maze: str | Maze = "square4", preset: str = "paper", **overrides: Any
+    maze: str | Maze = "square4",
+    preset: str = "paper",
+    *,
+    key: chex.PRNGKey | None = None,
+    progress: float | None = None,
+    prepare: bool = True,
+    **overrides: Any,
 ) -> tuple[NavEnv, EnvParams]:
-    """Build the environment and its params.
+    """Build the environment and its params, ready for ``reset`` and ``step``.
 
     Args:
       maze: a built-in maze name, a path to a maze YAML file, or a ``Maze``; unused
@@ -531,8 +538,21 @@ def make(
         them as a template of their shapes).
       preset: ``"paper"`` (default) or ``"robotis"`` reward constants
         (:data:`jaxnav.core.settings.PRESETS`; ROBOTIS' R- depends on obstacles).
+      key: with drawn mazes and ``maze_bank`` N, the params hold a bank of N layouts
+        drawn from ``bank_key(key)`` (default ``jax.random.PRNGKey(0)``), so every
+        reset and restart picks its layout from it, as a training run's do.
+      progress: with ``pace_curriculum``, the share of the training budget done
+        (0 to 1): the params hold the pace range of that point of the curriculum
+        (move it with ``env.at_progress(params, progress)``). Required then.
+      prepare: False leaves out what the settings ask to be prepared outside
+        ``reset``/``step`` (the bank, the curriculum's point) and their checks: for
+        the trainers, which prepare them per run.
       **overrides: any ``EnvParams`` field (``R_plus=200``, ``lidar_noise_std=0.01``)
         or ``NavEnv`` field (``n_beams=360``, ``obstacle_obs=True``).
+
+    Raises:
+      ConfigError: a setting that only a training run applies (``maze_bank_refresh``)
+        or ``pace_curriculum`` without ``progress``: one line naming the call to make.
     """
     if preset not in PRESETS:
         raise ValueError(f"unknown preset '{preset}' (choose from {', '.join(PRESETS)})")
@@ -567,12 +587,66 @@ def make(
         raise ValueError(
             f"attempt_limit ({env.attempt_limit}) must not exceed max_steps ({params.max_steps})"
         )
+    if prepare:
+        params = prepared(env, params, key, progress)
     return env, params
 
 
-def from_config(config: Config) -> tuple[NavEnv, EnvParams]:
-    """The environment of a run's config: its maze, preset and env settings."""
-    return make(config.env.maze, config.preset, **config.env_kwargs())
+def prepared(
+    env: NavEnv, params: EnvParams, key: chex.PRNGKey | None = None, progress: float | None = None
+) -> EnvParams:
+    """``params`` holding what ``env``'s settings ask to be prepared outside ``reset``
+    and ``step``, as a training run prepares them: the bank of drawn layouts
+    (``maze_bank``, from ``bank_key(key)``, default ``PRNGKey(0)``) and the pace
+    curriculum's point (``pace_curriculum``, at ``progress``). A setting that only a
+    training run can apply is refused with one line naming the call to make instead;
+    nothing is ever silently left without effect."""
+    if env.maze_bank_refresh:
+        raise ConfigError(
+            "env.maze_bank_refresh renews the bank as a training run's env steps pass its "
+            "multiples, which reset and step cannot see: leave it 0 and draw a new bank "
+            "when you want one with params = env.with_bank(params, key)"
+        )
+    if env.pace_curriculum:
+        if progress is None:
+            raise ConfigError(
+                "env.pace_curriculum moves the cylinders' pace as training goes: give "
+                "progress= (the share of training done, 0 to 1) and move it with "
+                "params = env.at_progress(params, progress)"
+            )
+        params = env.at_progress(params, progress)
+    if env.generates and env.maze_bank:
+        params = env.with_bank(params, bank_key(jax.random.PRNGKey(0) if key is None else key))
+    return params
+
+
+def from_config(
+    config: Config,
+    key: chex.PRNGKey | None = None,
+    *,
+    progress: float | None = None,
+    prepare: bool = True,
+) -> tuple[NavEnv, EnvParams]:
+    """The environment of a run's config (its maze, preset and env settings), with
+    params ready for ``reset`` and ``step`` as :func:`make` gives them (``key``: the
+    bank's; ``progress``: the pace curriculum's point). A config that sweeps an
+    environment setting is refused: each sweep point is its own environment,
+    ``from_config(config.at(point))``."""
+    if prepare:
+        swept = [k for k, _ in config.sweep if k.startswith("env.")]
+        if swept:
+            raise ConfigError(
+                f"the config sweeps {swept[0]}: build one point's environment with "
+                "from_config(config.at(point)) (config.points() lists them)"
+            )
+    return make(
+        config.env.maze,
+        config.preset,
+        key=key,
+        progress=progress,
+        prepare=prepare,
+        **config.env_kwargs(),
+    )
 
 
 __all__ = [
@@ -589,5 +663,6 @@ __all__ = [
     "bank_key",
     "from_config",
     "make",
+    "prepared",
     "scale_maze",
 ]

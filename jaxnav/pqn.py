@@ -70,7 +70,7 @@ def network_of(config: Config, env: NavEnv | None = None) -> QNetwork:
     """PQN's Q-network of a config's runs: the paper's with LayerNorm before each hidden
     ReLU (``env``: the config's environment, if already made), its layers noisy where a
     strategy of the config explores by noise (NoisyNets)."""
-    env = from_config(config)[0] if env is None else env
+    env = from_config(config, prepare=False)[0] if env is None else env
     d = config.dqn
     conv = {"scan_conv": tuple(d.scan_conv), "scan_layout": env.scan_layout}
     noisy = {"noisy": True, "noisy_sigma": config.exploration.noisy_sigma}
@@ -189,7 +189,7 @@ NOISE_SALT = 3  # a step's or learning key folded with this draws a noisy networ
 
 def make_rollouts(config: Config) -> Rollouts:
     """The rollout and targets of a config's PQN runs (:class:`Rollouts`)."""
-    env, base_params = from_config(config)
+    env, base_params = from_config(config, prepare=False)
     budget = config.total_steps or 1  # env steps: the pace curriculum's span
     p = config.pqn
     network = network_of(config, env)

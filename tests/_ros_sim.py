@@ -106,7 +106,7 @@ def offline_mission(
     """The mission without ROS: the node's Controller called directly, one command per
     scan, each applied for one period. Returns the steps to each goal reached and how it
     ended: "ok", "collision" or "timeout"."""
-    from jaxnav.robot.deploy import Controller
+    from jaxnav.robot.controller import Controller
 
     world, control = World(maze, no_return, noise, seed), Controller(policy)
     steps: list[int] = []
@@ -133,7 +133,8 @@ def offline_mujoco_mission(path, goals, max_steps: int = 200) -> tuple[list[int]
     and seed), stepped period by period: the Controller on each scan and the odometry,
     its command for the next period. Returns the steps to each goal and how it ended:
     "ok", "collision" (a contact) or "timeout"."""
-    from jaxnav.robot.deploy import Controller, Policy
+    from jaxnav.robot.controller import Controller
+    from jaxnav.robot.deploy import Policy
     from jaxnav.robot.mujoco_ros2 import RealTimeBurger, load_maze_file
 
     control = Controller(Policy.load(path))

@@ -1,6 +1,6 @@
 """One tiny training run shared by the evaluation, plot and report tests.
 
-It is exactly the no-obstacle experiment of ``python -m jaxnav.reproduce``
+It is exactly the no-obstacle experiment of ``jaxnav reproduce``
 with :data:`REPRODUCE_TINY`, so the report test reuses it (``--resume``) and every
 evaluation of it shares one compiled rollout: compiling dominates these tests.
 """
@@ -8,7 +8,7 @@ evaluation of it shares one compiled rollout: compiling dominates these tests.
 from __future__ import annotations
 
 from jaxnav.experiments.reproduce import experiment_config
-from jaxnav.run.training import train_new
+from jaxnav.run.launch import train_new
 
 REPRODUCE_TINY = [
     "--quick",

@@ -16,3 +16,6 @@ _cache = os.environ.setdefault(
 )
 os.environ.setdefault("JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS", "0")
 os.environ.setdefault("JAX_PERSISTENT_CACHE_MIN_ENTRY_SIZE_BYTES", "0")
+# The reference drivers' rows (jaxnav.experiments.refcache) are kept in a folder of the
+# test session's own, never in the user's cache; the commands tests start inherit it.
+os.environ["JAXNAV_REFERENCE_CACHE"] = tempfile.mkdtemp(prefix="jaxnav-test-references-")

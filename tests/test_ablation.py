@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from jaxnav import ablation as ablation_command
+from jaxnav.commands import ablation as ablation_command
 from jaxnav.experiments import ablation
 from jaxnav.report import stats
 from jaxnav.report.paper import PAPER_TABLES

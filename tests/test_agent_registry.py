@@ -14,8 +14,6 @@ import optax
 import pytest
 from flax import struct
 
-from jaxnav import evaluate
-from jaxnav import train as train_cmd
 from jaxnav.agent.episodes import Episodes
 from jaxnav.agent.exploration import explore_action
 from jaxnav.agent.networks import QNetwork
@@ -29,6 +27,8 @@ from jaxnav.agent.trainer import (
     select,
     step_chunk,
 )
+from jaxnav.commands import evaluate
+from jaxnav.commands import train as train_cmd
 from jaxnav.core import agents, rundir
 from jaxnav.core.config import load_config
 from jaxnav.core.errors import ConfigError

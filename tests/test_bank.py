@@ -17,7 +17,7 @@ import jaxnav
 from jaxnav.core.config import load_config
 from jaxnav.core.errors import ConfigError
 from jaxnav.env import bank_key
-from jaxnav.run.training import train_new
+from jaxnav.run.launch import train_new
 from jaxnav.world import lazy
 from jaxnav.world.state import step_keys
 
@@ -236,7 +236,7 @@ def test_the_bank_key_leaves_the_runs_other_keys_alone():
 def test_a_run_with_a_bank_trains_the_same_twice_and_resumes_the_same(agent, tmp_path):
     from jaxnav.core import rundir
     from jaxnav.core.config import dump_config
-    from jaxnav.run import training
+    from jaxnav.run import launch
     from jaxnav.run.checkpoint import chunk_slots
     from jaxnav.run.training import Run
 
@@ -270,11 +270,12 @@ def test_a_run_with_a_bank_trains_the_same_twice_and_resumes_the_same(agent, tmp
     rows = np.zeros(0, int)  # PQN keeps no replay
     if agent == "dqn":
         rows = chunk_slots(before, run.shard.get(ts.step), cfg.buffer_capacity)
-    run.save(ts, run.new_episodes(ts), run.explore_blocks(log.explore, before), rows)
+    explore = run.explore_blocks(log.explore, before, ~run.active(ts))
+    run.save(ts, run.new_episodes(ts), explore, rows)
     again = Run(cfg, c, quiet=True).restored_state()
     for x, y in zip(jax.tree.leaves(ts.bank), jax.tree.leaves(again.bank), strict=True):
         np.testing.assert_array_equal(np.asarray(x), np.asarray(y))
-    training.resume(c, quiet=True)
+    launch.resume(c, quiet=True)
     for name in (rundir.METRICS, rundir.PARAMS):
         assert (c / name).read_bytes() == (a / name).read_bytes(), name
     if agent == "dqn":  # tested as any drawn-maze run: on a fixed maze and drawn layouts
@@ -290,12 +291,12 @@ def test_train_says_the_banks_memory_and_refuses_one_larger_than_the_machine(tmp
     import sys
 
     out = tmp_path / "r"
-    big = ["jaxnav.train", "drive_cylinders", "env.maze_bank=10000000", "--out", str(out)]
+    big = ["jaxnav.commands.train", "drive_cylinders", "env.maze_bank=10000000", "--out", str(out)]
     run = subprocess.run([sys.executable, "-m", *big], capture_output=True, text=True, timeout=120)
     assert run.returncode == 2, run.stderr
     lines = run.stderr.splitlines()
     assert lines[0].startswith("maze bank: 10000000 layouts of 12.7 KiB"), lines
-    assert lines[-1].startswith("jaxnav.train: error: this run needs about ")
+    assert lines[-1].startswith("jaxnav train: error: this run needs about ")
     assert "of replay and maze-bank memory" in lines[-1] and len(lines) == 2
     assert not out.exists()
     # The per-layout figure is the layout's own arrays.

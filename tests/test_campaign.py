@@ -14,8 +14,9 @@ from pathlib import Path
 
 import pytest
 
-from jaxnav.core.config import CONFIG_DIR, load_config
+from jaxnav.core.config import load_config
 from jaxnav.core.errors import ConfigError, JaxnavError
+from jaxnav.core.shipped import CONFIG_DIR
 from jaxnav.experiments import campaign, studyfile
 from jaxnav.report.sim2sim_tables import REALISM_COLUMNS, SUMMARY_COLUMNS, campaign_markdown
 
@@ -118,7 +119,7 @@ def test_a_campaign_tests_each_arm_in_its_own_process_and_resumes(tmp_path, monk
     study = campaign.load_study(WHEEL_LIMIT, ["seeds=2"])
     out = tmp_path / "o"
     data = campaign.run_study(study, out, False, True, "jaxnav study sim2sim_wheel_limit")
-    runs = [c[c.index("jaxnav.sim2sim") + 1] for c in _FakeTest.calls]
+    runs = [c[c.index("jaxnav.commands.sim2sim") + 1] for c in _FakeTest.calls]
     assert runs == [str(out / "plain"), str(out / "wheel_limit"), str(out / "plain")]
     assert ["--wheel-limit" in c for c in _FakeTest.calls] == [True, True, False]
     assert all(
@@ -156,7 +157,7 @@ def test_a_campaign_tests_each_arm_in_its_own_process_and_resumes(tmp_path, monk
 def test_a_failed_mujoco_test_is_one_line_naming_its_arm(tmp_path, monkeypatch):
     class Failing(_FakeTest):
         def __init__(self, argv, log):
-            log.write_text("jaxnav.sim2sim: error: no policy of seed 9\n")
+            log.write_text("jaxnav sim2sim: error: no policy of seed 9\n")
 
         def wait(self):
             return 2
@@ -169,7 +170,7 @@ def test_a_failed_mujoco_test_is_one_line_naming_its_arm(tmp_path, monkeypatch):
         campaign.run_study(study, tmp_path / "o", False, True, "c")
     assert (
         str(e.value)
-        == "the MuJoCo test of plain failed: jaxnav.sim2sim: error: no policy of seed 9"
+        == "the MuJoCo test of plain failed: jaxnav sim2sim: error: no policy of seed 9"
     )
 
 

@@ -1,14 +1,15 @@
-"""scripts/collision_causes.py: what a policy's test collisions hit, by hand-built cases
-and against the test's own count of collisions."""
+"""jaxnav.experiments.collisions and ``jaxnav probe collisions``: what a policy's test
+collisions hit, by hand-built cases and against the test's own count of collisions."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
-from _scripts import load_script
 from _tiny_run import tiny_run
 
-causes = load_script("collision_causes")
+from jaxnav.commands.probe import main as probe
+from jaxnav.experiments import collisions as causes
+
 WALL = np.array([[0.2, -1.0, 0.2, 1.0]])  # x = 0.2, 0.2 m ahead of a robot at the origin
 NONE = np.zeros((0, 3))
 DT = 0.2
@@ -100,7 +101,7 @@ def test_an_attempt_begins_at_its_episode_or_after_a_goal():
     assert s["median steps into the attempt"] == 9
 
 
-def test_every_collision_of_the_test_is_counted_once(tmp_path_factory):
+def test_every_collision_of_the_test_is_counted_once(tmp_path_factory, capsys):
     """The paper's tiny run tested on stage 3, whose cylinders spin round its start:
     every collision the test's episodes end in is found, each with a moving cylinder
     (stage 3's walls lie beyond the ring the cylinders sweep)."""
@@ -113,3 +114,23 @@ def test_every_collision_of_the_test_is_counted_once(tmp_path_factory):
     assert len(found) == int(np.asarray(res.collided).sum()) > 0  # one per episode, at most
     reach = 0.13 + DT * (0.15 + 0.43)  # the robot's radius and what both move in a step
     assert all(c.surface == "moving" and c.gap < reach for c in found)
+    assert probe(["collisions", str(run_dir), "--maze", "stage3", "--episodes", "3"]) == 0
+    out = capsys.readouterr().out
+    n = len(found)
+    assert out.startswith(f"stage3: {n} collisions, 0 with a wall, {n} with a moving cylinder")
+    assert out == causes.summary_line("stage3", found, np.nan) + "\n"
+
+
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (["{tmp}/none"], "run directory {tmp}/none does not exist"),
+        (["{tmp}", "--episodes", "0"], "--episodes must be at least 1, got 0"),
+    ],
+)
+def test_bad_input_is_one_line_and_exit_2(argv, message, tmp_path, capsys):
+    argv = [a.format(tmp=tmp_path) for a in argv]
+    assert probe(["collisions", *argv]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("jaxnav probe collisions: error: ") and err.count("\n") == 1
+    assert message.format(tmp=tmp_path) in err, err

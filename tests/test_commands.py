@@ -7,7 +7,7 @@ import sys
 
 import pytest
 
-import jaxnav.train as train_command
+import jaxnav.commands.train as train_command
 
 SMOKE = [
     "configs/smoke.yaml",
@@ -34,7 +34,7 @@ def test_train_into_a_folder_that_holds_no_run_names_no_flag_that_cannot_help(tm
 
 
 def test_study_checks_its_doc_files_before_training(tmp_path, capsys, monkeypatch):
-    import jaxnav.study as study_command
+    import jaxnav.commands.study as study_command
 
     def no_study(*a, **k):
         raise AssertionError("the study started before its outputs were checked")
@@ -47,7 +47,7 @@ def test_study_checks_its_doc_files_before_training(tmp_path, capsys, monkeypatc
         assert study_command.main([*argv, "--doc", str(doc)]) == 2
         err = capsys.readouterr().err
         assert err == (
-            f"jaxnav.study: error: {tmp_path / existing} exists already (--overwrite replaces it)\n"
+            f"jaxnav study: error: {tmp_path / existing} exists already (--overwrite replaces it)\n"
         )
         (tmp_path / existing).unlink()
     missing = tmp_path / "no" / "t.md"
@@ -77,13 +77,21 @@ def test_train_ends_with_the_outcome_table(tmp_path, capsys):
 def test_train_refuses_a_run_larger_than_the_machine_before_allocating(tmp_path):
     """seeds=100000 used to allocate for minutes with no progress."""
     run = subprocess.run(
-        [sys.executable, "-m", "jaxnav.train", "smoke", "seeds=100000", "--out", tmp_path / "r"],
+        [
+            sys.executable,
+            "-m",
+            "jaxnav.commands.train",
+            "smoke",
+            "seeds=100000",
+            "--out",
+            tmp_path / "r",
+        ],
         capture_output=True,
         text=True,
         timeout=60,
     )
     assert run.returncode == 2
-    assert run.stderr.startswith("jaxnav.train: error: this run needs about ")
+    assert run.stderr.startswith("jaxnav train: error: this run needs about ")
     assert "GiB of replay memory" in run.stderr and run.stderr.count("\n") == 1
     assert not (tmp_path / "r").exists()
 
@@ -92,8 +100,8 @@ def test_train_refuses_a_run_larger_than_the_machine_before_allocating(tmp_path)
 @pytest.mark.parametrize(
     "argv",
     [
-        ["jaxnav.reproduce", "--seeds", "100000", "--out", "{out}"],
-        ["jaxnav.study", "smoke", "seeds=100000", "--out", "{out}"],
+        ["jaxnav.commands.reproduce", "--seeds", "100000", "--out", "{out}"],
+        ["jaxnav.commands.study", "smoke", "seeds=100000", "--out", "{out}"],
     ],
     ids=["reproduce", "study"],
 )

@@ -111,3 +111,35 @@ def test_the_memory_question_takes_yes_at_a_terminal(monkeypatch):
     cli.confirm_memory(15 * gib, yes=False, memory=24 * gib, ask=lambda _: "y")
     with pytest.raises(JaxnavError, match="not started"):
         cli.confirm_memory(15 * gib, yes=False, memory=24 * gib, ask=lambda _: "")
+
+
+def test_an_agent_switch_names_every_setting_it_needs_in_one_line():
+    """``smoke agent=sac`` was refused one setting at a time (the actions, then the
+    reward, then the strategies); one line now names them all, and adding them loads."""
+    with pytest.raises(ConfigError) as e:
+        load_config("smoke", ["agent=sac"])
+    line = str(e.value)
+    need = ["env.actions=continuous", "env.reward=progress", "strategies=[policy]"]
+    assert "\n" not in line and all(n in line for n in need), line
+    assert "drive_sac_obstacles" in line  # a shipped config of that agent
+    cfg = load_config("smoke", ["agent=sac", *need])
+    assert cfg.agent == "sac" and cfg.env.actions == "continuous"
+    # and back: a continuous config switched to a discrete agent
+    with pytest.raises(ConfigError, match=r"agent pqn .*env.actions=vw strategies=\[ebe"):
+        load_config("drive_sac_obstacles", ["agent=pqn"])
+
+
+@pytest.mark.parametrize(
+    "text, line",
+    [
+        ("seeds: 2\nepisodes 40\nenv:\n  maze: square4\n", 2),  # a key without its colon
+        ("seeds: 2\nstrategies: [ebe, epsilon_greedy\nepisodes: 3\n", 2),  # an open bracket
+        ('seeds: 2\nenv:\n  maze: "square4\nepisodes: 3\n', 3),  # an open quote
+    ],
+)
+def test_malformed_yaml_names_the_line_the_mistake_is_on(tmp_path, text, line):
+    """PyYAML notices these a line after the mistake; the line it was reading is named."""
+    path = tmp_path / "c.yaml"
+    path.write_text(text)
+    with pytest.raises(ConfigError, match=rf"at line {line}\b"):
+        load_config(str(path))

@@ -6,6 +6,7 @@ import functools
 import json
 import math
 import py_compile
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -18,14 +19,15 @@ from _nav_reference import turned_changes_by_hand
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from jaxnav import export as export_command
 from jaxnav.agent.networks import QNetwork
+from jaxnav.commands import export as export_command
 from jaxnav.core import agents
 from jaxnav.core.config import dump_config, load_config
 from jaxnav.core.rundir import atomic_write_bytes, atomic_write_text, load_params, npz_bytes
 from jaxnav.env import from_config
-from jaxnav.robot import deploy, export
-from jaxnav.robot.deploy import Policy, nearest_rays
+from jaxnav.robot import controller, deploy, export, scan
+from jaxnav.robot.deploy import Policy
+from jaxnav.robot.scan import nearest_rays
 from jaxnav.run.checkpoint import params_arrays
 from jaxnav.world.geometry import ray_distances_dir
 from jaxnav.world.maps import ROBOT_RADIUS, clearance
@@ -251,7 +253,7 @@ def test_a_modern_policy_sees_on_the_robot_what_it_saw_in_training(tmp_path):
     linear, angular = policy.command(scans[0], 0.0, increment, (0.0, 0.0, 0.0), (1.0, 1.0))
     a = int(np.argmax(np.all(policy.driven == policy.last_command, axis=1)))
     assert (linear, angular) == (policy.speeds[a], policy.omegas[a])
-    control = _fed(deploy.Controller(policy))
+    control = _fed(controller.Controller(policy))
     control.on_goal((1.0, 1.0), "odom")
     c = control.decide(10.0)
     chosen = np.flatnonzero((policy.speeds == c.linear) & (policy.omegas == c.angular))
@@ -495,7 +497,7 @@ def test_heading_and_distance_come_from_odometry_and_goal(setups):
 def test_yaw_from_an_odometry_quaternion():
     for yaw in np.linspace(-3.1, 3.1, 13):
         q = (0.0, 0.0, math.sin(yaw / 2), math.cos(yaw / 2))
-        assert deploy.yaw_from_quaternion(*q) == pytest.approx(yaw)
+        assert scan.yaw_from_quaternion(*q) == pytest.approx(yaw)
 
 
 # ----------------------------------------------------------------------------
@@ -556,7 +558,7 @@ def test_export_with_bad_input_fails_with_exit_2_and_one_line(runs, tmp_path, ca
         argv += ["--out", str(out), "--overwrite"]  # the error is the input's, not the file's
     assert export_command.main(argv) == 2
     err = capsys.readouterr().err
-    assert err.count("\n") == 1 and err.startswith("jaxnav.export: error: ")
+    assert err.count("\n") == 1 and err.startswith("jaxnav export: error: ")
     assert out.read_bytes() == b"old"  # the old file is untouched
 
 
@@ -573,7 +575,7 @@ def test_export_refuses_an_existing_file_before_exporting(runs, tmp_path, capsys
         m.setattr(export_command, "export_policy", no_export)
         assert export_command.main([str(run), "--out", str(out)]) == 2
         err = capsys.readouterr().err
-        assert err == f"jaxnav.export: error: {out} exists already (--overwrite replaces it)\n"
+        assert err == f"jaxnav export: error: {out} exists already (--overwrite replaces it)\n"
         m.chdir(tmp_path)  # the default name, policy-ebe-seed0.npz, in the working directory
         (tmp_path / "policy-ebe-seed0.npz").write_bytes(b"old")
         assert export_command.main([str(run)]) == 2
@@ -587,7 +589,7 @@ def test_export_refuses_an_existing_file_before_exporting(runs, tmp_path, capsys
 
 def test_command_line_error_is_one_line_without_traceback(tmp_path):
     r = subprocess.run(
-        [sys.executable, "-m", "jaxnav.export", str(tmp_path / "missing")],
+        [sys.executable, "-m", "jaxnav.commands.export", str(tmp_path / "missing")],
         capture_output=True,
         text=True,
         cwd=tmp_path,
@@ -599,21 +601,37 @@ def test_command_line_error_is_one_line_without_traceback(tmp_path):
 
 
 def test_policy_inference_needs_only_numpy(runs, tmp_path):
-    """deploy.py copied alone onto a robot without JAX loads a policy and acts."""
+    """The robot side's files copied onto a robot without JAX or jaxnav (deploy.py and
+    the scan's pieces, scan.py; controller.py for a node's decisions) load a policy and
+    act, with nothing else of jaxnav to import."""
     out = tmp_path / "p.npz"
     export.save_policy(export.export_policy(runs["square4"]), out)
+    robot = tmp_path / "robot"
+    robot.mkdir()
+    for name in ("deploy.py", "scan.py", "controller.py"):
+        shutil.copy(ROOT / "jaxnav" / "robot" / name, robot / name)
     code = (
         "import importlib.util, math, sys\n"
-        "sys.modules['jax'] = None  # any 'import jax' now fails\n"
-        f"path = {str(ROOT / 'jaxnav' / 'robot' / 'deploy.py')!r}\n"
-        "spec = importlib.util.spec_from_file_location('deploy', path)\n"
-        "m = importlib.util.module_from_spec(spec); spec.loader.exec_module(m)\n"
+        "sys.modules['jax'] = None  # any 'import jax' now fails, and so does jaxnav\n"
+        "sys.modules['jaxnav'] = None\n"
+        "def load(name):\n"
+        f"    path = {str(robot)!r} + '/' + name + '.py'\n"
+        "    spec = importlib.util.spec_from_file_location(name, path)\n"
+        "    m = importlib.util.module_from_spec(spec); spec.loader.exec_module(m)\n"
+        "    return m\n"
+        "m, c = load('deploy'), load('controller')\n"
         f"p = m.Policy.load({str(out)!r})\n"
         "print(p.command([1.0] * 360, 0.0, 2 * math.pi / 360, (0, 0, 0), (1, 1)))\n"
+        "control = c.Controller(p)\n"
+        "control.on_goal((1, 1), 'odom'); control.on_odom((0, 0, 0), 'odom', 1.0)\n"
+        "control.on_scan([1.0] * 360, 0.0, 2 * math.pi / 360, 1.0)\n"
+        "print(control.decide(1.0).reason)\n"
     )
-    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
+    r = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, timeout=60, cwd=tmp_path
+    )
     assert r.returncode == 0, r.stderr
-    assert r.stdout.startswith("(0.15, ")
+    assert r.stdout.startswith("(0.15, ") and r.stdout.splitlines()[1] == "drive"
 
 
 def test_load_rejects_a_file_that_is_not_a_policy(tmp_path):
@@ -662,14 +680,14 @@ def _steering_policy() -> Policy:
     return Policy([(kernel, bias)], meta)
 
 
-def _fed(control: deploy.Controller, now: float = 10.0, pose=(0.0, 0.0, 0.0)):
+def _fed(control: controller.Controller, now: float = 10.0, pose=(0.0, 0.0, 0.0)):
     control.on_scan(np.full(360, 2.0), *LDS01, now)
     control.on_odom(pose, "odom", now)
     return control
 
 
 def test_controller_drives_only_with_a_goal_a_scan_and_odometry():
-    control = deploy.Controller(_steering_policy())
+    control = controller.Controller(_steering_policy())
     assert control.decide(0.0) == (0.0, 0.0, "no goal", "")
     control.on_goal((1.0, 1.0), "odom")  # ahead and to the left
     cmd = control.decide(0.0)
@@ -685,7 +703,7 @@ def test_controller_drives_only_with_a_goal_a_scan_and_odometry():
 
 def test_controller_gives_what_the_policy_commands(setups):
     policy = setups["square4_obstacles"].policy
-    control = deploy.Controller(policy)
+    control = controller.Controller(policy)
     rng = np.random.default_rng(5)
     for _ in range(20):
         ranges, pose = rng.uniform(0.2, 3.0, 360), (*rng.uniform(-1, 1, 2), rng.uniform(-3, 3))
@@ -699,7 +717,7 @@ def test_controller_gives_what_the_policy_commands(setups):
 
 @pytest.mark.parametrize("stale", ["scan", "odometry"])
 def test_controller_stops_on_stale_data(stale):
-    control = deploy.Controller(_steering_policy(), stale_after=0.5)
+    control = controller.Controller(_steering_policy(), stale_after=0.5)
     control.on_goal((1.0, 0.0), "odom")
 
     def feed(t_old):
@@ -715,7 +733,7 @@ def test_controller_stops_on_stale_data(stale):
 
 
 def test_controller_stops_at_the_goal_and_forgets_it():
-    control = _fed(deploy.Controller(_steering_policy(), goal_tolerance=0.3))
+    control = _fed(controller.Controller(_steering_policy(), goal_tolerance=0.3))
     control.on_goal((0.25, 0.1), "odom")
     cmd = control.decide(10.0)
     assert cmd[:3] == (0.0, 0.0, "reached") and cmd.level == "info"
@@ -724,11 +742,11 @@ def test_controller_stops_at_the_goal_and_forgets_it():
     control.on_goal((0.35, 0.0), "odom")  # outside the tolerance
     assert control.decide(10.0).reason == "drive"
     # The default tolerance is the policy's goal radius.
-    assert deploy.Controller(_steering_policy()).goal_tolerance == 0.2
+    assert controller.Controller(_steering_policy()).goal_tolerance == 0.2
 
 
 def test_controller_refuses_a_goal_in_another_frame():
-    control = _fed(deploy.Controller(_steering_policy()))
+    control = _fed(controller.Controller(_steering_policy()))
     control.on_goal((1.0, 0.0), "map")
     cmd = control.decide(10.0)
     assert cmd[:3] == (0.0, 0.0, "frame") and "'map'" in cmd.message and "'odom'" in cmd.message
@@ -738,7 +756,7 @@ def test_controller_refuses_a_goal_in_another_frame():
 
 
 def test_controller_stops_on_a_scan_or_pose_it_cannot_use():
-    control = _fed(deploy.Controller(_steering_policy()))
+    control = _fed(controller.Controller(_steering_policy()))
     control.on_goal((1.0, 0.0), "odom")
     control.on_scan(np.full(180, 2.0), -math.pi / 2, math.pi / 180, 10.0)  # front half
     cmd = control.decide(10.0)
@@ -751,7 +769,7 @@ def test_controller_stops_on_a_scan_or_pose_it_cannot_use():
 
 
 def test_controller_watchdog_stops_only_when_scans_stop():
-    control = deploy.Controller(_steering_policy(), stale_after=0.5)
+    control = controller.Controller(_steering_policy(), stale_after=0.5)
     assert control.watchdog(0.0).reason == "no goal"  # no scan yet: a stop
     _fed(control, now=10.0)
     control.on_goal((1.0, 0.0), "odom")
@@ -766,7 +784,7 @@ def test_controller_passes_the_invalid_reading_value_on():
     bias = np.asarray([0.0, 0.0, 1.0, 0.0, 0.0])
     policy = Policy([(kernel, bias)], _steering_policy().meta)
     for invalid, omega in ((None, -1.5), (0.0, 0.0)):
-        control = deploy.Controller(policy, invalid=invalid)
+        control = controller.Controller(policy, invalid=invalid)
         control.on_goal((1.0, 0.0), "odom")
         ranges = np.full(360, 2.0)
         ranges[0] = 0.0  # the LDS-01's "no return"

@@ -246,7 +246,7 @@ def test_robotis_target_is_the_online_net_in_warm_up_then_last_episode_ends_copy
 
 @pytest.mark.slow
 def test_a_finished_run_is_held_still_while_the_others_train_and_sync():
-    """Vmapped as jaxnav.train runs them: a finished run's whole state stays as it was
+    """Vmapped as jaxnav train runs them: a finished run's whole state stays as it was
     (rings, running sums, buffer, target), and the run beside it steps, files episodes
     and syncs its target exactly as it does beside a run that still trains."""
     cfg = _tiny(

@@ -12,11 +12,11 @@ import numpy as np
 import pytest
 
 import jaxnav
-from jaxnav.core.config import builtin_configs, load_config
+from jaxnav.core.config import load_config
 from jaxnav.core.errors import ConfigError
+from jaxnav.core.shipped import builtin_configs
 from jaxnav.env import from_config
-from jaxnav.world import families as fam
-from jaxnav.world import maps
+from jaxnav.world import cylinders, maps, rooms
 
 CYLINDERS = {"generator": "cylinders", "cyl_count": 6, "cyl_min_path": 1.2}
 ROOMS = {"generator": "rooms", "rooms_rows": 2, "rooms_cols": 3, "rooms_door": 0.5}
@@ -64,11 +64,11 @@ def test_a_reset_puts_robot_and_goal_clear_of_everything_in_a_new_maze(resets):
 
 def test_make_takes_the_family_from_its_settings():
     env, params = jaxnav.make(**CYLINDERS, cyl_radius=[0.1, 0.25])  # a list works too
-    assert env.family == fam.Cylinders(6, 0.1, 0.25, 4.0, 1.2)
+    assert env.family == cylinders.Cylinders(6, 0.1, 0.25, 4.0, 1.2)
     assert hash(env) is not None and env.obstacle_obs  # cylinders are obstacles
     assert params.maze.circles.shape == (6, 3) and params.R_minus == -150.0
     env, params = jaxnav.make(**ROOMS)
-    assert env.family == fam.Rooms(2, 3, 2.0, 0.5, 0.0, 1) and not env.obstacle_obs
+    assert env.family == rooms.Rooms(2, 3, 2.0, 0.5, 0.0, 1) and not env.obstacle_obs
     assert params.maze.segments.shape == (env.family.n_segments, 4)
 
 
@@ -122,7 +122,7 @@ def test_bad_family_settings_are_one_line_naming_the_setting(generator, override
 
 
 def test_a_bad_setting_on_the_command_line_is_one_line_and_a_failure(tmp_path, capsys):
-    from jaxnav.train import main
+    from jaxnav.commands.train import main
 
     code = main(["cylinders", "--out", str(tmp_path / "run"), "env.cyl_room=0.5"])
     err = capsys.readouterr().err.strip()
@@ -147,7 +147,7 @@ def test_the_shipped_configs_load_and_are_listed():
 @pytest.mark.parametrize("name", ["cylinders", "rooms"])
 def test_a_short_run_trains_and_tests_on_its_drawn_family(name, tmp_path):
     from jaxnav.experiments.evaluation import evaluate_to_dir
-    from jaxnav.run.training import train_new
+    from jaxnav.run.launch import train_new
 
     cfg = load_config(
         name,
@@ -176,7 +176,7 @@ def test_a_short_run_trains_and_tests_on_its_drawn_family(name, tmp_path):
 @pytest.mark.slow
 @pytest.mark.parametrize("name", ["cylinders", "rooms"])
 def test_render_draws_a_maze_of_the_family(name, tmp_path, capsys):
-    from jaxnav.render import main
+    from jaxnav.commands.render import main
 
     out = tmp_path / f"{name}.png"
     assert main([name, "--out", str(out)]) == 0

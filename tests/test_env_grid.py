@@ -17,7 +17,7 @@ from jaxnav.core.errors import ConfigError
 from jaxnav.env import from_config
 from jaxnav.experiments.evaluation import drawn_policies, evaluate_to_dir, load_run
 from jaxnav.experiments.rollout import eval_keys, run_tests
-from jaxnav.run.training import train_new
+from jaxnav.run.launch import train_new
 from jaxnav.world import generators as gen
 
 GRID = {"generator": "grid", "grid_rows": 4, "grid_cols": 4, "min_path_cells": 3}
@@ -218,7 +218,7 @@ def test_two_seeds_train_on_a_new_4x4_maze_every_episode(tmp_path):
 @pytest.mark.slow
 def test_a_checkpoint_restores_the_drawn_maze_with_the_state(tmp_path):
     from jaxnav.core import rundir
-    from jaxnav.run.checkpoint import chunk_slots
+    from jaxnav.run.checkpoint import chunk_slots, leaf_names
     from jaxnav.run.training import Run
 
     cfg = load_config(
@@ -244,5 +244,10 @@ def test_a_checkpoint_restores_the_drawn_maze_with_the_state(tmp_path):
     restored = Run(cfg, out, quiet=True)
     again = restored.shard.get(restored.restored_state())
     assert live.env_state.maze.segments.shape == (2, gen.Grid(4, 4).n_segments, 4)
-    for a, b in zip(jax.tree.leaves(live), jax.tree.leaves(again), strict=True):
-        np.testing.assert_array_equal(a, b)
+    # everything but the ring of finished episodes, which a checkpoint leaves out
+    # (its episodes are in metrics.csv already)
+    names = leaf_names(live)
+    assert names == leaf_names(again)
+    for name, a, b in zip(names, jax.tree.leaves(live), jax.tree.leaves(again), strict=True):
+        if not name.startswith(".metrics.ep_"):
+            np.testing.assert_array_equal(a, b, err_msg=name)

@@ -12,7 +12,7 @@ import pytest
 from _tiny_run import tiny_run
 
 from jaxnav.agent.exploration import ebe, epsilon_greedy, epsilon_schedule
-from jaxnav.evaluate import main
+from jaxnav.commands.evaluate import main
 from jaxnav.experiments.evaluation import evaluate, evaluate_to_dir, load_run
 from jaxnav.experiments.rollout import eval_keys, padded_mazes, run_tests
 from jaxnav.report import stats
@@ -284,7 +284,7 @@ def test_bad_input_is_one_line_and_exit_2(run, case, message, tmp_path, capsys):
 def test_outputs_are_checked_before_the_test_starts(run, tmp_path, capsys, monkeypatch):
     """An existing result file needs --overwrite, a file is no output folder, a missing
     parent folder is refused: each in one line before anything is tested."""
-    import jaxnav.evaluate as command
+    import jaxnav.commands.evaluate as command
 
     _, src = run
     tested = []
@@ -462,7 +462,7 @@ def test_evaluate_says_what_it_tests_where_a_person_watches(
     terminal (none where stderr is piped, so an interrupted evaluate ends in one line)."""
     import sys
 
-    import jaxnav.evaluate as command
+    import jaxnav.commands.evaluate as command
     from jaxnav.core import rundir
     from jaxnav.core.config import dump_config, load_config
 
@@ -521,3 +521,17 @@ def test_a_paced_run_is_tested_at_the_worlds_own_pace(tmp_path):
     plain = tmp_path / "plain.yaml"
     plain.write_text(dump_config(load_config(None, ["env.maze=stage4"])))
     assert tested_config(plain) == load_config(str(plain))
+
+
+def test_a_drawn_run_is_tested_with_new_goals_at_restarts_whatever_training_kept(tmp_path):
+    """``evaluate --mazes FILE env.restart_goal=new`` of a run trained on drawn mazes
+    that kept each layout for several episodes was refused ("needs env.new_maze_every
+    1"), though its test draws a new layout every episode anyway."""
+    from jaxnav.core.config import dump_config, load_config
+    from jaxnav.experiments.evaluation import tested_config
+
+    path = tmp_path / "config.yaml"
+    path.write_text(dump_config(load_config("grid4", ["env.new_maze_every=4"])))
+    cfg = tested_config(path, ["env.restart_goal=new"])
+    assert cfg.env.restart_goal == "new" and cfg.env.new_maze_every == 1
+    assert tested_config(path).env.new_maze_every == 1  # as the test plays it anyway

@@ -275,7 +275,7 @@ def test_a_method_where_it_cannot_work_is_one_line(overrides, says):
 def test_a_bonus_or_noise_changes_its_own_runs_only(tmp_path):
     """Every arm of a program with rnd, noisy and count; the epsilon-greedy runs in it
     learn exactly as they do in a program without them."""
-    from jaxnav.run.training import train_new
+    from jaxnav.run.launch import train_new
 
     alone = tiny("strategies=[epsilon_greedy]", "run.eval_every=1024")
     mixed = tiny(

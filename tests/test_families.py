@@ -15,12 +15,11 @@ import pytest
 
 from jaxnav.core import families as registry
 from jaxnav.core.errors import ConfigError
-from jaxnav.world import families as fam
+from jaxnav.world import cylinders, draws, maps, rooms
 from jaxnav.world import generators as gen
-from jaxnav.world import maps
 
-CYL = fam.Cylinders(8, 0.1, 0.25, 4.0, 1.5)
-ROOMS = fam.Rooms(3, 3, 1.5, 0.5, 0.2, 2)
+CYL = cylinders.Cylinders(8, 0.1, 0.25, 4.0, 1.5)
+ROOMS = rooms.Rooms(3, 3, 1.5, 0.5, 0.2, 2)
 KEYS = jax.random.split(jax.random.PRNGKey(5), 48)
 
 
@@ -82,7 +81,7 @@ def raster_reachable(walls, circles, lo, hi, start, goal, cell=0.05) -> bool:
 
 
 def draw_many(family, keys, split="train"):
-    draw = fam.draw_cylinders if isinstance(family, fam.Cylinders) else fam.draw_rooms
+    draw = cylinders.draw_cylinders if isinstance(family, cylinders.Cylinders) else rooms.draw_rooms
     return jax.tree.map(np.asarray, jax.jit(jax.vmap(lambda k: draw(k, family, split)))(keys))
 
 
@@ -106,13 +105,13 @@ def rooms_draws():
 
 
 def test_raster_distances_agree_with_numpy_dijkstra():
-    codes = jax.vmap(lambda k: fam.cylinder_codes(k, CYL))(KEYS[:12])
-    clear = np.asarray(jax.vmap(lambda c: fam.clearance_raster(CYL.circles(c), CYL))(codes))
+    codes = jax.vmap(lambda k: cylinders.cylinder_codes(k, CYL))(KEYS[:12])
+    clear = np.asarray(jax.vmap(lambda c: cylinders.clearance_raster(CYL.circles(c), CYL))(codes))
     n = CYL.n_raster
     rng = np.random.default_rng(0)
-    for free in clear >= fam.PASS_CLEARANCE:
+    for free in clear >= cylinders.PASS_CLEARANCE:
         src = int(rng.choice(np.flatnonzero(free)))
-        got = np.asarray(jax.jit(fam.raster_distances, static_argnums=2)(free, src, n))
+        got = np.asarray(jax.jit(cylinders.raster_distances, static_argnums=2)(free, src, n))
         want = dijkstra(free, src, n)
         np.testing.assert_array_equal(np.isinf(got), np.isinf(want))
         ok = np.isfinite(want)
@@ -127,25 +126,25 @@ def test_a_wall_of_cylinders_with_one_gap_makes_the_path_go_round():
     free[:, 4] = False
     free[7, 4] = True
     src, dst = 4 * n + 2, 4 * n + 6  # (row 4, col 2) to (row 4, col 6)
-    d = np.asarray(fam.raster_distances(free.ravel(), src, n))
+    d = np.asarray(cylinders.raster_distances(free.ravel(), src, n))
     assert d[dst] == pytest.approx(2 + 4 * math.sqrt(2))  # 3 diagonals up, 1 across, 3 down
     assert np.isinf(d[4 * n + 4])
 
 
 def test_the_free_raster_agrees_with_brute_force_clearance():
-    codes = jax.vmap(lambda k: fam.cylinder_codes(k, CYL))(KEYS[:8])
+    codes = jax.vmap(lambda k: cylinders.cylinder_codes(k, CYL))(KEYS[:8])
     centres = CYL.cell_centres().astype(np.float64)
     h = CYL.room / 2
     walls = np.array([[-h, -h, h, -h], [h, -h, h, h], [h, h, -h, h], [-h, h, -h, -h]])
     for c in codes:
         circles = np.asarray(CYL.circles(c), np.float64)
-        got = np.asarray(fam.clearance_raster(CYL.circles(c), CYL))
+        got = np.asarray(cylinders.clearance_raster(CYL.circles(c), CYL))
         want = ref.clearance(centres, walls, circles)
         np.testing.assert_allclose(got, want, atol=1e-5)
         # Every cylinder inside the room, radii in range, centres on the lattice.
         assert (np.abs(circles[:, :2]) + circles[:, 2:] <= h + 1e-6).all()
         assert (circles[:, 2] >= 0.1 - 1e-6).all() and (circles[:, 2] <= 0.25 + 1e-6).all()
-        on = (circles[:, :2] + h - 0.25) / fam.LATTICE
+        on = (circles[:, :2] + h - 0.25) / draws.LATTICE
         np.testing.assert_allclose(on, np.round(on), atol=1e-3)
 
 
@@ -164,8 +163,8 @@ def test_drawn_starts_and_goals_are_clear_and_joined_by_a_free_path(cylinder_dra
         clear = ref.clearance(np.stack([start, goal]), walls, circles)
         assert (clear >= maps.GOAL_CLEARANCE - 1e-5).all()
         # The free raster recomputed in float64, the path by Dijkstra on it.
-        free = ref.clearance(centres, walls, circles) >= fam.PASS_CLEARANCE
-        dist = dijkstra(free, int(d.start), n) * fam.RASTER
+        free = ref.clearance(centres, walls, circles) >= cylinders.PASS_CLEARANCE
+        dist = dijkstra(free, int(d.start), n) * cylinders.RASTER
         assert dist[d.goal] == pytest.approx(float(d.path), rel=1e-4)
         assert dist[d.goal] >= CYL.min_path
         # The goal points: exactly the clear cells reachable from the start, not too near it.
@@ -185,7 +184,7 @@ def test_drawn_starts_and_goals_are_clear_and_joined_by_a_free_path(cylinder_dra
 
 def test_the_maze_of_a_draw_has_the_draws_cylinders_start_and_goal_points(cylinder_draws):
     d = one(cylinder_draws, 0)
-    maze = jax.tree.map(np.asarray, fam.cylinders_maze(d, CYL, np.float32(0.5)))
+    maze = jax.tree.map(np.asarray, cylinders.cylinders_maze(d, CYL, np.float32(0.5)))
     assert maze.segments.shape == (4, 4) and maze.circles.shape == (CYL.count, 3)
     assert maze.robotis_goals.shape == (256, 2)  # as every Maze
     np.testing.assert_allclose(maze.obstacles(), CYL.circles(d.codes))
@@ -200,13 +199,13 @@ def test_the_maze_of_a_draw_has_the_draws_cylinders_start_and_goal_points(cylind
 
 @pytest.mark.slow
 def test_no_train_cylinder_field_equals_a_test_one():
-    small = fam.Cylinders(1, 0.1, 0.12, 1.6, 0.3)  # 28^2 sites x 3 radii: draws repeat
+    small = cylinders.Cylinders(1, 0.1, 0.12, 1.6, 0.3)  # 28^2 sites x 3 radii: draws repeat
     keys = jax.random.split(jax.random.PRNGKey(3), 3000)
     layouts = {}
     for split in ("train", "test"):
         d = draw_many(small, keys, split)
         assert d.ok.all()
-        bits = np.asarray(jax.vmap(lambda c, s=small: fam.cylinder_split(c, s))(d.codes))
+        bits = np.asarray(jax.vmap(lambda c, s=small: cylinders.cylinder_split(c, s))(d.codes))
         assert (bits == ("train", "test").index(split)).all()
         layouts[split] = [tuple(sorted(map(tuple, c))) for c in d.codes]
     train, test = set(layouts["train"]), set(layouts["test"])
@@ -216,10 +215,10 @@ def test_no_train_cylinder_field_equals_a_test_one():
 
 
 def test_a_cylinder_layouts_split_is_that_of_its_cylinders_in_any_order():
-    codes = np.asarray(jax.vmap(lambda k: fam.cylinder_codes(k, CYL))(KEYS))
+    codes = np.asarray(jax.vmap(lambda k: cylinders.cylinder_codes(k, CYL))(KEYS))
     rng = np.random.default_rng(1)
-    bits = [int(fam.cylinder_split(c, CYL)) for c in codes]
-    shuffled = [int(fam.cylinder_split(c[rng.permutation(len(c))], CYL)) for c in codes]
+    bits = [int(cylinders.cylinder_split(c, CYL)) for c in codes]
+    shuffled = [int(cylinders.cylinder_split(c[rng.permutation(len(c))], CYL)) for c in codes]
     assert bits == shuffled and 0 < sum(bits) < len(bits)
 
 
@@ -228,7 +227,7 @@ def test_a_cylinder_layouts_split_is_that_of_its_cylinders_in_any_order():
 # ----------------------------------------------------------------------------
 
 
-def room_graph_bfs(rooms: fam.Rooms, open_: np.ndarray, src: int) -> np.ndarray:
+def room_graph_bfs(rooms: rooms.Rooms, open_: np.ndarray, src: int) -> np.ndarray:
     a, b = gen.wall_cells(rooms.grid)
     dist = np.full(rooms.grid.n_cells, -1)
     dist[src] = 0
@@ -246,7 +245,7 @@ def room_graph_bfs(rooms: fam.Rooms, open_: np.ndarray, src: int) -> np.ndarray:
 @pytest.mark.slow
 def test_rooms_doors_are_gaps_of_the_door_width_in_the_walls_with_a_door(rooms_draws):
     d = one(rooms_draws, 0)
-    maze = jax.tree.map(np.asarray, fam.rooms_maze(d, ROOMS, np.float32(0.0)))
+    maze = jax.tree.map(np.asarray, rooms.rooms_maze(d, ROOMS, np.float32(0.0)))
     e = ROOMS.grid.n_walls
     assert maze.segments.shape == (ROOMS.n_segments, 4)
     first, second = maze.segments[:e], maze.segments[e : 2 * e]
@@ -259,7 +258,7 @@ def test_rooms_doors_are_gaps_of_the_door_width_in_the_walls_with_a_door(rooms_d
                 second[w, 2:] - second[w, :2]
             )
             assert length + gap == pytest.approx(ROOMS.size, abs=1e-5)
-            assert min(np.linalg.norm(first[w, 2:] - first[w, :2]), gap) >= fam.DOOR_MARGIN
+            assert min(np.linalg.norm(first[w, 2:] - first[w, :2]), gap) >= registry.DOOR_MARGIN
         else:
             assert not maze.segment_mask[e + w]
             assert np.linalg.norm(first[w, 2:] - first[w, :2]) == pytest.approx(ROOMS.size)
@@ -270,7 +269,7 @@ def test_rooms_starts_and_goals_are_clear_in_rooms_apart_and_joined_by_a_free_pa
     half = np.array([ROOMS.cols, ROOMS.rows]) * ROOMS.size / 2
     for i in range(len(KEYS)):
         d = one(rooms_draws, i)
-        maze = jax.tree.map(np.asarray, fam.rooms_maze(d, ROOMS, np.float32(0.0)))
+        maze = jax.tree.map(np.asarray, rooms.rooms_maze(d, ROOMS, np.float32(0.0)))
         walls, circles = ref.maze_geometry(maze)
         clear = ref.clearance(np.stack([d.start, d.goal]).astype(np.float64), walls, circles)
         assert (clear >= maps.GOAL_CLEARANCE - 1e-5).all()
@@ -282,12 +281,12 @@ def test_rooms_starts_and_goals_are_clear_in_rooms_apart_and_joined_by_a_free_pa
 
 @pytest.mark.slow
 def test_no_train_rooms_maze_equals_a_test_one():
-    small = fam.Rooms(2, 2, 1.0, 0.8)  # 4 spanning trees x 3^3 door positions: draws repeat
+    small = rooms.Rooms(2, 2, 1.0, 0.8)  # 4 spanning trees x 3^3 door positions: draws repeat
     keys = jax.random.split(jax.random.PRNGKey(4), 3000)
     layouts = {}
     for split in ("train", "test"):
         d = draw_many(small, keys, split)
-        bits = np.asarray(jax.vmap(fam.rooms_split)(d.open, d.offsets))
+        bits = np.asarray(jax.vmap(rooms.rooms_split)(d.open, d.offsets))
         assert d.ok.all() and (bits == ("train", "test").index(split)).all()
         layouts[split] = {np.where(o, f + 1, 0).tobytes() for o, f in zip(d.open, d.offsets)}
     assert 10 < len(layouts["train"]) < 3000 and 10 < len(layouts["test"]) < 3000
@@ -301,29 +300,29 @@ def test_no_train_rooms_maze_equals_a_test_one():
 
 @pytest.mark.slow
 def test_an_exhausted_draw_returns_the_valid_fallback_of_its_split(monkeypatch):
-    monkeypatch.setattr(fam, "MAX_TRIES", 1)  # one candidate: half of them miss the split
-    small = fam.Cylinders(2, 0.1, 0.15, 2.0, 0.5)
+    monkeypatch.setattr(draws, "MAX_TRIES", 1)  # one candidate: half of them miss the split
+    small = cylinders.Cylinders(2, 0.1, 0.15, 2.0, 0.5)
     d = draw_many(small, KEYS, "test")
-    safe = fam.fallback(small, "test")
+    safe = draws.fallback(small, "test")
     fell_back = (d.codes == safe.codes).all(axis=(1, 2))
     assert d.ok.all() and 0 < fell_back.sum() < len(KEYS)
-    bits = np.asarray(jax.vmap(lambda c: fam.cylinder_split(c, small))(d.codes))
+    bits = np.asarray(jax.vmap(lambda c: cylinders.cylinder_split(c, small))(d.codes))
     assert (bits == 1).all()
-    fam.fallback.cache_clear()  # it was searched with one try per draw
+    draws.fallback.cache_clear()  # it was searched with one try per draw
 
 
 def test_a_family_with_no_valid_maze_is_one_line_naming_its_settings():
-    impossible = fam.Cylinders(1, 0.1, 0.1, 1.2, 3.0)  # 3 m of path in a 1.2 m room
+    impossible = cylinders.Cylinders(1, 0.1, 0.1, 1.2, 3.0)  # 3 m of path in a 1.2 m room
     with pytest.raises(ConfigError, match="config: env.cyl_count, .* no valid train maze") as e:
-        fam.fallback(impossible, "train")
+        draws.fallback(impossible, "train")
     assert "\n" not in str(e.value)
 
 
 def test_the_settings_constants_are_the_worlds():
     assert registry.ROBOT_DIAMETER == 2 * maps.ROBOT_RADIUS
     assert registry.GOAL_CLEARANCE == maps.GOAL_CLEARANCE
-    assert registry.DOOR_MARGIN == fam.DOOR_MARGIN
-    assert registry.CYLINDER_GROWTH == pytest.approx(fam.PASS_CLEARANCE, abs=0.01)
+    assert registry.DOOR_MARGIN == registry.DOOR_MARGIN
+    assert registry.CYLINDER_GROWTH == pytest.approx(cylinders.PASS_CLEARANCE, abs=0.01)
     assert "cylinders" in registry.names() and "rooms" in registry.names()
 
 

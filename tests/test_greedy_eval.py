@@ -6,14 +6,14 @@ import csv
 import numpy as np
 import pytest
 
+from jaxnav.commands.train import main
 from jaxnav.core import rundir
 from jaxnav.core.config import load_config
 from jaxnav.experiments.evaluation import load_run
 from jaxnav.experiments.rollout import padded_mazes, run_tests
 from jaxnav.report.navigation import CUT, SUCCESS, split_attempts
-from jaxnav.run import training
-from jaxnav.run.training import train_new
-from jaxnav.train import main
+from jaxnav.run import launch
+from jaxnav.run.launch import train_new
 
 # 1,000 env steps per run in chunks of 400; evaluations every 300 cut the chunks at
 # 300, 600 and 900 (whole blocks of 100 steps), and the end at 1,000 is evaluated too.
@@ -25,6 +25,8 @@ TINY = [
     "run.chunk_steps=400",
     "dqn.batch_size=16",
     "run.eval_episodes=3",
+    "run.chunk_s=0",  # chunks of 400 (cut by the evaluations) and a checkpoint after each,
+    "run.checkpoint_s=0",  # as the kill below counts them
 ]
 EVAL = ["run.eval_every=300"]
 PQN = [
@@ -167,7 +169,7 @@ def test_a_run_killed_before_a_checkpoint_resumes_with_the_same_eval_rows(
         train_new(load_config(None, TINY + EVAL), out, quiet=True)
     monkeypatch.undo()
     assert {int(r["env_step"]) for r in _rows(out / rundir.EVAL)} == {300, 600}
-    training.resume(out, quiet=True)
+    launch.resume(out, quiet=True)
 
     def without_time(rows):
         return [{k: v for k, v in r.items() if k != "wall_s"} for r in rows]

@@ -1,5 +1,6 @@
-"""scripts/imitate_oracle.py: the oracle's steps as demonstrations and Q-networks fit
-to them, written as a run that ``jaxnav evaluate`` and ``run.init_from`` read.
+"""jaxnav.experiments.imitation and ``jaxnav imitate``: the oracle's steps as
+demonstrations and Q-networks fit to them, written as a run that ``jaxnav evaluate`` and
+``run.init_from`` read.
 
 References: the environment's own reset and the oracle's own plan for the first pair;
 the written params, applied again, for the agreement the summary states; the share of
@@ -13,22 +14,23 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
-from _scripts import load_script
 
-from jaxnav.core import agents, rundir
+from jaxnav.commands.imitate import main as imitate_main
+from jaxnav.core import agents, cli, rundir
 from jaxnav.core.config import load_config
+from jaxnav.core.errors import RunError
 from jaxnav.env import from_config
+from jaxnav.experiments import imitation as imitate
 from jaxnav.experiments.baselines import planner_of
 from jaxnav.experiments.evaluation import load_run
 
-imitate = load_script("imitate_oracle")
 ARGS = ["smoke", "--envs", "3", "--steps", "120", "--epochs", "150", "--quiet"]
 
 
 @pytest.fixture(scope="module")
 def written(tmp_path_factory):
     out = tmp_path_factory.mktemp("imitate") / "run"
-    assert imitate.main([*ARGS, "--out", str(out)]) == 0
+    assert imitate_main([*ARGS, "--out", str(out)]) == 0
     return out
 
 
@@ -68,7 +70,7 @@ def test_with_a_policy_the_policy_drives_and_the_oracle_labels(written):
         int(np.argmax(network.apply(jax.tree.map(lambda a, i=i: a[i % runs], stacked), obs0[i])))
         for i in range(3)
     ]
-    _, k = jax.random.split(jax.random.PRNGKey(1))  # the script's first chunk's key
+    _, k = jax.random.split(jax.random.PRNGKey(1))  # the first chunk's key
     key0 = jax.random.split(k, imitate.CHUNK)[0]
     obs1 = jax.vmap(env.step, in_axes=(0, 0, 0, None))(
         jax.random.split(key0, 3), state, jnp.asarray(drive), params
@@ -124,16 +126,17 @@ def test_training_starts_from_the_imitation(written):
 )
 def test_bad_input_is_one_line_and_writes_nothing(argv, message, tmp_path, capsys):
     out = tmp_path / "run"
-    assert imitate.main([*argv, "--out", str(out), "--quiet"]) == 2
+    assert imitate_main([*argv, "--out", str(out), "--quiet"]) == 2
     err = capsys.readouterr().err.strip()
     assert err.count("\n") == 0 and message in err, err
+    assert err.startswith("jaxnav imitate: error: ")
     assert not out.exists()
 
 
 @pytest.mark.slow
 def test_dagger_rounds_add_the_policies_states_to_the_demonstrations(tmp_path):
     out = tmp_path / "run"
-    assert imitate.main([*ARGS, "--dagger", "1", "--out", str(out)]) == 0
+    assert imitate_main([*ARGS, "--dagger", "1", "--out", str(out)]) == 0
     summary = json.loads((out / rundir.SUMMARY).read_text())
     assert summary["demonstration_steps"] == 2 * 360
     assert len(summary["dagger_rounds"]) == 1
@@ -142,5 +145,62 @@ def test_dagger_rounds_add_the_policies_states_to_the_demonstrations(tmp_path):
 
 @pytest.mark.slow
 def test_an_existing_directory_is_refused(written, capsys):
-    assert imitate.main([*ARGS, "--out", str(written)]) == 2
+    assert imitate_main([*ARGS, "--out", str(written)]) == 2
     assert "exists already" in capsys.readouterr().err
+
+
+def test_a_folder_that_is_no_run_is_not_overwritten(tmp_path, capsys):
+    out = tmp_path / "notes"
+    out.mkdir()
+    (out / "mine.txt").write_text("keep")
+    assert imitate_main(["smoke", "--out", str(out), "--overwrite", "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert err == f"jaxnav imitate: error: {out} is not a run directory (no config.yaml); " + (
+        "not overwriting it\n"
+    )
+    (out / rundir.CONFIG).write_text("seed: 0\n")  # a run's file beside one it never writes
+    assert imitate_main(["smoke", "--out", str(out), "--overwrite", "--quiet"]) == 2
+    assert "holds 'mine.txt', which a run does not write" in capsys.readouterr().err
+    assert (out / "mine.txt").read_text() == "keep"
+    with pytest.raises(SystemExit) as e:  # a seed a PRNG key cannot hold: the parser's line
+        imitate_main(["smoke", "--out", str(tmp_path / "run"), "--seed", "-1"])
+    assert e.value.code == 2 and capsys.readouterr().err.count("\n") == 1
+
+
+def _fake_params(monkeypatch):
+    monkeypatch.setattr(imitate, "params_arrays", lambda cfg, params: {"w": np.asarray(params)})
+
+
+def test_the_run_is_written_beside_and_replaces_a_run_only_whole(tmp_path, monkeypatch):
+    _fake_params(monkeypatch)
+    cfg = load_config("smoke", [])
+    out = tmp_path / "run"
+    imitate.write_run(out, cfg, np.zeros(2), {"n": 1})
+    (out / "plots").mkdir()  # what a run's commands add later
+    assert json.loads((out / rundir.SUMMARY).read_text()) == {"n": 1}
+    with pytest.raises(RunError, match="exists already"):
+        imitate.write_run(out, cfg, np.ones(2), {"n": 2})  # not without overwrite
+    assert json.loads((out / rundir.SUMMARY).read_text()) == {"n": 1}
+    imitate.replaceable(out)  # a run directory: it may be replaced
+    imitate.write_run(out, cfg, np.ones(2), {"n": 2}, overwrite=True)
+    assert json.loads((out / rundir.SUMMARY).read_text()) == {"n": 2}
+    np.testing.assert_array_equal(np.load(out / rundir.PARAMS)["w"], np.ones(2))
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["run"]  # no .part, no old copy
+    assert sorted(p.name for p in out.iterdir()) == [rundir.CONFIG, rundir.PARAMS, rundir.SUMMARY]
+    with rundir.Lock(out), pytest.raises(RunError, match="in use by another process"):
+        imitate.replaceable(out)
+
+
+def test_ctrl_c_while_the_run_is_written_leaves_nothing(tmp_path, monkeypatch, capsys):
+    cfg = load_config("smoke", [])
+    out = tmp_path / "run"
+
+    def interrupted(cfg, params):
+        assert (tmp_path / "run.part" / rundir.CONFIG).is_file()  # written beside, first
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(imitate, "params_arrays", interrupted)
+    write = lambda: imitate.write_run(out, cfg, None, {})
+    assert cli.run("jaxnav imitate", write, interrupted="interrupted; nothing written") == 130
+    assert capsys.readouterr().err.strip() == "jaxnav imitate: interrupted; nothing written"
+    assert list(tmp_path.iterdir()) == []

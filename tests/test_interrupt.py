@@ -137,10 +137,16 @@ def test_ctrl_c_while_the_process_exits_is_130_too(tmp_path):
     assert _one_line(err, "jaxnav.demo") == f"jaxnav.demo: stopped; {tmp_path.name}"
 
 
-# -- python -m jaxnav.train ------------------------------------------------------
+# -- jaxnav train ------------------------------------------------------
 
 TINY = ["configs/smoke.yaml", "seeds=1", "episodes=6", "env.max_steps=100"]
-TINY += ["run.chunk_steps=100", "dqn.batch_size=16", "--quiet"]
+TINY += [
+    "run.chunk_steps=100",
+    "dqn.batch_size=16",
+    "run.chunk_s=0",
+    "run.checkpoint_s=0",
+    "--quiet",
+]
 
 
 def _train(
@@ -150,7 +156,7 @@ def _train(
     if cold:  # compile from scratch: no persistent cache
         env.pop("JAX_COMPILATION_CACHE_DIR", None)
         env["JAXNAV_CACHE"] = "off"
-    cmd = [sys.executable, "-m", "jaxnav.train", *TINY, *overrides, "--out", str(out)]
+    cmd = [sys.executable, "-m", "jaxnav.commands.train", *TINY, *overrides, "--out", str(out)]
     pipes = {"stdout": subprocess.PIPE, "stderr": subprocess.PIPE, "text": True}
     preexec = _ignore_sigint if background else None
     return subprocess.Popen(cmd, cwd=ROOT, env=env, preexec_fn=preexec, **pipes)
@@ -187,23 +193,23 @@ def test_ctrl_c_at_every_stage_of_training(tmp_path):
     # importing: nothing written yet
     proc = _train(tmp_path / "importing")
     time.sleep(0.3)
-    line = _one_line(_interrupted(proc)[1], "jaxnav.train")
-    assert line == "jaxnav.train: interrupted" and not (tmp_path / "importing").exists()
+    line = _one_line(_interrupted(proc)[1], "jaxnav train")
+    assert line == "jaxnav train: interrupted" and not (tmp_path / "importing").exists()
 
     # compiling: the directory is made, nothing resumable yet, so it goes
     out = tmp_path / "compiling"
     proc = _train(out, cold=True)
     _when(proc, out / rundir.CONFIG)
-    line = _one_line(_interrupted(proc)[1], "jaxnav.train")
+    line = _one_line(_interrupted(proc)[1], "jaxnav train")
     left["compiling"] = _left_resumable_finished_or_nothing(out, line)
 
     # training: after the first checkpoint (of 40); then --resume ends the run
     out = tmp_path / "training"
     proc = _train(out, "episodes=40")
     _when(proc, out / rundir.CHECKPOINT)
-    line = _one_line(_interrupted(proc)[1], "jaxnav.train")
+    line = _one_line(_interrupted(proc)[1], "jaxnav train")
     left["training"] = _left_resumable_finished_or_nothing(out, line)
-    resume = [sys.executable, "-m", "jaxnav.train", "--resume", str(out), "--quiet"]
+    resume = [sys.executable, "-m", "jaxnav.commands.train", "--resume", str(out), "--quiet"]
     subprocess.run(resume, cwd=ROOT, check=True, capture_output=True)
     assert rundir.finished(out)
 
@@ -211,7 +217,7 @@ def test_ctrl_c_at_every_stage_of_training(tmp_path):
     out = tmp_path / "finished"
     proc = _train(out)
     _when(proc, out / rundir.SUMMARY)
-    line = _one_line(_interrupted(proc)[1], "jaxnav.train")
+    line = _one_line(_interrupted(proc)[1], "jaxnav train")
     left["finished"] = _left_resumable_finished_or_nothing(out, line)
 
     assert left == {
@@ -229,8 +235,8 @@ def test_sigterm_in_a_background_training_leaves_it_resumable_and_says_how(tmp_p
     proc.send_signal(signal.SIGTERM)
     _, err = proc.communicate(timeout=60)
     assert proc.returncode == 143, (proc.returncode, err)
-    line = _one_line(err, "jaxnav.train")
-    assert line.startswith("jaxnav.train: stopped by SIGTERM; ") and "Traceback" not in err
+    line = _one_line(err, "jaxnav train")
+    assert line.startswith("jaxnav train: stopped by SIGTERM; ") and "Traceback" not in err
     assert _left_resumable_finished_or_nothing(out, line) in ("resumable", "finished")
 
 
@@ -238,12 +244,12 @@ def test_sigterm_in_a_background_training_leaves_it_resumable_and_says_how(tmp_p
 def test_ctrl_c_in_evaluate_is_the_same_one_line(tmp_path):
     out = tmp_path / "run"
     subprocess.run(
-        [sys.executable, "-m", "jaxnav.train", *TINY, "--out", str(out)],
+        [sys.executable, "-m", "jaxnav.commands.train", *TINY, "--out", str(out)],
         cwd=ROOT,
         check=True,
         capture_output=True,
     )
-    cmd = [sys.executable, "-m", "jaxnav.evaluate", str(out), "--episodes", "1"]
+    cmd = [sys.executable, "-m", "jaxnav.commands.evaluate", str(out), "--episodes", "1"]
     for delay in (0.3, 3.0):
         proc = subprocess.Popen(cmd, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
         time.sleep(delay)
@@ -252,4 +258,4 @@ def test_ctrl_c_in_evaluate_is_the_same_one_line(tmp_path):
         proc.send_signal(signal.SIGINT)
         _, err = proc.communicate(timeout=60)
         assert proc.returncode == 130, err
-        assert _one_line(err.decode(), "jaxnav.evaluate") == "jaxnav.evaluate: interrupted"
+        assert _one_line(err.decode(), "jaxnav evaluate") == "jaxnav evaluate: interrupted"

@@ -11,16 +11,16 @@ from test_greedy_eval import EVAL, Killed
 from test_greedy_eval import TINY as PLAIN
 
 from jaxnav.agent.rollout import EVAL_SALT, VALID_SALT, eval_keys
+from jaxnav.commands.train import main
 from jaxnav.core import rundir
 from jaxnav.core.config import load_config
 from jaxnav.experiments import rollout as experiments_rollout
 from jaxnav.experiments.evaluation import load_run
 from jaxnav.experiments.rollout import padded_mazes, run_tests
 from jaxnav.report.navigation import CUT, SUCCESS, split_attempts
-from jaxnav.run import training
+from jaxnav.run import launch
 from jaxnav.run.greedy import BestPolicy
-from jaxnav.run.training import train_new
-from jaxnav.train import main
+from jaxnav.run.launch import train_new
 
 # test_greedy_eval's tiny DQN run: evaluations at 300, 600, 900 and 1,000 env steps
 TINY = PLAIN + EVAL
@@ -121,7 +121,7 @@ def test_a_killed_run_resumes_to_the_same_kept_policy(best_run, tmp_path, monkey
     with pytest.raises(Killed):
         train_new(load_config(None, BEST), out, quiet=True)
     monkeypatch.undo()
-    training.resume(out, quiet=True)
+    launch.resume(out, quiet=True)
     a, b = _params(out), _params(best_run)
     assert a.keys() == b.keys() and all(np.array_equal(a[k], b[k]) for k in a)
     summary = json.loads((out / rundir.SUMMARY).read_text())

@@ -193,8 +193,8 @@ def test_the_page_says_how_each_arm_drives_beside_the_oracle(tmp_path):
 def test_the_shipped_studies_are_package_data_and_listed():
     import tomllib
 
-    from jaxnav.core.config import STUDY_DIR, shipped_studies
-    from jaxnav.list import catalog
+    from jaxnav.commands.list import catalog
+    from jaxnav.core.shipped import STUDY_DIR, shipped_studies
 
     root = Path(__file__).resolve().parent.parent
     data = tomllib.loads((root / "pyproject.toml").read_text())
@@ -207,7 +207,7 @@ def test_the_shipped_studies_are_package_data_and_listed():
 
 
 def test_every_shipped_study_file_of_every_kind_loads_whole():
-    from jaxnav.core.config import STUDY_DIR, shipped_studies
+    from jaxnav.core.shipped import STUDY_DIR, shipped_studies
     from jaxnav.experiments import studies, studyfile
 
     kinds = {}

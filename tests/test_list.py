@@ -10,18 +10,22 @@ import pytest
 
 from jaxnav.__main__ import COMMANDS
 from jaxnav.__main__ import main as jaxnav_main
+from jaxnav.commands.list import catalog, settings_markdown
 from jaxnav.core import agents
-from jaxnav.core.config import FIELD_TYPES, SETTINGS, SWEEPABLE, builtin_configs, load_config
-from jaxnav.list import catalog, settings_markdown
+from jaxnav.core.config import FIELD_TYPES, SETTINGS, SWEEPABLE, load_config
+from jaxnav.core.shipped import builtin_configs
 from jaxnav.world.maps import BUILTIN_MAZES, make_maze
 
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def test_the_top_level_holds_env_the_agents_and_the_commands_only():
-    """Every other top-level module is a command, and ``jaxnav`` lists each one."""
+def test_the_top_level_holds_env_the_agents_and_the_main_command_only():
+    """The package's top level is the task, the agents and ``python -m jaxnav.train``;
+    every command is a module of ``jaxnav.commands`` and ``jaxnav`` lists each one."""
     modules = {p.stem for p in (ROOT / "jaxnav").glob("*.py")}
-    assert modules - {"__init__", "__main__", "env", "dqn", "pqn", "sac"} == set(COMMANDS)
+    assert modules == {"__init__", "__main__", "env", "dqn", "pqn", "train"}
+    commands = {p.stem for p in (ROOT / "jaxnav" / "commands").glob("*.py")}
+    assert commands - {"__init__"} == set(COMMANDS)
 
 
 def test_help_lists_every_command_with_one_line(capsys):
@@ -31,9 +35,9 @@ def test_help_lists_every_command_with_one_line(capsys):
         assert f"  {name}" in out and what in out
 
 
-@pytest.mark.parametrize("how", ["jaxnav", "python -m jaxnav", "python -m jaxnav."])
+@pytest.mark.parametrize("how", ["jaxnav", "python -m jaxnav", "python -m jaxnav.train"])
 def test_a_commands_help_and_errors_name_it_as_the_user_ran_it(how, tmp_path):
-    """``python -m jaxnav train --help`` said ``usage: python -m jaxnav.train``."""
+    """``python -m jaxnav train --help`` said ``usage: jaxnav train``."""
     if how == "jaxnav":  # the console script, as pip writes it
         script = tmp_path / "jaxnav"
         script.write_text("import sys\nfrom jaxnav.__main__ import main\nsys.exit(main())\n")
@@ -42,7 +46,7 @@ def test_a_commands_help_and_errors_name_it_as_the_user_ran_it(how, tmp_path):
         cmd = [sys.executable, "-m", "jaxnav", "train"]
     else:
         cmd = [sys.executable, "-m", "jaxnav.train"]
-    shown = how + ("train" if how.endswith(".") else " train")
+    shown = "jaxnav train" if how == "jaxnav" else "python -m jaxnav train"
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
     run = lambda *a: subprocess.run([*cmd, *a], cwd=tmp_path, env=env, capture_output=True)
     helped = run("--help")

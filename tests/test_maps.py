@@ -200,7 +200,16 @@ BAD_FILES = {
     ),
     "self-intersecting outline": (
         "outline: [[0, 0], [4, 0], [4, 4], [1, 4], [3, -1], [0, 0]]\n",
-        "outline is self-intersecting",
+        "outline crosses itself",
+    ),
+    # a bow tie: its two halves' signed areas cancel, and it was said to enclose none
+    "bow-tie outline": (
+        "outline: [[0, 0], [4, 4], [4, 0], [0, 4], [0, 0]]\n",
+        "outline crosses itself",
+    ),
+    "flat outline": (
+        "outline: [[0, 0], [1, 0], [2, 0], [0, 0]]\n",
+        "outline encloses no area (its vertices lie on one line)",
     ),
     "start outside": (f"outline: {SQUARE}\nstart: [3.0, 0.0, 0.0]\n", "start pose is not inside"),
     "start touching a wall": (
@@ -239,7 +248,8 @@ def test_a_bad_maze_file_is_rejected_with_one_clear_line(tmp_path, case):
 
 def test_each_mistake_has_its_own_message(tmp_path):
     messages = set()
-    cases = [c for c in BAD_FILES if c != "start inside an obstacle"]  # = "start outside"
+    same = ("start inside an obstacle", "bow-tie outline")  # = "start outside", a crossing
+    cases = [c for c in BAD_FILES if c not in same]
     for i, (text, _) in enumerate(BAD_FILES[c] for c in cases):
         with pytest.raises(MazeError) as err:
             make_maze(write(tmp_path, text, f"m{i}.yaml"))

@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 import yaml
 
+from jaxnav.commands.mazes import main
 from jaxnav.core.errors import MazeError
 from jaxnav.env import make
-from jaxnav.mazes import main
 from jaxnav.world import generators
 from jaxnav.world.maps import make_maze
 from jaxnav.world.mazefiles import canonical_segments, number
@@ -84,7 +84,7 @@ def test_bad_arguments_are_refused_in_one_line(tmp_path, capsys, argv, message):
     out = tmp_path / "out"
     assert main([*argv, "--out", str(out)]) == 2
     err = capsys.readouterr().err
-    assert err.startswith("jaxnav.mazes: error: ") and message in err and err.count("\n") == 1
+    assert err.startswith("jaxnav mazes: error: ") and message in err and err.count("\n") == 1
     assert not out.exists()
 
 

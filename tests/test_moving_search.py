@@ -1,4 +1,5 @@
-"""scripts/moving_search.py: the search that proves a moving stage's goals reachable.
+"""jaxnav.experiments.reachability and ``jaxnav probe search``: the search that proves a
+moving stage's goals reachable.
 
 Its witnesses are held against an independent NumPy replay of stage 3: the unicycle's
 exact arc and the cylinders turned about the origin, sampled 400 times a step, walls
@@ -12,10 +13,11 @@ import math
 
 import numpy as np
 import pytest
-from _scripts import load_script
 
-search = load_script("moving_search")
-reach = load_script("moving_reach")
+from jaxnav.commands.probe import main as probe
+from jaxnav.experiments import reachability as search
+from jaxnav.world import reach
+from jaxnav.world.maps import make_maze
 
 VW = ["env.actions=vw"]
 ROBOT = 0.13  # m, the burger's disc
@@ -30,15 +32,18 @@ def _segment_distance(p: np.ndarray, walls: np.ndarray) -> np.ndarray:
     return np.min(np.linalg.norm(p[:, None] - (a + t[..., None] * ab), axis=-1), axis=1)
 
 
+def stage3_spinning() -> reach.Spinning:
+    return reach.spinning(make_maze("stage3"), "stage3")
+
+
 def numpy_replay(actions: list[int], goal: np.ndarray, substeps: int = 400, played=None):
     """(smallest clearance beyond the robot's radius over the whole drive, distance to
     the goal at the end) of ``actions`` of the vw set from stage 3's start at time 0,
     which stops where the robot first comes within the goal radius; ``played``, a list,
     gets the steps driven and the end position."""
     from jaxnav.core.settings import ACTION_SETS
-    from jaxnav.world.maps import make_maze
 
-    centres, radii, spin, _, start = reach.spinning("stage3")
+    centres, radii, spin, _, start = stage3_spinning()
     walls = make_maze("stage3").walls().astype(np.float64)
     table = ACTION_SETS["vw"]
     x, y, yaw, time, dt = float(start[0]), float(start[1]), 0.0, 0.0, 0.2
@@ -73,7 +78,7 @@ def found():
 
 
 def test_stage3_goals_beyond_the_ring_are_reachable_with_a_stop_capable_set(found):
-    centres, radii, *_ = reach.spinning("stage3")
+    centres, radii, *_ = stage3_spinning()
     hi = float(np.max(np.hypot(*centres.T) + radii)) + ROBOT  # the ring's outer edge
     assert len(found.goals) > 100
     assert np.all(np.hypot(*found.goals.T) >= 1.0)  # first goals: 1 m from the start
@@ -103,8 +108,43 @@ def test_a_drive_into_the_wall_is_refused_by_both_replays():
 
 
 def test_a_world_that_stands_still_is_one_line(capsys):
-    assert search.main(["paper_no_obstacles", "--horizon", "2"]) == 2
-    assert capsys.readouterr().err == "moving_search: square4: no moving obstacles\n"
+    assert probe(["search", "paper_no_obstacles", "--horizon", "2"]) == 2
+    assert capsys.readouterr().err == "jaxnav probe search: error: square4: no moving obstacles\n"
+
+
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (["stage3", "env.nope=1"], "unknown key 'env.nope'"),
+        (["stage3", "--cell", "0"], "--cell must be positive"),
+        (["nowhere.yaml"], "nowhere.yaml"),
+    ],
+)
+def test_bad_input_is_one_line_and_exit_2(argv, message, capsys):
+    assert probe(["search", *argv]) == 2
+    out, err = capsys.readouterr()
+    assert out == "" and err.startswith("jaxnav probe search: error: ")
+    assert err.count("\n") == 1 and message in err, err
+
+
+def test_what_the_search_found_in_one_line(found, capsys):
+    sec = np.asarray([len(found.reached[g]) for g in found.proven]) * 0.2
+    assert search.found_line(found, 0.05, 16, 0) == (
+        f"stage3 (vw actions): {len(found.proven)} of {len(found.goals)} first goals proven "
+        f"reachable from the start (replayed in the environment, no collision), in "
+        f"{sec.min():.1f}-{sec.max():.1f} s (median {np.median(sec):.1f} s); the search "
+        f"reached {len(found.reached)}, {len(found.reached)} replayed (0.05 m x 16 headings "
+        f"raster, at most {found.largest:,} states a step, {found.seconds:.0f} s)"
+    )
+    # the command, over a horizon too short to reach any goal: 1 m takes 5 steps at least
+    argv = ["stage3", *VW, "--cell", "0.05", "--headings", "16", "--horizon", "2"]
+    assert probe(["search", *argv]) == 0
+    out = capsys.readouterr().out
+    assert out.startswith(
+        "stage3 (vw actions): no first goal proven reachable within 2 steps; the search "
+        "reached 0, 0 replayed (0.05 m x 16 headings raster, at most "
+    )
+    assert out.endswith(" s)\n") and out.count("\n") == 1
 
 
 # -- the oracle's way out of stage 3's ring (jaxnav.planners.search.opening) ---------
@@ -130,7 +170,6 @@ def test_only_a_start_inside_turning_cylinders_needs_an_opening(stage3_vw):
     from jaxnav.core.config import load_config
     from jaxnav.env import from_config
     from jaxnav.planners.search import encircled, needs_opening
-    from jaxnav.world.maps import make_maze
 
     assert encircled(make_maze("stage3")) and encircled(make_maze("stage3_humble"))
     assert not encircled(make_maze("stage4"))  # waypoint loops beside the start
@@ -147,7 +186,7 @@ def test_each_opening_enters_its_goal_once_at_its_end_where_the_robot_can_stand(
     """In the NumPy replay: clear all the way, the goal radius first entered at the last
     action, and the cylinders, turned on for 3.2 s more, keep clear of the robot standing
     there (the search samples them 4 times a step, this 100 times)."""
-    centres, radii, spin, _, _ = reach.spinning("stage3")
+    centres, radii, spin, _, _ = stage3_spinning()
     assert opening is not None and len(opening.goals) > 30
     for g in range(0, len(opening.goals), 7):
         actions = opening.actions[g, : opening.length[g]].tolist()
@@ -209,7 +248,6 @@ def test_where_cylinders_outrun_the_robot_the_oracle_plans_a_whole_crossing(stag
     from jaxnav.env import from_config
     from jaxnav.planners.oracle import Oracle, holds_for
     from jaxnav.planners.raster import raster_for
-    from jaxnav.world.maps import make_maze
     from jaxnav.world.motion import top_speed
 
     env, params = stage3_vw

@@ -7,8 +7,9 @@ from __future__ import annotations
 import pytest
 
 from jaxnav.__main__ import main as jaxnav_main
-from jaxnav.core.config import ConfigError, builtin_configs, load_config
-from jaxnav.train import main as train_main
+from jaxnav.commands.train import main as train_main
+from jaxnav.core.config import ConfigError, load_config
+from jaxnav.core.shipped import builtin_configs
 
 
 @pytest.mark.parametrize(
@@ -38,7 +39,7 @@ def test_settings_a_run_cannot_use_are_refused_in_one_line(overrides, message):
 def test_a_seed_option_a_key_cannot_hold_is_refused_in_one_line(command, seed, tmp_path, capsys):
     import importlib
 
-    main = importlib.import_module(f"jaxnav.{command}").main
+    main = importlib.import_module(f"jaxnav.commands.{command}").main
     out = tmp_path / ("mazes" if command == "mazes" else "maze.png")
     argv = ["grid", "--seed", seed, "--out", str(out)] + (
         ["--n", "2"] if command == "mazes" else []
@@ -54,7 +55,7 @@ def test_a_seed_option_a_key_cannot_hold_is_refused_in_one_line(command, seed, t
 def test_a_study_seed_a_key_cannot_hold_is_refused_in_one_line():
     import yaml
 
-    from jaxnav.core.config import STUDY_DIR
+    from jaxnav.core.shipped import STUDY_DIR
     from jaxnav.experiments.ladder import parse_study
 
     doc = yaml.safe_load((STUDY_DIR / "when_ebe_helps.yaml").read_text())
@@ -76,7 +77,7 @@ def test_an_unknown_test_maze_is_refused_before_training_and_leaves_no_directory
 
 
 def test_an_unknown_test_maze_is_refused_before_a_study_makes_its_folder(tmp_path, capsys):
-    from jaxnav.study import main as study_main
+    from jaxnav.commands.study import main as study_main
 
     out = tmp_path / "study"
     assert study_main(["temperature", "run.test_mazes=[square4,nosuch]", "--out", str(out)]) == 2
@@ -103,7 +104,7 @@ def test_list_gives_each_shipped_config_its_whole_first_sentence():
 @pytest.mark.parametrize("maze", ["grid4", "square4"])
 def test_a_sheet_too_large_to_draw_is_refused_in_one_line(maze, tmp_path, capsys):
     """render square4 --samples 100000 grew to 15.7 GB in 10 minutes without a word."""
-    from jaxnav.render import main as render_main
+    from jaxnav.commands.render import main as render_main
 
     out = tmp_path / "sheet.png"
     assert render_main([maze, "--samples", "100000", "--out", str(out)]) == 2
@@ -143,7 +144,7 @@ def test_the_advice_after_ctrl_c_repeats_the_options_that_sized_the_run():
 
 def test_the_advice_after_ctrl_c_in_a_study_is_a_whole_command(monkeypatch):
     """It was "continue with --resume --out DIR": without the config, which study needs."""
-    import jaxnav.study as command
+    import jaxnav.commands.study as command
 
     told = []
     monkeypatch.setattr(
@@ -179,7 +180,7 @@ def test_evaluate_and_export_of_a_run_another_process_trains_say_so(command, tmp
     from jaxnav.core import rundir
     from jaxnav.core.config import dump_config
 
-    main = importlib.import_module(f"jaxnav.{command}").main
+    main = importlib.import_module(f"jaxnav.commands.{command}").main
     run = tmp_path / "run"
     run.mkdir()
     (run / rundir.CONFIG).write_text(dump_config(load_config("smoke")))
@@ -187,8 +188,50 @@ def test_evaluate_and_export_of_a_run_another_process_trains_say_so(command, tmp
         assert main([str(run)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert err == [
-        f"jaxnav.{command}: error: {run} is being trained by another process: wait for it to finish"
+        f"jaxnav {command}: error: {run} is being trained by another process: wait for it to finish"
     ]
     assert main([str(run)]) == 2  # not training, not finished: a resume finishes it
     assert "resume it first" in capsys.readouterr().err
     assert {p.name for p in run.iterdir()} == {rundir.CONFIG, rundir.LOCK}  # nothing written
+
+
+@pytest.mark.parametrize(
+    "command, argv, message",
+    [
+        ("train", ["smok"], "no such file smok (did you mean 'smoke'?"),
+        ("study", ["drivng", "--out", "OUT"], "no such file drivng (did you mean 'driving'?"),
+        ("study", [], "name a config or a shipped study (jaxnav list studies"),
+        ("study", ["worlds"], "--out DIR is required"),
+    ],
+)
+def test_a_mistyped_or_missing_name_gets_one_line_that_helps(
+    command, argv, message, tmp_path, capsys
+):
+    import importlib
+
+    main = importlib.import_module(f"jaxnav.commands.{command}").main
+    argv = [str(tmp_path / "out") if a == "OUT" else a for a in argv]
+    try:
+        code = main(argv)
+    except SystemExit as e:  # the parser's own errors
+        code = e.code
+    assert code == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and message in err[0], err
+    assert not (tmp_path / "out").exists()
+
+
+def test_the_studies_are_listed_with_what_each_costs(capsys):
+    from jaxnav.commands.list import main as list_main
+    from jaxnav.commands.study import main as study_main
+    from jaxnav.core.shipped import shipped_studies
+
+    assert list_main(["studies"]) == 0
+    out = capsys.readouterr().out
+    costs = shipped_studies("cost")
+    assert costs and all(costs.values())  # every shipped study says what it took
+    for name, cost in costs.items():
+        assert name in out and f"cost: {cost}" in out
+    with pytest.raises(SystemExit):
+        study_main(["--help"])
+    assert "when_ebe_helps" in capsys.readouterr().out

@@ -19,8 +19,8 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import dijkstra
 
 from jaxnav import make
+from jaxnav.commands.evaluate import main as evaluate_main
 from jaxnav.core.config import load_config
-from jaxnav.evaluate import main as evaluate_main
 from jaxnav.experiments.baselines import evaluate_world, planner_problem, world_config
 from jaxnav.planners import raster as rs
 from jaxnav.planners.dwa import DWA

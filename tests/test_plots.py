@@ -14,9 +14,10 @@ from matplotlib.colors import to_hex, to_rgb
 from matplotlib.figure import Figure
 from PIL import Image
 
-from jaxnav import plots as plots_command
-from jaxnav import reproduce
+from jaxnav.commands import plots as plots_command
+from jaxnav.commands import reproduce
 from jaxnav.core import strategies as registry
+from jaxnav.core.config import load_config
 from jaxnav.core.sweep import row_arm
 from jaxnav.experiments.evaluation import evaluate_to_dir
 from jaxnav.experiments.rollout import run_tests
@@ -75,7 +76,10 @@ def test_a_run_not_yet_evaluated_gets_its_training_figures_and_a_hint(run, tmp_p
     written = plots.make_plots(d)
     assert [p.name for p in written] == ["training_curves.png", "exploration.png"]
     assert not (d / "eval").exists()
-    assert f"python -m jaxnav.evaluate {d}" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert f"jaxnav evaluate {d}" in err and "was not tested yet" in err
+    cfg = load_config(str(d / "config.yaml"))
+    assert all(m in err for m in cfg.run.test_mazes), err  # it names the mazes it would test
 
 
 def test_safe_name_of_a_maze_file():
@@ -316,11 +320,19 @@ def test_reproduce_quick_end_to_end(run, tmp_path, capsys):
     assert claims.split("\n", 1)[1].strip() in report
     assert "## The paper's claims, judged" in report and "not conclusive" in report
     assert "| Fig. 2(b) | EBE learns faster (no obstacles) | training |" in report
+    # the claims compare the strategies: no reference driver drives unless asked
+    results = out / "paper_obstacles" / "eval" / "results.csv"
+    assert "\noracle," not in results.read_text() and "\ndwa," not in results.read_text()
     # without --resume a finished reproduction is not overwritten
     before = (out / "report.md").read_bytes()
     assert reproduce.main([*REPRODUCE_TINY, "--out", str(out), "--quiet"]) == 2
     assert "already exists" in capsys.readouterr().err
     assert (out / "report.md").read_bytes() == before
+    # --baselines tests the oracle and DWA beside the policies (the trainings reused)
+    argv = [*REPRODUCE_TINY, "--out", str(out), "--resume", "--baselines", "--quiet"]
+    assert reproduce.main(argv) == 0
+    assert "\noracle," in results.read_text() and "\ndwa," in results.read_text()
+    assert "the oracle and DWA beside them" in (out / "report.md").read_text()
 
 
 def test_reproduce_refuses_a_run_trained_with_other_settings(run, tmp_path, capsys):

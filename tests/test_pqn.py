@@ -12,14 +12,15 @@ from jaxnav import dqn, pqn
 from jaxnav.agent.exploration import epsilon_schedule, normalised_entropy
 from jaxnav.agent.qlearning import td_target
 from jaxnav.agent.trainer import make_train, run_inputs
+from jaxnav.commands.train import main
 from jaxnav.core import agents, rundir
 from jaxnav.core import strategies as registry
 from jaxnav.core.config import dump_config, load_config
 from jaxnav.robot.deploy import FORMAT_VERSION, NORMS_VERSION, Policy
 from jaxnav.robot.export import export_policy
-from jaxnav.run import training
-from jaxnav.run.training import Run, train_new
-from jaxnav.train import main
+from jaxnav.run import launch
+from jaxnav.run.launch import train_new
+from jaxnav.run.training import Run
 
 STRATEGIES = registry.names("discrete")
 TINY = [
@@ -256,9 +257,11 @@ def test_a_resumed_pqn_run_ends_as_an_uninterrupted_one(tiny_pqn_run, tmp_path):
     before = run.shard.get(ts.step).copy()
     ts, log = run.chunk(ts, np.int32(run.steps_needed(ts)))  # one chunk, then "killed"
     log = run.shard.get(log)
-    run.save(ts, run.new_episodes(ts), run.explore_blocks(log.explore, before), np.zeros(0, int))
+    finished = ~run.active(ts)
+    rows = run.new_episodes(ts), run.explore_blocks(log.explore, before, finished)
+    run.save(ts, *rows, np.zeros(0, int))
     assert not list(out.glob("checkpoints/rows-*.npz"))  # no replay rows to save
-    training.resume(out, quiet=True)
+    launch.resume(out, quiet=True)
     assert _files(out) == _files(ref)
 
 

@@ -10,8 +10,8 @@ from urllib.parse import unquote
 
 import pytest
 
+from jaxnav.commands.publish import main as publish_main
 from jaxnav.core.errors import JaxnavError
-from jaxnav.publish import main as publish_main
 from jaxnav.report import publish
 
 ROOT = Path(__file__).resolve().parents[1]

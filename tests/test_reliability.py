@@ -9,11 +9,11 @@ import shutil
 import numpy as np
 import pytest
 
+from jaxnav.commands.evaluate import main as evaluate_main
+from jaxnav.commands.train import main as train_main
 from jaxnav.core import rundir
 from jaxnav.core.errors import MazeError, PolicyError
-from jaxnav.evaluate import main as evaluate_main
 from jaxnav.robot.deploy import Policy
-from jaxnav.train import main as train_main
 from jaxnav.world.maps import load_maze_file
 
 # Learning starts at step 64: with this learning rate the first update is not finite.
@@ -32,7 +32,8 @@ def _one_line(capsys) -> str:
 def test_divergence_stops_with_one_line_and_keeps_the_good_checkpoint(tmp_path, capsys):
     out = tmp_path / "run"
     # Chunks of 50 steps: the first ends before learning starts and is checkpointed.
-    assert train_main([*DIVERGING, "run.chunk_steps=50", "--quiet", "--out", str(out)]) == 2
+    chunks = ["run.chunk_steps=50", "run.chunk_s=0", "run.checkpoint_s=0"]  # each checkpointed
+    assert train_main([*DIVERGING, *chunks, "--quiet", "--out", str(out)]) == 2
     line = _one_line(capsys)
     assert "diverged" in line and "seed" in line and "step 65" in line, line
     assert not (out / rundir.PARAMS).exists() and not (out / rundir.SUMMARY).exists()
@@ -165,7 +166,7 @@ def test_a_full_disk_mid_training_loses_nothing(tmp_path, capsys, monkeypatch, f
     and the checkpoint exactly as the second chunk left them; a resume then ends
     exactly as an uninterrupted run."""
     tiny = ["configs/smoke.yaml", "seeds=1", "episodes=4", "env.max_steps=30"]
-    tiny += ["run.chunk_steps=30", "--quiet"]
+    tiny += ["run.chunk_steps=30", "run.chunk_s=0", "run.checkpoint_s=0", "--quiet"]
     ref, out = tmp_path / "ref", tmp_path / "run"
     assert train_main([*tiny, "--out", str(ref)]) == 0
 

@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 from matplotlib.figure import Figure
 
+from jaxnav.commands.render import main
 from jaxnav.experiments.scene import draw_maze
-from jaxnav.render import main
 from jaxnav.world.maps import make_maze, stack_mazes
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -53,7 +53,7 @@ def test_render_refuses_a_path_it_cannot_write_in_one_line(tmp_path, capsys, nam
     assert main(["square4", "--out", str(tmp_path / name)]) == 2
     captured = capsys.readouterr()
     assert captured.out == "" and captured.err.count("\n") == 1
-    assert captured.err.startswith("jaxnav.render: error: ") and message in captured.err
+    assert captured.err.startswith("jaxnav render: error: ") and message in captured.err
     if name == "x.txt":
         assert ".png" in captured.err and ".svg" in captured.err and ".pgf" not in captured.err
     assert sorted(p.name for p in tmp_path.iterdir()) == before  # nothing written
@@ -97,7 +97,7 @@ def test_bad_maze_file_is_one_line_on_stderr_with_exit_code_2(tmp_path, capsys):
     err = capsys.readouterr().err
     assert (
         err.count("\n") == 1
-        and err.startswith("jaxnav.render: error: maze file")
+        and err.startswith("jaxnav render: error: maze file")
         and "not closed" in err
     )
     assert not (tmp_path / "x.png").exists()
@@ -106,7 +106,14 @@ def test_bad_maze_file_is_one_line_on_stderr_with_exit_code_2(tmp_path, capsys):
 def test_unknown_maze_name_exits_2_without_a_traceback(tmp_path):
     env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
     proc = subprocess.run(
-        [sys.executable, "-m", "jaxnav.render", "sqaure4", "--out", str(tmp_path / "x.png")],
+        [
+            sys.executable,
+            "-m",
+            "jaxnav.commands.render",
+            "sqaure4",
+            "--out",
+            str(tmp_path / "x.png"),
+        ],
         capture_output=True,
         text=True,
         env=env,
@@ -116,7 +123,7 @@ def test_unknown_maze_name_exits_2_without_a_traceback(tmp_path):
     assert proc.returncode == 2
     lines = proc.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith(
-        "jaxnav.render: error: unknown maze 'sqaure4'"
+        "jaxnav render: error: unknown maze 'sqaure4'"
     ), proc.stderr
     assert "Traceback" not in proc.stderr
     assert np.all([not p.exists() for p in tmp_path.iterdir()])
@@ -156,14 +163,14 @@ def test_render_refuses_fewer_than_one_sample_in_one_line(tmp_path, capsys, n):
     out = tmp_path / "sheet.png"
     assert main(["grid", "--samples", n, "--out", str(out)]) == 2
     err = capsys.readouterr().err
-    assert err == f"jaxnav.render: error: --samples must be at least 1 (got {n})\n"
+    assert err == f"jaxnav render: error: --samples must be at least 1 (got {n})\n"
     assert not out.exists()
 
 
 def test_worlds_draws_every_picture_of_the_worlds_page_and_refuses_in_one_line(
     tmp_path, capsys, monkeypatch
 ):
-    from jaxnav import render
+    from jaxnav.commands import render
     from jaxnav.experiments.mazes import WORLD_PICTURES
 
     page = (ROOT / "docs" / "worlds.md").read_text()
@@ -198,3 +205,27 @@ def test_the_worlds_pictures_are_what_render_worlds_draws(tmp_path):
 
     for path in render_world_pictures(tmp_path):
         assert path.read_bytes() == (ROOT / "docs" / "worlds" / path.name).read_bytes(), path.name
+
+
+def test_a_rendered_maze_names_what_stands_in_it_and_its_legend_every_thing_drawn():
+    """``jaxnav render`` of a maze with inner walls said "0 obstacles"; stage 4's dotted
+    loops of its moving cylinders were in no legend, and the legend hid the x label."""
+    from matplotlib.figure import Figure
+
+    from jaxnav.experiments.scene import _legend, contents
+    from jaxnav.world.maps import make_maze
+
+    assert contents(make_maze("stage4")) == "8 blocks, 2 moving cylinders"
+    office = "configs/mazes/heldout/office.yaml"
+    assert contents(make_maze(office)) == "4 inner walls, 2 blocks, 1 cylinder"
+    assert contents(make_maze("square4_obstacles")) == "4 cylinders"
+    assert contents(make_maze("square4")) == "no obstacles"
+    fig = Figure()
+    fig.add_subplot()
+    _legend(fig, make_maze("stage4"), 24, 0.2)
+    labels = [t.get_text() for t in fig.legends[0].get_texts()]
+    assert "its loop" in labels and any("moving cylinder" in t for t in labels)
+    fig = Figure()
+    fig.add_subplot()
+    _legend(fig, make_maze("square4"), 24, 0.2)
+    assert not any("loop" in t.get_text() for t in fig.legends[0].get_texts())

@@ -1,6 +1,6 @@
 """The committed reproduction report: its claims are computed from its own data.
 
-docs/report holds what ``python -m jaxnav.reproduce --seeds 32`` wrote: each
+docs/report holds what ``jaxnav reproduce --seeds 32`` wrote: each
 experiment's metrics.csv and eval/results.csv, the claims table and the report.
 The claims table must be exactly what the claims code computes from those files,
 and the README, docs/reproducing.md and the report must quote it unchanged.
@@ -51,7 +51,7 @@ def test_a_finished_reproduction_is_published_whole_and_a_partial_one_is_refused
     committed report, taken as a finished reproduction, comes back file for file."""
     import shutil
 
-    from jaxnav import reproduce as reproduce_command
+    from jaxnav.commands import reproduce as reproduce_command
 
     src = ROOT / "docs" / "report"
     dst = tmp_path / "report"

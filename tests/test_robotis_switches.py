@@ -12,7 +12,7 @@ import pytest
 from _nav_reference import lidar, maze_geometry, ray_distances
 
 from jaxnav.env import ROBOTIS_SWITCHES, STRAIGHT, EnvState, make
-from jaxnav.robot.deploy import nearest_rays
+from jaxnav.robot.scan import nearest_rays
 from jaxnav.world.maps import load_maze_file, make_maze, robotis_goal_grid
 
 

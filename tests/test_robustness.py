@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 from _tiny_run import tiny_run
 
+from jaxnav.commands.evaluate import main
 from jaxnav.core.errors import JaxnavError
-from jaxnav.evaluate import main
 from jaxnav.experiments.evaluation import evaluate_to_dir, load_run
 from jaxnav.experiments.robustness import perturb, realism_settings, robustness_to_dir
 from jaxnav.report.results import UNPERTURBED, robustness_summary

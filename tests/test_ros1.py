@@ -76,7 +76,7 @@ def policy_file(ros1, tmp_path_factory) -> Path:
     from jaxnav.core.config import load_config
     from jaxnav.robot.deploy import Policy
     from jaxnav.robot.export import export_policy, save_policy
-    from jaxnav.run.training import train_new
+    from jaxnav.run.launch import train_new
 
     root = tmp_path_factory.mktemp("ros1")
     cfg = load_config(str(ROOT / "configs" / "paper_no_obstacles.yaml"), TRAIN)

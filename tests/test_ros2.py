@@ -157,7 +157,7 @@ def test_cmd_vel_type_follows_the_distribution(distro, version, stamped):
 def test_an_lds01_scan_matches_the_policy_and_single_invalid_readings_are_its_business():
     assert _problem() is None
     ranges = np.full(360, 1.0)
-    ranges[[0, 15, 30]] = [np.nan, np.inf, 0.0]  # no return, as deploy.clean_ranges reads it
+    ranges[[0, 15, 30]] = [np.nan, np.inf, 0.0]  # no return, as scan.clean_ranges reads it
     assert _problem(ranges) is None
     # Gazebo's 360 samples from 0 to 2 pi inclusive, and the LDS-01 driver's angle_max 2 pi.
     assert _problem(angle_max=2 * math.pi, angle_increment=2 * math.pi / 359) is None
@@ -272,7 +272,7 @@ def trained(ros2_sim, tmp_path_factory) -> Path:
     """A few trained policies, each exported to DIR/policy<seed>.npz."""
     from jaxnav.core.config import load_config
     from jaxnav.robot.export import export_policy, save_policy
-    from jaxnav.run.training import train_new
+    from jaxnav.run.launch import train_new
 
     root = tmp_path_factory.mktemp("ros2")
     cfg = load_config(str(ROOT / "configs" / "paper_no_obstacles.yaml"), TRAIN)
@@ -287,7 +287,7 @@ def trained_continuous(ros2_sim, tmp_path_factory) -> Path:
     """A few trained continuous (SAC) policies, each exported to DIR/policy<seed>.npz."""
     from jaxnav.core.config import load_config
     from jaxnav.robot.export import export_policy, save_policy
-    from jaxnav.run.training import train_new
+    from jaxnav.run.launch import train_new
 
     root = tmp_path_factory.mktemp("ros2_sac")
     cfg = load_config(None, TRAIN_CONTINUOUS)

@@ -247,7 +247,7 @@ def test_the_tested_actor_is_the_actor_or_its_average():
 
 @pytest.fixture(scope="module")
 def tiny_sac_run(tmp_path_factory):
-    from jaxnav.run.training import train_new
+    from jaxnav.run.launch import train_new
 
     cfg = load_config("smoke", TINY + ["env.wheel_limit=true"])
     out = tmp_path_factory.mktemp("sac") / "run"
@@ -287,7 +287,7 @@ def test_the_exported_policy_drives_the_trained_mean_command(tiny_sac_run):
 def test_a_sac_run_is_evaluated_beside_planners_of_its_discrete_twin(tiny_sac_run):
     import csv
 
-    from jaxnav import evaluate
+    from jaxnav.commands import evaluate
 
     cfg, out = tiny_sac_run
     assert evaluate.main([str(out), "--episodes", "2"]) == 0
@@ -330,9 +330,9 @@ def test_resume_after_sigkill_gives_identical_results(tmp_path):
 
     root = Path(__file__).resolve().parent.parent
     tiny = [o for o in TINY if not o.startswith(("total_steps", "run.chunk_steps"))]
-    tiny += ["total_steps=8192", "run.chunk_steps=512"]
+    tiny += ["total_steps=8192", "run.chunk_steps=512", "run.chunk_s=0", "run.checkpoint_s=0"]
     ref, killed = tmp_path / "ref", tmp_path / "killed"
-    cmd = [sys.executable, "-m", "jaxnav.train", "smoke", *tiny, "--quiet"]
+    cmd = [sys.executable, "-m", "jaxnav.commands.train", "smoke", *tiny, "--quiet"]
     subprocess.run(cmd + ["--out", str(ref)], check=True, cwd=root)
     proc = subprocess.Popen(cmd + ["--out", str(killed)], cwd=root)
     ckpt = killed / "checkpoints" / "last.npz"
@@ -342,7 +342,7 @@ def test_resume_after_sigkill_gives_identical_results(tmp_path):
     proc.send_signal(signal.SIGKILL)
     proc.wait()
     assert not (killed / "params.npz").exists(), "the run finished before it could be killed"
-    resume = [sys.executable, "-m", "jaxnav.train", "--resume", str(killed), "--quiet"]
+    resume = [sys.executable, "-m", "jaxnav.commands.train", "--resume", str(killed), "--quiet"]
     subprocess.run(resume, check=True, cwd=root)
     assert (killed / "metrics.csv").read_bytes() == (ref / "metrics.csv").read_bytes()
     a, b = np.load(ref / "params.npz"), np.load(killed / "params.npz")
@@ -357,7 +357,7 @@ def test_a_sac_policy_with_scan_convolutions_trains_and_exports_its_mean_command
     from jaxnav.core import rundir
     from jaxnav.robot.deploy import CONV_VERSION, Policy
     from jaxnav.robot.export import export_policy
-    from jaxnav.run.training import train_new
+    from jaxnav.run.launch import train_new
 
     extra = ["sac.scan_conv=[4,4]", "env.scan_history=2", "env.history_changes=true"]
     cfg = load_config("smoke", TINY + extra)
@@ -464,7 +464,7 @@ def test_a_sac_policy_with_a_shared_torso_trains_and_exports_its_mean_command(tm
     from jaxnav.core import rundir
     from jaxnav.robot.deploy import Policy
     from jaxnav.robot.export import export_policy
-    from jaxnav.run.training import train_new
+    from jaxnav.run.launch import train_new
 
     cfg = load_config("smoke", TINY + SHARED)
     out = tmp_path / "run"

@@ -14,7 +14,7 @@ import pytest
 from jaxnav.agent.networks import CircularConv, QNetwork, ScanTorso, split_scans
 from jaxnav.core.config import load_config
 from jaxnav.env import from_config
-from jaxnav.robot.deploy import circular_conv, scan_torso
+from jaxnav.robot.scan import circular_conv, scan_torso
 
 
 def conv_by_loops(x: np.ndarray, kernel: np.ndarray, bias: np.ndarray) -> np.ndarray:

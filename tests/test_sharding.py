@@ -36,7 +36,7 @@ def _run(tmp_path, name, devices, seeds):
     cmd = [
         sys.executable,
         "-m",
-        "jaxnav.train",
+        "jaxnav.commands.train",
         f"seeds={seeds}",
         *TINY,
         "--out",
@@ -86,7 +86,7 @@ print(run.chunk.lower(run.fresh_state(), np.int32(0)).compile().as_text())
 
 @pytest.mark.slow
 def test_each_device_decides_the_target_copy_of_its_own_runs_without_a_collective():
-    """jaxnav.train's chunk on 2 devices: the periodic target copy is a conditional,
+    """jaxnav train's chunk on 2 devices: the periodic target copy is a conditional,
     and deciding it needs no communication between the devices."""
     text = subprocess.run(
         [sys.executable, "-c", _COMPILED, "seeds=2", *TINY],
@@ -126,7 +126,7 @@ def test_two_processes_write_one_run_directory_equal_to_one_process_with_two_dev
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
         port = s.getsockname()[1]
-    args = [sys.executable, "-m", "jaxnav.train", "seeds=2", *TINY, "--quiet"]
+    args = [sys.executable, "-m", "jaxnav.commands.train", "seeds=2", *TINY, "--quiet"]
     procs = []
     for pid in range(2):
         env = dict(

@@ -16,20 +16,21 @@ import pytest
 
 mujoco = pytest.importorskip(
     "mujoco",
-    reason="MuJoCo is not installed (pip install mujoco): jaxnav.sim2sim needs it",
+    reason="MuJoCo is not installed (pip install mujoco): jaxnav sim2sim needs it",
 )
 
 from _tiny_run import tiny_run  # noqa: E402
 
-from jaxnav import sim2sim  # noqa: E402
+from jaxnav.commands import sim2sim  # noqa: E402
 from jaxnav.core.config import load_config  # noqa: E402
 from jaxnav.env import from_config  # noqa: E402
 from jaxnav.experiments.sim2sim import goals_of, task_of  # noqa: E402
 from jaxnav.report.sim2sim_tables import SUMMARY_COLUMNS, gap_markdown  # noqa: E402
 from jaxnav.robot import mujoco_model, mujoco_rollout  # noqa: E402
-from jaxnav.robot.deploy import FORMAT, FORMAT_VERSION, Policy, clean_ranges  # noqa: E402
+from jaxnav.robot.deploy import FORMAT, FORMAT_VERSION, Policy  # noqa: E402
 from jaxnav.robot.mujoco_model import wheel_speeds  # noqa: E402
 from jaxnav.robot.mujoco_rollout import Burger  # noqa: E402
+from jaxnav.robot.scan import clean_ranges  # noqa: E402
 from jaxnav.world.maps import make_maze  # noqa: E402
 from jaxnav.world.reward import progress_reward, reward_fn  # noqa: E402
 from jaxnav.world.sensor import lidar_scan  # noqa: E402
@@ -314,7 +315,7 @@ def test_bad_input_is_one_line_and_exit_2(run, tmp_path, capsys, argv, words):
     fill = {"run": str(run_dir), "missing": str(tmp_path / "no-such-run")}
     assert sim2sim.main([a.format(**fill) for a in argv]) == 2
     err = capsys.readouterr().err
-    assert err.startswith("jaxnav.sim2sim: error: ") and err.count("\n") == 1
+    assert err.startswith("jaxnav sim2sim: error: ") and err.count("\n") == 1
     assert words in err
 
 
@@ -348,7 +349,7 @@ def test_an_existing_out_is_refused_before_any_work_unless_overwrite(
         assert sim2sim.main(argv) == 2
         err = capsys.readouterr().err
         assert (
-            err == f"jaxnav.sim2sim: error: {existing} exists already (--overwrite replaces it)\n"
+            err == f"jaxnav sim2sim: error: {existing} exists already (--overwrite replaces it)\n"
         )
         assert existing.read_text() == "earlier\n"
         existing.unlink()
@@ -386,7 +387,7 @@ def test_the_reproduction_adds_the_sim_to_sim_gap_of_its_first_seeds(run, tmp_pa
 def test_the_reproduction_says_at_once_when_mujoco_is_missing(monkeypatch, tmp_path, capsys):
     import importlib.util
 
-    from jaxnav import reproduce
+    from jaxnav.commands import reproduce
 
     real = importlib.util.find_spec
     monkeypatch.setattr(
@@ -400,7 +401,7 @@ def test_the_reproduction_says_at_once_when_mujoco_is_missing(monkeypatch, tmp_p
 
 def test_a_continuous_policy_drives_the_burger_in_mujoco(tmp_path):
     """A SAC run's policies (continuous commands) through the same command."""
-    from jaxnav.run.training import train_new
+    from jaxnav.run.launch import train_new
 
     cfg = load_config(
         "smoke",

@@ -62,3 +62,17 @@ def test_a_command_started_by_a_command_uses_its_own_cache(tmp_path):
         )  # fmt: skip
         got = out.stdout.strip()
         assert got in want if isinstance(want, tuple) else got == want
+
+
+def test_the_commands_age_leaves_out_what_a_shell_ran_before_it():
+    """``bash -c 'sleep 3 && python ...'``: the shell hands Python its own process, so
+    /proc's start is the shell's; the age counts from Python's start-up instead (it
+    printed 3.05 here)."""
+    code = "from jaxnav.core.startup import process_age; print(process_age())"
+    line = f"sleep 3 && exec {sys.executable} -c '{code}'"
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    age = float(subprocess.run(["bash", "-c", line], env=env, capture_output=True, text=True,
+                               check=True).stdout)  # fmt: skip
+    assert 0.0 <= age < 2.0, age
+    alone = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True)
+    assert 0.0 < float(alone.stdout) < 2.0  # Python's own start-up still counts

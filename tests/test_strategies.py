@@ -13,7 +13,7 @@ from jaxnav.core.errors import ConfigError
 from jaxnav.core.sweep import applies
 from jaxnav.experiments.evaluation import evaluate_to_dir
 from jaxnav.robot.export import export_policy
-from jaxnav.run.training import train_new
+from jaxnav.run.launch import train_new
 
 STRAIGHT = 2  # the action index of angular velocity 0 (jaxnav.env.PAPER_OMEGAS)
 

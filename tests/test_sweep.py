@@ -14,13 +14,16 @@ from jaxnav.core import strategies as registry
 from jaxnav.core import sweep
 from jaxnav.core.config import SWEEPABLE, load_config
 from jaxnav.core.errors import ConfigError
-from jaxnav.run.training import Run, resume, train_new
+from jaxnav.run.launch import resume, train_new
+from jaxnav.run.training import Run
 
 TINY = [
     "seeds=2",
     "episodes=6",
     "env.max_steps=80",
     "run.chunk_steps=120",
+    "run.chunk_s=0",
+    "run.checkpoint_s=0",  # a checkpoint after every chunk, as the kill below counts them
     "dqn.batch_size=16",
     "run.test_mazes=[square4]",
     "run.test_episodes=2",
@@ -234,7 +237,7 @@ def _train_state(cfg):
 
 @pytest.mark.slow
 def test_the_command_trains_strategies_and_points_in_one_program(tmp_path, capsys):
-    from jaxnav.train import main
+    from jaxnav.commands.train import main
 
     out = tmp_path / "run"
     argv = [
@@ -325,7 +328,7 @@ def test_a_swept_environment_setting_changes_the_reward_of_its_runs():
 
 @pytest.mark.slow
 def test_the_study_command_tests_tabulates_and_draws_a_sweep(tmp_path, capsys):
-    from jaxnav.study import main
+    from jaxnav.commands.study import main
 
     out, doc = tmp_path / "study", tmp_path / "docs" / "temperature.md"
     doc.parent.mkdir()

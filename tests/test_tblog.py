@@ -6,14 +6,15 @@ import struct
 import numpy as np
 import pytest
 
+from jaxnav.commands.train import main as train_main
 from jaxnav.run.training import Run
-from jaxnav.train import main as train_main
 
 tensorboardX = pytest.importorskip("tensorboardX", reason="optional extra 'tensorboard'")
 from tensorboardX.proto import event_pb2  # noqa: E402
 
 TINY = ["configs/smoke.yaml", "seeds=2", "episodes=6", "env.max_steps=100"]
-TINY += ["run.chunk_steps=250", "run.tensorboard=true", "--quiet"]
+TINY += ["run.chunk_steps=250", "run.chunk_s=0", "run.checkpoint_s=0"]  # chunks of 250
+TINY += ["run.tensorboard=true", "--quiet"]
 
 
 def events(run_dir):
@@ -150,3 +151,16 @@ def test_a_run_without_evaluation_writes_no_evaluation_curves(tmp_path):
 
     TensorBoardLog(tmp_path, [("ebe", 0)], METRIC_COLUMNS).close()
     assert not (tmp_path / "tensorboard" / "eval").exists()
+
+
+def test_a_run_with_tensorboard_says_where_its_curves_are(tmp_path, capsys):
+    from jaxnav.core import rundir
+    from jaxnav.core.config import load_config
+
+    cfg = load_config("smoke", ["seeds=1", "episodes=1", "run.tensorboard=true"])
+    out = tmp_path / "run"
+    rundir.create(out)
+    run = Run(cfg, out, quiet=False)
+    run._tensorboard(run.fresh_state()).close()
+    err = capsys.readouterr().err
+    assert f"tensorboard --logdir {out / 'tensorboard'}" in err

@@ -14,17 +14,20 @@ import numpy as np
 import pytest
 
 from jaxnav.agent.trainer import make_train, run_inputs
+from jaxnav.commands.train import main
 from jaxnav.core import rundir
 from jaxnav.core.config import load_config
 from jaxnav.env import from_config
 from jaxnav.experiments.evaluation import evaluate_to_dir
-from jaxnav.run import training
+from jaxnav.run import launch
 from jaxnav.run.checkpoint import chunk_slots
-from jaxnav.run.training import Run, train_new
-from jaxnav.train import main
+from jaxnav.run.launch import train_new
+from jaxnav.run.training import Run
 
 ROOT = Path(__file__).resolve().parent.parent
 TINY = ["seeds=2", "episodes=8", "env.max_steps=100", "run.chunk_steps=100", "dqn.batch_size=16"]
+# A chunk of chunk_steps and a checkpoint after each, as the kills and resumes here expect.
+TINY += ["run.chunk_s=0", "run.checkpoint_s=0"]
 
 
 def _metrics(run_dir):
@@ -146,7 +149,7 @@ def test_compiled_train_function_matches_the_host_loop(tmp_path):
 @pytest.mark.slow
 def test_resume_after_sigkill_gives_identical_results(tmp_path):
     ref, killed = tmp_path / "ref", tmp_path / "killed"
-    cmd = [sys.executable, "-m", "jaxnav.train", *TINY, "--quiet"]
+    cmd = [sys.executable, "-m", "jaxnav.commands.train", *TINY, "--quiet"]
     subprocess.run(cmd + ["--out", str(ref)], check=True, cwd=ROOT)
     proc = subprocess.Popen(cmd + ["--out", str(killed)], cwd=ROOT)
     ckpt = killed / "checkpoints" / "last.npz"
@@ -157,7 +160,7 @@ def test_resume_after_sigkill_gives_identical_results(tmp_path):
     proc.wait()
     assert not (killed / "params.npz").exists(), "the run finished before it could be killed"
     subprocess.run(
-        [sys.executable, "-m", "jaxnav.train", "--resume", str(killed), "--quiet"],
+        [sys.executable, "-m", "jaxnav.commands.train", "--resume", str(killed), "--quiet"],
         check=True,
         cwd=ROOT,
     )
@@ -263,8 +266,12 @@ def test_a_checkpoint_restores_the_whole_state_from_its_row_segments(tmp_path, r
     again = Run(cfg, out, quiet=True)
     restored = again.shard.get(again.restored_state())
     assert again.segments == 3 and len(list((out / "checkpoints").glob("rows-*.npz"))) == 3
-    for a, b in zip(jax.tree.leaves(live), jax.tree.leaves(restored), strict=True):
-        np.testing.assert_array_equal(a, b)
+    # Everything but the ring of finished episodes, which the host has copied to
+    # metrics.csv and the checkpoint leaves out (restored as zeros).
+    flat = jax.tree_util.tree_flatten_with_path
+    for (path, a), (_, b) in zip(flat(live)[0], flat(restored)[0], strict=True):
+        ring = jax.tree_util.keystr(path).startswith(".metrics.ep_")
+        np.testing.assert_array_equal(np.zeros_like(a) if ring else a, b)
 
 
 @pytest.mark.slow
@@ -317,4 +324,4 @@ def test_interrupted_before_the_first_checkpoint_leaves_nothing_of_its_own(
         assert err.endswith(f"{out} was left empty") and out.is_dir() and not any(out.iterdir())
     else:
         assert err.endswith(f"{out} was removed") and not out.exists()
-    assert training.interrupted_text().endswith(("was left empty", "was removed"))
+    assert launch.interrupted_text().endswith(("was left empty", "was removed"))

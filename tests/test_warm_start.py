@@ -12,12 +12,12 @@ import numpy as np
 import pytest
 from _tiny_run import tiny_run
 
+from jaxnav.commands.train import main
 from jaxnav.core import rundir
 from jaxnav.core.config import load_config
 from jaxnav.core.errors import ConfigError
 from jaxnav.run.checkpoint import start_params
 from jaxnav.run.training import Run
-from jaxnav.train import main
 
 
 @pytest.fixture(scope="module")

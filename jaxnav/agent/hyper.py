@@ -128,7 +128,7 @@ def arm_hypers(config: Config) -> list[Hyper]:
     out = []
     for _, point in config.arms():
         at = config.at(point)
-        env_params = from_config(at)[1] if env_keys else None
+        env_params = from_config(at, prepare=False)[1] if env_keys else None
         out.append(hyper(at, env_params, env_keys, agent_keys))
     return out
 

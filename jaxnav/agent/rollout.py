@@ -172,14 +172,16 @@ def make_rollout(
                 mazes = _record_maze(mazes, first, _geometry(env, env_params, state))
             key, k_step = jax.random.split(key)
             # ACT: greedy, or the strategy's own exploration; or the planner's choice.
-            if planner is None:
-                action = act(params, obs, k_step, strategy, hyper)
-            else:
-                action, memory = planner.plan(memory, obs, state, env_params)
+            with jax.named_scope("act"):
+                if planner is None:
+                    action = act(params, obs, k_step, strategy, hyper)
+                else:
+                    action, memory = planner.plan(memory, obs, state, env_params)
             # STEP ENV (auto-reset keeps the goal, restarts at the start pose).
-            obs2, state2, reward, terminated, truncated, info = env.step(
-                k_step, state, action, env_params
-            )
+            with jax.named_scope("env_step"):
+                obs2, state2, reward, terminated, truncated, info = env.step(
+                    k_step, state, action, env_params
+                )
             done = terminated | truncated
             # RECORD the step and the finished episode (slot E: dropped, the test is over).
             slot = jnp.where(done & (ep < E), ep, E)

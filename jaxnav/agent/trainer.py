@@ -189,7 +189,7 @@ def make_train(
 ) -> Callable[[chex.PRNGKey, chex.Array, Hyper], Any]:
     """A pure ``train(key, strategy, hyper) -> TrainState`` that runs one seed to the end.
 
-    Built on the same :class:`Trainer` as ``jaxnav.train``: chunks until inactive.
+    Built on the same :class:`Trainer` as ``jaxnav train``: chunks until inactive.
     ``jax.jit(jax.vmap(make_train(cfg)))(*run_inputs(cfg))`` trains every seed,
     strategy and sweep point of the config in one compiled program. ``trainer``: default
     the config's agent's (``agent``, :mod:`jaxnav.core.agents`).

@@ -24,19 +24,19 @@ _depth = [0]  # run() calls under way (a command may run another's main)
 
 
 def command_name(prog: str) -> str:
-    """``python -m jaxnav.train`` -> ``jaxnav.train``: how error lines name a command
-    (``jaxnav train`` stays as it is)."""
+    """How error lines name a command: its parser's ``prog``, ``jaxnav train``, without a
+    ``python -m`` a caller may have put before it."""
     return prog.removeprefix("python -m ")
 
 
 class Parser(argparse.ArgumentParser):
-    """argparse with one-line errors: ``jaxnav.<command>: error: message``, exit 2. A
-    command's ``prog`` (``python -m jaxnav.<command>``) reads ``jaxnav <command>`` in
-    its help and its lines where the ``jaxnav`` script runs it."""
+    """argparse with one-line errors: ``jaxnav <command>: error: message``, exit 2. A
+    command's ``prog`` (``jaxnav <command>``) reads as the user ran it in its help and
+    its lines: ``python -m jaxnav <command>`` where no ``jaxnav`` script runs it."""
 
     def __init__(self, *args, prog: str | None = None, **kwargs):
-        if prog and prog.startswith("python -m jaxnav."):
-            prog = startup.invocation(prog.removeprefix("python -m jaxnav."))
+        if prog and prog.startswith("jaxnav "):
+            prog = startup.invocation(prog.removeprefix("jaxnav "))
         super().__init__(*args, prog=prog, **kwargs)
 
     def error(self, message):
@@ -59,7 +59,7 @@ def seed(text: str) -> int:
 def resume_advice(command: str, argv: list[str], out: str | os.PathLike) -> str:
     """The line a resumable pipeline prints on Ctrl-C: the same command with the same
     options (``--quick``, sizes), plus ``--resume --out DIR``, as it was run
-    (``jaxnav reproduce`` or ``python -m jaxnav.reproduce``)."""
+    (``jaxnav reproduce`` or ``python -m jaxnav reproduce``)."""
     kept, skip = [], False
     for a in argv:
         if skip:

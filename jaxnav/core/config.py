@@ -16,13 +16,10 @@ number of transitions the run can produce (``episodes * env.max_steps`` or
 from __future__ import annotations
 
 import dataclasses
-import os
-import re
 import sys
 import typing
 from collections.abc import Sequence
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any
 
 import yaml
@@ -57,13 +54,16 @@ from jaxnav.core.settings import (
     setting,
     training_only_on,
 )
-from jaxnav.core.values import coerce, flatten, parse_override
+from jaxnav.core.shipped import (
+    CONFIG_DIR,
+    builtin_configs,
+    did_you_mean_config,
+    resolve_config_path,
+)
+from jaxnav.core.values import coerce, flatten, parse_override, yaml_mark
 
 # The strategies the paper compares; jaxnav.core.strategies has every registered one.
 PAPER_STRATEGIES = ("ebe", "epsilon_greedy")
-# The shipped configs and maze files: package data, so they work from an installed wheel.
-CONFIG_DIR = Path(__file__).resolve().parent.parent / "configs"
-STUDY_DIR = CONFIG_DIR / "studies"  # ladder studies: jaxnav study when_ebe_helps
 
 
 @dataclass(frozen=True)
@@ -303,6 +303,9 @@ def _check(cfg: Config) -> Config:
         says = problem(s.rule, _get(cfg, name))
         if says:
             fail(name, says)
+    says = agent_switch_problem(cfg)  # before the settings it names are checked one by one
+    if says:
+        raise ConfigError(f"config: {says}")
     if cfg.env.generator:
         says = env_family_problem(cfg.env)
         if says:
@@ -375,6 +378,47 @@ def agent_problem(cfg: Config) -> str | None:
                     f"{key} is a {section.upper()} setting: it needs agent {' or '.join(readers)}"
                 )
     return action_problem(cfg, agent) or agent.settings_problem(cfg)
+
+
+def agent_switch_problem(cfg: Config) -> str | None:
+    """Every setting a config's agent needs changed, in one line, or None: an agent of
+    the other kind of actions (``agent=sac`` on a discrete config, ``agent=dqn`` on a
+    continuous one) needs its actions, the reward that scores them and its own
+    exploration, and these would otherwise be refused one at a time."""
+    if cfg.agent not in agents.names():
+        return None  # agent_problem names the choices
+    agent = agents.get(cfg.agent)
+    continuous = cfg.env.actions == CONTINUOUS
+    own = registry.names("continuous")
+    need = []
+    if agent.actions == "continuous":
+        if not continuous:
+            need.append(f"env.actions={CONTINUOUS}")
+        if cfg.env.reward not in ("progress", "sparse"):
+            need.append("env.reward=progress")
+        if cfg.env.action_delay:
+            need.append("env.action_delay=false")
+        if list(cfg.strategies) != list(own[:1]) and not (
+            len(cfg.strategies) == 1 and cfg.strategies[0] in own
+        ):
+            need.append(f"strategies=[{own[0]}]")
+        kind = "drives continuous commands and explores by sampling its own policy"
+    else:
+        if continuous:
+            actions = PRESETS[cfg.preset].training().get("env.actions", "paper")
+            need.append(f"env.actions={actions if actions != CONTINUOUS else 'paper'}")
+        if any(s in own for s in cfg.strategies):
+            need.append(f"strategies=[{', '.join(PAPER_STRATEGIES)}]")
+        kind = "picks one of a set of discrete actions"
+    if len(need) < 2:  # one setting: the checks below name it in their own words
+        return None
+    shipped = [
+        name
+        for name in builtin_configs()
+        if f"agent: {agent.name}" in (CONFIG_DIR / f"{name}.yaml").read_text()
+    ]
+    start = f", or start from {' or '.join(shipped[:2])}" if shipped else ""
+    return f"agent {agent.name} {kind}: add {' '.join(need)}{start}"
 
 
 def action_problem(cfg: Config, agent: agents.Agent) -> str | None:
@@ -495,65 +539,6 @@ def build_config(values: dict[str, Any]) -> Config:
     return cfg
 
 
-def shipped_path(path: str) -> str:
-    """``path`` if it exists, else the shipped file it names: ``configs/smoke.yaml`` or
-    ``configs/mazes/corridor.yaml`` resolve to the package's copy from any folder."""
-    if os.path.exists(path):
-        return path
-    rel = Path(path)
-    if rel.parts[:1] == ("configs",):
-        cand = CONFIG_DIR.joinpath(*rel.parts[1:])
-        if cand.is_file():
-            return str(cand)
-    return path
-
-
-def resolve_config_path(name: str) -> str:
-    """A config path, a built-in config's name (``smoke``: ``configs/smoke.yaml``), a
-    shipped study's (``when_ebe_helps``: ``configs/studies/when_ebe_helps.yaml``), or a
-    path under ``configs/`` from any folder; a missing one is returned unchanged."""
-    if os.path.isfile(name):
-        return name
-    for cand in (CONFIG_DIR / name, CONFIG_DIR / f"{name}.yaml", STUDY_DIR / f"{name}.yaml"):
-        if cand.is_file() and "/" not in name:
-            return str(cand)  # a folder of that name here does not hide the shipped file
-    return shipped_path(name)
-
-
-# A full stop after one of these ends no sentence ("Sec. 6.1", "et al. 2024").
-_ABBREVIATIONS = ("Sec", "al", "e.g", "i.e", "cf", "Fig", "Eq", "vs", "approx")
-_SENTENCE_END = re.compile("".join(rf"(?<!\b{re.escape(a)})" for a in _ABBREVIATIONS) + r"\.\s+")
-
-
-def builtin_configs() -> dict[str, str]:
-    """Each shipped config's name and the first sentence of its opening comment (the
-    comment's lines up to an indented example command or the first full stop that
-    ends a sentence, whatever follows it: "budget. 8 seeds", "cores. docs/...")."""
-    out = {}
-    for path in sorted(CONFIG_DIR.glob("*.yaml")):
-        words = []
-        for line in path.read_text().splitlines():
-            if not line.startswith("#") or line.startswith("#  "):
-                break
-            words.append(line.lstrip("# ").strip())
-        text = " ".join(w for w in words if w)
-        out[path.stem] = _SENTENCE_END.split(text)[0].rstrip(" ,.:;")
-    return out
-
-
-def shipped_studies() -> dict[str, str]:
-    """Each shipped study file's name and its title (``configs/studies/NAME.yaml``)."""
-    out = {}
-    for path in sorted(STUDY_DIR.glob("*.yaml")):
-        try:
-            doc = yaml.safe_load(path.read_text())
-        except yaml.YAMLError:
-            doc = None
-        if isinstance(doc, dict):
-            out[path.stem] = str(doc.get("title", "")).strip()
-    return out
-
-
 def load_config(path: str | None, overrides: list[str] = ()) -> Config:
     """Config from a YAML file (or the defaults if None) plus ``key=value`` overrides."""
     values: dict[str, Any] = {}
@@ -563,11 +548,11 @@ def load_config(path: str | None, overrides: list[str] = ()) -> Config:
             with open(path) as f:
                 doc = yaml.safe_load(f)
         except FileNotFoundError:
-            raise ConfigError(f"config: no such file {path}") from None
+            raise ConfigError(f"config: no such file {path}{did_you_mean_config(path)}") from None
         except IsADirectoryError:
             raise ConfigError(f"config: {path} is a directory, not a YAML file") from None
         except yaml.YAMLError as e:
-            mark = getattr(e, "problem_mark", None)
+            mark = yaml_mark(e)
             at = f" at line {mark.line + 1}" if mark is not None else ""
             raise ConfigError(f"config: {path} is not valid YAML{at}") from None
         except UnicodeDecodeError:

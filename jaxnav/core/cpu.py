@@ -2,7 +2,7 @@
 
 XLA runs the many small operations of a training step on one thread per device,
 so on a CPU-only machine one device leaves the other cores idle. The commands
-(``python -m jaxnav.train``, ``jaxnav.reproduce``, ``jaxnav.evaluate``) therefore
+(``jaxnav train``, ``jaxnav reproduce``, ``jaxnav evaluate``) therefore
 ask for one CPU device per usable core, and the run axis is sharded over them
 (:mod:`jaxnav.agent.sharding`). On a GPU machine the GPUs stay the default devices.
 

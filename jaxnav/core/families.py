@@ -44,7 +44,7 @@ MAX_CYLINDERS = 64
 MIN_CYLINDER_ROOM = 1.5  # m: every start has a goal 0.4 m away (GOAL_START_CLEARANCE)
 MAX_CYLINDER_ROOM = 16.0  # m: the occupancy raster of a cylinder room is 0.1 m cells
 # A cylinder field is refused when its cylinders, each grown by CYLINDER_GROWTH (about
-# jaxnav.world.families.PASS_CLEARANCE: the robot's radius and half a raster cell's
+# jaxnav.world.cylinders.PASS_CLEARANCE: the robot's radius and half a raster cell's
 # diagonal), could cover more than MAX_CYLINDER_COVER of the room: a free path and a
 # far goal would then be rare.
 CYLINDER_GROWTH = 0.2
@@ -259,7 +259,7 @@ register(
 
 
 # ----------------------------------------------------------------------------
-# cylinders: jaxnav.world.families
+# cylinders: jaxnav.world.cylinders
 # ----------------------------------------------------------------------------
 
 
@@ -340,7 +340,7 @@ def _cylinders_text(e: Any) -> str:
 
 register(
     "cylinders",
-    "jaxnav.world.families:cylinders_family",
+    "jaxnav.world.cylinders:cylinders_family",
     CylinderSettings,
     problem=lambda e: cylinders_problem(
         e.cyl_count, e.cyl_radius, e.cyl_room, e.cyl_min_path, min(e.maze_scale)
@@ -351,7 +351,7 @@ register(
 
 
 # ----------------------------------------------------------------------------
-# rooms: jaxnav.world.families
+# rooms: jaxnav.world.rooms
 # ----------------------------------------------------------------------------
 
 
@@ -421,7 +421,7 @@ def rooms_problem(
 
 register(
     "rooms",
-    "jaxnav.world.families:rooms_family",
+    "jaxnav.world.rooms:rooms_family",
     RoomsSettings,
     problem=lambda e: rooms_problem(
         e.rooms_rows,
@@ -435,4 +435,75 @@ register(
     text=lambda e: f"{e.rooms_rows} x {e.rooms_cols} rooms mazes ({e.rooms_door:g} m doors)",
     about="a grid of square rooms joined by doors along a random spanning tree",
     shortest_paths=True,
+)
+
+
+# ----------------------------------------------------------------------------
+# mix: jaxnav.world.mix
+# ----------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class MixSettings:
+    mix_worlds: tuple[str, ...] = setting(
+        (),
+        "mix: the worlds each episode's layout comes from: maze families (drawn with their "
+        "own env settings) and fixed mazes (built-in names or maze files)",
+    )
+    mix_weights: tuple[float, ...] = setting(
+        (),
+        "mix: each world's weight, as many as env.mix_worlds (empty: equal weights)",
+    )
+
+
+def mix_problem(worlds: tuple[str, ...], weights: tuple[float, ...], bank: int) -> str | None:
+    """What is wrong with a mix's settings together, one line naming the setting, or
+    None. A world that is no family is taken for a maze, loaded when the environment is
+    built (a missing one is refused then, in one line)."""
+    if not worlds:
+        return "env.mix_worlds must name at least one world (a maze family or a maze)"
+    if "mix" in worlds:
+        return "env.mix_worlds cannot hold mix itself"
+    if len(set(worlds)) != len(worlds):
+        return "env.mix_worlds names a world twice (weigh it with env.mix_weights instead)"
+    if weights and len(weights) != len(worlds):
+        return (
+            f"env.mix_weights has {len(weights)} weights for {len(worlds)} worlds "
+            "(env.mix_worlds): give one each, or none for equal weights"
+        )
+    if any(not w > 0 for w in weights):
+        return "env.mix_weights must all be positive"
+    if bank < 1:
+        return (
+            "env.generator mix picks each layout from a bank of them: set env.maze_bank "
+            "(4096 is a good start)"
+        )
+    return None
+
+
+def _mix_problem(e: Any) -> str | None:
+    problem = mix_problem(tuple(e.mix_worlds), tuple(e.mix_weights), e.maze_bank)
+    for name in () if problem else e.mix_worlds:  # a family's own rules hold in a mix
+        if name in _REGISTRY:
+            problem = problem or _REGISTRY[name].problem(e)
+    return problem
+
+
+def _mix_text(e: Any) -> str:
+    weights = list(e.mix_weights) or [1.0] * len(e.mix_worlds)
+    total = sum(weights)
+    return "a mix of " + ", ".join(
+        f"{name} ({w / total:.0%})" for name, w in zip(e.mix_worlds, weights)
+    )
+
+
+register(
+    "mix",
+    "jaxnav.world.mix:mix_family",
+    MixSettings,
+    problem=_mix_problem,
+    text=_mix_text,
+    title=lambda e: f"mix of {len(e.mix_worlds)} worlds",
+    about="each episode a layout of one of several worlds (families and fixed mazes) at "
+    "given weights, from a bank",
 )

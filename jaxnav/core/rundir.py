@@ -1,6 +1,6 @@
 """A run directory on disk: its layout, the checks on it, and every write into it.
 
-Layout (``python -m jaxnav.train`` writes it; ``evaluate``, ``plots``, ``export``
+Layout (``jaxnav train`` writes it; ``evaluate``, ``plots``, ``export``
 and ``reproduce`` read it)::
 
     config.yaml          the resolved config (every field)
@@ -12,7 +12,7 @@ and ``reproduce`` read it)::
     params.npz           final Q-network parameters, "<strategy>/seed<k>/<layer>/<name>"
     summary.json         wall-clock, steps, steps/s, start-up and compile seconds,
                          lockstep share, last-50-episode means
-    eval/, plots/        results of jaxnav.evaluate and jaxnav.plots
+    eval/, plots/        results of jaxnav evaluate and jaxnav plots
     tensorboard/         training curves for TensorBoard (run.tensorboard: true)
     .lock                held by the process that trains into the directory
 
@@ -25,7 +25,7 @@ written nothing reads them: ``evaluate``, ``export``, ``plots`` and ``sim2sim`` 
 ``params.npz``, the config and the logs, and a run cannot be extended (``--resume``
 takes the config the run was started with, so a finished run has nothing left to
 train and ``--resume`` of it only reports its summary). So the last write of a run
-removes ``checkpoints/`` (:func:`remove_checkpoints`), unless ``python -m jaxnav.train
+removes ``checkpoints/`` (:func:`remove_checkpoints`), unless ``jaxnav train
 --keep-checkpoints``. A finished ``configs/smoke.yaml`` run keeps about 0.2 MB
 (params.npz 107 kB, the two CSVs 13 kB, plots/ 90 kB) instead of 4 MB with its
 checkpoints (last.npz 0.34 MB and four 0.9 MB segments).
@@ -204,6 +204,23 @@ class CsvLog:
             raise RunError(f"{self.path.parent} has no {self.path.name}")
         with open(self.path, newline="") as f:
             return list(csv.DictReader(f))
+
+    def group_by_run(self, runs: Sequence[Sequence[Any]]) -> None:
+        """Rewrite the file (atomically) with its rows grouped by run, in the order of
+        ``runs`` (each run's leading fields), each run's rows in the order they were
+        appended. The host loop appends each chunk's rows run by run, so without this
+        the rows' order would follow where the chunks ended, which the host sets by
+        time; grouped, a finished run's file is the same whatever its chunks were. The
+        bytes are the same lines, so the file keeps its size."""
+        if not self.path.is_file():
+            return
+        order = {tuple(map(str, fields)): i for i, fields in enumerate(runs)}
+        width = len(runs[0]) if runs else 0
+        head, *lines = self.path.read_text().splitlines(keepends=True)
+        rank = [order.get(tuple(row[:width]), len(order)) for row in csv.reader(lines)]
+        ranked = sorted(range(len(lines)), key=rank.__getitem__)  # stable
+        if ranked != list(range(len(lines))):
+            atomic_write_text(self.path, head + "".join(lines[i] for i in ranked))
 
 
 # ----------------------------------------------------------------------------

@@ -522,7 +522,22 @@ class ExplorationConfig:
 @dataclass(frozen=True)
 class RunConfig:
     chunk_steps: int = setting(
-        10_000, "env steps per compiled chunk (progress, checkpoint)", rule=AT_LEAST_1
+        10_000,
+        "the most env steps per run of one compiled chunk (the host cuts chunks shorter "
+        "to run.chunk_s; the numbers are the same wherever chunks end)",
+        rule=AT_LEAST_1,
+    )
+    chunk_s: float = setting(
+        10.0,
+        "seconds of training the host aims each chunk at, so the progress and logs move "
+        "(0: every chunk run.chunk_steps long)",
+        rule=NON_NEGATIVE,
+    )
+    checkpoint_s: float = setting(
+        30.0,
+        "seconds of training between checkpoints, whatever the budget (Ctrl-C or a kill "
+        "loses at most this much; 0: after every chunk)",
+        rule=NON_NEGATIVE,
     )
     test_mazes: tuple[str, ...] = setting(
         ("square4", "square8", "square2", "triangle", "pentagon"), "mazes of the test"

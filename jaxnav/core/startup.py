@@ -10,7 +10,8 @@ Where the cache lives: ``JAX_COMPILATION_CACHE_DIR`` if the user set it; else
 ``$JAXNAV_CACHE``; else ``$XDG_CACHE_HOME/jaxnav/jax`` (``~/.cache/jaxnav/jax``).
 ``JAXNAV_CACHE=off`` turns it off. The cache is not pruned (a program of the paper
 config is a few MB); delete the directory to empty it. No JAX here: it must run
-before JAX is imported.
+before JAX is imported. The reference drivers' test rows have a cache of their own
+beside it (:func:`reference_cache_dir`).
 
 Ctrl-C (:func:`catch_interrupts`). Python's own answer to SIGINT, a
 ``KeyboardInterrupt`` raised wherever the main thread happens to be, is unsafe in a
@@ -49,33 +50,60 @@ from pathlib import Path
 
 from jaxnav.core.cpu import use_all_cores
 
-_IMPORTED = time.monotonic()  # fallback start where /proc is missing
+# When Python first read jaxnav (jaxnav/__init__.py), else when this module was.
+_IMPORTED = getattr(sys.modules.get("jaxnav"), "_STARTED", time.monotonic())
+# Python's own start-up before it reads jaxnav takes well under this; a longer gap
+# between the process's start and that means the process ran something else first.
+STARTUP_SLACK_S = 2.0
 # The JAX_COMPILATION_CACHE_DIR a jaxnav command set itself, not the user: a command
 # started by another (a study's training commands, a benchmark's) inherits both.
 _SET_BY_JAXNAV = "JAXNAV_CACHE_SET"
+_OFF = ("off", "0", "false", "no")  # what turns a cache off
 
 
 def process_age() -> float:
-    """Seconds since this process started: from /proc on Linux (interpreter start-up
-    included), elsewhere since this module was imported."""
+    """Seconds since this command started: from /proc on Linux (interpreter start-up
+    included), elsewhere since Python first read jaxnav. /proc counts from the
+    process's creation, and a shell that runs Python as its last command (``bash -c
+    'pip install ... && jaxnav train ...'``, a CI step, a Docker ``RUN``) hands it its
+    own process: where /proc's start lies more than :data:`STARTUP_SLACK_S` before
+    Python read jaxnav, the shell's time is not the command's, and the age counts
+    from that read instead."""
+    read = time.monotonic() - _IMPORTED
     try:
         with open("/proc/self/stat") as f:  # field 22: start time in clock ticks since boot
             start = int(f.read().rsplit(")", 1)[1].split()[19]) / os.sysconf("SC_CLK_TCK")
         with open("/proc/uptime") as f:
-            return max(float(f.read().split()[0]) - start, 0.0)
+            age = max(float(f.read().split()[0]) - start, 0.0)
     except (OSError, ValueError, IndexError):
-        return time.monotonic() - _IMPORTED
+        return read
+    return age if age - read <= STARTUP_SLACK_S else read
 
 
 def cache_dir() -> Path | None:
     """The compilation cache's directory, or None when it is off."""
     chosen = os.environ.get("JAXNAV_CACHE", "")
-    if chosen.lower() in ("off", "0", "false", "no"):
+    if chosen.lower() in _OFF:
         return None
     if chosen:
         return Path(chosen).expanduser()
     base = os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache"
     return Path(base) / "jaxnav" / "jax"
+
+
+def reference_cache_dir() -> Path | None:
+    """Where the reference drivers' test rows are kept
+    (:mod:`jaxnav.experiments.refcache`), or None when that cache is off:
+    ``$JAXNAV_REFERENCE_CACHE`` if set (``off`` turns it off), else ``references``
+    beside the compilation cache's default, ``$XDG_CACHE_HOME/jaxnav/references``
+    (``~/.cache/jaxnav/references``). ``JAXNAV_CACHE=off`` turns both caches off."""
+    chosen = os.environ.get("JAXNAV_REFERENCE_CACHE", "")
+    if chosen.lower() in _OFF or os.environ.get("JAXNAV_CACHE", "").lower() in _OFF:
+        return None
+    if chosen:
+        return Path(chosen).expanduser()
+    base = os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache"
+    return Path(base) / "jaxnav" / "references"
 
 
 def use_compilation_cache() -> None:
@@ -134,11 +162,12 @@ _state = _Interrupts()
 
 
 def _command_name() -> str:
-    """``jaxnav.train`` for ``python -m jaxnav.train``, ``jaxnav`` for ``python -m
-    jaxnav``; the script's name otherwise."""
+    """``jaxnav train`` for ``python -m jaxnav.commands.train`` and ``python -m
+    jaxnav.train``, ``jaxnav`` for ``python -m jaxnav``; the script's name otherwise."""
     spec = getattr(sys.modules.get("__main__"), "__spec__", None)
     if spec is not None and spec.name:
-        return spec.name.removesuffix(".__main__")
+        name = spec.name.removesuffix(".__main__").removeprefix("jaxnav.commands.")
+        return f"jaxnav {name.removeprefix('jaxnav.')}" if name != "jaxnav" else name
     return Path(sys.argv[0]).name if sys.argv and sys.argv[0] else "jaxnav"
 
 
@@ -154,14 +183,12 @@ def in_command() -> bool:
 
 def invocation(command: str) -> str:
     """How to run a command the way this process was run: ``jaxnav train`` from the
-    ``jaxnav`` script, ``python -m jaxnav train`` from ``python -m jaxnav``, ``python
-    -m jaxnav.train`` otherwise."""
+    ``jaxnav`` script, ``python -m jaxnav train`` from ``python -m`` (where the script
+    may not be on the PATH)."""
     spec = getattr(sys.modules.get("__main__"), "__spec__", None)
     if spec is None and sys.argv and Path(sys.argv[0]).name == "jaxnav":
         return f"jaxnav {command}"
-    if spec is not None and spec.name == "jaxnav.__main__":
-        return f"python -m jaxnav {command}"
-    return f"python -m jaxnav.{command}"
+    return f"python -m jaxnav {command}"
 
 
 def catch_interrupts_in_command() -> None:

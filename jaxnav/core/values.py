@@ -18,6 +18,13 @@ import yaml
 from jaxnav.core.errors import ConfigError
 
 
+def yaml_mark(error: yaml.YAMLError) -> Any:
+    """Where a YAML error lies, as a person would point at it: the mark of what the
+    parser was reading when it failed (a key left without its colon, an open bracket
+    or quote), else where it noticed (for those, the next line)."""
+    return getattr(error, "context_mark", None) or getattr(error, "problem_mark", None)
+
+
 def flatten(d: dict, prefix: str = "") -> dict[str, Any]:
     out = {}
     for k, v in d.items():

@@ -1,4 +1,4 @@
-"""``python -m jaxnav.ablation [--seeds N] [--out DIR] [--quick] [--resume] [--variants A,B]``
+"""``jaxnav ablation [--seeds N] [--out DIR] [--quick] [--resume] [--variants A,B]``
 
 Why are jaxnav's test returns two to three times the paper's? ROBOTIS' simulation,
 which the paper ran on, differs from jaxnav's environment in four ways, each a
@@ -36,7 +36,12 @@ from jaxnav.core.config import PAPER_STRATEGIES
 from jaxnav.core.errors import JaxnavError
 from jaxnav.core.rundir import atomic_write_text
 from jaxnav.experiments import runner
-from jaxnav.experiments.reproduce import EXPERIMENTS, experiment_config, experiment_files
+from jaxnav.experiments.reproduce import (
+    EXPERIMENTS,
+    experiment_config,
+    experiment_files,
+    references,
+)
 from jaxnav.report import stats
 from jaxnav.report.claims import CLAIMS, OTHER, Claim, claim_scores, judge
 from jaxnav.report.markdown import interval
@@ -87,14 +92,21 @@ def variant_cells(
 
 
 def run_variant(
-    variant: str, out: Path, sizes: dict, experiments: list[str], quiet: bool, say
+    variant: str,
+    out: Path,
+    sizes: dict,
+    experiments: list[str],
+    quiet: bool,
+    say,
+    baselines: bool = False,
 ) -> float:
-    """Train and test the experiments of one variant; seconds taken."""
+    """Train and test the experiments of one variant; seconds taken. ``baselines``: the
+    oracle and DWA take the greedy test beside the policies."""
     t0 = time.perf_counter()
     for cell in variant_cells(variant, out, sizes, experiments):
         runner.train(cell, quiet, say)
         say(f"{cell.name}: testing on {', '.join(cell.cfg.run.test_mazes)}")
-        runner.test(cell)
+        runner.test(cell, references=references(baselines))
     return time.perf_counter() - t0
 
 
@@ -270,6 +282,7 @@ def ablation(
     quiet: bool,
     experiments: list[str] | None = None,
     command: str = "",
+    baselines: bool = False,
 ) -> Path:
     experiments = experiments or [name for name, _ in EXPERIMENTS]
     runner.check_request(out, seeds, {}, resume_ok)
@@ -279,7 +292,7 @@ def ablation(
     times = {}
     rows: list[dict[str, str]] = []
     for v in variants:
-        times[v] = run_variant(v, out, dict(sizes, seeds=seeds), experiments, quiet, say)
+        times[v] = run_variant(v, out, dict(sizes, seeds=seeds), experiments, quiet, say, baselines)
         rows += score_rows(v, out / v)
     atomic_write_text(out / "ablation.csv", rows_to_csv(rows))
     md = ablation_markdown(rows, quick=quick)

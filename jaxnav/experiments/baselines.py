@@ -25,8 +25,9 @@ import yaml
 
 from jaxnav.agent.trainer import run_inputs
 from jaxnav.core import baselines, rundir
-from jaxnav.core.config import Config, load_config, resolve_config_path
+from jaxnav.core.config import Config, load_config
 from jaxnav.core.errors import JaxnavError
+from jaxnav.core.shipped import resolve_config_path
 from jaxnav.env import EnvParams, NavEnv, from_config
 from jaxnav.experiments.navigation import ShortestPaths, attempt_paths
 from jaxnav.experiments.rollout import Policies, drawn_name, padded_mazes, run_tests
@@ -81,6 +82,13 @@ def in_place_of(name: str, policies: Policies, mazes: Sequence[Maze]) -> Policie
     environment settings apply as they do to the run). A run with continuous actions
     gets drivers that plan over the discrete twin (``NavEnv.discrete_twin``: the vw
     set) in the same world, on the same test keys."""
+    seats = seats_of(name, policies)
+    return seats._replace(network=planner_of(name, seats.env, mazes, seats.env_params))
+
+
+def seats_of(name: str, policies: Policies) -> Policies:
+    """:func:`in_place_of` without its planner (``network`` None): the drivers' labels,
+    fields, test settings and world, everything but the planner built for the mazes."""
     first: dict[int, int] = {}
     for i, (_, seed) in enumerate(policies.labels):
         first.setdefault(seed, i)
@@ -93,7 +101,7 @@ def in_place_of(name: str, policies: Policies, mazes: Sequence[Maze]) -> Policie
         params=np.zeros(len(idx), np.float32),
         env=env,
         env_params=env_params,
-        network=planner_of(name, env, mazes, env_params),
+        network=None,
         strategy=np.zeros(len(idx), np.int32),
         hyper=jax.tree.map(lambda a: np.asarray(a)[idx], policies.hyper),
     )
@@ -159,7 +167,7 @@ def evaluate_world(name: str, cfg: Config, n_seeds: int, n_episodes: int) -> Wor
     test keys (the seeds ``cfg.seed``, ... that a run of the config would have),
     ``n_episodes`` consecutive episodes each, on its maze, or on a drawn family's train
     and test layouts."""
-    env, env_params = from_config(cfg)
+    env, env_params = from_config(cfg, prepare=False)
     seeds = [cfg.seed + i for i in range(n_seeds)]
     if env.generates:
         tests = [(drawn_name(cfg, s), dataclasses.replace(env, split=s)) for s in SPLITS]
@@ -286,6 +294,7 @@ __all__ = [
     "in_place_of",
     "planner_of",
     "planner_problem",
+    "seats_of",
     "world_config",
     "world_policies",
 ]

@@ -34,9 +34,10 @@ from pathlib import Path
 from typing import Any
 
 from jaxnav.core import rundir
-from jaxnav.core.config import CONFIG_DIR, Config
+from jaxnav.core.config import Config
 from jaxnav.core.errors import ConfigError, JaxnavError
 from jaxnav.core.rundir import atomic_write_text, csv_text
+from jaxnav.core.shipped import CONFIG_DIR
 from jaxnav.core.values import flatten
 from jaxnav.experiments import runner, studyfile
 from jaxnav.report.sim2sim_tables import REALISM_COLUMNS, campaign_markdown
@@ -50,6 +51,7 @@ STUDY_KEYS = {
     "settings": dict,
     "arms": dict,
     "note": str,
+    "cost": str,  # what a whole run of it took, measured (jaxnav list studies)
 }
 REQUIRED = ("kind", "title", "config", "seeds", "episodes", "arms")
 ARM_KEYS = {"label": str, "settings": dict, "run": str, "policies": str, "wheel_limit": bool}

@@ -44,9 +44,10 @@ from typing import Any
 
 import yaml
 
-from jaxnav.core.config import CONFIG_DIR, Config
+from jaxnav.core.config import Config
 from jaxnav.core.errors import ConfigError, JaxnavError
 from jaxnav.core.rundir import EVAL, atomic_write_text, csv_text
+from jaxnav.core.shipped import CONFIG_DIR
 from jaxnav.core.values import flatten, parse_override
 from jaxnav.experiments import runner, studyfile
 from jaxnav.experiments.evaluation import test_overrides
@@ -71,6 +72,7 @@ STUDY_KEYS = {
     "test_episodes": int,
     "settings": dict,
     "tests": list,
+    "cost": str,  # what a whole run of it took, measured (jaxnav list studies)
 }
 REQUIRED = ("kind", "title", "configs")
 TIMING = "command_s.json"  # in a cell's run: the whole training command's seconds

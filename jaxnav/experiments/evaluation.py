@@ -12,6 +12,10 @@ layout) stay as trained and only the maze changes. Writes, atomically::
                                     metrics, the paper's numbers
     RUN_DIR/eval/trajectories.npz   the first test episode of the config's seed, per strategy
                                     and maze, step by step (for jaxnav.report.plots)
+
+The reference drivers' rows (the oracle's and DWA's, on the same test keys) are read
+from the user's cache where an earlier test drove exactly the same test
+(:mod:`jaxnav.experiments.refcache`), and driven and kept there otherwise.
 """
 
 from __future__ import annotations
@@ -34,8 +38,9 @@ from jaxnav.core.errors import ConfigError, JaxnavError, RunError
 from jaxnav.core.families import family_text
 from jaxnav.core.sweep import with_swept
 from jaxnav.env import from_config
-from jaxnav.experiments.baselines import in_place_of, planner_problem
+from jaxnav.experiments.baselines import planner_problem
 from jaxnav.experiments.navigation import ShortestPaths, failure_points, navigation_counts
+from jaxnav.experiments.refcache import ReferenceTest
 from jaxnav.experiments.rollout import (
     MODES,
     Policies,
@@ -68,7 +73,7 @@ def load_run(run_dir: str | Path, overrides: Sequence[str] = ()) -> LoadedRun:
     run_dir = rundir.existing(run_dir, finished=True)
     cfg_path, params_path = run_dir / rundir.CONFIG, run_dir / rundir.PARAMS
     cfg = tested_config(cfg_path, overrides)
-    env, env_params = from_config(cfg)
+    env, env_params = from_config(cfg, prepare=False)
     if env.generates:  # trained on drawn mazes: tested on the fixed test mazes by name
         # (and on drawn ones: drawn_policies). A fixed maze has no grid of shortest
         # paths, so a geodesic run's test there scores the dense reward (progress
@@ -139,8 +144,15 @@ def tested_config(cfg_path: Path, overrides: Sequence[str] = ()) -> Config:
     """The config a run's policies are tested in: the run's, with ``overrides``
     (:func:`test_overrides`), and every training-only setting off (the moving
     cylinders at their own pace, real collisions: :meth:`Config.tested`) unless an
-    override sets it."""
-    return load_config(str(cfg_path), list(test_overrides(overrides))).tested(overrides)
+    override sets it. A run trained on drawn mazes is tested with a new layout every
+    episode whatever ``env.new_maze_every`` it trained with, so its config is read
+    with that (an override such as ``env.restart_goal=new``, which needs it, holds)."""
+    overrides = list(test_overrides(overrides))
+    if load_config(str(cfg_path)).env.generator and not any(
+        o.startswith("env.new_maze_every=") for o in overrides
+    ):
+        overrides = ["env.new_maze_every=1", *overrides]
+    return load_config(str(cfg_path), overrides).tested(overrides)
 
 
 def trained_on(cfg: Config) -> str:
@@ -226,12 +238,10 @@ def evaluate(
         rows += episode_rows(run.policies.fields, names, results, n_episodes, mode, nav)
         refs = _usable(references, run.policies.env) if mode == "greedy" else []
         for ref in refs if mazes else ():
-            tell(f"the {ref} on {', '.join(names)}")
-            driver = in_place_of(ref, run.policies, mazes)
-            res = run_tests(driver, mazes, n_episodes, navigation=True)
-            rows += episode_rows(
-                driver.fields, names, res, n_episodes, mode, counts(driver, mazes, res)
-            )
+            test = ReferenceTest(ref, run.policies, mazes, n_episodes)
+            tell(f"the {ref} on {', '.join(names)}{_FROM_CACHE if test.cached else ''}")
+            res, nav = test.run(counts)
+            rows += episode_rows(test.fields, names, res, n_episodes, mode, nav)
         if mode == "greedy":
             limit = run.policies.env.attempt_steps(run.policies.env_params)
             for name, res in zip(names, results):
@@ -267,13 +277,15 @@ def evaluate(
             nav = counts(drawn, template, results)
             rows += episode_rows(drawn.fields, [name], results, n_episodes, mode, nav)
             for ref in _usable(refs, drawn.env):
-                tell(f"the {ref} on {name}")
-                driver = in_place_of(ref, drawn, template)
-                res = run_tests(driver, template, n_episodes, navigation=True)
-                nav = counts(driver, template, res)
-                rows += episode_rows(driver.fields, [name], res, n_episodes, mode, nav)
+                test = ReferenceTest(ref, drawn, template, n_episodes)
+                tell(f"the {ref} on {name}{_FROM_CACHE if test.cached else ''}")
+                res, nav = test.run(counts)
+                rows += episode_rows(test.fields, [name], res, n_episodes, mode, nav)
     columns = with_swept(RESULT_COLUMNS, run.config.sweep)
     return run, names, rundir.csv_text(columns, rows), episodes, failures
+
+
+_FROM_CACHE = " (its rows from the cache of earlier tests)"
 
 
 def _usable(references: Sequence[str], env) -> list[str]:
@@ -295,7 +307,7 @@ def drawn_policies(run: LoadedRun, split: str = "test", cfg: Config | None = Non
     episode, so N test episodes are N layouts); the test split's layouts are those
     training never draws. ``cfg``: draw from this config's family instead (the same
     sensor and observation)."""
-    env, env_params = from_config(cfg if cfg is not None else run.config)
+    env, env_params = from_config(cfg if cfg is not None else run.config, prepare=False)
     env = dataclasses.replace(env, split=split, new_maze_every=1)
     return run.policies._replace(env=env, env_params=env_params)
 

@@ -32,10 +32,11 @@ from typing import Any
 import numpy as np
 
 from jaxnav.core import agents, baselines
-from jaxnav.core.config import CONFIG_DIR, Config, config_to_dict
+from jaxnav.core.config import Config, config_to_dict
 from jaxnav.core.errors import ConfigError, JaxnavError
 from jaxnav.core.rundir import EVAL, METRICS, CsvLog, atomic_write_text, csv_text
 from jaxnav.core.settings import SEED, problem
+from jaxnav.core.shipped import CONFIG_DIR
 from jaxnav.core.values import flatten
 from jaxnav.experiments import runner, studyfile
 from jaxnav.experiments.evaluation import drawn_name
@@ -67,6 +68,7 @@ STUDY_KEYS = {
     "notes": list,
     "left_out": list,
     "previous": str,
+    "cost": str,  # what a whole run of it took, measured (jaxnav list studies)
 }
 REQUIRED = ("title", "seeds", "total_steps", "strategies", "agents", "rungs")
 AGENT_KEYS = {"label": str, "settings": dict, "rungs": list}

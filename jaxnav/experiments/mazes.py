@@ -19,8 +19,9 @@ import jax
 import numpy as np
 
 from jaxnav.core import families
-from jaxnav.core.config import CONFIG_DIR, Config, load_config, resolve_config_path
+from jaxnav.core.config import Config, load_config
 from jaxnav.core.errors import JaxnavError, MazeError
+from jaxnav.core.shipped import CONFIG_DIR, resolve_config_path
 from jaxnav.env import NavEnv, make
 from jaxnav.experiments.scene import render_maze
 from jaxnav.report import drawing

@@ -1,8 +1,8 @@
-"""``python -m jaxnav.reproduce [--seeds N] [--out DIR] [--quick] [--resume]``
+"""``jaxnav reproduce [--seeds N] [--out DIR] [--quick] [--resume]``
 
 The paper's two experiments end to end: train ``configs/paper_no_obstacles.yaml``
 (Table 3, Fig. 2) and ``configs/paper_obstacles.yaml`` (Table 4, Fig. 4), both
-strategies and N seeds each, test them (``jaxnav.evaluate``), draw the figures
+strategies and N seeds each, test them (``jaxnav evaluate``), draw the figures
 (``jaxnav.report.plots``) and write ``DIR/report.md`` with the tables, the figures, the
 wall-clock of every stage and the machine.
 
@@ -11,7 +11,9 @@ episodes of at most 500 steps: 18 minutes in all, measured on 2 shared CPU cores
 (AMD EPYC) with one CPU device per core, 13.7 of them training without obstacles
 and 3.7 with (episodes end sooner there); ``--seeds 4`` takes about half.
 Each experiment's policies are also tested under sensor perturbations on its
-training maze (``jaxnav.evaluate --robustness``).
+training maze (``jaxnav evaluate --robustness``). The paper's claims compare the two
+strategies, so the reference drivers that ``jaxnav evaluate`` drives beside a run's
+policies (the oracle and DWA) are left out of the test; ``--baselines`` adds them.
 
 ``--quick``: 2 seeds, 50 episodes of at most 200 steps, 3 test episodes: about 1.5
 minutes with the robustness stage, for checking that everything runs (its numbers mean little).
@@ -25,7 +27,7 @@ refused and tested by the same rule as every study's cells.
 Layout::
 
     DIR/report.md
-    DIR/paper_no_obstacles/   a training run (see jaxnav.train) + eval/ + plots/
+    DIR/paper_no_obstacles/   a training run (see jaxnav train) + eval/ + plots/
     DIR/paper_obstacles/
 """
 
@@ -37,9 +39,11 @@ import subprocess
 import time
 from pathlib import Path
 
-from jaxnav.core.config import CONFIG_DIR, Config, load_config
+from jaxnav.core import baselines as reference_drivers
+from jaxnav.core.config import Config, load_config
 from jaxnav.core.errors import JaxnavError
 from jaxnav.core.rundir import METRICS, CsvLog, atomic_write_text
+from jaxnav.core.shipped import CONFIG_DIR
 from jaxnav.experiments import runner
 from jaxnav.experiments.robustness import robustness_to_dir
 from jaxnav.report import plots
@@ -133,10 +137,18 @@ def write_report(
 
 
 def _experiment(
-    name: str, title: str, cfg: Config, out: Path, quiet: bool, say, sim_seeds: int = 0
+    name: str,
+    title: str,
+    cfg: Config,
+    out: Path,
+    quiet: bool,
+    say,
+    sim_seeds: int = 0,
+    baselines: bool = False,
 ) -> tuple[list[tuple[str, float, str]], list[str]]:
     """Train, test, plot and perturb one experiment, and test its first ``sim_seeds``
-    seeds in MuJoCo: (timings, report section)."""
+    seeds in MuJoCo: (timings, report section). ``baselines``: the oracle and DWA take
+    the greedy test beside the policies (:func:`references`)."""
     cell = runner.Cell(name, cfg, out / name)
     run_dir = cell.run
     timings = [(f"train {name}", *runner.train(cell, quiet, say))]
@@ -148,8 +160,11 @@ def _experiment(
         return result
 
     say(f"{name}: testing on {', '.join(cfg.run.test_mazes)}")
+    refs = references(baselines)
     tests = f"{cfg.run.test_episodes} episodes x {cfg.n_runs} runs x {len(cfg.run.test_mazes)}"
-    eval_dir = stage("evaluate", lambda _: f"{tests} mazes", lambda: runner.test(cell))
+    labels = [reference_drivers.BASELINES[r].label for r in refs]
+    tests += " mazes" + (f", the {' and '.join(labels)} beside them" if refs else "")
+    eval_dir = stage("evaluate", lambda _: tests, lambda: runner.test(cell, references=refs))
     say(f"{name}: drawing figures")
     written = stage("plot", lambda w: f"{len(w)} files", lambda: plots.make_plots(run_dir))
     # ROBUSTNESS: the same test under sensor perturbations, on the training maze
@@ -169,8 +184,16 @@ def _experiment(
     return timings, sec
 
 
+def references(baselines: bool) -> tuple[str, ...]:
+    """The reference drivers a pipeline whose claims are judged between strategies
+    tests beside the policies: none, unless ``baselines`` (``--baselines``) asks for the
+    oracle and DWA. Their rows judge no claim of the paper and used to cost more than
+    the policies' own test."""
+    return reference_drivers.names() if baselines else ()
+
+
 def sim_to_sim(run_dir: Path, seeds: list[int]) -> Path:
-    """``python -m jaxnav.sim2sim RUN_DIR --seeds ...`` (its own process: only that
+    """``jaxnav sim2sim RUN_DIR --seeds ...`` (its own process: only that
     command imports MuJoCo); the path of its markdown table."""
     done = subprocess.run(runner.sim2sim_argv(run_dir, seeds), capture_output=True, text=True)
     if done.returncode != 0:
@@ -236,9 +259,11 @@ def reproduce(
     quiet: bool,
     command: str,
     sim_seeds: int = 0,
+    baselines: bool = False,
 ) -> Path:
     """Both experiments end to end into ``out``; ``sim_seeds``: test that many seeds
-    of each in MuJoCo too. Returns report.md."""
+    of each in MuJoCo too; ``baselines``: test the oracle and DWA beside the policies.
+    Returns report.md."""
     sizes = {"--episodes": episodes, "--max-steps": max_steps, "--test-episodes": test_episodes}
     runner.check_request(out, seeds, sizes, resume_ok)
     if sim_seeds < 0:
@@ -255,7 +280,7 @@ def reproduce(
     timings: list[tuple[str, float, str]] = []
     sections: list[str] = []
     for name, title in EXPERIMENTS:
-        t, sec = _experiment(name, title, cfgs[name], out, quiet, say, sim_seeds)
+        t, sec = _experiment(name, title, cfgs[name], out, quiet, say, sim_seeds, baselines)
         timings += t
         sections += sec
     t0 = time.perf_counter()

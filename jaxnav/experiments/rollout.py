@@ -72,9 +72,19 @@ def _compiled_rollout(
     exploring,
     navigation: bool = False,
 ):
-    """jit(vmap(rollout)) over runs, one per setting: equal shapes never recompile."""
+    """jit(vmap(rollout)) over runs, one per setting: equal shapes never recompile.
+    Each device plays its own runs as one batch (:meth:`RunSharding.per_device`): what
+    the rollout decides over its batch (:func:`jaxnav.world.lazy.draw_where`: a drawn
+    maze, or a planner's field, computed only where one is needed) is decided on each
+    device for its runs, with no collective between devices at every step and no
+    device computing another's draws."""
     rollout = make_rollout(env, network, n_episodes, max_steps, record, exploring, navigation)
-    return jax.jit(jax.vmap(rollout, in_axes=(0, 0, 0, 0, None)))
+    batch = jax.vmap(rollout, in_axes=(0, 0, 0, 0, None))
+
+    def per_run(runs, env_params):
+        return batch(*runs, env_params)
+
+    return jax.jit(RunSharding(1).per_device(per_run, 2))
 
 
 def run_tests(
@@ -103,7 +113,7 @@ def run_tests(
     )
     out = []
     for maze in mazes:
-        res = fn(params, keys, strategy, hyper, policies.env_params.replace(maze=maze))
+        res = fn((params, keys, strategy, hyper), policies.env_params.replace(maze=maze))
         out.append(shard.get(res))
     return out
 

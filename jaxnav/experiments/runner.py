@@ -26,7 +26,7 @@ import jax
 from jaxnav.core.config import Config, load_config
 from jaxnav.core.errors import JaxnavError
 from jaxnav.experiments.evaluation import evaluate_to_dir
-from jaxnav.run.training import resume, train_new
+from jaxnav.run.launch import resume, train_new
 
 Say = Callable[[str], None]
 
@@ -133,9 +133,9 @@ def sim2sim_argv(
     out: Path | None = None,
     wheel_limit: bool = False,
 ) -> list[str]:
-    """The command that tests a run's policies of ``seeds`` in MuJoCo (``jaxnav.sim2sim``
+    """The command that tests a run's policies of ``seeds`` in MuJoCo (``jaxnav sim2sim``
     in its own process: only that command imports MuJoCo); ``out``: its CSV, replaced."""
-    argv = [sys.executable, "-m", "jaxnav.sim2sim", str(run), "--seeds", *map(str, seeds)]
+    argv = [sys.executable, "-m", "jaxnav.commands.sim2sim", str(run), "--seeds", *map(str, seeds)]
     if episodes is not None:
         argv += ["--episodes", str(episodes)]
     if out is not None:

@@ -1,6 +1,6 @@
 """A maze scene: walls, obstacles, the robot at a pose, a goal drawn by ``reset`` and
 what the LiDAR beams see, cast by the environment's own sensor. The drawing itself
-is :mod:`jaxnav.report.drawing`; ``python -m jaxnav.render`` and the Gymnasium
+is :mod:`jaxnav.report.drawing`; ``jaxnav render`` and the Gymnasium
 wrapper's ``render()`` use this module.
 """
 
@@ -51,7 +51,7 @@ def render_maze(
     drawn = bool(env_kwargs and env_kwargs.get("generator"))
     if drawn:
         kwargs = dict(env_kwargs, n_beams=max(n_beams, 1))
-        env, params = make(**kwargs)
+        env, params = make(prepare=False, **kwargs)
     else:
         env, params = make(make_maze(maze_name), n_beams=max(n_beams, 1))
     _, state = jax.jit(env.reset)(jax.random.PRNGKey(seed), params)
@@ -60,22 +60,39 @@ def render_maze(
     FigureCanvasAgg(fig)
     ax = fig.add_subplot()
     xmin, ymin, xmax, ymax = (float(v) for v in np.asarray(maze.bounds))
-    n_obs = int(maze.n_obstacles)
-    title = (
-        f"{_display_name(maze_name)}: {xmax - xmin:.2f} m x {ymax - ymin:.2f} m, "
-        f"{n_obs} obstacle{'s' if n_obs != 1 else ''}"
+    title = f"{_display_name(maze_name)}: {xmax - xmin:.2f} m x {ymax - ymin:.2f} m, " + (
+        contents(maze)
     )
     if drawn:
         family = families.get(env.generator).title(env)
         title = f"{_display_name(maze_name)}: {family}, {env.split} maze of seed {seed}"
     draw_maze(ax, maze, goal=np.asarray(state.goal), n_beams=n_beams, title=title)
-    _legend(ax, n_beams, float(params.goal_radius))
-    fig.tight_layout()
+    rows = _legend(fig, maze, n_beams, float(params.goal_radius))
+    fig.tight_layout(rect=(0, 0.045 * rows, 1, 1))  # the legend below the x label
     fig.savefig(out)
 
 
-def _legend(ax, n_beams: int, goal_radius: float) -> None:
+def contents(maze) -> str:
+    """What stands inside a maze's outline, in words: its inner walls (free wall
+    segments), blocks (polygonal obstacles) and cylinders, standing and moving ("8
+    blocks, 2 moving cylinders"; "no obstacles")."""
+    blocks, walls = drawing.inner_walls(maze.walls())
+    standing = int(np.asarray(maze.circle_mask).sum())
+    moving = 0
+    if maze.motion is not None:
+        moving = int((np.asarray(maze.motion.radius) > 0).sum())
+    parts = []
+    things = (walls, "inner wall"), (blocks, "block"), (standing, "cylinder")
+    for n, what in (*things, (moving, "moving cylinder")):
+        if n:
+            parts.append(f"{n} {what}{'s' if n != 1 else ''}")
+    return ", ".join(parts) or "no obstacles"
+
+
+def _legend(fig, maze, n_beams: int, goal_radius: float) -> int:
+    """The legend under the axes, every kind of thing drawn named; its rows."""
     from matplotlib.lines import Line2D
+    from matplotlib.patches import Patch
 
     def marker(m, color, label, **kw):
         return Line2D([], [], ls="", marker=m, color=color, label=label, **kw)
@@ -88,16 +105,27 @@ def _legend(ax, n_beams: int, goal_radius: float) -> None:
         handles.append(
             Line2D([], [], color=drawing.BEAM_COLOR, lw=1, label=f"{n_beams} LiDAR beams")
         )
-    ax.legend(
+    if maze.motion is not None and (np.asarray(maze.motion.radius) > 0).any():
+        handles += [
+            Patch(
+                fc=drawing.OBSTACLE_COLOR,
+                ec=drawing.WALL_COLOR,
+                hatch="//",
+                label="moving cylinder, at its first pose",
+            ),  # fmt: skip
+            Line2D([], [], ls=":", color=drawing.WALL_COLOR, lw=1, label="its loop"),
+        ]
+    ncol = 3
+    fig.legend(
         handles=handles,
-        loc="upper center",
-        bbox_to_anchor=(0.5, -0.09),
-        ncol=3,
+        loc="lower center",
+        ncol=ncol,
         fontsize=8,
         frameon=False,
         handletextpad=0.3,
         columnspacing=1.2,
     )
+    return -(-len(handles) // ncol)
 
 
 def _display_name(name: str) -> str:

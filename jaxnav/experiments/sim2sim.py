@@ -21,7 +21,7 @@ cover the same mazes, strategies and seeds, else a fresh greedy test
 
 MuJoCo is imported only by this pipeline (optional extra ``sim``): without it, every
 other module of jaxnav works and :func:`sim2sim` says how to install it. The command
-is :mod:`jaxnav.sim2sim`.
+is :mod:`jaxnav.commands.sim2sim`.
 """
 
 from __future__ import annotations
@@ -59,7 +59,7 @@ from jaxnav.world.maps import ROBOTIS_FIRST_GOAL, ROBOTIS_GOAL_SEPARATION, Maze,
 
 def task_of(cfg: Config) -> Task:
     """The test constants of a run's config (its env's params and settings)."""
-    env, p = from_config(cfg)
+    env, p = from_config(cfg, prepare=False)
     if env.reward == "geodesic" or env.progress_path == "geodesic":
         raise JaxnavError(
             "sim2sim scores the dense, sparse and progress (straight) rewards in MuJoCo, "

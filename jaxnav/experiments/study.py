@@ -1,7 +1,7 @@
-"""``python -m jaxnav.study CONFIG [key=value ...] --out DIR [--resume] [--doc PATH]``
+"""``jaxnav study CONFIG [key=value ...] --out DIR [--resume] [--doc PATH]``
 
 A sweep study end to end: train a config's sweep (every strategy, point and seed in
-one program), test every arm in both test modes (``jaxnav.evaluate``) and write
+one program), test every arm in both test modes (``jaxnav evaluate``) and write
 ``DIR/study.md``: the sweep's tables and the answers they give, computed from the
 results (:func:`jaxnav.report.tables.sweep_markdown`), its figures, the wall-clock of each
 stage and the machine. ``--doc PATH`` writes the same study to PATH, its figures and
@@ -14,7 +14,7 @@ epsilon-greedy (``docs/studies/temperature.md``).
 Layout::
 
     DIR/study.md, DIR/sweep.png, DIR/training_curves.png
-    DIR/run/        the training run (see jaxnav.train) + eval/
+    DIR/run/        the training run (see jaxnav train) + eval/
 """
 
 from __future__ import annotations

@@ -17,9 +17,10 @@ from typing import Any
 
 import yaml
 
-from jaxnav.core.config import CONFIG_DIR, Config, build_config
+from jaxnav.core.config import Config, build_config
 from jaxnav.core.errors import ConfigError
-from jaxnav.core.values import flatten, parse_override
+from jaxnav.core.shipped import CONFIG_DIR
+from jaxnav.core.values import flatten, parse_override, yaml_mark
 
 KINDS = ("ladder", "driving", "sim2sim")
 
@@ -48,7 +49,7 @@ def mapping(text: str, where: str) -> dict:
     try:
         doc = yaml.safe_load(text)
     except yaml.YAMLError as e:
-        mark = getattr(e, "problem_mark", None)
+        mark = yaml_mark(e)
         raise ConfigError(
             f"{where} is not valid YAML" + (f" at line {mark.line + 1}" if mark else "")
         ) from None

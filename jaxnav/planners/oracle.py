@@ -32,6 +32,7 @@ the sequence has it, and plans as above from there on.
 from __future__ import annotations
 
 import dataclasses
+import functools
 from typing import NamedTuple
 
 import chex
@@ -120,14 +121,18 @@ class Oracle:
 
     def _update(self, mem: OracleMemory, params: EnvParams, state: EnvState, maze: Maze):
         """The memory for this step: fields computed again where the maze or goal changed."""
-        new_maze = jnp.any(maze.segments != mem.segments) | jnp.any(maze.circles != mem.circles)
-        new_goal = jnp.any(state.goal != mem.goal)
-        clearance = draw_where(
-            lambda m: rs.clearance_field(m, self.raster), new_maze, maze, mem.clearance, chunk=1
-        )
+        fresh = jnp.any(state.goal != mem.goal)
+        clearance = mem.clearance  # one maze the whole test: the first step's field
+        if self.env.generates or self.env.scales_maze:  # each episode may have its own
+            new_maze = jnp.any(maze.segments != mem.segments)
+            new_maze = new_maze | jnp.any(maze.circles != mem.circles)
+            clearance = draw_where(
+                lambda m: rs.clearance_field(m, self.raster), new_maze, maze, clearance, chunk=1
+            )
+            fresh = fresh | new_maze
         origin = rs.origin_of(maze, self.raster)
         inputs = (clearance, state.goal, origin, params.goal_radius, params.robot_radius)
-        distance = draw_where(self._distance, new_maze | new_goal, inputs, mem.distance, chunk=1)
+        distance = draw_where(self._distance, fresh, inputs, mem.distance, chunk=1)
         return OracleMemory(maze.segments, maze.circles, state.goal, clearance, distance)
 
     # -- planning ---------------------------------------------------------------
@@ -139,7 +144,8 @@ class Oracle:
         del obs  # privileged: it reads the state
         env, dt, r = self.env, params.dt, params.robot_radius
         maze = self._geometry(params, state)
-        mem = self._update(mem, params, state, maze)
+        with jax.named_scope("oracle_fields"):
+            mem = self._update(mem, params, state, maze)
         origin = rs.origin_of(maze, self.raster)
         A = env.num_actions
         moving = maze.motion is not None
@@ -148,89 +154,99 @@ class Oracle:
         v_a, w_a = env.command(params, jnp.arange(A))
         v_a = jnp.broadcast_to(v_a, (A,))
 
-        # The step about to be driven, checked exactly as the environment will: each
-        # action's, or with action_delay the pending action's, after which the plan starts.
-        pos, yaw, offset = state.pos[None], state.yaw[None], 0
-        t0 = state.t * dt  # the step's start, in the episode's time
-        if env.action_delay:
-            vp, wp = env.command(params, state.pending_action)
-            now = motion.step_clearance(maze, state.pos, state.yaw, wp, vp, dt, t0) >= r
-            pos = pos + displacement(yaw, wp, vp, dt).T
-            yaw, offset = wrap_angle(yaw + wp * dt), 1
-        else:
-            now = jax.vmap(
-                lambda v, w: motion.step_clearance(maze, state.pos, state.yaw, w, v, dt, t0)
-            )(v_a, w_a)
-            now = now >= r  # [A]
+        with jax.named_scope("oracle_exact"):
+            # The step about to be driven, checked exactly as the environment will: each
+            # action's, or with action_delay the pending action's, after which the plan starts.
+            pos, yaw, offset = state.pos[None], state.yaw[None], 0
+            t0 = state.t * dt  # the step's start, in the episode's time
+            if env.action_delay:
+                vp, wp = env.command(params, state.pending_action)
+                now = motion.step_clearance(maze, state.pos, state.yaw, wp, vp, dt, t0) >= r
+                pos = pos + displacement(yaw, wp, vp, dt).T
+                yaw, offset = wrap_angle(yaw + wp * dt), 1
+            else:
+                now = jax.vmap(
+                    lambda v, w: motion.step_clearance(maze, state.pos, state.yaw, w, v, dt, t0)
+                )(v_a, w_a)
+                now = now >= r  # [A]
 
-        # SIMULATE the tree level by level: every node's A actions, each held its steps;
-        # a step's points are checked on the raster and against the moving cylinders.
-        levels, step = [], offset
-        for hold in holds:
-            pos = jnp.broadcast_to(pos[:, None, :], (pos.shape[0], A, 2))
-            yaw = jnp.broadcast_to(yaw[:, None], pos.shape[:2])
-            rec = []  # per step: (unsafe, at the goal, position, yaw)
-            for _ in range(hold):
-                frac = (jnp.arange(self.samples, dtype=jnp.float32) + 1) / self.samples
-                pts = pos[..., None, :] + jnp.moveaxis(
-                    displacement(yaw[..., None], w_a[:, None], v_a[:, None], frac * dt), 0, -1
-                )  # [N, A, samples, 2]
-                unsafe = self._unsafe(mem, maze, origin, state, params, pts, step)
-                pos, yaw = pts[..., -1, :], wrap_angle(yaw + w_a * dt)
-                at_goal = jnp.linalg.norm(pos - state.goal, axis=-1) < params.goal_radius
-                rec.append((unsafe, at_goal, pos, yaw))
-                step += 1
-            levels.append([jnp.stack(x, 2).reshape(-1, hold, *x[0].shape[2:]) for x in zip(*rec)])
-            pos, yaw = pos.reshape(-1, 2), yaw.reshape(-1)
-        # every full sequence's steps: level l's node of sequence s is s // A^(L - 1 - l)
-        K = A**L
-        seq = jnp.arange(K)
-        bad, reach, where, heading = (
-            jnp.concatenate([lv[i][seq // A ** (L - 1 - k)] for k, lv in enumerate(levels)], 1)
-            for i in range(4)
-        )  # [K, T] each, where [K, T, 2]
-        if env.action_delay:
-            bad = bad | ~now
-        else:
-            bad = bad.at[:, 0].set(bad[:, 0] | ~now[seq // A ** (L - 1)])
-        T = bad.shape[1]
-        hit_at = jnp.where(jnp.any(bad, axis=1), jnp.argmax(bad, axis=1), T)
+        with jax.named_scope("oracle_simulate"):
+            # SIMULATE the tree level by level: every node's A actions, each held its steps;
+            # a step's points are checked on the raster and against the moving cylinders.
+            levels, step = [], offset
+            for hold in holds:
+                pos = jnp.broadcast_to(pos[:, None, :], (pos.shape[0], A, 2))
+                yaw = jnp.broadcast_to(yaw[:, None], pos.shape[:2])
+                rec = []  # per step: (unsafe, at the goal, position, yaw)
+                for _ in range(hold):
+                    frac = (jnp.arange(self.samples, dtype=jnp.float32) + 1) / self.samples
+                    pts = pos[..., None, :] + jnp.moveaxis(
+                        displacement(yaw[..., None], w_a[:, None], v_a[:, None], frac * dt), 0, -1
+                    )  # [N, A, samples, 2]
+                    unsafe = self._unsafe(mem, maze, origin, state, params, pts, step)
+                    pos, yaw = pts[..., -1, :], wrap_angle(yaw + w_a * dt)
+                    at_goal = _length(pos - state.goal) < params.goal_radius
+                    rec.append((unsafe, at_goal, pos, yaw))
+                    step += 1
+                levels.append(
+                    [jnp.stack(x, 2).reshape(-1, hold, *x[0].shape[2:]) for x in zip(*rec)]
+                )
+                pos, yaw = pos.reshape(-1, 2), yaw.reshape(-1)
+            # every full sequence's steps: level l's node of sequence s is s // A^(L - 1 - l)
+            K = A**L
+            seq = jnp.arange(K)
+            bad, reach, where, heading = (
+                jnp.concatenate([lv[i][seq // A ** (L - 1 - k)] for k, lv in enumerate(levels)], 1)
+                for i in range(4)
+            )  # [K, T] each, where [K, T, 2]
+            if env.action_delay:
+                bad = bad | ~now
+            else:
+                bad = bad.at[:, 0].set(bad[:, 0] | ~now[seq // A ** (L - 1)])
+            T = bad.shape[1]
+            # the first step that collides, T for none (an elementwise least over steps)
+            hit_at = _least(jnp.where(bad, jnp.arange(T), T), 1)
 
-        # SCORE: the goal soonest; else the shortest way left, facing along it. A plan
-        # must stay clear to its end, past the goal too (the next goal's plan starts
-        # there); with a stop in the action set it may end at any of its steps, where the
-        # robot then stands (clear of the cylinders for ``wait`` seconds, if they move).
-        ahead = where + self.lookahead * jnp.stack([jnp.cos(heading), jnp.sin(heading)], -1)
-        d_end = rs.field_upper(mem.distance, origin, self.raster, where[..., 0], where[..., 1])
-        d_ahead = rs.field_upper(mem.distance, origin, self.raster, ahead[..., 0], ahead[..., 1])
-        d_ahead = jnp.where(jnp.isfinite(d_ahead), d_ahead, d_end + 2 * self.lookahead)
-        straight = jnp.linalg.norm(where - state.goal, axis=-1)  # where the raster has no way
-        way = jnp.where(jnp.isfinite(d_end), 0.5 * (d_end + d_ahead), 1.0e3 + straight)  # [K, T]
-        steps = jnp.arange(T)
-        if self.can_stop:  # ends at any step clear so far (and, if they move, of cylinders)
-            valid = steps[None, :] < hit_at[:, None]
-            if moving:
-                valid = valid & ~self._no_wait(maze, state, params, where, offset)
-        else:  # clear to its end; the goal counts wherever the plan reaches it
-            valid = (hit_at == T)[:, None] & ((steps == T - 1)[None, :] | reach)
-        # the goal counts where the plan can go on from it to a valid end
-        later = jnp.flip(jnp.cumsum(jnp.flip(valid, 1), 1), 1) > 0  # a valid end at or after
-        reach_ok = reach & later & (steps[None, :] < hit_at[:, None])
-        # the same place reached a step sooner is better: no putting progress off
-        score = jnp.where(valid, way + self.delay_cost * steps, jnp.inf)
-        score = jnp.where(reach_ok, -1.0e3 + steps[None, :], score)
-        cost = jnp.min(score, axis=1)
-        # none stays clear: the plan that collides latest
-        fallback = _BIG * (1 + T - hit_at) + jnp.minimum(way[:, -1], 1.0e4)
-        cost = jnp.where(jnp.isfinite(cost), cost, fallback)
-        best = jnp.argmin(cost)
-        choice = best // A ** (L - 1)
-        if self.can_stop and not moving:
-            plan = (best // A ** (L - 1 - jnp.arange(L))) % A  # each level's action
-            still = jnp.all(v_a[plan] == 0)  # the best plan does not leave where it is
-            choice = self._turn_to_way(choice, still, mem, origin, state, v_a, w_a, dt)
-        for opening in self.openings:  # on a searched way out of the start: its action
-            choice = _scripted(opening, state, maze, choice)
+        with jax.named_scope("oracle_score"):
+            # SCORE: the goal soonest; else the shortest way left, facing along it. A plan
+            # must stay clear to its end, past the goal too (the next goal's plan starts
+            # there); with a stop in the action set it may end at any of its steps, where the
+            # robot then stands (clear of the cylinders for ``wait`` seconds, if they move).
+            ahead = where + self.lookahead * jnp.stack([jnp.cos(heading), jnp.sin(heading)], -1)
+            d_end = rs.field_upper(mem.distance, origin, self.raster, where[..., 0], where[..., 1])
+            d_ahead = rs.field_upper(
+                mem.distance, origin, self.raster, ahead[..., 0], ahead[..., 1]
+            )
+            d_ahead = jnp.where(jnp.isfinite(d_ahead), d_ahead, d_end + 2 * self.lookahead)
+            straight = _length(where - state.goal)  # where the raster has no way
+            way = jnp.where(
+                jnp.isfinite(d_end), 0.5 * (d_end + d_ahead), 1.0e3 + straight
+            )  # [K, T]
+            steps = jnp.arange(T)
+            if self.can_stop:  # ends at any step clear so far (and, if they move, of cylinders)
+                valid = steps[None, :] < hit_at[:, None]
+                if moving:
+                    valid = valid & ~self._no_wait(maze, state, params, where, offset)
+            else:  # clear to its end; the goal counts wherever the plan reaches it
+                valid = (hit_at == T)[:, None] & ((steps == T - 1)[None, :] | reach)
+            # the goal counts where the plan can go on from it to a valid end
+            later = _at_or_after(valid)  # a valid end at or after
+            reach_ok = reach & later & (steps[None, :] < hit_at[:, None])
+            # the same place reached a step sooner is better: no putting progress off
+            score = jnp.where(valid, way + self.delay_cost * steps, jnp.inf)
+            score = jnp.where(reach_ok, -1.0e3 + steps[None, :], score)
+            cost = _least(score, 1)
+            # none stays clear: the plan that collides latest
+            fallback = _BIG * (1 + T - hit_at) + jnp.minimum(way[:, -1], 1.0e4)
+            cost = jnp.where(jnp.isfinite(cost), cost, fallback)
+            best = jnp.argmin(cost)
+            choice = best // A ** (L - 1)
+            if self.can_stop and not moving:
+                plan = (best // A ** (L - 1 - jnp.arange(L))) % A  # each level's action
+                still = jnp.all(v_a[plan] == 0)  # the best plan does not leave where it is
+                choice = self._turn_to_way(choice, still, mem, origin, state, v_a, w_a, dt)
+            for opening in self.openings:  # on a searched way out of the start: its action
+                choice = _scripted(opening, state, maze, choice)
         return choice.astype(jnp.int32), mem
 
     @property
@@ -267,8 +283,8 @@ class Oracle:
         at = jax.vmap(lambda k: motion.positions(maze.motion, (state.t + k) * params.dt))(ahead)
         # the cylinders' centres over the wait after each end: [T, wait, M, 2]
         window = jnp.stack([at[j : j + self.wait_steps] for j in range(T)])
-        gap = jnp.linalg.norm(where[:, :, None, None, :] - window[None], axis=-1)
-        gap = jnp.min(gap - maze.motion.radius, axis=(2, 3))
+        gap = _length(where[:, :, None, None, :] - window[None])
+        gap = _least(gap - maze.motion.radius, 2, 3)
         return gap < params.robot_radius + self.moving_margin
 
     def _unsafe(self, mem, maze, origin, state, params, pts, step: int) -> chex.Array:
@@ -282,9 +298,39 @@ class Oracle:
             frac = (jnp.arange(self.samples, dtype=jnp.float32) + 1) / self.samples
             times = (state.t + step + frac) * params.dt  # [samples]
             where = jax.vmap(lambda t: motion.positions(maze.motion, t))(times)  # [samples, M, 2]
-            gap = jnp.linalg.norm(pts[..., None, :] - where, axis=-1) - maze.motion.radius
-            bad = bad | (jnp.min(gap, axis=-1) < r + self.moving_margin)
+            gap = _length(pts[..., None, :] - where) - maze.motion.radius
+            bad = bad | (_least(gap, gap.ndim - 1) < r + self.moving_margin)
         return jnp.any(bad, axis=-1)
+
+
+def _length(v: chex.Array) -> chex.Array:
+    """f32[...]: the length of each vector of ``v`` (f32[..., 2]), exactly as
+    ``jnp.linalg.norm(v, axis=-1)`` computes it on a CPU, each square rounded before
+    their sum, but elementwise, so that it fuses with what is around it instead of
+    being a library reduction of its own. The maximum with 0 changes no square; it keeps
+    the compiler from contracting a square and the sum into one fused multiply-add,
+    which rounds once and would move the last bit."""
+    x, y = v[..., 0], v[..., 1]
+    return jnp.sqrt(jnp.maximum(x * x, 0.0) + jnp.maximum(y * y, 0.0))
+
+
+def _least(x: chex.Array, *axes: int) -> chex.Array:
+    """The minimum of ``x`` over its trailing ``axes`` (the last ones, in order), taken
+    as an elementwise minimum of their slices: exactly ``jnp.min``, but a reduction
+    over a few short axes is a library call of its own on a CPU, where the elementwise
+    minima fuse into one loop."""
+    assert axes == tuple(range(x.ndim - len(axes), x.ndim)), axes
+    flat = x.reshape(x.shape[: axes[0]] + (-1,))
+    return functools.reduce(jnp.minimum, (flat[..., i] for i in range(flat.shape[-1])))
+
+
+def _at_or_after(x: chex.Array) -> chex.Array:
+    """bool[K, T]: whether ``x`` (bool[K, T]) holds at step t or a later one, as T
+    elementwise ors (a reversed cumulative sum over so few steps costs more)."""
+    out = [x[:, -1]]
+    for t in range(x.shape[1] - 2, -1, -1):
+        out.append(x[:, t] | out[-1])
+    return jnp.stack(out[::-1], 1)
 
 
 def _scripted(opening: Opening, state: EnvState, maze: Maze, choice: chex.Array) -> chex.Array:

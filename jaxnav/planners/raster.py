@@ -12,6 +12,7 @@ field changes by at most the distance moved (it is 1-Lipschitz).
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Sequence
 from typing import NamedTuple
@@ -36,7 +37,7 @@ _MOVES = tuple(
     for dx in (-2, -1, 0, 1, 2)
     if (dy or dx) and max(abs(dy), abs(dx)) == 1 or {abs(dy), abs(dx)} == {1, 2}
 )
-_ROUNDS = 4  # relaxation rounds per loop iteration (one convergence test each)
+_ROUNDS = 1  # relaxations per loop iteration (one convergence test each): one fuses best
 
 
 class Raster(NamedTuple):
@@ -121,34 +122,38 @@ def goal_distance(
 
 
 def _corners(origin: chex.Array, raster: Raster, px, py):
-    """The 4 cell centres around each point (px, py f32[...]): their indices (iy, ix)
-    i32[..., 4] each, clipped into the raster, and each point's distance to them."""
+    """The 4 cell centres around each point (px, py f32[...]), one at a time: their
+    indices (iy, ix) i32[...] each, clipped into the raster, and each point's distance
+    to it. Four arrays of the points' shape rather than one with a trailing axis of 4:
+    a reduction over so short an axis is a library call of its own on a CPU, an
+    elementwise min or max of four fuses with the gathers (and both are exact)."""
     fx = (px - origin[0]) / raster.h
     fy = (py - origin[1]) / raster.h
     x0, y0 = jnp.floor(fx), jnp.floor(fy)
-    ix = jnp.stack([x0, x0 + 1, x0, x0 + 1], axis=-1)
-    iy = jnp.stack([y0, y0, y0 + 1, y0 + 1], axis=-1)
-    ix = jnp.clip(ix, 0, raster.nx - 1).astype(jnp.int32)
-    iy = jnp.clip(iy, 0, raster.ny - 1).astype(jnp.int32)
-    cx = origin[0] + raster.h * ix
-    cy = origin[1] + raster.h * iy
-    return iy, ix, hypot(px[..., None] - cx, py[..., None] - cy)
+    for x, y in ((x0, y0), (x0 + 1, y0), (x0, y0 + 1), (x0 + 1, y0 + 1)):
+        ix = jnp.clip(x, 0, raster.nx - 1).astype(jnp.int32)
+        iy = jnp.clip(y, 0, raster.ny - 1).astype(jnp.int32)
+        cx = origin[0] + raster.h * ix
+        cy = origin[1] + raster.h * iy
+        yield iy, ix, hypot(px - cx, py - cy)
 
 
 def field_upper(field: chex.Array, origin: chex.Array, raster: Raster, px, py) -> chex.Array:
     """A distance field read at points (px, py f32[...]): the least over the 4 cell
     centres around each of (the centre's value + the way to it), an upper bound of a
     shortest path from the point (inf where no centre is reached)."""
-    iy, ix, d = _corners(origin, raster, px, py)
-    return jnp.min(field[iy, ix] + d, axis=-1)
+    return functools.reduce(
+        jnp.minimum, (field[iy, ix] + d for iy, ix, d in _corners(origin, raster, px, py))
+    )
 
 
 def field_lower(field: chex.Array, origin: chex.Array, raster: Raster, px, py) -> chex.Array:
     """A clearance field read at points: the largest over the 4 cell centres around
     each of (the centre's value - the way to it), a lower bound of the true clearance
     (exact at a centre)."""
-    iy, ix, d = _corners(origin, raster, px, py)
-    return jnp.max(field[iy, ix] - d, axis=-1)
+    return functools.reduce(
+        jnp.maximum, (field[iy, ix] - d for iy, ix, d in _corners(origin, raster, px, py))
+    )
 
 
 def blocks_of(raster: Raster, block: int) -> tuple[int, int]:

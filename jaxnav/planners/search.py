@@ -10,10 +10,11 @@ a real sequence of actions; a goal is reached when a state ends a step within th
 radius. A goal it does not reach is not proven unreachable: the raster merges states
 that differ within a cell.
 
-Two users: ``scripts/moving_search.py`` proves a moving stage's first goals reachable,
-and the oracle (:mod:`jaxnav.planners.oracle`) drives the sequences it finds out of a
-start its reactive plans cannot leave (:func:`opening`): stage 3's, where the robot
-starts inside the ring of turning cylinders and a gap must be timed seconds ahead.
+Two users: ``jaxnav probe search`` (:mod:`jaxnav.experiments.reachability`) proves a
+moving stage's first goals reachable, and the oracle (:mod:`jaxnav.planners.oracle`)
+drives the sequences it finds out of a start its reactive plans cannot leave
+(:func:`opening`): stage 3's, where the robot starts inside the ring of turning
+cylinders and a gap must be timed seconds ahead.
 """
 
 from __future__ import annotations

@@ -1,7 +1,7 @@
 """Drawing a maze with matplotlib: walls, obstacles, the robot, a goal, LiDAR beams.
 
 Every function draws data it is given onto a matplotlib ``Axes``; nothing here
-computes a scan or runs the environment (``jaxnav.render`` does that for its
+computes a scan or runs the environment (``jaxnav render`` does that for its
 pictures; ``jaxnav.report.fig_trajectory`` puts trajectories on top).
 """
 
@@ -187,6 +187,14 @@ def draw_path(ax, points: np.ndarray, label: str | None = None) -> None:
     if len(pts) < 2 or np.isnan(pts).any():
         return
     ax.plot(pts[:, 0], pts[:, 1], "--", color=PATH_COLOR, lw=1.6, zorder=4, label=label)
+
+
+def inner_walls(walls: np.ndarray) -> tuple[int, int]:
+    """What stands inside a maze's outline besides cylinders: (its blocks, the polygonal
+    obstacles: closed loops after the outline's; its free wall segments, in no loop)."""
+    loops = _closed_loops(walls)
+    in_loops = sum(len(loop) for loop in loops)
+    return max(len(loops) - 1, 0), len(walls) - in_loops
 
 
 def _closed_loops(walls: np.ndarray) -> list[np.ndarray]:

@@ -48,32 +48,55 @@ def read_rates(path: Path) -> dict[str, tuple[np.ndarray, dict[str, np.ndarray]]
     return out
 
 
+MIN_POINTS = 2  # evaluations a curve needs to show a course; fewer draw no figure
+
+
 def plot_greedy_evaluation(run_dir: Path, out: Path) -> Path | None:
-    """eval.csv's success, collision and time-out over training; None where the run
-    has no evaluations with attempt counts."""
+    """eval.csv's success, collision and time-out over training; None (nothing drawn,
+    :func:`greedy_evaluation_note` says why) where the run has no evaluations with
+    attempt counts, or too few to show a course (``run.eval_every`` as long as the
+    budget leaves one point: its numbers are in eval.csv and the summary)."""
     path = run_dir / rundir.EVAL
     curves = read_rates(path) if path.is_file() else {}
-    if not curves:
+    if not curves or max(x.size for x, _ in curves.values()) < MIN_POINTS:
         return None
     styles = arm_styles(list(curves))
-    fig, axes = plt.subplots(1, len(PANELS), figsize=(12, 3.8), sharex=True, sharey=True)
+    fig, axes = plt.subplots(1, len(PANELS), figsize=(12, 4.2), sharex=True, sharey=True)
+    right = max(float(x[-1]) for x, _ in curves.values())
     for ax, (name, _) in zip(axes, PANELS):
         for arm, (x, rates) in curves.items():
             y = rates[name]
             label = f"{display_name(arm)} ({y.shape[0]} seeds)" if name == "success" else None
             band(ax, x, y, styles[arm], label)
-            if x.size == 1:  # one evaluation: a point, not a line
-                ax.plot(x, np.nanmean(y, axis=0), "o", color=styles[arm].color)
+            ax.plot(x, np.nanmean(y, axis=0), "o", ms=3, color=styles[arm].color)
         ax.set_title(name, fontsize=10)
         ax.set_ylim(-0.02, 1.02)
+        ax.set_xlim(0, right * 1.03)  # from the start of training
         ax.set_xlabel("environment step (per seed)")
         ax.grid(alpha=0.3)
     axes[0].set_ylabel("share of decided goal attempts")
-    axes[0].legend(loc="best", fontsize=8)
+    n = len(curves)
+    fig.legend(loc="lower center", ncol=min(n, 4), fontsize=8, frameon=False)
     fig.suptitle(
         "Greedy evaluation while training (run.eval_every): mean over seeds and 95% "
         "bootstrap interval; attempts cut by an episode's end left out",
         fontsize=10,
     )
-    fig.tight_layout()
+    fig.tight_layout(rect=(0, 0.06 + 0.04 * ((n - 1) // 4), 1, 1))  # room for the legend
     return save_fig(fig, out, dpi=110)
+
+
+def greedy_evaluation_note(run_dir: Path) -> str:
+    """Why :func:`plot_greedy_evaluation` drew nothing for a run that has evaluations
+    (empty where it has none: nothing to say)."""
+    path = run_dir / rundir.EVAL
+    curves = read_rates(path) if path.is_file() else {}
+    if not curves:
+        return ""
+    points = max(x.size for x, _ in curves.values())
+    return (
+        f"greedy_evaluation.png not drawn: {points} greedy evaluation"
+        f"{'s' if points != 1 else ''} per run, too few for a curve (run.eval_every is "
+        f"{'as long as' if points == 1 else 'a large share of'} the budget); "
+        f"their numbers are in {path}"
+    )

@@ -154,7 +154,8 @@ def navigation_text(rows: list[dict[str, str]]) -> str:
     return aligned_table(table)
 
 
-LONG_WAIT_S = 60.0  # a cut attempt longer than this is a wait the success count leaves out
+LONG_WAIT_S = 60.0  # a cut attempt longer than this is a stall the success count leaves out
+DT_S = 0.2  # s, the control period of every shipped preset (for the attempt limit in steps)
 
 
 def cut_wait_s(row: dict[str, str]) -> float | None:
@@ -170,22 +171,26 @@ def cut_wait_s(row: dict[str, str]) -> float | None:
 
 
 def long_waits_text(rows: list[dict[str, str]], over: float = LONG_WAIT_S) -> str:
-    """One line per arm whose test episodes ended on a cut attempt that had lasted longer
-    than ``over`` seconds (:func:`cut_wait_s`; empty if none, or without the driving
-    time): a driver that stands until its episode ends is never counted as failing."""
+    """One line per arm whose test episodes ended with the robot stalled on a goal: on
+    it for longer than ``over`` seconds (:func:`cut_wait_s`), neither reaching it nor
+    hitting anything, when the episode ran out. Success counts neither such a stall nor
+    the goal the episode ran out on (the attempt is cut), so a driver that stands still
+    never counts as failing; ``env.attempt_limit`` counts each as a time-out. Empty if
+    none stalled, or without the driving time."""
     if not rows or any(r.get(c) in (None, "") for r in rows for c in ("cut", "drive_s")):
         return ""
     long: dict[str, list[int]] = {}
     for r in rows:
         counts = long.setdefault(row_arm(r), [0, 0])
+        counts[1] += 1
         wait = cut_wait_s(r)
-        if wait is not None:
-            counts[1] += 1
-            counts[0] += wait > over
+        counts[0] += wait is not None and wait > over
+    limit = int(round(over / DT_S))
     return "\n".join(
-        f"{arm}: {k} of the {n} episodes that ended on a cut attempt had waited in it over "
-        f"{over:g} s; success leaves such waits out (env.attempt_limit counts them as "
-        "time-outs)"
+        f"{arm}: stalled in {k} of its {n} test episodes: on one goal for over {over:g} s, "
+        "neither reaching it nor hitting anything, when the episode ran out. Success "
+        "leaves such a stall out (the episode ran out, not the attempt); "
+        f"env.attempt_limit={limit} (steps of {DT_S:g} s) counts each as a time-out."
         for arm in arms_in(long)
         for k, n in [long[arm]]
         if k

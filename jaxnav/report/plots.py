@@ -19,13 +19,13 @@
 * ``episode.gif``: that test episode of one arm (EBE if trained) on the first test
   maze: robot, LiDAR beams, goal (:mod:`jaxnav.report.fig_episode`).
 
-``python -m jaxnav.evaluate RUN_DIR --robustness`` draws ``robustness.png`` beside its
+``jaxnav evaluate RUN_DIR --robustness`` draws ``robustness.png`` beside its
 table with :func:`plot_robustness` (:mod:`jaxnav.report.fig_robustness`).
 
-The test episodes are those ``jaxnav.evaluate`` recorded in eval/trajectories.npz
+The test episodes are those ``jaxnav evaluate`` recorded in eval/trajectories.npz
 (episode 1 of the config's seed, greedy test); a run that has not been evaluated on
 these mazes gets the training figures only. Every figure is drawn from files: nothing
-here runs the environment or a network. The command is ``python -m jaxnav.plots``.
+here runs the environment or a network. The command is ``jaxnav plots``.
 """
 
 from __future__ import annotations
@@ -47,7 +47,7 @@ from jaxnav.report.fig_common import (
     safe_name,
 )
 from jaxnav.report.fig_episode import FOOTPRINT, GIF_MAX_BYTES, GIF_MAX_FRAMES, animate_episode
-from jaxnav.report.fig_evaluation import plot_greedy_evaluation
+from jaxnav.report.fig_evaluation import greedy_evaluation_note, plot_greedy_evaluation
 from jaxnav.report.fig_failures import plot_failures
 from jaxnav.report.fig_robustness import ROBUSTNESS_MODE, plot_robustness
 from jaxnav.report.fig_sweep import plot_sweep
@@ -178,11 +178,25 @@ def make_plots(
         swept = plot_sweep(results.read_text(), out / "sweep.png", f"Sweep of {run_dir.name}")
         written += [swept] if swept is not None else []
     written += plot_failure_maps(run_dir, out)
+    evaluated_note = "" if evaluated is not None else greedy_evaluation_note(run_dir)
+    if evaluated_note:
+        print(f"jaxnav plots: {evaluated_note}", file=sys.stderr)
     tests = plot_test_episodes(run_dir, out, maze_names)
     if not tests:
-        print(
-            f"jaxnav.plots: {run_dir} has no test episodes of these mazes: run "
-            f"python -m jaxnav.evaluate {run_dir} for the trajectory figures",
-            file=sys.stderr,
-        )
+        print(f"jaxnav plots: {untested_note(run_dir, maze_names)}", file=sys.stderr)
     return written + tests
+
+
+def untested_note(run_dir: Path, maze_names: Sequence[str] | None = None) -> str:
+    """Why a run has no trajectory figures, naming the mazes and the command that
+    records their test episodes."""
+    cfg = load_config(str(run_dir / rundir.CONFIG))
+    names = list(maze_names) if maze_names else list(cfg.run.test_mazes)
+    mazes = ", ".join(names) if names else "its test mazes"
+    tested = (run_dir / "eval" / "trajectories.npz").is_file()
+    why = "has no test episodes of " + mazes if tested else "was not tested yet"
+    more = f" --mazes {' '.join(names)}" if maze_names else ""
+    return (
+        f"{run_dir} {why}: `jaxnav evaluate {run_dir}{more}` tests it on {mazes} and "
+        "records the episodes the trajectory figures and the GIF are drawn from"
+    )

@@ -1,6 +1,6 @@
 """A trained policy on a real TurtleBot3: a policy file, read and run with NumPy alone.
 
-``python -m jaxnav.export RUN_DIR [--strategy ebe] [--seed K] [--out policy.npz]``
+``jaxnav export RUN_DIR [--strategy ebe] [--seed K] [--out policy.npz]``
 writes one trained Q-network of a run to a portable ``.npz`` (plain arrays, no
 pickle), together with everything needed to feed it:
 
@@ -15,11 +15,11 @@ pickle), together with everything needed to feed it:
                     (format version 7)
     maze/walls, maze/obstacles, maze/start   the training maze's geometry
 
-``python -m jaxnav.export --info POLICY.npz`` prints the metadata.
+``jaxnav export --info POLICY.npz`` prints the metadata.
 
-On the robot, :class:`Policy` needs only NumPy: this module imports nothing else
-of jaxnav (a contract in pyproject.toml checks that it never imports JAX), so
-``deploy.py`` copied alone runs next to a ROS node::
+On the robot, :class:`Policy` needs only NumPy: this module imports nothing else of
+jaxnav but :mod:`jaxnav.robot.scan` (a contract in pyproject.toml checks that neither
+imports JAX), so ``deploy.py`` and ``scan.py`` copied next to a ROS node run there::
 
     policy = Policy.load("policy.npz")
     linear, angular = policy.command(scan.ranges, scan.angle_min, scan.angle_increment,
@@ -83,9 +83,9 @@ tanh; the robot drives the mean command: a = tanh(mean), speed = low + (a_0 + 1)
 that command as the firmware drives it where the run modelled the wheel limit
 (``wheel_limit``: the constants of :func:`jaxnav.world.kinematics.firmware_limit`).
 
-:class:`Controller` is what a ROS node does with the latest scan, odometry and goal
-(when to drive, when to stop, when a goal is reached), kept here so the ROS 1 and
-ROS 2 example nodes share it and it is tested without ROS.
+:class:`jaxnav.robot.controller.Controller` is what a ROS node does with a policy (when
+to drive, when to stop, when a goal is reached), shared by the ROS 1 and ROS 2 example
+nodes and tested without ROS.
 """
 
 from __future__ import annotations
@@ -94,16 +94,44 @@ import json
 import math
 import os
 from collections.abc import Sequence
-from typing import Any, NamedTuple
+from typing import Any
 
 import numpy as np
 
 try:  # inside the jaxnav package: its one error type
     from jaxnav.core.errors import PolicyError
-except ImportError:  # deploy.py copied alone next to a robot's node
+except ImportError:  # deploy.py copied next to a robot's node, without jaxnav
 
     class PolicyError(ValueError):
         """A policy file, or a scan or pose it cannot use; one-line message."""
+
+
+try:  # the scan's NumPy pieces: in the package, or scan.py beside this file
+    from jaxnav.robot.scan import (
+        _wrap,
+        clean_ranges,
+        goal_heading_distance,
+        nearest_rays,
+        pool_sectors,
+        scan_torso,
+        turned_changes,
+    )
+except ImportError:
+    import importlib.util
+    from pathlib import Path
+
+    _spec = importlib.util.spec_from_file_location(
+        "jaxnav_scan", Path(__file__).resolve().with_name("scan.py")
+    )
+    _scan = importlib.util.module_from_spec(_spec)
+    _spec.loader.exec_module(_scan)
+    _wrap, clean_ranges, goal_heading_distance = (
+        _scan._wrap,
+        _scan.clean_ranges,
+        _scan.goal_heading_distance,
+    )
+    nearest_rays, pool_sectors = _scan.nearest_rays, _scan.pool_sectors
+    scan_torso, turned_changes = _scan.scan_torso, _scan.turned_changes
 
 
 FORMAT = "jaxnav-policy"
@@ -140,190 +168,6 @@ OBSERVATIONS = ("robotis", "normalised")
 WHEEL = ("max_linear", "max_angular", "max_wheel", "wheel_separation")
 # Value given to invalid readings (0, nan, negative): the sensor's "no return".
 INVALID_READING = "max_range"
-
-
-# ----------------------------------------------------------------------------
-# Scan and pose -> observation (NumPy only)
-# ----------------------------------------------------------------------------
-
-
-def _wrap(a):
-    """Wrap angles to [-pi, pi), as jaxnav.world.geometry.wrap_angle."""
-    return (np.asarray(a, np.float64) + math.pi) % (2 * math.pi) - math.pi
-
-
-def beam_angles(n_beams: int, layout: str = "even") -> np.ndarray:
-    """f64[n_beams]: trained beam k looks at 2 pi k / n_beams in the robot frame, or at
-    2 pi k / (n_beams - 1) for a policy trained with Gazebo's inclusive layout."""
-    span = n_beams - 1 if layout == "gazebo" and n_beams > 1 else n_beams
-    return np.arange(n_beams, dtype=np.float64) * (2 * math.pi / span)
-
-
-def nearest_rays(
-    n_rays: int, angle_min: float, angle_increment: float, n_beams: int, layout: str = "even"
-) -> np.ndarray:
-    """i64[n_beams]: index of the scan ray nearest each trained beam direction.
-
-    Ray i of the scan points at ``angle_min + i * angle_increment`` (robot frame,
-    counter-clockwise). Distances between angles are circular; ties go to the lower
-    index. Raises ValueError if a beam has no ray within one increment (the scan
-    does not cover that direction).
-    """
-    angle_min, inc = float(angle_min), float(angle_increment)
-    if n_rays < 1:
-        raise ValueError("the scan has no rays")
-    if not (math.isfinite(angle_min) and math.isfinite(inc)) or (n_rays > 1 and inc == 0.0):
-        raise ValueError(f"bad scan angles (angle_min {angle_min}, angle_increment {inc})")
-    rays = angle_min + inc * np.arange(n_rays, dtype=np.float64)
-    angles = beam_angles(n_beams, layout)
-    gap = np.abs(_wrap(rays[None, :] - angles[:, None]))  # [n_beams, n_rays]
-    idx = np.argmin(gap, axis=1)
-    worst = gap[np.arange(n_beams), idx]
-    tol = abs(inc) * (1 + 1e-6) if n_rays > 1 else 1e-6
-    bad = np.flatnonzero(worst > tol)
-    if bad.size:
-        k = int(bad[0])
-        beam_deg, off_deg = math.degrees(angles[k]), math.degrees(worst[k])
-        raise ValueError(
-            f"the scan does not cover trained beam {k} at {beam_deg:.1f} deg (nearest ray "
-            f"{off_deg:.1f} deg away); the policy needs a 360-degree scan"
-        )
-    return idx
-
-
-def clean_ranges(
-    ranges: np.ndarray, min_range: float, max_range: float, invalid: float | None = None
-) -> np.ndarray:
-    """f64 ranges as the trained LiDAR gives them: no-return and invalid readings
-    replaced, then clipped to [min_range, max_range].
-
-    +inf -> max_range; -inf -> min_range; 0, nan, negative -> ``invalid``
-    (default max_range, see the module docstring).
-    """
-    r = np.asarray(ranges, np.float64)
-    invalid = max_range if invalid is None else float(invalid)
-    out = np.where(np.isposinf(r), max_range, r)
-    out = np.where(np.isneginf(r), min_range, out)
-    out = np.where(np.isnan(r) | (np.isfinite(r) & (r <= 0.0)), invalid, out)
-    return np.clip(out, min_range, max_range)
-
-
-def pool_sectors(ranges: np.ndarray, n_beams: int) -> np.ndarray:
-    """The least range of each of ``n_beams`` sectors of an evenly spread scan of m x
-    ``n_beams`` ranges, sector k centred on beam k (offsets -(m // 2) .. m - 1 - m // 2),
-    as :func:`jaxnav.world.sensor.pooled_ranges`."""
-    r = np.asarray(ranges, np.float64)
-    m = r.shape[-1] // n_beams
-    return np.roll(r, m // 2, axis=-1).reshape(*r.shape[:-1], n_beams, m).min(axis=-1)
-
-
-def turned_changes(
-    scan: np.ndarray, history: np.ndarray, turned: np.ndarray, gain: float
-) -> np.ndarray:
-    """f32[k, n]: each beam's change since each earlier scan of ``history`` f32[k, n],
-    that scan seen from the heading the robot has turned to since it (``turned`` f[k]
-    rad, counter-clockwise). The NumPy twin of
-    :func:`jaxnav.world.sensor.turned_changes` (this file imports nothing of jaxnav):
-    beam i now points where beam i + turned n / (2 pi) pointed; between the earlier
-    scan's two beams there, c (the nearer) and d, it saw anything from c to
-    c + 2 min(f, 1 - f) (d - c); the change is how far beam i lies outside that, times
-    ``gain``, clipped to [-1, 1]."""
-    n = history.shape[-1]
-    at = np.arange(n, dtype=np.float32)[None, :] + np.asarray(turned, np.float32)[:, None] * (
-        np.float32(n / (2 * math.pi))
-    )
-    below = np.floor(at)
-    f = at - below
-    i0 = below.astype(np.int64) % n
-    a = np.take_along_axis(history, i0, axis=1)
-    b = np.take_along_axis(history, (i0 + 1) % n, axis=1)
-    near, far = np.where(f < 0.5, a, b), np.where(f < 0.5, b, a)
-    reach = near + 2.0 * np.minimum(f, 1.0 - f) * (far - near)
-    seen = np.clip(scan[None, :], np.minimum(near, reach), np.maximum(near, reach))
-    return np.clip((scan[None, :] - seen) * gain, -1.0, 1.0).astype(np.float32)
-
-
-def circular_conv(x: np.ndarray, kernel: np.ndarray, bias: np.ndarray) -> np.ndarray:
-    """f64[..., ceil(w / 2), F]: one circular convolution over the beams of x f[..., w, C]
-    with ``kernel`` f[5, C, F] and ``bias`` f[F], ReLU after it: output o sums tap t's
-    kernel times beam (2 o + t - 2) mod w. The NumPy twin of
-    :class:`jaxnav.agent.networks.CircularConv`."""
-    x = np.asarray(x, np.float64)
-    width, taps = x.shape[-2], kernel.shape[0]
-    out = -(-width // 2)
-    idx = (2 * np.arange(out)[:, None] + np.arange(taps)[None, :] - taps // 2) % width
-    patches = x[..., idx, :].reshape(x.shape[:-2] + (out, -1))  # [..., out, taps * C]
-    k = np.asarray(kernel, np.float64).reshape(-1, kernel.shape[-1])
-    return np.maximum(patches @ k + np.asarray(bias, np.float64), 0.0)
-
-
-def scan_torso(obs: np.ndarray, convs, layout: Sequence[int]) -> np.ndarray:
-    """f64[..., m]: normalised observations f[..., obs_size] through the scan
-    convolutions ``convs`` ((kernel, bias) each): the scan and each of ``layout``'s
-    (beams, gap, history) history blocks as channels, convolved, flattened, then the
-    observation's other values in their order (as :class:`jaxnav.agent.networks.ScanTorso`)."""
-    beams, gap, history = (int(v) for v in layout)
-    x = np.asarray(obs, np.float64)
-    start, end = beams + gap, beams + gap + history * beams
-    blocks = [x[..., :beams]]
-    blocks += [x[..., start + k * beams : start + (k + 1) * beams] for k in range(history)]
-    y = np.stack(blocks, axis=-1)
-    for kernel, bias in convs:
-        y = circular_conv(y, kernel, bias)
-    y = y.reshape(y.shape[:-2] + (-1,))
-    return np.concatenate([y, x[..., beams:start], x[..., end:]], axis=-1)
-
-
-def goal_heading_distance(pose: Sequence[float], goal: Sequence[float]) -> tuple[float, float]:
-    """Heading to the goal relative to yaw, in [-pi, pi), and distance to it."""
-    x, y, yaw = (float(v) for v in pose)
-    gx, gy = (float(v) for v in goal)
-    if not all(math.isfinite(v) for v in (x, y, yaw, gx, gy)):
-        raise ValueError(f"pose {tuple(pose)} and goal {tuple(goal)} must be finite")
-    heading = float(_wrap(math.atan2(gy - y, gx - x) - yaw))
-    return heading, math.hypot(gx - x, gy - y)
-
-
-def yaw_from_quaternion(x: float, y: float, z: float, w: float) -> float:
-    """Yaw (rotation about z, counter-clockwise) of a unit quaternion, as odometry sends it."""
-    return math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
-
-
-# ----------------------------------------------------------------------------
-# ROS 2: which message /cmd_vel carries
-# ----------------------------------------------------------------------------
-
-# Distributions before Jazzy take a plain Twist on /cmd_vel: turtlebot3_bringup loads
-# enable_stamped_cmd_vel: false for humble, its one target before Jazzy, and true for
-# the rest; foxy, galactic and iron are taken to be like humble.
-TWIST_DISTROS = ("foxy", "galactic", "humble", "iron")
-STAMPED_RCLPY = 7  # Jazzy's rclpy is 7.x; Humble's 3.x, Iron's 4.x
-
-
-def default_stamped(distro: str | None, rclpy_version: str | None) -> tuple[bool, str]:
-    """(TwistStamped?, why) for /cmd_vel: Twist on Humble and older, stamped after;
-    from ROS_DISTRO, or where that is unset from rclpy's version. The ROS 2 policy node
-    publishes, and the MuJoCo robot node (jaxnav.robot.mujoco_ros2) takes, this type."""
-    if distro:
-        stamped = distro.strip().lower() not in TWIST_DISTROS
-        return stamped, f"ROS_DISTRO={distro}"
-    try:
-        major = int(str(rclpy_version).split(".")[0])
-    except ValueError:
-        return True, "ROS_DISTRO unset and rclpy's version unknown"
-    return major >= STAMPED_RCLPY, f"ROS_DISTRO unset, rclpy {rclpy_version}"
-
-
-def rclpy_version() -> str | None:
-    """The installed rclpy's version (a distribution's or PyPI's ros-rclpy), or None."""
-    from importlib import metadata
-
-    for name in ("rclpy", "ros-rclpy"):
-        try:
-            return metadata.version(name)
-        except metadata.PackageNotFoundError:
-            pass
-    return None
 
 
 # ----------------------------------------------------------------------------
@@ -517,7 +361,7 @@ class Policy:
 
     @classmethod
     def load(cls, path: str | os.PathLike) -> Policy:
-        """Read a policy written by ``python -m jaxnav.robot.deploy export``."""
+        """Read a policy written by ``jaxnav export``."""
         try:
             with np.load(path, allow_pickle=False) as data:
                 arrays = {k: data[k] for k in data.files}
@@ -686,135 +530,3 @@ class Policy:
         self.history = None
         self.history_yaws = None
         self._scan = None
-
-
-# ----------------------------------------------------------------------------
-# A policy node's decisions, without ROS
-# ----------------------------------------------------------------------------
-
-# Why a Command drives or stops -> the level a node logs its message at ("": quiet).
-REASONS = {
-    "drive": "",
-    "no goal": "",
-    "reached": "info",
-    "waiting": "warn",
-    "stale": "warn",
-    "frame": "warn",
-    "bad input": "error",
-}
-
-
-class Command(NamedTuple):
-    """A twist for /cmd_vel and why: ``reason`` is "drive" or why the robot stops."""
-
-    linear: float  # m/s
-    angular: float  # rad/s, + counter-clockwise
-    reason: str  # a key of REASONS
-    message: str  # what to log, "" for nothing
-
-    @property
-    def level(self) -> str:
-        """How loudly a node logs the message: "" (not at all), "info", "warn" or "error"."""
-        return REASONS[self.reason]
-
-
-def _stop(reason: str, message: str = "") -> Command:
-    return Command(0.0, 0.0, reason, message)
-
-
-def _frame(frame_id: str) -> str:
-    """A frame id without ROS 1's optional leading slash ("/odom" is "odom")."""
-    return str(frame_id or "").lstrip("/")
-
-
-class Controller:
-    """The latest scan, odometry and goal of a policy node, and the twist they give.
-
-    A node hands in each message with its receive time (seconds on the node's clock),
-    publishes :meth:`decide` after each scan (one action per scan, as in training)
-    and :meth:`watchdog`'s stop, if any, from a timer, since a node that acts only
-    on scans would otherwise leave the last command running when the LiDAR goes
-    quiet. The robot stops (zero twist) unless there is a goal, a scan and odometry
-    each at most ``stale_after`` s old, the goal is in the odometry's frame (no TF
-    lookup), and the scan and pose are usable; within ``goal_tolerance`` of the goal
-    it stops and clears the goal. Not thread-safe: a node with concurrent callbacks
-    holds a lock around every call.
-    """
-
-    def __init__(
-        self,
-        policy: Policy,
-        stale_after: float = 0.5,
-        goal_tolerance: float | None = None,
-        invalid: float | None = None,
-    ):
-        self.policy = policy
-        self.stale_after = float(stale_after)
-        tolerance = policy.goal_radius if goal_tolerance is None else goal_tolerance
-        self.goal_tolerance = float(tolerance)
-        self.invalid = invalid  # value of 0 / nan readings, None: the policy's max range
-        self.scan: tuple[np.ndarray, float, float, float] | None = None  # ranges, angles, time
-        self.odom: tuple[tuple[float, float, float], str, float] | None = None  # pose, frame, t
-        self.goal: tuple[tuple[float, float], str] | None = None  # (x, y), frame
-
-    def on_scan(
-        self, ranges: Sequence[float], angle_min: float, angle_increment: float, now: float
-    ) -> None:
-        self.scan = (np.asarray(ranges, np.float64), angle_min, angle_increment, now)
-
-    def on_odom(self, pose: Sequence[float], frame_id: str, now: float) -> None:
-        """Odometry pose (x, y, yaw) in frame ``frame_id``."""
-        x, y, yaw = (float(v) for v in pose)
-        self.odom = ((x, y, yaw), _frame(frame_id), now)
-
-    def on_goal(self, goal: Sequence[float], frame_id: str) -> None:
-        """A new goal (x, y), replacing the current one; ValueError if not finite."""
-        x, y = (float(v) for v in goal)
-        if not (math.isfinite(x) and math.isfinite(y)):
-            raise ValueError(f"goal ({x}, {y}) is not finite")
-        self.goal = ((x, y), _frame(frame_id))
-
-    def _age_ok(self, t: float, now: float) -> bool:
-        return 0.0 <= now - t <= self.stale_after  # a negative age: the clock jumped back
-
-    def decide(self, now: float) -> Command:
-        """The twist for now: the policy's greedy action, or a stop and why."""
-        command = self._decide(now)
-        if command.reason != "drive":  # stopped: the policy's last command is (0, 0)
-            self.policy.rest()
-        return command
-
-    def _decide(self, now: float) -> Command:
-        if self.goal is None:
-            return _stop("no goal")
-        if self.scan is None or self.odom is None:
-            return _stop("waiting", "no scan or odometry yet: stopped")
-        ranges, angle_min, angle_increment, t_scan = self.scan
-        pose, odom_frame, t_odom = self.odom
-        old = [n for n, t in (("scan", t_scan), ("odometry", t_odom)) if not self._age_ok(t, now)]
-        if old:
-            return _stop("stale", f"{' and '.join(old)} older than {self.stale_after:g} s: stopped")
-        goal, goal_frame = self.goal
-        if goal_frame and odom_frame and goal_frame != odom_frame:
-            return _stop(
-                "frame",
-                f"goal is in frame '{goal_frame}', not the odometry frame '{odom_frame}': stopped",
-            )
-        if math.hypot(goal[0] - pose[0], goal[1] - pose[1]) < self.goal_tolerance:
-            self.goal = None
-            return _stop(
-                "reached", f"goal ({goal[0]:.2f}, {goal[1]:.2f}) reached: stopped; send a new goal"
-            )
-        try:
-            linear, angular = self.policy.command(
-                ranges, angle_min, angle_increment, pose, goal, self.invalid
-            )
-        except ValueError as e:  # a scan that does not cover 360 degrees, a nan pose
-            return _stop("bad input", f"cannot act on this scan and pose: {e}; stopped")
-        return Command(linear, angular, "drive", "")
-
-    def watchdog(self, now: float) -> Command | None:
-        """A stop while no fresh scan arrives (None while scans do: they drive)."""
-        if self.scan is not None and self._age_ok(self.scan[3], now):
-            return None
-        return self.decide(now)

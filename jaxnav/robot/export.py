@@ -1,4 +1,4 @@
-"""``python -m jaxnav.export RUN_DIR [--strategy ebe] [--seed K] [--out policy.npz]``
+"""``jaxnav export RUN_DIR [--strategy ebe] [--seed K] [--out policy.npz]``
 
 Exports one trained Q-network of a run to a portable policy file (plain NumPy
 arrays, no pickle) with everything needed to feed it on a robot: the observation
@@ -31,8 +31,8 @@ from jaxnav.robot.deploy import (
     INVALID_READING,
     NORMS_VERSION,
     TURNED_VERSION,
-    scan_torso,
 )
+from jaxnav.robot.scan import scan_torso
 from jaxnav.world import kinematics
 from jaxnav.world.sensor import HISTORY_CHANGE_GAIN
 
@@ -63,7 +63,7 @@ def export_policy(
         raise PolicyError(
             f"{params_path} has no parameters for {strategy} seed {seed} (it has {have or 'none'})"
         )
-    env, params = from_config(cfg)
+    env, params = from_config(cfg, prepare=False)
     if env.waypoint:
         raise PolicyError(
             f"{run_dir}: a policy trained with env.waypoint cannot be exported yet "
@@ -197,7 +197,7 @@ def _dense_layers(net: dict, obs_size: int, num_actions: int, params_path: Path)
 
 def _torso_width(env, torso: dict, convs: list[str]) -> int:
     """The first dense layer's input width: the observation's, or what the robot's
-    NumPy twin of the scan convolutions (:func:`jaxnav.robot.deploy.scan_torso`) makes
+    NumPy twin of the scan convolutions (:func:`jaxnav.robot.scan.scan_torso`) makes
     of one."""
     if not convs:
         return env.obs_size

@@ -36,7 +36,7 @@ from typing import NamedTuple
 import numpy as np
 
 from jaxnav.core.settings import BURGER_MAX_OMEGA, BURGER_MAX_V
-from jaxnav.robot.deploy import Policy, goal_heading_distance, yaw_from_quaternion
+from jaxnav.robot.deploy import Policy
 from jaxnav.robot.mujoco_model import (
     MAZE_GROUP,
     TIMESTEP,
@@ -45,6 +45,7 @@ from jaxnav.robot.mujoco_model import (
     mujoco_module,
     wheel_speeds,
 )
+from jaxnav.robot.scan import goal_heading_distance, yaw_from_quaternion
 from jaxnav.world.kinematics import firmware_limit
 from jaxnav.world.polygons import point_segment_distance
 

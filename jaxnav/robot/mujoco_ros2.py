@@ -25,7 +25,7 @@ DDS:
   /cmd_vel       geometry_msgs/Twist or TwistStamped (parameter
                  ``enable_stamped_cmd_vel``, default as turtlebot3_node's and the
                  policy node's: Twist on Humble and older, TwistStamped on Jazzy and
-                 later; :func:`jaxnav.robot.deploy.default_stamped`): linear.x and
+                 later; :func:`jaxnav.robot.controller.default_stamped`): linear.x and
                  angular.z become the wheel servos' speeds, through the firmware's
                  clipping with ``wheel_limit`` (:mod:`jaxnav.world.kinematics`). As the
                  OpenCR firmware does, the wheels stop when no command has come for
@@ -64,7 +64,7 @@ from pathlib import Path
 import numpy as np
 
 from jaxnav.core.errors import JaxnavError
-from jaxnav.robot.deploy import default_stamped, rclpy_version
+from jaxnav.robot.controller import default_stamped, rclpy_version
 from jaxnav.robot.mujoco_model import WHEEL_RADIUS, WHEEL_SEPARATION, mujoco_module
 from jaxnav.robot.mujoco_rollout import LIDAR_NOISE_STD, N_RAYS, Burger
 

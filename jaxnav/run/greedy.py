@@ -1,19 +1,19 @@
 """The greedy evaluation of every run while it trains (``run.eval_every``).
 
-At the first chunk end at or past every multiple of ``run.eval_every`` env steps
-(and once when training ends), each run's current policy plays
-``run.eval_episodes`` consecutive episodes greedily (argmax Q, dropout off, no
-exploration) in the training environment (with drawn mazes, layouts of the training
-split, a new one every episode, whatever ``env.new_maze_every``): the test rollout of
-finished runs, :func:`jaxnav.agent.rollout.make_rollout`, with the same key as
-``jaxnav evaluate``
-(:func:`jaxnav.agent.rollout.eval_keys`) at every evaluation. The evaluation only
+At every multiple of ``run.eval_every`` env steps (the first point past it where the
+logs' blocks are whole, :meth:`GreedyEval.due_at`; and once when training ends), each
+run's current policy plays ``run.eval_episodes`` consecutive episodes greedily (argmax
+Q, dropout off, no exploration) in the training environment (with drawn mazes, layouts
+of the training split, a new one every episode, whatever ``env.new_maze_every``): the
+test rollout of finished runs, :func:`jaxnav.agent.rollout.make_rollout`, with the same
+key as ``jaxnav evaluate`` (:func:`jaxnav.agent.rollout.eval_keys`) at every
+evaluation. The evaluation only
 reads the training state, so training's numbers are those of a run without it.
 
 One row per run and evaluation goes to ``eval.csv`` (:data:`EVAL_COLUMNS`), appended
 with the chunk's logs before its checkpoint, so a resumed run cuts it back as it
-does metrics.csv. Chunks are cut at the evaluations (:meth:`GreedyEval.chunk_end`)
-only where the logs' blocks of env steps stay as they are without evaluation.
+does metrics.csv. An evaluation comes at a step fixed by the config
+(:meth:`GreedyEval.due_at`), wherever the host loop ends its chunks: a chunk is cut there.
 
 With ``run.keep_best`` each evaluation also plays ``run.eval_episodes`` held-out
 episodes (keys with VALID_SALT, neither the test's nor training's), and each run keeps
@@ -202,16 +202,20 @@ class GreedyEval:
         else:
             self.log.path.unlink(missing_ok=True)
 
-    def chunk_end(self, step: int, n: int) -> int:
-        """The env steps of the next chunk from ``step`` (the runs' lockstep count):
-        at most ``n``, the chunk without evaluation, and ending at the first point at or
-        past the next multiple where the chunk can be cut without changing the logs:
-        a whole number of ``grain`` steps after the chunk's start without evaluation
-        (a multiple of the chunk length), and never past that chunk's end."""
-        base = step // self.chunk_length * self.chunk_length
-        due = (self.done + 1) * self.every
+    def due_at(self, k: int) -> int:
+        """The lockstep env step of the ``k``-th evaluation: the first point at or past
+        ``k * run.eval_every`` that is a whole number of ``grain`` steps after the start
+        of its ``chunk_length`` window, or that window's end. It depends on the config
+        alone, not on where the host loop ends its chunks (it cuts one there)."""
+        due = k * self.every
+        base = (due - 1) // self.chunk_length * self.chunk_length
         cut = base + -(-(due - base) // self.grain) * self.grain
-        return min(n, base + self.chunk_length - step, cut - step)
+        return min(cut, base + self.chunk_length)
+
+    def chunk_end(self, step: int, n: int) -> int:
+        """The env steps of the next chunk from ``step`` (the runs' lockstep count): at
+        most ``n``, and ending at the next evaluation (:meth:`due_at`) if it comes first."""
+        return min(n, self.due_at(self.done + 1) - step)
 
     def _offer(self, ts, steps: np.ndarray) -> None:
         """Play the held-out episodes and offer the policies to :attr:`best`."""
@@ -236,7 +240,7 @@ class GreedyEval:
         wall_s = process_age()
         steps = self.shard.get(ts.step)
         step = int(steps.max())  # the lockstep count: every run still training has it
-        if not (step // self.every > self.done or (finished and step % self.every)):
+        if not (step >= self.due_at(self.done + 1) or (finished and step % self.every)):
             return []
         self.done = step // self.every
         res = self.rollout(ts.params, self.keys, ts.strategy, ts.hyper, self.env_params)

@@ -18,7 +18,7 @@ def confirm_memory(cfg: Config, yes: bool, quiet: bool) -> None:
         return
     from jaxnav.env import from_config  # JAX only where a bank is sized
 
-    per = from_config(cfg)[0].layout_bytes()
+    per = from_config(cfg, prepare=False)[0].layout_bytes()
     bank = per * cfg.env.maze_bank
     if not quiet:
         print(

@@ -19,15 +19,13 @@ the first one, removes what the command made (:func:`interrupted_text` says whic
 
 from __future__ import annotations
 
-import contextlib
 import functools
 import json
 import os
 import platform
-import shlex
-import shutil
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -38,8 +36,8 @@ from jaxnav.agent import replay
 from jaxnav.agent.sharding import RunSharding, is_writer
 from jaxnav.agent.trainer import Trainer, run_inputs, run_limits, still_training
 from jaxnav.core import agents, rundir, startup, sweep
-from jaxnav.core.config import Config, dump_config, load_config
-from jaxnav.core.errors import ConfigError, RunError
+from jaxnav.core.config import Config
+from jaxnav.core.errors import RunError
 from jaxnav.core.startup import process_age
 from jaxnav.report.navigation import last_episodes, training_outcomes
 from jaxnav.run import tblog
@@ -55,7 +53,15 @@ from jaxnav.run.checkpoint import (
     without_rows,
 )
 from jaxnav.run.greedy import GreedyEval
-from jaxnav.world.maps import make_maze
+from jaxnav.run.logs import (
+    EXPLORE_BLOCK,
+    NONE_PENDING,
+    Pending,
+    explore_rows,
+    pending_arrays,
+    restored_pending,
+    ring_at,
+)
 
 # A swept run's logs have one more column per swept key, named by it, after "strategy"
 # (jaxnav.core.sweep.with_swept).
@@ -65,7 +71,6 @@ METRIC_COLUMNS = ("strategy", "seed", "episode", "return", "length", "goals", "c
 ATTEMPT_COLUMNS = ("successes", "collisions", "timeouts", "cut")
 EXPLORE_COLUMNS = ("strategy", "seed", "step", "explore")
 
-EXPLORE_BLOCK = 100  # env steps averaged per row of explore.csv
 PROGRESS_EPISODES = 20  # episodes per seed in the progress bar's mean return
 
 # ----------------------------------------------------------------------------
@@ -122,6 +127,18 @@ class Run:
         self.computed = 0
         self.compile_s = self.startup_s = None  # this session's, see compile_chunk
         self.diverged: dict[int, int] = {}  # run index -> env step it diverged at
+        # called once the final files are written, inside the block a Ctrl-C waits for
+        # (jaxnav.run.launch says so in the interrupted line)
+        self.on_finished: Callable[[], None] = lambda: None
+        # Chunks are cut by time (run.chunk_s), after whole steps of the trainer, at least
+        # a block of the logs' each (a one-step chunk would cost more than it trains);
+        # the logs and evaluations are those of any other cut (explore_blocks, GreedyEval).
+        size = self.trainer.step_size
+        self.grain = -(-EXPLORE_BLOCK // size) * size
+        self.rate: float | None = None  # lockstep env steps per second, last chunk
+        # per run, the explore.csv block a chunk ended inside (jaxnav.run.logs.Pending)
+        self.pending: list[Pending] = [NONE_PENDING] * cfg.n_runs
+        self.ring_at = jax.jit(ring_at)
 
     # -- state ---------------------------------------------------------------
 
@@ -162,6 +179,7 @@ class Run:
         self.diverged = {int(r): int(diverged_at[r]) for r in np.flatnonzero(diverged_at >= 0)}
         self.logged = host["logged"].astype(np.int64)
         self.wall = float(host["wall"])
+        self.pending = restored_pending(host, cfg.n_runs)
         # -1: unknown (a checkpoint of an earlier version did not count)
         self.computed = int(host.get("computed", -1))
         metrics_size, explore_size = (int(x) for x in host["csv_sizes"])
@@ -196,7 +214,22 @@ class Run:
             return 0
         size = trainer.step_size
         n = int(min(trainer.chunk_length, -(-left[active].max() // size) * size))
-        return n if self.greedy is None else self.greedy.chunk_end(int(step.max()), n)
+        now = int(step.max())
+        n = n if self.greedy is None else self.greedy.chunk_end(now, n)
+        return min(n, self.timed_steps(now))
+
+    def timed_steps(self, step: int) -> int:
+        """The env steps a chunk from lockstep ``step`` takes to last about ``run.chunk_s``
+        at the last chunk's pace (one trainer step for the first): whole steps of the
+        trainer, never past the end of the ``chunk_length`` window the chunk lies in."""
+        length, aim = self.trainer.chunk_length, self.cfg.run.chunk_s
+        to_end = (step // length + 1) * length - step
+        if not aim:  # every chunk as long as compiled
+            return to_end
+        if self.rate is None:
+            return min(to_end, self.grain)
+        grains = max(1, int(self.rate * aim) // self.grain)
+        return min(to_end, grains * self.grain)
 
     def check_divergence(self, ts: Any) -> list[str]:
         """Runs that diverged in the last chunk, each described in words."""
@@ -218,42 +251,54 @@ class Run:
     # -- per chunk -----------------------------------------------------------
 
     def new_episodes(self, ts: Any) -> list[tuple]:
-        """metrics.csv rows of the episodes finished in the last chunk."""
-        m, episodes = self.shard.get((ts.metrics, ts.episode))
+        """metrics.csv rows of the episodes finished in the last chunk (only their
+        slots of the ring are copied to the host)."""
+        episodes = self.shard.get(ts.episode)
         slots = self.trainer.metric_slots
+        new = int((episodes - self.logged).max(initial=0))
+        if new == 0:
+            return []
+        width = 1 << (new - 1).bit_length()  # few program shapes: powers of two
+        at = (self.logged[:, None] + np.arange(width)[None, :]) % slots
+        m = self.shard.get(self.ring_at(ts.metrics, self.shard.put(at.astype(np.int32))))
         rows = []
         for r, label in enumerate(self.labels):
             for e in range(self.logged[r], episodes[r]):
-                i = e % slots
-                ret = float(m.ep_return[r, i])
+                i = e - self.logged[r]
+                ret = float(m["ep_return"][r, i])
                 row = (
                     *self.fields[r],
                     e,
                     f"{ret:.6g}",
-                    int(m.ep_length[r, i]),
-                    int(m.ep_goals[r, i]),
-                    int(m.ep_collided[r, i]),
-                    f"{float(m.ep_explore[r, i]):.6g}",
+                    int(m["ep_length"][r, i]),
+                    int(m["ep_goals"][r, i]),
+                    int(m["ep_collided"][r, i]),
+                    f"{float(m['ep_explore'][r, i]):.6g}",
                 )
                 if self.counts_attempts:
-                    row += tuple(int(getattr(m, f"ep_{c}")[r, i]) for c in ATTEMPT_COLUMNS)
+                    row += tuple(int(m[f"ep_{c}"][r, i]) for c in ATTEMPT_COLUMNS)
                 rows.append(row)
                 self._remember(label, dict(zip(self.metric_columns, map(str, row))))
             self.logged[r] = episodes[r]
         return rows
 
-    def explore_blocks(self, explore: np.ndarray, step_before: np.ndarray) -> list[tuple]:
-        """explore.csv rows: mean exploration per block of steps; ``explore`` is
-        [n_runs, chunk_steps], NaN once a run has finished."""
+    def explore_blocks(
+        self, explore: np.ndarray, step_before: np.ndarray, finished: np.ndarray
+    ) -> list[tuple]:
+        """explore.csv rows of the last chunk, run by run (:func:`jaxnav.run.logs.explore_rows`);
+        ``explore`` is [n_runs, chunk steps]. The blocks a chunk ended inside wait in
+        :attr:`pending` for the next chunk."""
         rows = []
         for r, fields in enumerate(self.fields):
-            col = explore[r]
-            for b in range(0, col.shape[0], EXPLORE_BLOCK):
-                block = col[b : b + EXPLORE_BLOCK]
-                block = block[~np.isnan(block)]
-                if len(block):
-                    mean = float(block.mean())
-                    rows.append((*fields, int(step_before[r]) + b, f"{mean:.6g}"))
+            mine, self.pending[r] = explore_rows(
+                explore[r],
+                int(step_before[r]),
+                self.trainer.chunk_length,
+                self.pending[r],
+                bool(finished[r]),
+                fields,
+            )
+            rows += mine
         return rows
 
     def save(
@@ -273,7 +318,7 @@ class Run:
         stays as it was (a segment it does not count is never read); the error goes on
         to the command's one-line report."""
         # every process: a gather across hosts is collective
-        state = self.shard.get(without_rows(ts))
+        state = self.shard.get(without_rows(ts)) if checkpoint else None
         rows = self.shard.get(self.rows_at(ts, slots)) if checkpoint else None
         if not is_writer():
             return
@@ -303,6 +348,7 @@ class Run:
                 "csv_sizes": sizes,
                 "segments": np.int64(segments),
                 "computed": np.int64(self.computed),
+                **pending_arrays(self.pending),
             }
             if self.greedy is not None and self.greedy.best is not None:
                 host |= self.greedy.best.arrays()
@@ -379,6 +425,9 @@ class Run:
         columns = self.metric_columns
         evals = None if self.greedy is None else self.greedy.log.header
         tb = tblog.TensorBoardLog(self.out, self.labels, columns, resumed, step, evals)
+        if not self.quiet:
+            where = self.out / "tensorboard"
+            print(f"TensorBoard: tensorboard --logdir {where} shows the curves", file=sys.stderr)
         if resumed and self.metrics.size():
             tb.add_episodes([tuple(r[c] for c in columns) for r in self.metrics.read()])
         return tb
@@ -397,6 +446,8 @@ class Run:
         bar = self._progress_bar(ts)
         tb = self._tensorboard(ts)
         chunk = self.compile_chunk(ts) if self.active(ts).any() else None
+        saved_step = self.shard.get(ts.step).copy()  # at the last checkpoint
+        saved_at = time.perf_counter()
         try:
             while self.active(ts).any():
                 before = self._done(ts)
@@ -406,6 +457,7 @@ class Run:
                 ts, log = chunk(ts, np.int32(n))
                 log = self.shard.get(log)  # waits for the chunk
                 dt = time.perf_counter() - t0
+                self.rate = n / max(dt, 1e-9)
                 self.wall += dt
                 if self.computed >= 0:
                     self.computed += n * self.cfg.n_runs
@@ -414,18 +466,26 @@ class Run:
                 stop = bool(diverged) and self.cfg.run.on_divergence == "stop"
                 # On a stop the finished episodes are kept and the last checkpoint
                 # (before the divergence) stays: a resume replays this chunk.
-                rows = self.new_episodes(ts), self.explore_blocks(log.explore, step_before)
-                done = not self.active(ts).any()
+                still = self.active(ts)
+                rows = self.new_episodes(ts), self.explore_blocks(log.explore, step_before, ~still)
+                done = not still.any()
                 evals = [] if self.greedy is None else self.greedy.evaluate(ts, done)
                 if tb is not None:  # before the checkpoint: a resume purges it, never misses it
                     tb.add_episodes(rows[0])
                     tb.add_steps(log.loss, log.max_q, int(step_before.max()))
                     tb.add_evals(evals)
                     tb.flush()
-                slots = chunk_slots(step_before, self.shard.get(ts.step), self.cfg.buffer_capacity)
+                # A checkpoint every run.checkpoint_s of training, and at the end; it
+                # holds the replay slots written since the last one.
+                due = time.perf_counter() - saved_at >= self.cfg.run.checkpoint_s
+                checkpoint = not stop and (due or done)
+                step_now = self.shard.get(ts.step)
+                slots = chunk_slots(saved_step, step_now, self.cfg.buffer_capacity)
                 if not has_replay(self.cfg):
                     slots = slots[:0]
-                self.save(ts, *rows, slots, checkpoint=not stop, eval_rows=evals)
+                self.save(ts, *rows, slots, checkpoint=checkpoint, eval_rows=evals)
+                if checkpoint:
+                    saved_step, saved_at = step_now.copy(), time.perf_counter()
                 if stop:
                     raise RunError(
                         f"training diverged: {diverged[0]}"
@@ -482,11 +542,13 @@ class Run:
             params = params_arrays(self.cfg, params)
             text = json.dumps(summary, indent=2) + "\n"
             with startup.no_interrupt():  # Ctrl-C: a finished run, or one to resume
+                for log in (self.metrics, self.explore):  # the same whatever the chunks
+                    log.group_by_run(self.fields)
                 rundir.atomic_write_npz(self.out / rundir.PARAMS, params)
                 rundir.atomic_write_text(self.out / rundir.SUMMARY, text)
                 if not self.keep_checkpoints:  # only after both: until then, resume needs them
                     rundir.remove_checkpoints(self.out)
-                _interrupt.update(finished=True)  # before the block ends: a Ctrl-C acts then
+                self.on_finished()  # before the block ends: a Ctrl-C acts then
         if len(self.diverged) == self.cfg.n_runs:
             raise RunError("training diverged: every run (summary.json lists them; lower dqn.lr)")
         return summary
@@ -500,127 +562,3 @@ def trainer_of(cfg: Config) -> Trainer:
 def has_replay(cfg: Config) -> bool:
     """Whether a config's agent keeps a replay memory (DQN does, PQN does not)."""
     return agents.get(cfg.agent).replay
-
-
-# ----------------------------------------------------------------------------
-# Starting and resuming
-# ----------------------------------------------------------------------------
-
-
-def _writer_lock(out: Path):
-    """The run directory's lock, held by the process that writes (process 0)."""
-    return rundir.Lock(out) if is_writer() else contextlib.nullcontext()
-
-
-# What a Ctrl-C left of the run this process trains: its directory, whether the
-# command made it, and how far it got; interrupted_text says it in words.
-_interrupt: dict[str, Any] = {}
-
-
-def interrupted_text() -> str:
-    """The line ``jaxnav.train`` ends with on Ctrl-C: what it left and how to go on."""
-    out, left = _interrupt.get("out"), _interrupt.get("left")
-    if out is None:
-        return "interrupted"
-    if _interrupt.get("finished"):
-        return (
-            f"interrupted after training finished: the results are in {out} "
-            f"({startup.invocation('plots')} {out} draws its figures)"
-        )
-    if left == "removed":
-        return f"interrupted before the first checkpoint; {out} was removed"
-    if left == "emptied":
-        return f"interrupted before the first checkpoint; {out} was left empty"
-    resume = startup.invocation("train")
-    return f"interrupted; the run can be resumed with {resume} --resume {shlex.quote(str(out))}"
-
-
-@contextlib.contextmanager
-def _tidy_on_interrupt(out: Path, made: bool | None):
-    """On Ctrl-C within the block: a run without a checkpoint has nothing worth
-    resuming, so what this command wrote goes (``made``: the whole directory, which it
-    created; False: its contents, the directory was there before; None, a resume:
-    nothing). Otherwise only this process's half-written temporary files go."""
-    _interrupt.clear()
-    _interrupt.update(out=out)
-
-    def tidy() -> None:
-        if not is_writer() or not out.is_dir():
-            return
-        resumable = (out / rundir.CHECKPOINT).is_file() or (out / rundir.PARAMS).is_file()
-        if resumable or made is None:
-            rundir.remove_stale_temps(out, pid=os.getpid())
-        elif made:
-            shutil.rmtree(out, ignore_errors=True)
-            _interrupt.update(left="removed")
-        else:
-            rundir.empty(out)
-            _interrupt.update(left="emptied")
-
-    with startup.on_interrupt(tidy):
-        yield
-
-
-def check_test_mazes(cfg: Config) -> None:
-    """Read every maze of ``run.test_mazes`` (a name or a maze file): one that does not
-    exist or load is a ConfigError naming it, before anything is trained or written,
-    not a failure at the test after training."""
-    for maze in cfg.run.test_mazes:
-        try:
-            make_maze(maze)
-        except ValueError as e:
-            raise ConfigError(f"config: run.test_mazes: {e}") from None
-
-
-def train_new(
-    cfg: Config,
-    out: Path,
-    quiet: bool = False,
-    overwrite: bool = False,
-    keep_checkpoints: bool = False,
-) -> dict[str, Any]:
-    """Start a new run in ``out`` (absent or empty; with ``overwrite``, an existing run
-    directory is emptied first, under its lock) and train it to the end."""
-    check_test_mazes(cfg)  # and Run builds the env first: a bad maze leaves no directory
-    run = Run(cfg, out, quiet, keep_checkpoints)
-    _ = run.start_params  # run.init_from read and checked before any file is written
-    replace = overwrite and (out / rundir.CONFIG).is_file()
-    with _tidy_on_interrupt(out, made=not out.exists()):
-        with startup.no_interrupt():
-            if is_writer() and not replace:
-                rundir.create(out)
-        with _writer_lock(out):
-            if is_writer():
-                with startup.no_interrupt():
-                    if replace:
-                        rundir.clear(out)
-                    rundir.atomic_write_text(out / rundir.CONFIG, dump_config(cfg))
-            return run.finish(run.train(run.fresh_state()))
-
-
-def resume(out: Path, quiet: bool = False, keep_checkpoints: bool = False) -> dict[str, Any]:
-    """Continue a run from its last checkpoint (or from the start if it has none). A
-    finished run whose checkpoints are gone has nothing left to train: its summary."""
-    out = rundir.existing(out)
-    cfg = load_config(str(out / rundir.CONFIG))
-    if rundir.finished(out):
-        with _writer_lock(out):
-            if is_writer():
-                rundir.remove_stale_temps(out)
-                rundir.remove_checkpoints(out)  # left by a finish that was killed
-            # as a resume with nothing left to train reports it: no start-up this time
-            return {**rundir.read_summary(out), "startup_s": None, "compile_s": None}
-    run = Run(cfg, out, quiet, keep_checkpoints)
-    with _tidy_on_interrupt(out, made=None), _writer_lock(out):
-        if is_writer():
-            rundir.remove_stale_temps(out)
-            run.checkpoint.parent.mkdir(exist_ok=True)  # killed before create() finished
-        if run.checkpoint.is_file():
-            ts = run.restored_state()
-        else:  # killed before its first checkpoint: start over
-            if is_writer():
-                run.metrics.path.unlink(missing_ok=True)
-                run.explore.path.unlink(missing_ok=True)
-                (out / rundir.EVAL).unlink(missing_ok=True)
-            ts = run.fresh_state()
-        return run.finish(run.train(ts))

@@ -118,7 +118,7 @@ def _conv(config: Config, env: NavEnv | None) -> dict:
     environment, made here if needed for the observation's layout)."""
     if not config.sac.scan_conv:
         return {}
-    env = from_config(config)[0] if env is None else env
+    env = from_config(config, prepare=False)[0] if env is None else env
     return {"scan_conv": tuple(config.sac.scan_conv), "scan_layout": env.scan_layout}
 
 

@@ -84,7 +84,7 @@ def make_trainer(config: Config) -> Trainer:
     step of every environment, then ``sac.updates`` gradient steps, the actor's in every
     ``sac.actor_every``-th), ``chunk`` and
     ``active``, driven by the host loop as DQN and PQN are."""
-    env, base_params = from_config(config)
+    env, base_params = from_config(config, prepare=False)
     budget = config.total_steps or 1  # env steps: the pace curriculum's span
     s = config.sac
     envs = s.num_envs

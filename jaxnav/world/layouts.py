@@ -54,6 +54,10 @@ class DrawnLayouts:
         """``maze_bank`` layouts drawn from ``key``, each as :meth:`_draw` gives it (maze,
         goal, cell distances or None), leaves with a leading axis of ``maze_bank``; drawn
         ``BANK_BATCH`` at a time side by side."""
+        family = self.family
+        if hasattr(family, "bank"):  # a family that fills a bank its own way (a mix)
+            maze, goal = family.bank(key, self.maze_bank, self.split, BANK_BATCH)
+            return maze, goal, None
         keys = jax.random.split(key, self.maze_bank)
         return jax.lax.map(self._draw, keys, batch_size=min(self.maze_bank, BANK_BATCH))
 

@@ -66,6 +66,14 @@ def draw_where(draw: Callable[..., Any], fresh, key, old, chunk: int = CHUNK, sh
 def _draw_needed(draw, fresh, key, old, n: int, chunk: int, shared=None, axes=None):
     """Over a batch of ``n``: ``old`` with ``draw(key[i], shared)`` at every i where
     ``fresh``; ``axes``: per leaf of ``shared``, 0 where it is batched, else None."""
+    if n == 1:
+        # One environment: a branch. A loop of at most one round would have its draw
+        # hoisted out of it by the compiler (its inputs do not change from round to
+        # round) and computed at every call.
+        def one():
+            return jax.vmap(draw, in_axes=(0, axes))(key, shared)
+
+        return jax.lax.cond(fresh[0], one, lambda: old)
     m = min(chunk, n)
     count = jnp.sum(fresh.astype(jnp.int32))
     needing = jnp.argsort(~fresh, stable=True)  # the fresh ones first, in batch order

@@ -64,8 +64,9 @@ import jax.numpy as jnp
 import numpy as np
 from flax import struct
 
-from jaxnav.core.config import shipped_path
 from jaxnav.core.errors import MazeError
+from jaxnav.core.shipped import shipped_path
+from jaxnav.core.values import yaml_mark
 from jaxnav.world.builtins import BUILTIN_MAZES, builtin, square
 from jaxnav.world.motion import Motion, pad_motion, parked
 from jaxnav.world.polygons import (
@@ -306,10 +307,13 @@ def _closed_polygon(value, what: str, where: str) -> np.ndarray:
     poly = pts[:-1]
     if np.any(np.linalg.norm(np.diff(np.vstack([poly, poly[:1]]), axis=0), axis=1) < 1e-9):
         raise MazeError(f"{where}: {what} has a repeated vertex")
+    flat = np.linalg.matrix_rank(poly - poly.mean(axis=0), tol=1e-9) < 2
+    if flat:  # every vertex on one line
+        raise MazeError(f"{where}: {what} encloses no area (its vertices lie on one line)")
+    if self_intersecting(poly):  # a bow tie's signed area can be 0 too: say what it is
+        raise MazeError(f"{where}: {what} crosses itself (two of its edges intersect)")
     if abs(signed_area(poly)) < 1e-9:
         raise MazeError(f"{where}: {what} encloses no area")
-    if self_intersecting(poly):
-        raise MazeError(f"{where}: {what} is self-intersecting")
     return poly
 
 
@@ -389,7 +393,7 @@ def _read_maze_yaml(path: str, where: str) -> dict:
     except FileNotFoundError:
         raise MazeError(f"{where}: no such file") from None
     except yaml.YAMLError as e:
-        line = getattr(getattr(e, "problem_mark", None), "line", None)
+        line = getattr(yaml_mark(e), "line", None)
         at = f" at line {line + 1}" if line is not None else ""
         raise MazeError(f"{where}: not valid YAML{at}") from None
     except OSError as e:

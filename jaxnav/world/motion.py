@@ -223,7 +223,7 @@ def step_clearance(maze, pos: chex.Array, yaw: chex.Array, omega, v, dt, time0) 
     along its exact arc (:func:`jaxnav.world.geometry.path_clearance`) and, in a maze
     whose ``motion`` is not None, the moving cylinders over the step's time
     (:func:`moving_clearance`). The robot collides iff this is below its radius; the
-    environment's step, the oracle and ``scripts/moving_search.py`` all test with it."""
+    environment's step, the oracle and ``jaxnav probe search`` all test with it."""
     return step_clearances(maze, pos, yaw, omega, v, dt, time0)[0]
 
 

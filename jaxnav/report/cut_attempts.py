@@ -4,7 +4,7 @@ A cut attempt is left out of success (docs/reproducing.md, navigation metrics), 
 driver that stands still for the rest of an episode is never counted as failing. This
 reads a test's per-episode rows (``eval/results.csv``, or a study's data folder of them)
 and says, for each driver and test maze, how many greedy episodes ended on a cut attempt
-and how many of those had lasted longer than ``--over`` seconds, beside the longest and
+and how many of those had lasted longer than ``over`` seconds, beside the longest and
 the drivers' mean time to a goal. A cut attempt that lasted several times longer than a
 goal takes is a wait the count does not see.
 
@@ -13,20 +13,16 @@ The cut attempt's time is the episode's driving time less its successful attempt
 where the episode has no collision and no time-out (a collision ends an episode; with an
 attempt limit, a time-out may come before the cut attempt): such episodes are not read,
 and their number is given. ``jaxnav evaluate`` prints the same count, pooled over its
-test mazes, under its tables.
-
-    python scripts/cut_attempts.py docs/driving
-    python scripts/cut_attempts.py runs/drive_stage4/eval/results.csv --over 30
+test mazes, under its tables; ``jaxnav probe cut-attempts PATH ...`` prints this table.
 """
 
 from __future__ import annotations
 
-import argparse
 import csv
-import sys
 from collections import defaultdict
 from pathlib import Path
 
+from jaxnav.core.errors import JaxnavError
 from jaxnav.report.nav_tables import cut_wait_s
 
 NEEDED = ("strategy", "maze", "mode", "successes", "time_s", "cut", "drive_s")
@@ -41,7 +37,7 @@ def files_of(paths: list[str]) -> list[Path]:
         elif p.is_file():
             out.append(p)
         else:
-            raise SystemExit(f"cut_attempts: no file or folder {p}")
+            raise JaxnavError(f"no file or folder {p}")
     return out
 
 
@@ -58,7 +54,7 @@ def table(path: Path, over: float) -> list[tuple]:
         reader = csv.DictReader(f)
         missing = [c for c in NEEDED if c not in (reader.fieldnames or ())]
         if missing:
-            raise SystemExit(f"cut_attempts: {path} has no column {missing[0]!r}")
+            raise JaxnavError(f"{path} has no column {missing[0]!r}")
         groups = defaultdict(list)
         for row in reader:
             if row["mode"] == "greedy":
@@ -90,28 +86,23 @@ def table(path: Path, over: float) -> list[tuple]:
     return rows
 
 
-def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    p.add_argument("paths", nargs="+", help="results.csv files or folders of them")
-    p.add_argument("--over", type=float, default=60.0, help="seconds (default 60)")
-    args = p.parse_args(argv)
-    print(
+def cut_attempts_table(paths: list[str], over: float) -> str:
+    """The markdown table of every results file named or in a folder named: a row per
+    file, driver and maze (:func:`table`). Every file is read before any row is
+    given; a file that is not a test's results is a :class:`JaxnavError` naming it."""
+    lines = [
         f"| file | driver | maze | episodes | ending on a cut attempt | of those read, longer "
-        f"than {args.over:g} s | longest cut attempt (s) | mean time to a goal (s) | not read |"
-    )
-    print("|---|---|---|--:|--:|--:|--:|--:|--:|")
-    for path in files_of(args.paths):
+        f"than {over:g} s | longest cut attempt (s) | mean time to a goal (s) | not read |",
+        "|---|---|---|--:|--:|--:|--:|--:|--:|",
+    ]
+    for path in files_of(paths):
         try:
-            rows = table(path, args.over)
+            rows = table(path, over)
         except (ValueError, KeyError) as err:
-            raise SystemExit(f"cut_attempts: {path}: a row that is not a test's: {err}") from None
+            raise JaxnavError(f"{path}: a row that is not a test's: {err}") from None
         for driver, maze, n, ending, read, longer, longest, ttg, unread in rows:
-            print(
+            lines.append(
                 f"| {path.name} | {driver} | {maze} | {n} | {ending} | {longer} of {read} "
                 f"| {longest:.1f} | {ttg:.1f} | {unread} |"
             )
-    return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())
+    return "\n".join(lines)

@@ -1,4 +1,4 @@
-"""``python -m jaxnav.list`` (``jaxnav list``): what there is to choose from.
+"""``jaxnav list``: what there is to choose from.
 
 The built-in mazes with a line each, the shipped configs (a built-in config's name
 works wherever a config path does: ``jaxnav train smoke``), the shipped studies, the
@@ -13,7 +13,9 @@ import sys
 from collections.abc import Sequence
 
 from jaxnav.core import agents, cli, families, strategies
-from jaxnav.core.config import SETTINGS, builtin_configs, shipped_studies
+from jaxnav.core.config import SETTINGS
+from jaxnav.core.shipped import builtin_configs, studies_text
+from jaxnav.robot.shipped import shipped_policies
 from jaxnav.world.maps import BUILTIN_MAZES
 
 
@@ -36,11 +38,12 @@ def catalog() -> str:
     configs = builtin_configs()
     width = max(map(len, configs))
     lines += [f"  {name:<{width}}  {what}" for name, what in configs.items()]
-    studies = shipped_studies()
+    studies = studies_text()
     if studies:
-        lines += ["", "shipped studies (jaxnav study NAME [key=value ...] --out DIR):"]
-        width = max(map(len, studies))
-        lines += [f"  {name:<{width}}  {title}" for name, title in studies.items()]
+        lines += ["", "shipped studies (jaxnav study NAME [key=value ...] --out DIR):", studies]
+    policies = shipped_policies()
+    lines += ["", "shipped policies (jaxnav drive WORLD --policy NAME; ROS nodes: --policy NAME):"]
+    lines += [f"  {name}" for name in policies] or ["  none"]
     lines += ["", "agents (agent=...):"]
     width = max(map(len, agents.names()))
     lines += [f"  {n:<{width}}  {agents.get(n).about}" for n in agents.names()]
@@ -87,17 +90,29 @@ def settings_markdown() -> str:
 
 def main(argv: Sequence[str] | None = None) -> int:
     parser = cli.Parser(
-        prog="python -m jaxnav.list",
-        description="List the built-in mazes, the shipped configs and every setting.",
+        prog="jaxnav list",
+        description="List the built-in mazes, the shipped configs and studies and every "
+        "setting; jaxnav list studies: the studies alone, with what each costs.",
+    )
+    parser.add_argument(
+        "what",
+        nargs="?",
+        choices=("studies",),
+        help="studies: only the shipped studies, with what each costs",
     )
     parser.add_argument(
         "--markdown", action="store_true", help="the settings as docs/settings.md's table"
     )
     args = parser.parse_args(argv)
-    return cli.run(
-        parser.prog,
-        lambda: print(settings_markdown().rstrip("\n") if args.markdown else catalog()),
-    )
+
+    def work() -> None:
+        if args.what == "studies":
+            print("shipped studies (jaxnav study NAME [key=value ...] --out DIR):")
+            print(studies_text())
+        else:
+            print(settings_markdown().rstrip("\n") if args.markdown else catalog())
+
+    return cli.run(parser.prog, work)
 
 
 if __name__ == "__main__":

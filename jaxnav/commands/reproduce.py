@@ -1,5 +1,5 @@
-"""``python -m jaxnav.reproduce [--seeds N] [--out DIR] [--quick] [--resume]``
-``python -m jaxnav.reproduce --out DIR --publish docs/report``
+"""``jaxnav reproduce [--seeds N] [--out DIR] [--quick] [--resume]``
+``jaxnav reproduce --out DIR --publish docs/report``
 
 The paper's two experiments end to end, and ``DIR/report.md``: the work is
 :func:`jaxnav.experiments.reproduce.reproduce` (its module says what it does and how
@@ -31,7 +31,7 @@ from jaxnav.experiments.reproduce import (
 
 def _parser() -> cli.Parser:
     p = cli.Parser(
-        prog="python -m jaxnav.reproduce",
+        prog="jaxnav reproduce",
         description="Train, test and plot both of the paper's experiments (no obstacles and "
         "obstacles, EBE and epsilon-greedy) and write DIR/report.md.",
     )
@@ -79,8 +79,14 @@ def _parser() -> cli.Parser:
         default=0,
         metavar="K",
         help="also test the first K seeds of each experiment in MuJoCo physics "
-        "(python -m jaxnav.sim2sim; needs the extra 'sim'; about 6 s per policy and maze "
+        "(jaxnav sim2sim; needs the extra 'sim'; about 6 s per policy and maze "
         "at 10 test episodes of 500 steps) and add the sim-to-sim gap to the report",
+    )
+    p.add_argument(
+        "--baselines",
+        action="store_true",
+        help="also drive the oracle and DWA through every greedy test, beside the policies "
+        "(their rows judge none of the paper's claims, which compare the strategies)",
     )
     p.add_argument(
         "--yes",
@@ -108,7 +114,7 @@ def main(argv: list[str] | None = None) -> int:
     out = (
         Path(args.out) if args.out else Path("runs") / f"reproduce-{time.strftime('%Y%m%d-%H%M%S')}"
     )
-    command = "python -m jaxnav.reproduce " + " ".join(argv if argv is not None else sys.argv[1:])
+    command = "jaxnav reproduce " + " ".join(argv if argv is not None else sys.argv[1:])
 
     def work() -> None:
         if args.publish:
@@ -124,7 +130,14 @@ def main(argv: list[str] | None = None) -> int:
         need = max(experiment_config(name, *sizes).memory_estimate() for name, _ in EXPERIMENTS)
         cli.confirm_memory(need, args.yes)
         report = reproduce(
-            out, *sizes, args.quick, args.resume, args.quiet, command.strip(), args.sim2sim
+            out,
+            *sizes,
+            args.quick,
+            args.resume,
+            args.quiet,
+            command.strip(),
+            args.sim2sim,
+            args.baselines,
         )
         print(f"report: {report}")
 

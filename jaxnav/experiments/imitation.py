@@ -2,28 +2,27 @@
 Q-network from what the policy sees, written as a finished run.
 
 The oracle (:mod:`jaxnav.planners.oracle`) drives a config's world as its test plays
-it (:meth:`jaxnav.core.config.Config.tested`), in ``--envs`` environments for
-``--steps`` steps each; every step's observation, the policy's own, is paired with
-the oracle's action. Each run of the config (strategy, seed) then gets its own
-Q-network, of the config's shape, fit to those pairs by cross-entropy on its outputs
-read as logits (behaviour cloning), so its greedy action is the oracle's most likely
-one. The run directory it writes holds ``config.yaml``, ``params.npz`` and
-``summary.json`` (the demonstrations' counts and the networks' agreement with the
-oracle on them), so that
+it (:meth:`jaxnav.core.config.Config.tested`), in ``envs`` environments for ``steps``
+steps each; every step's observation, the policy's own, is paired with the oracle's
+action. Each run of the config (strategy, seed) then gets its own Q-network, of the
+config's shape, fit to those pairs by cross-entropy on its outputs read as logits
+(behaviour cloning), so its greedy action is the oracle's most likely one; ``dagger``
+rounds then let the policies drive while the oracle labels the states they visit. The
+run directory it writes holds ``config.yaml``, ``params.npz`` and ``summary.json`` (the
+demonstrations' counts and the networks' agreement with the oracle on them), so that
 
 * ``jaxnav evaluate DIR`` tests the imitation as it tests a trained run, and
 * ``jaxnav train CONFIG run.init_from=DIR`` starts training from it.
 
-    python scripts/imitate_oracle.py drive_stage3 --out runs/imitate_stage3
-    python -m jaxnav evaluate runs/imitate_stage3 --no-baselines env.restart_goal=new
+    jaxnav imitate drive_stage3 --out runs/imitate_stage3
+    jaxnav evaluate runs/imitate_stage3 --no-baselines env.restart_goal=new
 """
 
 from __future__ import annotations
 
-import argparse
 import json
+import os
 import shutil
-import sys
 import time
 from pathlib import Path
 from typing import NamedTuple
@@ -33,9 +32,9 @@ import jax.numpy as jnp
 import numpy as np
 import optax
 
-from jaxnav.core import agents, rundir
-from jaxnav.core.config import dump_config, load_config, resolve_config_path
-from jaxnav.core.errors import JaxnavError
+from jaxnav.core import agents, rundir, startup
+from jaxnav.core.config import Config, dump_config
+from jaxnav.core.errors import JaxnavError, RunError
 from jaxnav.env import EnvParams, NavEnv, from_config
 from jaxnav.experiments.baselines import planner_of
 from jaxnav.planners.oracle import Oracle
@@ -167,89 +166,101 @@ def agreement(network, params, obs, action, chunk: int = 4096) -> np.ndarray:
     return same / len(action)
 
 
-def write_run(out: Path, cfg, params, summary: dict) -> None:
-    """The run directory ``out``, whole or not at all: written beside it, then renamed."""
+def imitate(
+    cfg: Config,
+    out: Path,
+    envs: int = 64,
+    steps: int = 1500,
+    epochs: int = 20,
+    dagger: int = 0,
+    seed: int = 0,
+    quiet: bool = False,
+    overwrite: bool = False,
+) -> tuple[dict, np.ndarray]:
+    """Fit every run of ``cfg`` to the oracle's actions (``envs`` x ``steps`` of its
+    driving, ``epochs`` passes, then ``dagger`` rounds of the policies driving) and
+    write the run directory ``out`` (:func:`write_run`). Returns (its summary, each
+    run's agreement with the oracle on every round's pairs). ``out`` must not exist
+    unless ``overwrite`` (then it must be a run directory that no process uses); a
+    continuous agent's config is refused: the oracle's actions are discrete."""
+    if out.exists() and not overwrite:
+        raise RunError(f"{out} exists already: give a new run directory (--overwrite replaces it)")
+    if out.exists():
+        replaceable(out)
+    if agents.get(cfg.agent).actions != "discrete":
+        raise JaxnavError("the oracle's actions are discrete: give a Q-learner's config")
+    t0 = time.perf_counter()
+    teacher, network = teacher_of(cfg), network_of(cfg)
+    obs, action, goals, collisions, episodes = demonstrations(teacher, envs, steps, seed, quiet)
+    params, agree = fit(cfg, obs, action, epochs, seed)
+    first, rounds = len(action), []
+    for k in range(dagger):  # the policies drive, the oracle labels
+        more = demonstrations(teacher, envs, steps, seed + 1 + k, quiet, (network, params))
+        obs, action = np.concatenate([obs, more[0]]), np.concatenate([action, more[1]])
+        rounds.append({"goals": more[2], "collisions": more[3], "episodes": more[4]})
+        if not quiet:
+            print(f"  round {k + 1}: the policies' goals {more[2]}, collisions {more[3]}")
+        # as many gradient steps as the first fit, now over every round's pairs
+        params, agree = fit(cfg, obs, action, epochs, seed, params, first)
+    summary = {
+        "imitation": "behaviour cloning of the oracle",
+        "demonstration_steps": len(action),
+        "oracle_goals": goals,
+        "oracle_collisions": collisions,
+        "oracle_episodes": episodes,
+        "epochs": epochs,
+        "dagger_rounds": rounds,
+        "agreement": [round(float(a), 4) for a in agree],
+        "env_steps": 0,
+        "wall_s": round(time.perf_counter() - t0, 1),
+    }
+    write_run(out, cfg, params, summary, overwrite)
+    return summary, agree
+
+
+def replaceable(out: Path) -> None:
+    """Refuse (:class:`RunError`) to replace ``out`` unless it is a run directory that
+    holds only what a run writes and that no process uses now."""
+    if not out.is_dir():
+        raise RunError(f"{out} exists and is not a directory: choose another --out")
+    if not (out / rundir.CONFIG).is_file():
+        raise RunError(f"{out} is not a run directory (no {rundir.CONFIG}); not overwriting it")
+    foreign = sorted(
+        p.name
+        for p in out.iterdir()
+        if not p.name.startswith(".") and p.name not in rundir.RUN_ENTRIES
+    )
+    if foreign:
+        raise RunError(
+            f"{out} holds {foreign[0]!r}, which a run does not write; not overwriting it"
+        )
+    if rundir.in_use(out):
+        raise RunError(f"run directory {out} is in use by another process")
+
+
+def write_run(out: Path, cfg, params, summary: dict, overwrite: bool = False) -> None:
+    """The run directory ``out``, whole or not at all: written beside it, then renamed
+    (with ``overwrite``, over the run directory there, where one is: :func:`replaceable`).
+    Ctrl-C or an error on the way removes what was written."""
     part = out.with_name(out.name + ".part")
     shutil.rmtree(part, ignore_errors=True)
-    try:
-        part.mkdir(parents=True)
-        rundir.atomic_write_text(part / rundir.CONFIG, dump_config(cfg))
-        rundir.atomic_write_npz(part / rundir.PARAMS, params_arrays(cfg, params))
-        rundir.atomic_write_text(part / rundir.SUMMARY, json.dumps(summary, indent=1) + "\n")
-        part.rename(out)
-    finally:
-        shutil.rmtree(part, ignore_errors=True)
-
-
-def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    p.add_argument("items", nargs="+", metavar="CONFIG [key=value ...]")
-    p.add_argument("--out", required=True, help="the run directory to write (must not exist)")
-    p.add_argument("--envs", type=int, default=64, help="environments the oracle drives")
-    p.add_argument("--steps", type=int, default=1500, help="steps of each environment")
-    p.add_argument("--epochs", type=int, default=20, help="passes over the demonstrations")
-    p.add_argument(
-        "--dagger",
-        type=int,
-        default=0,
-        help="rounds in which the policies drive and the oracle labels where they go",
-    )
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--quiet", action="store_true")
-    args = p.parse_args(argv)
-    try:
-        if args.envs < 1 or args.steps < 1 or args.epochs < 1 or args.dagger < 0:
-            raise JaxnavError("--envs, --steps and --epochs must be at least 1, --dagger 0 or more")
-        out = Path(args.out)
-        if out.exists():
-            raise JaxnavError(f"{out} exists already: give a new run directory")
-        config_path = resolve_config_path(args.items[0])
-        cfg = load_config(config_path, args.items[1:])
-        if agents.get(cfg.agent).actions != "discrete":
-            raise JaxnavError("the oracle's actions are discrete: give a Q-learner's config")
-        t0 = time.perf_counter()
-        teacher, network = teacher_of(cfg), network_of(cfg)
-        obs, action, goals, collisions, episodes = demonstrations(
-            teacher, args.envs, args.steps, args.seed, args.quiet
-        )
-        params, agree = fit(cfg, obs, action, args.epochs, args.seed)
-        first, rounds = len(action), []
-        for k in range(args.dagger):  # the policies drive, the oracle labels
-            more = demonstrations(
-                teacher, args.envs, args.steps, args.seed + 1 + k, args.quiet, (network, params)
-            )
-            obs, action = np.concatenate([obs, more[0]]), np.concatenate([action, more[1]])
-            rounds.append({"goals": more[2], "collisions": more[3], "episodes": more[4]})
-            if not args.quiet:
-                print(f"  round {k + 1}: the policies' goals {more[2]}, collisions {more[3]}")
-            # as many gradient steps as the first fit, now over every round's pairs
-            params, agree = fit(cfg, obs, action, args.epochs, args.seed, params, first)
-        summary = {
-            "imitation": "behaviour cloning of the oracle",
-            "demonstration_steps": len(action),
-            "oracle_goals": goals,
-            "oracle_collisions": collisions,
-            "oracle_episodes": episodes,
-            "epochs": args.epochs,
-            "dagger_rounds": rounds,
-            "agreement": [round(float(a), 4) for a in agree],
-            "env_steps": 0,
-            "wall_s": round(time.perf_counter() - t0, 1),
-        }
-        write_run(out, cfg, params, summary)
-    except JaxnavError as e:
-        print(f"imitate_oracle: error: {e}", file=sys.stderr)
-        return 2
-    except KeyboardInterrupt:
-        print("imitate_oracle: interrupted; nothing written", file=sys.stderr)
-        return 130
-    print(
-        f"{len(action):,} oracle steps ({goals} goals, {collisions} collisions); "
-        f"agreement with the oracle {agree.mean():.2f} (runs {agree.min():.2f}-{agree.max():.2f}); "
-        f"{out}/ in {summary['wall_s']:.0f} s"
-    )
-    return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())
+    with startup.on_interrupt(lambda: shutil.rmtree(part, ignore_errors=True)):
+        try:
+            part.mkdir(parents=True)
+            rundir.atomic_write_text(part / rundir.CONFIG, dump_config(cfg))
+            rundir.atomic_write_npz(part / rundir.PARAMS, params_arrays(cfg, params))
+            rundir.atomic_write_text(part / rundir.SUMMARY, json.dumps(summary, indent=1) + "\n")
+            with startup.no_interrupt():  # the old run goes only when the new one is there
+                if out.exists():  # checked before the work; checked again now
+                    if not overwrite:
+                        raise RunError(f"{out} exists already: give a new run directory")
+                    replaceable(out)
+                    old = out.with_name(f".{out.name}.old{os.getpid()}")
+                    with rundir.Lock(out):
+                        out.rename(old)
+                    part.rename(out)
+                    shutil.rmtree(old, ignore_errors=True)
+                else:
+                    part.rename(out)
+        finally:
+            shutil.rmtree(part, ignore_errors=True)

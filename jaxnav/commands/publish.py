@@ -1,4 +1,4 @@
-"""``python -m jaxnav.publish [NAME ...] [--check] [--root DIR]``
+"""``jaxnav publish [NAME ...] [--check] [--root DIR]``
 
 Rewrites the parts of the docs that are computed from committed data (whole pages and
 blocks between ``<!-- NAME: begin/end -->`` markers; :data:`jaxnav.report.publish.PUBLISHED`
@@ -19,7 +19,7 @@ from jaxnav.report.publish import PUBLISHED, publish, stale
 
 def main(argv: Sequence[str] | None = None) -> int:
     p = cli.Parser(
-        prog="python -m jaxnav.publish",
+        prog="jaxnav publish",
         description="Rewrite the docs' parts computed from committed data (every one, or "
         "those named: " + ", ".join(x.name for x in PUBLISHED) + ").",
     )

@@ -1,5 +1,5 @@
-"""``python -m jaxnav.ablation [--seeds N] [--out DIR] [--quick] [--resume] [--variants A,B]``
-``python -m jaxnav.ablation --merge DIR [DIR ...] --out DIR``
+"""``jaxnav ablation [--seeds N] [--out DIR] [--quick] [--resume] [--variants A,B]``
+``jaxnav ablation --merge DIR [DIR ...] --out DIR``
 
 Both experiments under each ROBOTIS-faithful switch, and ``DIR/ablation.md``: the
 work is :func:`jaxnav.experiments.ablation.ablation` (its module says what it
@@ -25,7 +25,7 @@ from jaxnav.experiments.reproduce import EXPERIMENTS, QUICK
 
 def _parser() -> cli.Parser:
     p = cli.Parser(
-        prog="python -m jaxnav.ablation",
+        prog="jaxnav ablation",
         description="Train and test both experiments under each ROBOTIS-faithful switch, "
         "alone and together, and write DIR/ablation.md.",
     )
@@ -54,6 +54,12 @@ def _parser() -> cli.Parser:
     p.add_argument("--test-episodes", type=int, metavar="N", help="test episodes per maze")
     p.add_argument("--resume", action="store_true", help="reuse finished runs in --out")
     p.add_argument("--quiet", action="store_true", help="no progress output")
+    p.add_argument(
+        "--baselines",
+        action="store_true",
+        help="also drive the oracle and DWA through every greedy test, beside the policies "
+        "(their rows judge none of the paper's claims, which compare the strategies)",
+    )
     p.add_argument(
         "--merge",
         nargs="+",
@@ -101,9 +107,7 @@ def main(argv: list[str] | None = None) -> int:
             raise JaxnavError(f"unknown experiment '{unknown[0]}' (choose from {', '.join(known)})")
         if args.resume and not args.out:
             raise JaxnavError("--resume needs --out DIR")
-        command = "python -m jaxnav.ablation " + " ".join(
-            argv if argv is not None else sys.argv[1:]
-        )
+        command = "jaxnav ablation " + " ".join(argv if argv is not None else sys.argv[1:])
         path = ablation(
             out,
             seeds,
@@ -114,6 +118,7 @@ def main(argv: list[str] | None = None) -> int:
             args.quiet,
             experiments,
             command.strip(),
+            args.baselines,
         )
         print(f"ablation: {path}")
 

@@ -1,4 +1,4 @@
-"""``python -m jaxnav.sim2sim RUN_DIR [--mazes M ...] [--episodes N] [--seeds K ...]``
+"""``jaxnav sim2sim RUN_DIR [--mazes M ...] [--episodes N] [--seeds K ...]``
 
 A run's exported policies driving a TurtleBot3 burger in MuJoCo physics, beside
 jaxnav's own test of the same policies: a per-seed CSV and a markdown table of the
@@ -21,7 +21,7 @@ from jaxnav.experiments.sim2sim import LIDAR_NOISE_STD, sim2sim  # noqa: E402
 
 def main(argv: list[str] | None = None) -> int:
     p = cli.Parser(
-        prog="python -m jaxnav.sim2sim",
+        prog="jaxnav sim2sim",
         description="Test every trained policy of a run, exported as for the robot, on a "
         "TurtleBot3 burger in MuJoCo physics (wheel servos, contacts, ray-cast LiDAR), "
         "beside jaxnav's own test of the same policies; write a per-seed CSV and a "

@@ -29,6 +29,7 @@ from jaxnav.core.errors import JaxnavError
 from jaxnav.core.rundir import CsvLog
 from jaxnav.experiments.baselines import evaluate_world, world_config
 from jaxnav.experiments.evaluation import evaluate_to_dir
+from jaxnav.experiments.levels import levels_text, levels_to_dir
 from jaxnav.experiments.robustness import PERTURBATIONS, robustness_to_dir
 from jaxnav.report.nav_tables import long_waits_text, navigation_text
 from jaxnav.report.results import ordered_unique
@@ -94,7 +95,7 @@ def baseline(args) -> None:
 
 def main(argv: list[str] | None = None) -> int:
     p = cli.Parser(
-        prog="python -m jaxnav.evaluate",
+        prog="jaxnav evaluate",
         description="Test every trained policy of a run on the test mazes (the paper's "
         "protocol: N consecutive greedy episodes) and write eval/results.csv and eval/tables.md; "
         "with --robustness, test them under sensor perturbations instead.",
@@ -155,6 +156,15 @@ def main(argv: list[str] | None = None) -> int:
         help="with --baseline: test keys (seeds 0..N-1 of the world's config, as a run's)",
     )
     p.add_argument(
+        "--levels",
+        type=int,
+        metavar="N",
+        help="instead of the plain test: N layouts of the test split of a run trained on "
+        "drawn mazes (levels), each played once by every policy and the oracle from its own "
+        "start to its first goal; writes levels.csv and prints the mean success over the "
+        "levels and over their worst tenth",
+    )
+    p.add_argument(
         "--no-baselines",
         action="store_true",
         help="test the run's policies only, without the oracle's and DWA's rows",
@@ -176,6 +186,19 @@ def main(argv: list[str] | None = None) -> int:
             print(f"{line} ...", file=sys.stderr, flush=True)
 
         watched = say if sys.stderr.isatty() else None
+        if args.levels is not None:
+            if args.levels < 10 or args.robustness or args.mazes or args.overrides:
+                raise JaxnavError(
+                    "--levels N (at least 10) tests the run's own drawn worlds: no --mazes, "
+                    "--robustness or settings"
+                )
+            check_outputs(out, ("levels.csv",), args.overwrite)
+            refs = () if args.no_baselines else ("oracle",)
+            path = levels_to_dir(run_dir, args.levels, out, refs, say=watched)
+            rows = CsvLog(path, ()).read()
+            print(f"wrote {path}; first goal of each level, share of the seeds that reach it:")
+            print(levels_text(rows))
+            return
         if args.robustness:
             written = ("robustness.csv", "robustness.md", "robustness.png")
             check_outputs(out, written, args.overwrite)

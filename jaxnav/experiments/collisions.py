@@ -1,6 +1,6 @@
 """What a run's policies collide with in their greedy test, and how.
 
-For every collision of the test (each seed's ``--episodes`` greedy episodes per test
+For every collision of the test (each seed's ``episodes`` greedy episodes per test
 maze, on the run's own test keys, as ``jaxnav evaluate`` plays them) it takes the
 surface nearest the robot at the start of the colliding step: a wall (or a standing
 cylinder) or a moving cylinder. For a moving cylinder it also says which of the two
@@ -13,8 +13,8 @@ at the episode's start; and how long before the collision the cylinder passed th
 waypoint of its loop (where it turns), beside the share of the loop's time that lies
 that soon after a waypoint.
 
-    python scripts/collision_causes.py runs/drive_stage4
-    python scripts/collision_causes.py runs/drive_stage4 --maze stage4_humble --episodes 10
+    jaxnav probe collisions runs/drive_stage4
+    jaxnav probe collisions runs/drive_stage4 --maze stage4_humble --episodes 10
 
 The moving stages' failures read this way: a policy that seldom touches a wall, hit
 from the side by a cylinder it did not give way to, tells that what is left is the
@@ -23,13 +23,16 @@ moving cylinders, not the maze.
 
 from __future__ import annotations
 
-import argparse
 import dataclasses
 import math
-import sys
 from dataclasses import dataclass
 
 import numpy as np
+
+from jaxnav.experiments.evaluation import load_run
+from jaxnav.experiments.rollout import padded_mazes, run_tests
+from jaxnav.report.navigation import attempt_first_steps
+from jaxnav.world.maps import make_maze
 
 AHEAD, BEHIND = 60.0, 120.0  # degrees off the heading
 WINDOW = 2.0  # s after a waypoint
@@ -140,8 +143,6 @@ def attempt_starts(reached: np.ndarray, episode: np.ndarray, r: int, t: int) -> 
     """(steps of the attempt before step ``t`` of row ``r``, whether it began at a goal
     reached): an attempt begins at its episode's first step or after a goal, as the
     navigation metrics split them (:func:`jaxnav.report.navigation.attempt_first_steps`)."""
-    from jaxnav.report.navigation import attempt_first_steps
-
     k = int(np.flatnonzero(attempt_first_steps(episode[r, : t + 1], reached[r, : t + 1]))[-1])
     return t - k, bool(k > 0 and episode[r, k - 1] == episode[r, k])
 
@@ -151,10 +152,6 @@ def run_causes(
 ) -> dict[str, tuple[list[Cause], float]]:
     """Each test maze's collisions (``maze``: only that one) in the run's greedy test,
     and the share of its waypoint loops' time within WINDOW s after a waypoint."""
-    from jaxnav.experiments.evaluation import load_run
-    from jaxnav.experiments.rollout import padded_mazes, run_tests
-    from jaxnav.world.maps import make_maze
-
     run = load_run(run_dir)
     names = [maze] if maze else list(run.config.run.test_mazes or [run.config.env.maze])
     dt = float(run.policies.env_params.dt)
@@ -203,35 +200,25 @@ def base_share(times: np.ndarray, periods: np.ndarray) -> float:
     return float(np.mean([near_waypoint_share(x, p, WINDOW) for x, p in zip(times, periods)]))
 
 
-def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("run_dir")
-    ap.add_argument("--maze", help="one test maze (default: the run's test mazes)")
-    ap.add_argument("--episodes", type=int, default=10, help="greedy test episodes per seed")
-    args = ap.parse_args(argv)
-    for name, (causes, base) in run_causes(args.run_dir, args.maze, args.episodes).items():
-        s = summary(causes)
-        line = (
-            f"{name}: {s['collisions']} collisions, {s['wall']} with a wall, "
-            f"{s['moving']} with a moving cylinder"
+def summary_line(name: str, causes: list[Cause], base: float) -> str:
+    """One test maze's collisions (:func:`run_causes`' entry) as one line."""
+    s = summary(causes)
+    line = (
+        f"{name}: {s['collisions']} collisions, {s['wall']} with a wall, "
+        f"{s['moving']} with a moving cylinder"
+    )
+    if s["moving"]:
+        line += (
+            f"; of those the cylinder closed faster {s['cylinder closed faster']:.2f}, "
+            f"it stood ahead {s['ahead']:.2f}, beside {s['beside']:.2f}, behind "
+            f"{s['behind']:.2f}, the robot was stopped {s['robot stopped']:.2f}; "
+            f"the attempt began at a goal reached {s['after a goal']:.2f}, the collision "
+            f"came a median {s['median steps into the attempt']:.0f} steps into it"
         )
-        if s["moving"]:
-            line += (
-                f"; of those the cylinder closed faster {s['cylinder closed faster']:.2f}, "
-                f"it stood ahead {s['ahead']:.2f}, beside {s['beside']:.2f}, behind "
-                f"{s['behind']:.2f}, the robot was stopped {s['robot stopped']:.2f}; "
-                f"the attempt began at a goal reached {s['after a goal']:.2f}, the collision "
-                f"came a median {s['median steps into the attempt']:.0f} steps into it"
-            )
-        if "median s since a waypoint" in s:
-            line += (
-                f"; a median {s['median s since a waypoint']:.1f} s after the cylinder passed "
-                f"a waypoint of its loop, within {WINDOW:.0f} s of one "
-                f"{s['within 2 s of a waypoint']:.2f} (of the loops' time {base:.2f})"
-            )
-        print(line)
-    return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())
+    if "median s since a waypoint" in s:
+        line += (
+            f"; a median {s['median s since a waypoint']:.1f} s after the cylinder passed "
+            f"a waypoint of its loop, within {WINDOW:.0f} s of one "
+            f"{s['within 2 s of a waypoint']:.2f} (of the loops' time {base:.2f})"
+        )
+    return line

@@ -1,4 +1,4 @@
-"""``python -m jaxnav.mazes SPEC --n N [--split test] [--seed S] --out DIR [--overwrite]``
+"""``jaxnav mazes SPEC --n N [--split test] [--seed S] --out DIR [--overwrite]``
 
 Keeps drawn mazes: N mazes of a family (SPEC: a maze generator such as ``grid``, or a
 config that sets ``env.generator``, such as ``grid4`` or a YAML file), each drawn by
@@ -26,7 +26,7 @@ from jaxnav.world.generators import SPLITS
 
 def main(argv: Sequence[str] | None = None) -> int:
     parser = cli.Parser(
-        prog="python -m jaxnav.mazes",
+        prog="jaxnav mazes",
         description="Write drawn mazes of a family as maze files, each with its start, goal "
         "and shortest path's length.",
     )

@@ -1,14 +1,15 @@
-"""Could any robot as fast as the burger get past the ring of a spinning stage? A bound.
+"""Could any robot as fast as the burger get past the ring of a spinning stage? A bound
+(NumPy and SciPy, no JAX).
 
 ROBOTIS' stage 3 (and stage3_humble) spin four cylinders on one body about the
 origin, where the robot starts, inside the ring they sweep. Seen from a frame that
 turns with the body, the cylinders stand still and the robot drifts: its velocity
-there is ``u - w x p`` for the velocity ``u`` it commands in the world. This script
-computes, on a raster of that frame, a set that holds every point a robot could
-reach from the start, over any time, moving in any direction at up to ``--speed``
-m/s (a disc of the burger's collision radius that can also move sideways, so at
-least as capable as the burger with any action set), never touching a cylinder, and
-prints the farthest radius of the set beside the ring's outer edge (the cylinders'
+there is ``u - w x p`` for the velocity ``u`` it commands in the world.
+:func:`farthest_reach` computes, on a raster of that frame, a set that holds every
+point a robot could reach from the start, over any time, moving in any direction at up
+to ``speed`` m/s (a disc of the burger's collision radius that can also move sideways,
+so at least as capable as the burger with any action set), never touching a cylinder,
+and gives the farthest radius of the set beside the ring's outer edge (the cylinders'
 orbit plus their radius and the robot's).
 
 The set only over-approximates: each step of ``dt`` grows it by ``speed * dt`` plus
@@ -19,53 +20,58 @@ that speed gets out and no goal beyond the ring can be reached: the world cannot
 solved, whatever the policy or planner. Where it gets out, the bound rules nothing
 out, and what a planner or a policy scores is the measure.
 
-    python scripts/moving_reach.py stage3 stage3_humble
-    python scripts/moving_reach.py stage3 --speed 0.1
+``jaxnav probe reach STAGE ... [--speed S]`` prints the bound for each stage.
 """
 
 from __future__ import annotations
 
-import argparse
 import math
-import sys
+from typing import NamedTuple
 
 import numpy as np
 from scipy import ndimage
 
 from jaxnav.core.errors import MazeError
-from jaxnav.world.maps import ROBOT_RADIUS, make_maze
+from jaxnav.world.paths import ROBOT_RADIUS
 
 BURGER_SPEED = 0.22  # m/s, the burger's largest linear command
 
 
-def spinning(name: str) -> tuple[np.ndarray, np.ndarray, float, float, np.ndarray]:
-    """(cylinder centres at time 0 [K, 2], radii [K], spin rad/s, arena half side, the
-    robot's start [2]) of a stage whose cylinders all spin about the origin at one rate."""
-    try:
-        maze = make_maze(name)
-    except MazeError as e:
-        raise SystemExit(f"moving_reach: {e}") from None
+class Spinning(NamedTuple):
+    """A stage whose cylinders all spin about the origin at one rate."""
+
+    centres: np.ndarray  # f64[K, 2] the cylinders' centres at time 0
+    radii: np.ndarray  # f64[K]
+    spin: float  # rad/s
+    half: float  # m, the arena's half side
+    start: np.ndarray  # f64[2] the robot's start
+
+
+def spinning(maze, name: str) -> Spinning:
+    """The :class:`Spinning` stage of ``maze`` (a :class:`jaxnav.world.maps.Maze`, named
+    ``name`` in errors); :class:`MazeError` where its cylinders do not all spin about
+    the origin at one rate."""
     m = maze.motion
     if m is None:
-        raise SystemExit(f"{name}: no moving obstacles")
+        raise MazeError(f"{name}: no moving obstacles")
     spin = np.asarray(m.spin, np.float64)
     centre = np.asarray(m.centre, np.float64)
     if np.any(spin != spin[0]) or np.any(centre != 0.0) or spin[0] == 0.0:
-        raise SystemExit(f"{name}: its cylinders do not all spin about the origin at one rate")
+        raise MazeError(f"{name}: its cylinders do not all spin about the origin at one rate")
     loops = np.asarray(m.points, np.float64)  # [K, waypoints, 2]
     if np.any(loops != loops[:, :1]):
-        raise SystemExit(f"{name}: its cylinders also move along paths")
+        raise MazeError(f"{name}: its cylinders also move along paths")
     half = float(np.max(np.abs(np.asarray(maze.bounds))))
     start = np.asarray(maze.start[:2], np.float64)
-    return loops[:, 0], np.asarray(m.radius, np.float64), float(spin[0]), half, start
+    return Spinning(loops[:, 0], np.asarray(m.radius, np.float64), float(spin[0]), half, start)
 
 
 def farthest_reach(
-    name: str, speed: float, cell: float, dt: float, horizon: float
+    stage: Spinning, speed: float, cell: float, dt: float, horizon: float
 ) -> tuple[float, float, float, float]:
     """(farthest radius of the over-approximated reachable set, the ring's inner and
     outer edge for the robot's centre, the time the set stopped growing or the horizon)."""
-    centres, radii, spin, half, start = spinning(name)
+    centres, radii, spin, half, start = stage
     n = int(math.ceil(2 * half / cell))
     xs = (np.arange(n) + 0.5) * cell - half
     X, Y = np.meshgrid(xs, xs, indexing="ij")
@@ -103,32 +109,16 @@ def farthest_reach(
     return float(r.max()), ring[0], ring[1], t
 
 
-def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("stages", nargs="+", help="stages whose cylinders spin about the origin")
-    ap.add_argument("--speed", type=float, default=BURGER_SPEED, help="m/s, in any direction")
-    ap.add_argument("--cell", type=float, default=0.005, help="raster cell, m")
-    ap.add_argument("--dt", type=float, default=0.2, help="time step, s")
-    ap.add_argument("--horizon", type=float, default=120.0, help="s")
-    args = ap.parse_args(argv)
-    for name in args.stages:
-        try:
-            far, lo, hi, t = farthest_reach(name, args.speed, args.cell, args.dt, args.horizon)
-        except SystemExit as e:  # a stage the bound does not apply to: one line, status 2
-            print(e, file=sys.stderr)
-            return 2
-        verdict = (
-            "cannot leave the ring: no goal beyond it is reachable"
-            if far < hi
-            else "gets past the ring, so the bound rules the world out for no robot this fast"
-        )
-        print(
-            f"{name}: a robot at up to {args.speed} m/s in any direction reaches at most "
-            f"{far:.3f} m from the centre (within {t:.0f} s); the cylinders' ring spans "
-            f"{lo:.3f}-{hi:.3f} m for the robot's centre: it {verdict}"
-        )
-    return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())
+def verdict_line(name: str, speed: float, bound: tuple[float, float, float, float]) -> str:
+    """The bound of stage ``name`` (:func:`farthest_reach`'s result) as one line."""
+    far, lo, hi, t = bound
+    verdict = (
+        "cannot leave the ring: no goal beyond it is reachable"
+        if far < hi
+        else "gets past the ring, so the bound rules the world out for no robot this fast"
+    )
+    return (
+        f"{name}: a robot at up to {speed} m/s in any direction reaches at most "
+        f"{far:.3f} m from the centre (within {t:.0f} s); the cylinders' ring spans "
+        f"{lo:.3f}-{hi:.3f} m for the robot's centre: it {verdict}"
+    )

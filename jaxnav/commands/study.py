@@ -1,4 +1,4 @@
-"""``python -m jaxnav.study CONFIG [key=value ...] --out DIR [--resume] [--doc PATH]``
+"""``jaxnav study CONFIG [key=value ...] --out DIR [--resume] [--doc PATH]``
 
 A config's sweep trained, tested in both modes and written up in ``DIR/study.md``:
 the work is :func:`jaxnav.experiments.study.study` (its module describes the
@@ -17,29 +17,33 @@ if __name__ == "__main__":  # before JAX starts: one CPU device per core, compil
 
     before_jax()
 
+import argparse
 import shlex
 import sys
 from pathlib import Path
 
 from jaxnav.core import cli
-from jaxnav.core.config import load_config, resolve_config_path
+from jaxnav.core.config import load_config
+from jaxnav.core.shipped import resolve_config_path, studies_text
 from jaxnav.experiments import studies
 from jaxnav.experiments.study import doc_files, study
 from jaxnav.report import stats
+from jaxnav.run.launch import check_test_mazes
 from jaxnav.run.memory import confirm_memory
-from jaxnav.run.training import check_test_mazes
 
 
 def main(argv: list[str] | None = None) -> int:
     p = cli.Parser(
-        prog="python -m jaxnav.study",
+        prog="jaxnav study",
         description="Train a config's sweep, test every arm in both test modes and write "
         "DIR/study.md with the sweep's tables, computed answers and figures; or run a study "
-        "file (a ladder, the driving study, a sim-to-sim campaign: jaxnav list shows the "
-        "shipped ones) and write its page from its data.",
+        "file (a ladder, the driving study, a sim-to-sim campaign) and write its page from "
+        "its data.",
+        epilog="shipped studies (jaxnav list studies):\n" + studies_text(),
+        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    p.add_argument("items", nargs="+", metavar="CONFIG|STUDY [key=value ...]")
-    p.add_argument("--out", required=True, metavar="DIR", help="output directory")
+    p.add_argument("items", nargs="*", metavar="CONFIG|STUDY [key=value ...]")
+    p.add_argument("--out", metavar="DIR", help="output directory (required)")
     p.add_argument("--title", help="the study's title (default: the config's name)")
     p.add_argument("--doc", metavar="PATH", help="also write the study here, figures beside it")
     cli.add_overwrite(p, "a file --doc writes")
@@ -51,7 +55,12 @@ def main(argv: list[str] | None = None) -> int:
     )
     p.add_argument("--quiet", action="store_true", help="no progress output")
     args = p.parse_intermixed_args(argv)
-    command = "python -m jaxnav.study " + shlex.join(argv if argv is not None else sys.argv[1:])
+    command = "jaxnav study " + shlex.join(argv if argv is not None else sys.argv[1:])
+
+    if not args.items:
+        p.error("name a config or a shipped study (jaxnav list studies lists them, with costs)")
+    if not args.out:
+        p.error("--out DIR is required: the folder the study writes")
 
     def work() -> None:
         items = list(args.items)

@@ -1,4 +1,4 @@
-"""``python -m jaxnav.export RUN_DIR [--strategy ebe] [--seed K | --best] [--out policy.npz]``
+"""``jaxnav export RUN_DIR [--strategy ebe] [--seed K | --best] [--out policy.npz]``
 
 One trained policy of a run to a portable file (:mod:`jaxnav.robot.export` builds
 and writes it), or ``--info POLICY``: an exported policy's metadata.
@@ -31,7 +31,7 @@ def default_out(run_dir: Path, strategy: str, seed: int | None) -> Path:
 
 def main(argv: list[str] | None = None) -> int:
     p = cli.Parser(
-        prog="python -m jaxnav.export",
+        prog="jaxnav export",
         description="Write one trained policy of a run to a portable .npz for a real robot, "
         "or (--info) print an exported policy's metadata.",
     )

@@ -1,4 +1,4 @@
-"""``python -m jaxnav.plots RUN_DIR [--mazes M ...] [--window W]``: figures of a run.
+"""``jaxnav plots RUN_DIR [--mazes M ...] [--window W]``: figures of a run.
 
 Draws every figure of a run from its files into RUN_DIR/plots/
 (:func:`jaxnav.report.plots.make_plots`, which lists them) and prints their paths;
@@ -21,7 +21,7 @@ from jaxnav.report.plots import make_plots
 
 def main(argv: list[str] | None = None) -> int:
     p = cli.Parser(
-        prog="python -m jaxnav.plots",
+        prog="jaxnav plots",
         description="Training curves, exploration, test-maze trajectories and an episode GIF "
         "of a run, written into RUN_DIR/plots/.",
     )

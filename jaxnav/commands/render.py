@@ -1,4 +1,4 @@
-"""``python -m jaxnav.render MAZE [--out maze.png] [--beams 24] [--seed 0] [--samples N]``
+"""``jaxnav render MAZE [--out maze.png] [--beams 24] [--seed 0] [--samples N]``
 
 A picture of a maze (built-in name or YAML file): walls, obstacles, the robot at
 its start pose, a goal drawn by ``reset``, and what its LiDAR beams see (cast by
@@ -57,7 +57,7 @@ def check_picture_path(out: str, overwrite: bool) -> Path:
 
 def main(argv: Sequence[str] | None = None) -> int:
     parser = cli.Parser(
-        prog="python -m jaxnav.render",
+        prog="jaxnav render",
         description="Draw a maze (built-in name or YAML file) with the robot, a goal and "
         "its LiDAR beams.",
     )

@@ -1,0 +1,77 @@
+"""Levels (``jaxnav evaluate RUN --levels N``): layouts of a drawn run's test split, each
+played once by every policy from its own start to its own first goal; the mean and the
+worst tenth over them, checked by hand."""
+
+from __future__ import annotations
+
+import csv
+
+import jax
+import numpy as np
+import pytest
+
+from jaxnav.commands.evaluate import main as evaluate_main
+from jaxnav.commands.train import main as train_main
+from jaxnav.experiments import levels
+from jaxnav.experiments.evaluation import load_run
+
+TINY = [
+    "drive_anywhere",
+    "seeds=2",
+    "total_steps=2048",
+    "pqn.num_envs=8",
+    "env.maze_bank=16",
+    "env.mix_worlds=[rooms, square4_obstacles]",
+    "env.mix_weights=[]",
+    "env.max_steps=60",
+    "run.chunk_steps=1024",
+    "run.eval_every=0",
+    "run.test_mazes=[square4_obstacles]",
+    "--quiet",
+]
+
+
+@pytest.fixture(scope="module")
+def run(tmp_path_factory):
+    out = tmp_path_factory.mktemp("levels") / "run"
+    assert train_main([*TINY, "--out", str(out)]) == 0
+    return out
+
+
+def test_summary_is_the_mean_and_the_mean_of_the_worst_tenth():
+    per = np.concatenate([np.zeros(3), np.full(17, 0.5), np.ones(10)])  # 30 levels
+    s = levels.summary(per, np.random.default_rng(0))
+    assert s["mean"] == pytest.approx(per.mean())
+    assert s["worst_tenth"] == 0.0  # the 3 worst of 30
+    assert s["mean_lo"] <= s["mean"] <= s["mean_hi"]
+    s = levels.summary(np.linspace(0, 1, 20), np.random.default_rng(0))
+    assert s["worst_tenth"] == pytest.approx(np.mean(np.linspace(0, 1, 20)[:2]))
+
+
+@pytest.mark.slow
+def test_a_level_starts_at_its_layouts_start_with_its_own_goal(run):
+    loaded = load_run(run)
+    mazes = levels.level_mazes(loaded, 6)
+    env = levels._fixed(loaded.policies).env
+    params = loaded.policies.env_params
+    for maze in mazes:
+        _, state = env.reset(jax.random.PRNGKey(3), params.replace(maze=maze))
+        np.testing.assert_allclose(np.asarray(state.pos), np.asarray(maze.start)[:2])
+        np.testing.assert_allclose(np.asarray(state.goal), np.asarray(maze.goal))
+    # the same levels every time (one fixed key), of the test split
+    again = levels.level_mazes(loaded, 6)
+    for a, b in zip(mazes, again):
+        np.testing.assert_array_equal(np.asarray(a.segments), np.asarray(b.segments))
+
+
+@pytest.mark.slow
+def test_evaluate_levels_writes_every_driver_on_every_level(run, tmp_path, capsys):
+    out = tmp_path / "eval"
+    assert evaluate_main([str(run), "--levels", "12", "--out", str(out)]) == 0
+    rows = list(csv.DictReader((out / "levels.csv").open()))
+    assert len(rows) == 24 and {r["driver"] for r in rows} == {"policy", "oracle"}
+    assert all(0 <= int(r["solved"]) <= int(r["policies"]) for r in rows)
+    assert {int(r["policies"]) for r in rows if r["driver"] == "policy"} == {2}
+    printed = capsys.readouterr().out
+    assert "12 levels: mean" in printed and "worst tenth" in printed
+    assert evaluate_main([str(run), "--levels", "5", "--out", str(tmp_path / "e")]) == 2
