@@ -34,7 +34,7 @@ import jax.numpy as jnp
 import optax
 from flax import struct
 
-from jaxnav.agent import replay
+from jaxnav.agent import noisy, replay
 from jaxnav.agent.episodes import Episodes
 from jaxnav.agent.exploration import explore_action
 from jaxnav.agent.hyper import Hyper
@@ -52,16 +52,32 @@ from jaxnav.agent.trainer import (
     step_chunk,
     still_training,
 )
+from jaxnav.core import strategies as registry
 from jaxnav.core.config import Config, DQNConfig
 from jaxnav.env import EnvState, NavEnv, bank_key, from_config
 
 
 def network_of(config: Config, env: NavEnv | None = None) -> QNetwork:
-    """DQN's Q-network of a config's runs (``env``: its environment, if already made)."""
+    """DQN's Q-network of a config's runs (``env``: its environment, if already made),
+    its layers noisy where a strategy of the config explores by noise (NoisyNets)."""
     env = from_config(config, prepare=False)[0] if env is None else env
     d = config.dqn
     conv = {"scan_conv": tuple(d.scan_conv), "scan_layout": env.scan_layout}
-    return QNetwork(env.num_actions, tuple(d.hidden), d.dropout, d.dueling, **conv)
+    noisy = {"noisy": True, "noisy_sigma": config.exploration.noisy_sigma}
+    more = noisy if registry.noisy_of(config.strategies) else {}
+    return QNetwork(env.num_actions, tuple(d.hidden), d.dropout, d.dueling, **conv, **more)
+
+
+NOISE_SALT = 3  # a key folded with this (and the next two) draws a noisy network's noise
+
+
+def noise_switch(config: Config, strategy: chex.Array) -> chex.Array | None:
+    """A run's noise switch (f32[]: 1 in a NoisyNets run, 0 in the others), None where
+    no strategy of the config is noisy."""
+    noisy = registry.noisy_of(config.strategies)
+    if not noisy:
+        return None
+    return (strategy == registry.index(noisy[0])).astype(jnp.float32)
 
 
 # ----------------------------------------------------------------------------
@@ -157,6 +173,7 @@ def make_trainer(config: Config) -> Trainer:
                 (k_sample, k_drop),
                 config.max_total_steps,
                 decay,
+                noise_switch(config, ts.strategy),
             )
         diverged = (ts.diverged_at < 0) & run & (broke | ~q_finite)
         diverged_at = jnp.where(diverged, n_steps, ts.diverged_at)
@@ -231,7 +248,12 @@ def _init_state(
 def _act(network: QNetwork, config: Config, ts: TrainState, key: chex.PRNGKey):
     """(action i32[], exploration f32[], whether the Q-values are finite, max Q f32[])
     of the run's strategy at ``ts.obs``."""
-    q = network.apply(ts.params, ts.obs)
+    switch = noise_switch(config, ts.strategy)
+    if switch is None:
+        q = network.apply(ts.params, ts.obs)
+    else:
+        rngs = {"noise": jax.random.fold_in(key, NOISE_SALT)}
+        q = network.apply(ts.params, ts.obs, noise=switch, rngs=rngs)
     action, prob = explore_action(ts.strategy, key, q, ts.episode, ts.hyper, config.strategies)
     return action, prob, jnp.all(jnp.isfinite(q)), jnp.max(q)
 
@@ -247,19 +269,35 @@ def batch_loss(
     double=False,
     kind="mse",
     weights=None,
+    noise=None,
 ):
     """The TD loss of a batch; ``double`` (bool, or bool[] data: both targets, one
     kept) and ``kind`` (:func:`td_loss`) are the run's dqn.double and dqn.loss. With
     ``weights`` (prioritised replay's importance weights, f32[B]): (the weighted loss,
-    the TD errors f32[B] for the new priorities)."""
-    q = network.apply(params, batch.obs, train=True, dropout=h.dropout, rngs={"dropout": key})
-    next_q = network.apply(target_params, batch.next_obs)  # dropout off, as Keras predict
+    the TD errors f32[B] for the new priorities). ``noise``: a noisy network's switch of
+    the run (None: none); the online and target networks draw their own noise, one draw
+    for the batch (NoisyNet-DQN's one per optimisation step)."""
+
+    def with_noise(variables, salt: int) -> tuple[dict, dict]:
+        """(``variables`` with one draw of the noise for the batch, the switch)."""
+        if noise is None:
+            return variables, {}
+        k = jax.random.fold_in(key, NOISE_SALT + salt)
+        drawn = noisy.draw(network, jax.lax.stop_gradient(variables), batch.obs[0], noise, k)
+        return noisy.with_draw(variables, drawn), {"noise": noise}
+
+    online_vars, extra = with_noise(params, 0)
+    rngs = {"dropout": key}
+    q = network.apply(online_vars, batch.obs, train=True, dropout=h.dropout, rngs=rngs, **extra)
+    target_vars, extra = with_noise(target_params, 1)
+    next_q = network.apply(target_vars, batch.next_obs, **extra)  # dropout off (Keras)
     gamma = h.gamma if batch.discount is None else batch.discount  # n-step: gamma^k
     y = None
     if double is not True:  # False, or data (bool[]): the plain target
         y = td_target(batch.reward, batch.terminated, next_q, gamma)
     if double is not False:  # the online network picks the next action, dropout off
-        online = network.apply(jax.lax.stop_gradient(params), batch.next_obs)
+        online_vars, extra = with_noise(jax.lax.stop_gradient(params), 2)
+        online = network.apply(online_vars, batch.next_obs, **extra)
         y_double = td_target(batch.reward, batch.terminated, next_q, gamma, online)
         y = y_double if y is None else jnp.where(double, y_double, y)
     if weights is None:
@@ -269,7 +307,16 @@ def batch_loss(
 
 
 def _learn(
-    network, d: DQNConfig, ts, buffer, n_steps, run, keys, horizon: int, decay: int | None = None
+    network,
+    d: DQNConfig,
+    ts,
+    buffer,
+    n_steps,
+    run,
+    keys,
+    horizon: int,
+    decay: int | None = None,
+    noise=None,
 ):
     """(params, opt_state, broke, loss, buffer) after one gradient step, unchanged before
     learning starts and where the loss or the new parameters would not be finite
@@ -300,7 +347,9 @@ def _learn(
         )
     double = d.double if h.double is None else h.double  # swept: the run's, as data
     kind = d.loss if h.loss is None else h.loss
-    loss_fn = functools.partial(batch_loss, network, h, double=double, kind=kind, weights=weights)
+    loss_fn = functools.partial(
+        batch_loss, network, h, double=double, kind=kind, weights=weights, noise=noise
+    )
     if weights is None:
         loss, grads = jax.value_and_grad(loss_fn)(ts.params, bootstrap, batch, k_drop)
     else:

@@ -498,10 +498,12 @@ class NavEnv(Commands, EpisodeMaze, GoalSampler, DrawnLayouts, Observer):
     def step(self, key: chex.PRNGKey, state: EnvState, action: chex.Array, params: EnvParams):
         """Step with auto-reset: after a collision or truncation the robot restarts at the
         start pose and keeps its goal (``restart_goal``). ``info["final_obs"]`` is the
-        observation before the reset (needed to bootstrap through truncation)."""
+        observation before the reset (needed to bootstrap through truncation), and
+        ``info["final_pos"]`` where the robot stood then (the exploration bonuses and
+        measures that count places read it)."""
         obs_st, st, reward, terminated, truncated, info = self.step_env(key, state, action, params)
         done = terminated | truncated
-        info = dict(info, final_obs=obs_st)
+        info = dict(info, final_obs=obs_st, final_pos=st.pos)
         # The restart observes with the step's own observation key: its range noise
         # (and dropout) is the same draw as the step's, so it costs nothing extra; the
         # two observations are of different poses and never feed one transition.

@@ -31,11 +31,15 @@ from typing import Any, NamedTuple
 import chex
 import jax
 import jax.numpy as jnp
+import numpy as np
 import optax
 from flax import struct
 
+from jaxnav.agent import bonus, noisy
+from jaxnav.agent.bonus import Steps
 from jaxnav.agent.episodes import Episodes
 from jaxnav.agent.exploration import explore_action
+from jaxnav.agent.explored import BLOCK, Explored, visited
 from jaxnav.agent.hyper import Hyper
 from jaxnav.agent.networks import QNetwork
 from jaxnav.agent.qlearning import lr_decay_steps, optimizer_of, td_loss
@@ -49,17 +53,36 @@ from jaxnav.agent.trainer import (
     still_training,
     update_chunk,
 )
+from jaxnav.core import strategies as registry
 from jaxnav.core.config import Config
 from jaxnav.env import EnvParams, EnvState, NavEnv, bank_key, from_config
+from jaxnav.planners.raster import (
+    ORACLE_CELL,
+    Raster,
+    block_index,
+    blocks_of,
+    origin_of,
+    raster_for,
+)
 
 
 def network_of(config: Config, env: NavEnv | None = None) -> QNetwork:
     """PQN's Q-network of a config's runs: the paper's with LayerNorm before each hidden
-    ReLU (``env``: the config's environment, if already made)."""
+    ReLU (``env``: the config's environment, if already made), its layers noisy where a
+    strategy of the config explores by noise (NoisyNets)."""
     env = from_config(config, prepare=False)[0] if env is None else env
     d = config.dqn
     conv = {"scan_conv": tuple(d.scan_conv), "scan_layout": env.scan_layout}
-    return QNetwork(env.num_actions, tuple(d.hidden), d.dropout, d.dueling, layer_norm=True, **conv)
+    noisy = {"noisy": True, "noisy_sigma": config.exploration.noisy_sigma}
+    return QNetwork(
+        env.num_actions,
+        tuple(d.hidden),
+        d.dropout,
+        d.dueling,
+        layer_norm=True,
+        **conv,
+        **(noisy if registry.noisy_of(config.strategies) else {}),
+    )
 
 
 # ----------------------------------------------------------------------------
@@ -113,6 +136,10 @@ class PQNState:
     metrics: Episodes  # finished episodes; the running sums one per environment
     diverged_at: chex.Array  # i32[] env step of the update that first broke; -1 while none
     bank: Any = None  # the run's layouts drawn ahead (env.maze_bank), else None
+    # each intrinsic reward's state (jaxnav.agent.bonus), in the order of the config's
+    # strategies with one; None without any
+    bonus: Any = None
+    explored: Any = None  # jaxnav.agent.explored.Explored with run.coverage, else None
 
 
 class Rollout(NamedTuple):
@@ -127,6 +154,10 @@ class Rollout(NamedTuple):
     explore: chex.Array  # f32 the strategy's exploration
     max_q: chex.Array  # f32 max_a Q(s, a) at the acting state
     q_finite: chex.Array  # bool every Q-value at the acting state finite
+    # where the robot stood after the step (before a reset) and whether it reached a
+    # goal: only where a count bonus or run.coverage reads them, else None
+    pos: chex.Array | None = None  # f32[..., 2]
+    reached: chex.Array | None = None  # bool
 
 
 # ----------------------------------------------------------------------------
@@ -139,7 +170,10 @@ class Rollouts(NamedTuple):
     call them alone). ``play(ts, run, key)``: ``pqn.rollout`` steps of every
     environment with ``ts.params``, episodes filed where ``run`` (bool[]); returns
     ((obs, env_state, metrics, episode) after it, :class:`Rollout`). ``targets(params,
-    rollout, gamma)``: its lambda-returns f32[T, num_envs]."""
+    rollout, gamma, noise=None, key=None)``: its lambda-returns f32[T, num_envs] (a
+    noisy network's: with its run's ``noise`` switch, drawn from ``key``).
+    ``noise(ts)``: the run's noise switch (f32[]: 1 in a NoisyNets run, 0 in the
+    others), None where no strategy of the config is noisy."""
 
     env: NavEnv
     env_params: EnvParams
@@ -147,6 +181,10 @@ class Rollouts(NamedTuple):
     slots: int
     play: Callable[..., tuple[tuple, Rollout]]
     targets: Callable[..., chex.Array]
+    noise: Callable[[Any], chex.Array | None] = lambda ts: None
+
+
+NOISE_SALT = 3  # a step's or learning key folded with this draws a noisy network's noise
 
 
 def make_rollouts(config: Config) -> Rollouts:
@@ -159,13 +197,34 @@ def make_rollouts(config: Config) -> Rollouts:
     length = _updates(config) * envs * p.rollout
     slots = config.episodes if config.episodes is not None else length
     limit = run_limits(config)[0]
+    noisy_ones = registry.noisy_of(config.strategies)
+    # where the robot stands after each step: for a count bonus, and run.coverage
+    places = config.run.coverage or bool(registry.with_bonus(config.strategies))
 
-    def env_step(ts: PQNState, run: chex.Array, carry, key: chex.PRNGKey):
+    def noise(ts: PQNState) -> chex.Array | None:
+        if not noisy_ones:
+            return None
+        return (ts.strategy == registry.index(noisy_ones[0])).astype(jnp.float32)
+
+    def q_values(params, obs, switch, drawn):
+        """Q-values of ``obs``; a noisy network's with the run's noise ``switch`` and a
+        draw of its noise (:func:`jaxnav.agent.noisy.draw`)."""
+        if switch is None:
+            return network.apply(params, obs)
+        return network.apply(noisy.with_draw(params, drawn), obs, noise=switch)
+
+    def drawn_for(params, obs, switch, key):
+        """A draw of a noisy network's noise for ``obs`` (None without noise)."""
+        if switch is None:
+            return None
+        return noisy.draw(network, jax.lax.stop_gradient(params), obs, switch, key)
+
+    def env_step(ts: PQNState, run: chex.Array, drawn, carry, key: chex.PRNGKey):
         """One step of every environment: act, step, file the finished episodes."""
         obs, env_state, metrics, episode = carry
         h = ts.hyper
         k_act, k_env = jax.random.split(key)
-        q = network.apply(ts.params, obs)  # f32[E, A]
+        q = q_values(ts.params, obs, noise(ts), drawn)  # f32[E, A]
 
         def act(k, q_env):
             return explore_action(ts.strategy, k, q_env, episode, h, config.strategies)
@@ -193,19 +252,24 @@ def make_rollouts(config: Config) -> Rollouts:
             explore,
             jnp.max(q, -1),
             jnp.all(jnp.isfinite(q), -1),
+            info["final_pos"] if places else None,
+            info["goal_reached"] if places else None,
         )
         return (new_obs, env_state, metrics, episode), row
 
     def play(ts: PQNState, run: chex.Array, key: chex.PRNGKey):
         carry = (ts.obs, ts.env_state, ts.metrics, ts.episode)
         keys = jax.random.split(key, p.rollout)
-        return jax.lax.scan(lambda c, k: env_step(ts, run, c, k), carry, keys)
+        # a noisy network: each environment's own draw, held for the rollout
+        drawn = drawn_for(ts.params, ts.obs, noise(ts), jax.random.fold_in(key, NOISE_SALT))
+        return jax.lax.scan(lambda c, k: env_step(ts, run, drawn, c, k), carry, keys)
 
-    def targets(params, ro: Rollout, gamma) -> chex.Array:
-        next_v = jnp.max(network.apply(params, ro.next_obs), -1)  # before any auto-reset
+    def targets(params, ro: Rollout, gamma, switch=None, key=None) -> chex.Array:
+        drawn = drawn_for(params, ro.next_obs[0, 0], switch, key)  # one draw for them all
+        next_v = jnp.max(q_values(params, ro.next_obs, switch, drawn), -1)  # before any reset
         return lambda_returns(ro.reward, ro.terminated, ro.truncated, next_v, gamma, p.td_lambda)
 
-    return Rollouts(env, base_params, network, slots, play, targets)
+    return Rollouts(env, base_params, network, slots, play, targets, noise)
 
 
 def _updates(config: Config) -> int:
@@ -228,6 +292,12 @@ def make_trainer(config: Config) -> Trainer:
     decay = lr_decay_steps(config, gradient_steps(config))
     optimizer = _optimizer(d, d.optimizer, p.max_grad_norm, decay)  # the state's layout
     dropout = d.dropout > 0.0 or any(k == "dqn.dropout" for k, _ in config.sweep)
+    # the intrinsic rewards: (strategy number, Bonus) of each listed strategy with one
+    bonuses = [
+        (registry.index(s), bonus.maker(s)(config, env))
+        for s in registry.with_bonus(config.strategies)
+    ]
+    places = coverage_grid(config, base_params) if config.run.coverage else None
 
     def init(key: chex.PRNGKey, strategy: chex.Array, hyper: Hyper) -> PQNState:
         env_params = env.with_bank(hyper.env_params(base_params), bank_key(key))
@@ -235,6 +305,9 @@ def make_trainer(config: Config) -> Trainer:
         reset = jax.vmap(env.reset, in_axes=(0, None))
         obs, env_state = reset(jax.random.split(k_env, envs), env_params)
         params = network.init(k_net, obs[0])
+        states = tuple(
+            b.init(jax.random.fold_in(key, BONUS_SALT + i), obs) for i, (_, b) in enumerate(bonuses)
+        )
         return PQNState(
             params=params,
             opt_state=optimizer.init(params),
@@ -248,6 +321,8 @@ def make_trainer(config: Config) -> Trainer:
             metrics=Episodes.zeros(slots, envs, attempts=bool(env.attempt_limit)),
             diverged_at=jnp.asarray(-1, jnp.int32),
             bank=env_params.bank,
+            bonus=states or None,
+            explored=None if places is None else Explored.start(*places.shape),
         )
 
     def active(ts: PQNState) -> chex.Array:
@@ -262,16 +337,29 @@ def make_trainer(config: Config) -> Trainer:
         with jax.named_scope("rollout"):
             (obs, env_state, metrics, episode), ro = parts.play(ts, run, k_roll)
 
+        # BONUS: the intrinsic rewards of the strategies with one, each added in its
+        # own runs only, and what they learn from the rollout.
+        states = ts.bonus
+        if bonuses:
+            with jax.named_scope("bonus"):
+                ro, states = _with_bonuses(bonuses, ts, ro, k_learn)
+
         # TARGETS: lambda-returns from the same network's max-Q, fixed for the update.
+        switch = parts.noise(ts)
         with jax.named_scope("targets"):
-            targets = parts.targets(ts.params, ro, h.gamma)
+            k_noise = jax.random.fold_in(k_learn, NOISE_SALT)
+            targets = parts.targets(ts.params, ro, h.gamma, switch, k_noise)
 
         # LEARN: epochs x minibatches over the rollout.
         with jax.named_scope("learn"):
             data = (ro.obs.reshape(per_update, -1), ro.action.reshape(-1), targets.reshape(-1))
             params, opt_state, broke, loss = _learn(
-                network, config, h, ts.params, ts.opt_state, data, k_learn, dropout
+                network, config, h, ts.params, ts.opt_state, data, k_learn, dropout, switch
             )
+        explored = ts.explored
+        if places is not None:  # where the robot has been, and its first goal
+            iy, ix = block_index(ro.pos, places.origin, places.raster, BLOCK)
+            explored = visited(explored, iy, ix, ro.reached, ts.step, envs)
         n_steps = ts.step + per_update
         diverged = (ts.diverged_at < 0) & run & (broke | ~jnp.all(ro.q_finite))
         held = ts.replace(
@@ -285,6 +373,8 @@ def make_trainer(config: Config) -> Trainer:
             metrics=select(run, metrics, ts.metrics),
             diverged_at=jnp.where(diverged, n_steps, ts.diverged_at),
             bank=env.refreshed_bank(ts.bank, ts.key, ts.step, jnp.where(run, n_steps, ts.step)),
+            bonus=select(run, states, ts.bonus),
+            explored=select(run, explored, ts.explored),
         )
         nan = jnp.float32(jnp.nan)
         log = StepLog(
@@ -311,6 +401,38 @@ def _optimizer(
     return optax.chain(clip, optimizer_of(h, kind, decay))
 
 
+BONUS_SALT = 1000  # a run's key folded with this (+ i) starts its i-th bonus's state
+
+
+class Places(NamedTuple):
+    """run.coverage's grid: the oracle's raster of the config's maze, pooled in blocks."""
+
+    raster: Raster
+    origin: np.ndarray  # f32[2] the centre of the raster's cell (0, 0)
+    shape: tuple[int, int]  # (ny, nx) of the blocks
+
+
+def coverage_grid(config: Config, env_params: EnvParams) -> Places:
+    """The grid of run.coverage for a config's fixed maze (``env_params.maze``)."""
+    maze = env_params.maze
+    raster = raster_for([maze], ORACLE_CELL)
+    nx, ny = blocks_of(raster, BLOCK)
+    return Places(raster, np.asarray(origin_of(maze, raster)), (ny, nx))
+
+
+def _with_bonuses(bonuses, ts: PQNState, ro: Rollout, key) -> tuple[Rollout, tuple]:
+    """The rollout with each intrinsic reward added to the environment's where the run's
+    strategy is the bonus's (exactly ``r + 0`` elsewhere), and the bonuses' states after
+    counting and learning from it."""
+    steps = Steps(ro.next_obs, ro.pos)
+    reward, states = ro.reward, []
+    for i, ((number, b), state) in enumerate(zip(bonuses, ts.bonus)):
+        extra, state = b.reward(state, steps, ts.hyper)
+        reward = reward + jnp.where(ts.strategy == number, extra, 0.0)
+        states.append(b.learn(state, steps, jax.random.fold_in(key, BONUS_SALT + i)))
+    return ro._replace(reward=reward), tuple(states)
+
+
 def gradient_steps(config: Config) -> int:
     """A run's gradient steps over its budget (``total_steps``): its updates times
     ``pqn.epochs`` x ``pqn.minibatches``."""
@@ -318,11 +440,14 @@ def gradient_steps(config: Config) -> int:
     return -(-config.max_total_steps // (p.num_envs * p.rollout)) * p.epochs * p.minibatches
 
 
-def _learn(network: QNetwork, config: Config, h: Hyper, params, opt_state, data, key, dropout):
+def _learn(
+    network: QNetwork, config: Config, h: Hyper, params, opt_state, data, key, dropout, switch=None
+):
     """(params, opt_state, broke, mean loss) after ``pqn.epochs`` passes of
     ``pqn.minibatches`` shuffled minibatches over the rollout's ``data`` (observations
     f32[n, D], actions i32[n], targets f32[n]). A minibatch whose loss or new parameters
-    are not finite is not applied, nor is any after it (``broke``)."""
+    are not finite is not applied, nor is any after it (``broke``). ``switch``: a noisy
+    network's noise switch of the run (None: no noise), fresh noise each minibatch."""
     d, p = config.dqn, config.pqn
     n = p.num_envs * p.rollout
     size = n // p.minibatches
@@ -332,10 +457,16 @@ def _learn(network: QNetwork, config: Config, h: Hyper, params, opt_state, data,
 
     def loss_fn(params, batch, k):
         obs, action, target = batch
+        variables, extra = params, {}
+        if switch is not None:  # one draw of the noise for the minibatch
+            k_noise = jax.random.fold_in(k, NOISE_SALT)
+            drawn = noisy.draw(network, jax.lax.stop_gradient(params), obs[0], switch, k_noise)
+            variables, extra = noisy.with_draw(params, drawn), {"noise": switch}
         if dropout:
-            q = network.apply(params, obs, train=True, dropout=h.dropout, rngs={"dropout": k})
+            rngs = {"dropout": k}
+            q = network.apply(variables, obs, train=True, dropout=h.dropout, rngs=rngs, **extra)
         else:
-            q = network.apply(params, obs)
+            q = network.apply(variables, obs, **extra)
         return td_loss(q, action, target, kind)
 
     def minibatch(carry, x):

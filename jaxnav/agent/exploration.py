@@ -1,4 +1,7 @@
-"""Exploration: the paper's EBE, its epsilon-greedy baseline, and Boltzmann exploration.
+"""Exploration: the paper's EBE, its epsilon-greedy baseline, Boltzmann exploration, and
+the acts of the field's methods (RND and the count bonus act epsilon-greedy on Q-values
+that learn their intrinsic reward, :mod:`jaxnav.agent.rnd` and :mod:`jaxnav.agent.counts`;
+NoisyNets greedy on a noisy network's, :mod:`jaxnav.agent.noisy`).
 
 Each strategy is a pure function ``act_NAME(key, q f32[A], episode i32[], settings) ->
 (action i32[], exploration f32[])`` registered by name in :mod:`jaxnav.core.strategies`
@@ -91,6 +94,14 @@ def act_epsilon_greedy(key, q, episode, x):
 def act_boltzmann(key, q, episode, x):
     del episode
     return boltzmann(key, q, x.boltzmann_temperature)
+
+
+def act_noisy(key, q, episode, x):
+    """NoisyNets' act: the greedy action of Q-values that carry the network's noise
+    (the trainer draws it, :mod:`jaxnav.agent.noisy`); no probability of exploring is
+    defined, so it reports 0."""
+    del key, episode, x
+    return jnp.argmax(q, axis=-1).astype(jnp.int32), jnp.float32(0.0)
 
 
 def act_policy(key, q, episode, x):

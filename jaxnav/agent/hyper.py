@@ -13,6 +13,7 @@ import jax
 import numpy as np
 from flax import struct
 
+from jaxnav.core import strategies as registry
 from jaxnav.core.config import Config
 from jaxnav.env import EnvParams, from_config
 
@@ -51,6 +52,9 @@ class Hyper:
     double: chex.Array | None = None  # bool
     tau: chex.Array | None = None
     loss: chex.Array | None = None  # bool: True for huber, False for mse
+    # the field's exploration methods' weights: None unless a listed strategy reads them
+    rnd_scale: chex.Array | None = None
+    count_scale: chex.Array | None = None
 
     def env_params(self, params: EnvParams, bank=None) -> EnvParams:
         """``params`` with the run's swept environment settings and, given one, its bank
@@ -63,6 +67,15 @@ class Hyper:
 
 ENV_HYPER = ("lidar_noise_std", "R_plus", "R_minus", "reward_span")
 AGENT_HYPER = ("double", "tau", "loss")
+# exploration settings carried only where a strategy of the config reads them
+# (jaxnav.core.strategies), so a program without that strategy is unchanged
+BONUS_HYPER = ("rnd_scale", "count_scale")
+
+
+def bonus_keys(config: Config) -> tuple[str, ...]:
+    """The weights of BONUS_HYPER that a strategy of the config reads."""
+    read = {k for s in config.strategies for k in registry.get(s).keys}
+    return tuple(k for k in BONUS_HYPER if f"exploration.{k}" in read)
 
 
 def hyper(
@@ -93,6 +106,7 @@ def hyper(
         eps_min=f32(x.eps_min),
         **{k: f32(getattr(env_params, k)) for k in env_keys},
         **{k: agent[k] for k in agent_keys},
+        **{k: f32(getattr(x, k)) for k in bonus_keys(config)},
     )
 
 

@@ -10,6 +10,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from jaxnav.agent.noisy import NoisyDense
+
 # The scan convolutions' kernel (beams) and stride: each output looks at 5 neighbouring
 # beams, every second beam, so each layer halves the beams (rounded up).
 CONV_KERNEL = 5
@@ -22,7 +24,11 @@ class QNetwork(nn.Module):
     ``dueling`` (Wang et al. 2016) replaces the last layer by two linear streams on
     the same hidden features, a value ``value`` (1 output) and an advantage
     ``advantage`` (|A| outputs), joined by :func:`dueling_q`. ``layer_norm`` (PQN,
-    Gallici et al. 2024) normalises each hidden layer before its ReLU.
+    Gallici et al. 2024) normalises each hidden layer before its ReLU. ``noisy``
+    (NoisyNets, strategy ``noisy``) makes every dense layer a
+    :class:`jaxnav.agent.noisy.NoisyDense` of ``noisy_sigma`` under the plain layer's
+    name: called with ``noise`` (a run's switch, f32[]) it draws the ``noise`` PRNG
+    stream, without it it is the mean network.
 
     ``scan_conv`` (channels per layer; empty: none, the paper's network) puts circular
     convolutions over the scan before the hidden layers (:class:`ScanTorso`):
@@ -37,16 +43,29 @@ class QNetwork(nn.Module):
     layer_norm: bool = False
     scan_conv: tuple[int, ...] = ()
     scan_layout: tuple[int, int, int] = (0, 0, 0)
+    noisy: bool = False
+    noisy_sigma: float = 0.5
 
     @nn.compact
-    def __call__(self, obs: chex.Array, train: bool = False, dropout=None) -> chex.Array:
-        """``dropout``: the rate as data (f32[]); None takes ``self.dropout``."""
+    def __call__(
+        self, obs: chex.Array, train: bool = False, dropout=None, noise=None
+    ) -> chex.Array:
+        """``dropout``: the rate as data (f32[]); None takes ``self.dropout``. ``noise``:
+        a noisy network's switch (f32[]); None: its mean network."""
         x = obs
         init = nn.initializers.lecun_uniform()  # ROBOTIS' Keras initialiser
+        dense_count = iter(range(len(self.hidden) + 1))
+
+        def dense(width, name=None):
+            if not self.noisy:
+                return lambda h: nn.Dense(width, kernel_init=init, name=name)(h)
+            name = name or f"Dense_{next(dense_count)}"  # the plain layer's name
+            return lambda h: NoisyDense(width, self.noisy_sigma, name=name)(h, noise)
+
         if self.scan_conv:
             x = ScanTorso(self.scan_conv, self.scan_layout, name="ScanTorso")(x)
         for width in self.hidden:
-            x = nn.Dense(width, kernel_init=init)(x)
+            x = dense(width)(x)
             if self.layer_norm:
                 x = nn.LayerNorm()(x)
             x = nn.relu(x)
@@ -54,9 +73,9 @@ class QNetwork(nn.Module):
             rate = self.dropout if dropout is None else dropout
             x = dropout16(self.make_rng("dropout"), x, rate)
         if not self.dueling:
-            return nn.Dense(self.num_actions, kernel_init=init)(x)
-        value = nn.Dense(1, kernel_init=init, name="value")(x)
-        advantage = nn.Dense(self.num_actions, kernel_init=init, name="advantage")(x)
+            return dense(self.num_actions)(x)
+        value = dense(1, "value")(x)
+        advantage = dense(self.num_actions, "advantage")(x)
         return dueling_q(value, advantage)
 
 

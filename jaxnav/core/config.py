@@ -348,6 +348,8 @@ def _check(cfg: Config) -> Config:
 
     if cfg.run.keep_best and not cfg.run.eval_every:
         fail("run.keep_best", "chooses among the greedy evaluations: it needs run.eval_every > 0")
+    if says := registry.exploring_problem(cfg):  # each strategy's own check, run.coverage
+        raise ConfigError(f"config: {says}")
     if cfg.dqn.lr_decay and cfg.total_steps is None:
         fail("dqn.lr_decay", "needs total_steps: the decay spans the run's budget of env steps")
     if cfg.env.pace_curriculum and cfg.total_steps is None:

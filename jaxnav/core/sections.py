@@ -525,6 +525,30 @@ class ExplorationConfig:
     eps_start: float = setting(1.0, "epsilon of the first episode", rule=UNIT, sweep=True)
     eps_decay: float = setting(0.99, "epsilon's factor per episode", rule=UNIT, sweep=True)
     eps_min: float = setting(0.05, "epsilon's floor", rule=UNIT, sweep=True)
+    # The field's exploration methods (strategies rnd, noisy, count), each read only by
+    # its own strategy's runs:
+    rnd_scale: float = setting(
+        0.1,
+        "rnd: the intrinsic reward's weight beside the environment's (the predictor's error, "
+        "over the running std of its discounted sum)",
+        rule=NON_NEGATIVE,
+        sweep=True,
+    )
+    noisy_sigma: float = setting(
+        0.5,
+        "noisy: sigma_0 of the factorised noise; each noisy layer's sigmas start at "
+        "sigma_0 / sqrt(its inputs) (Fortunato et al. 2018)",
+        rule=POSITIVE,
+    )
+    count_scale: float = setting(
+        0.1,
+        "count: the bonus is count_scale / sqrt(visits) of the cell the robot reaches",
+        rule=NON_NEGATIVE,
+        sweep=True,
+    )
+    count_cell: float = setting(
+        0.5, "count: the side of a cell of the position grid counted, m", rule=POSITIVE
+    )
 
 
 @dataclass(frozen=True)
@@ -579,6 +603,13 @@ class RunConfig:
         "",
         "a finished run whose policies these runs start from (its params.npz: the same "
         "strategy and seed, else the same seed; the same network); empty: fresh",
+    )
+    coverage: bool = setting(
+        False,
+        "record where each run's robot has been while it trains and the env step of its "
+        "first goal: eval.csv's coverage (the share of the world's free cells visited, on "
+        "the oracle's raster pooled into 0.25 m cells) and first_goal (needs "
+        "run.eval_every, agent pqn and a fixed maze)",
     )
     keep_best: bool = setting(
         False,

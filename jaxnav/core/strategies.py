@@ -17,6 +17,20 @@ take the list from here, so nothing else changes when a strategy is added::
 where ``settings`` has the exploration settings as attributes (a run's
 :class:`jaxnav.dqn.Hyper` inside the trainer). It may be given as a callable or as
 ``"module:function"``, imported when first used, so this module imports no JAX.
+
+A strategy may explore by more than its act over the Q-values, each part named in its
+entry and built by the trainer for the runs of that strategy:
+
+* ``bonus``: an intrinsic reward added to the environment's in the runs of the
+  strategy, ``make(config, env) -> jaxnav.agent.bonus.Bonus`` (RND, the count bonus);
+* ``noisy``: its runs act and learn with noise in the Q-network's layers
+  (:mod:`jaxnav.agent.noisy`, NoisyNets); every run of a program that has such a
+  strategy carries the noisy layers' parameters, the noise on in its runs only;
+* ``problem``: ``(config) -> str | None``, what the strategy cannot do with a
+  config's agent or world, one line (JAX-free: it runs when a config loads).
+
+Every part is built only where a config lists the strategy, so a program without it
+is the program it was.
 """
 
 from __future__ import annotations
@@ -37,10 +51,17 @@ class Strategy:
     about: str
     label: str  # how tables and figures name it
     actions: str = "discrete"  # the agents it serves: "discrete" (over Q-values) or "continuous"
+    bonus: Callable[..., Any] | str | None = None  # make(config, env) -> agent.bonus.Bonus
+    noisy: bool = False  # acts and learns with a noisy Q-network (jaxnav.agent.noisy)
+    problem: Callable[[Any], str | None] | str | None = None  # (config) -> one line or None
 
     def function(self) -> Callable[..., Any]:
         """``act`` as a callable."""
         return resolve(self.act)
+
+    def settings_problem(self, config: Any) -> str | None:
+        """What the strategy cannot do with ``config`` (its agent, its world), or None."""
+        return None if self.problem is None else resolve(self.problem)(config)
 
 
 _REGISTRY: dict[str, Strategy] = {}
@@ -53,9 +74,13 @@ def register(
     about: str = "",
     label: str | None = None,
     actions: str = "discrete",
+    bonus: Callable[..., Any] | str | None = None,
+    noisy: bool = False,
+    problem: Callable[[Any], str | None] | str | None = None,
 ) -> Strategy:
     """Add a strategy; its index (the trainer's strategy number) is its place here;
-    ``label`` (default: the name) is how tables and figures name it."""
+    ``label`` (default: the name) is how tables and figures name it; ``bonus``,
+    ``noisy`` and ``problem``: the module's docstring."""
     if name in _REGISTRY:
         raise ConfigError(f"strategy {name!r} is registered already")
     if not name.isidentifier():
@@ -63,7 +88,9 @@ def register(
     bad = [k for k in keys if not k.startswith("exploration.")]
     if bad:
         raise ConfigError(f"strategy {name!r}: {bad[0]} is not an exploration setting")
-    _REGISTRY[name] = Strategy(name, act, tuple(keys), about, label or name, actions)
+    _REGISTRY[name] = Strategy(
+        name, act, tuple(keys), about, label or name, actions, bonus, noisy, problem
+    )
     return _REGISTRY[name]
 
 
@@ -90,6 +117,59 @@ def label(name: str) -> str:
 def index(name: str) -> int:
     """The strategy's number in the trainer's carry."""
     return names().index(name)
+
+
+def with_bonus(listed: tuple[str, ...]) -> tuple[str, ...]:
+    """The strategies of ``listed`` (a config's) that add an intrinsic reward."""
+    return tuple(s for s in listed if _REGISTRY[s].bonus is not None)
+
+
+def noisy_of(listed: tuple[str, ...]) -> tuple[str, ...]:
+    """The strategies of ``listed`` (a config's) that act with a noisy Q-network."""
+    return tuple(s for s in listed if _REGISTRY[s].noisy)
+
+
+def exploring_problem(config: Any) -> str | None:
+    """What is wrong with a config's exploration, one line naming the setting, or None:
+    each listed strategy's own check, and the measures of exploring (``run.coverage``)
+    need greedy evaluations of PQN's runs in one fixed world."""
+    for name in config.strategies:
+        says = _REGISTRY[name].settings_problem(config) if name in _REGISTRY else None
+        if says:
+            return f"strategies {says}"
+    run = config.run
+    if run.coverage and (not run.eval_every or config.agent != "pqn" or config.env.generator):
+        return (
+            "run.coverage is written with the greedy evaluations of PQN's runs in one fixed "
+            "world: it needs run.eval_every > 0, agent pqn and a fixed maze (no env.generator)"
+        )
+    return None
+
+
+def only_pqn(name: str) -> Callable[[Any], str | None]:
+    """A ``problem`` check: the strategy's part trains on PQN's rollouts only."""
+
+    def problem(config: Any) -> str | None:
+        if config.agent != "pqn":
+            return (
+                f"has {name}, whose intrinsic reward learns from PQN's rollouts: it needs "
+                f"agent pqn (agent is {config.agent})"
+            )
+        return None
+
+    return problem
+
+
+def _count_problem(config: Any) -> str | None:
+    """The count bonus counts places of one fixed world with PQN's rollouts."""
+    if says := only_pqn("count")(config):
+        return says
+    if config.env.generator:
+        return (
+            "has count, which counts visits to the places of one fixed world: it needs "
+            f"a fixed maze (env.generator is {config.env.generator!r})"
+        )
+    return None
 
 
 _EXPLORE = "jaxnav.agent.exploration"
@@ -122,4 +202,46 @@ register(
     "(SAC; not a strategy over Q-values)",
     "own policy",
     actions="continuous",
+)
+# The field's exploration methods beside EBE (after the built-in ones above, so their
+# numbers stay as they were).
+register(
+    "rnd",
+    f"{_EXPLORE}:act_epsilon_greedy",
+    (
+        "exploration.eps_start",
+        "exploration.eps_decay",
+        "exploration.eps_min",
+        "exploration.rnd_scale",
+    ),
+    "epsilon-greedy plus random network distillation's intrinsic reward (Burda et al. 2018): "
+    "the predictor's error on a fixed random network's features of the observation",
+    "RND",
+    bonus="jaxnav.agent.rnd:make",
+    problem=only_pqn("rnd"),
+)
+register(
+    "noisy",
+    f"{_EXPLORE}:act_noisy",
+    ("exploration.noisy_sigma",),
+    "NoisyNets (Fortunato et al. 2018): greedy on a Q-network whose layers carry "
+    "factorised Gaussian noise, learnt with it",
+    "NoisyNets",
+    noisy=True,
+)
+register(
+    "count",
+    f"{_EXPLORE}:act_epsilon_greedy",
+    (
+        "exploration.eps_start",
+        "exploration.eps_decay",
+        "exploration.eps_min",
+        "exploration.count_scale",
+        "exploration.count_cell",
+    ),
+    "epsilon-greedy plus a count bonus, scale / sqrt(visits) of the cell of a coarse "
+    "position grid the robot reaches (Tang et al. 2017; in navigation, Zhelo et al. 2018)",
+    "count bonus",
+    bonus="jaxnav.agent.counts:make",
+    problem=_count_problem,
 )

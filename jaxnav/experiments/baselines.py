@@ -33,7 +33,7 @@ from jaxnav.experiments.navigation import ShortestPaths, attempt_paths
 from jaxnav.experiments.rollout import Policies, drawn_name, padded_mazes, run_tests
 from jaxnav.planners.dwa import BARN_SETTINGS, DWA, barn_dwa
 from jaxnav.planners.oracle import Oracle, holds_for
-from jaxnav.planners.raster import raster_for
+from jaxnav.planners.raster import ORACLE_CELL, raster_for
 from jaxnav.planners.search import opening
 from jaxnav.report.navigation import (
     COLLISION,
@@ -47,7 +47,7 @@ from jaxnav.report.results import RESULT_COLUMNS, episode_rows
 from jaxnav.world.generators import SPLITS
 from jaxnav.world.maps import Maze, make_maze
 
-RASTER_CELL = 0.05  # m: the oracle's raster
+RASTER_CELL = ORACLE_CELL  # m: the oracle's raster
 
 
 def planner_problem(name: str, env: NavEnv) -> str | None:

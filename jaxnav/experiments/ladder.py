@@ -93,6 +93,10 @@ SCORE_COLUMNS = (
 # One row per seed and greedy evaluation while it trains (eval_points): the learning curve
 # the study's measures of learning speed come from (jaxnav.report.learning).
 EVAL_COLUMNS = ("rung", "agent", "strategy", "seed", "env_step", "wall_s", "success", "collision")
+# ... and, where the cell recorded what its runs explored (run.coverage), the env steps by
+# each seed's first goal in training (empty before one) and the share of the world's free
+# cells it had visited (jaxnav.report.exploring reads them)
+EXPLORED_COLUMNS = ("first_goal", "coverage")
 
 
 @dataclass(frozen=True)
@@ -378,6 +382,7 @@ def eval_rows(run: Path, rung: Rung, agent: Agent) -> list[dict]:
                 "wall_s": r["wall_s"],
                 "success": r["success"],
                 "collision": f"{collision:.6g}",
+                **{c: r[c] for c in EXPLORED_COLUMNS if c in r},
             }
         )
     return rows
@@ -420,9 +425,8 @@ def run_cell(study: Study, out: Path, rung: Rung, agent: Agent, quiet: bool, say
     )
     if study.eval_points:
         evals = eval_rows(run, rung, agent)
-        atomic_write_text(
-            run / "evals.csv", csv_text(EVAL_COLUMNS, [list(r.values()) for r in evals])
-        )
+        head = list(evals[0]) if evals else list(EVAL_COLUMNS)
+        atomic_write_text(run / "evals.csv", csv_text(head, [list(r.values()) for r in evals]))
     atomic_write_text(run / "cell.json", json.dumps(row))
     atomic_write_text(done, csv_text(SCORE_COLUMNS, [[r[c] for c in SCORE_COLUMNS] for r in rows]))
 
@@ -481,8 +485,9 @@ def publish(study: Study, out: Path, page: Path) -> list[Path]:
         shutil.copyfile(data / name, folder / name)
     written = study_pages.figures(folder, page.parent, prefix)
     traj = trajectory_cell(Data(folder))
-    if traj is not None:
-        path = page.parent / f"{prefix}-{study_pages.figure_names(folder)[2]}"
+    names = study_pages.figure_names(folder)
+    if traj is not None and len(names) > 2:  # a page with a trajectory figure
+        path = page.parent / f"{prefix}-{names[2]}"
         written.append(_trajectories(study, out, *traj, path))
     atomic_write_text(page, study_pages.page(folder, prefix))
     return [page, *written, folder]

@@ -30,6 +30,7 @@ PAD = 2  # cells of raster beyond the maze's bounds on every side
 # m: an occupancy grid's clearance on the raster is exact up to this (the robot's radius,
 # the oracle's margin, a raster cell and its diagonal, for radii up to 0.45 m)
 GRID_NEAR = 0.6
+ORACLE_CELL = 0.05  # m: the oracle's raster (jaxnav.experiments.baselines)
 
 _DIAGONAL = math.sqrt(2.0)
 # 16 neighbours: the 8 around a cell and the 8 a knight's move away, so a way's length
@@ -162,8 +163,41 @@ def field_lower(field: chex.Array, origin: chex.Array, raster: Raster, px, py) -
     )
 
 
+def blocks_of(raster: Raster, block: int) -> tuple[int, int]:
+    """(nx, ny) of the grid of ``block`` x ``block`` cells of ``raster`` (cell (i, j) of
+    the raster is in block (i // block, j // block))."""
+    return -(-raster.nx // block), -(-raster.ny // block)
+
+
+def block_index(
+    pos: chex.Array, origin: chex.Array, raster: Raster, block: int
+) -> tuple[chex.Array, chex.Array]:
+    """(iy, ix) i32[...] each: the block of ``block`` x ``block`` cells holding each
+    point of ``pos`` f32[..., 2] (the cell whose centre is nearest), clipped in."""
+    nbx, nby = blocks_of(raster, block)
+    ix = jnp.round((pos[..., 0] - origin[0]) / raster.h).astype(jnp.int32) // block
+    iy = jnp.round((pos[..., 1] - origin[1]) / raster.h).astype(jnp.int32) // block
+    return jnp.clip(iy, 0, nby - 1), jnp.clip(ix, 0, nbx - 1)
+
+
+def free_blocks(maze: Maze, raster: Raster, block: int, radius: float) -> chex.Array:
+    """bool[nby, nx]: the blocks of ``block`` x ``block`` cells holding a cell whose
+    centre the robot's disc (``radius``) fits at and reaches from the maze's start (a
+    finite shortest path through such cells): the world's free cells, pooled."""
+    origin = origin_of(maze, raster)
+    free = clearance_field(maze, raster) > radius
+    reach = jnp.isfinite(goal_distance(free, maze.start[:2], 0.0, origin, raster))
+    nbx, nby = blocks_of(raster, block)
+    padded = jnp.zeros((nby * block, nbx * block), bool).at[: raster.ny, : raster.nx].set(reach)
+    return padded.reshape(nby, block, nbx, block).any(axis=(1, 3))
+
+
 __all__ = [
+    "ORACLE_CELL",
     "PAD",
+    "block_index",
+    "blocks_of",
+    "free_blocks",
     "Raster",
     "centres",
     "clearance_field",

@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
+from jaxnav.core import strategies
 from jaxnav.report import stats
 from jaxnav.report.claims import verdict
 from jaxnav.report.markdown import interval, markdown_table, settings_text
@@ -25,7 +26,16 @@ from jaxnav.report.navigation import SOLVED_TOLERANCE, solved
 ORACLE = "oracle"  # the reference driver whose success on the same test defines "solved"
 TRAJECTORY_SUCCESS = 0.5  # the trajectory figure's world: an arm reaches this share of goals
 EBE, EPS, BOLTZMANN = "ebe", "epsilon_greedy", "boltzmann"
-NAMES = {EBE: "EBE", EPS: "epsilon-greedy", BOLTZMANN: "Boltzmann"}
+
+
+class _Labels(dict):
+    """The strategies' names in tables: these three, any other its registered label."""
+
+    def __missing__(self, key: str) -> str:
+        return strategies.label(key)
+
+
+NAMES = _Labels({EBE: "EBE", EPS: "epsilon-greedy", BOLTZMANN: "Boltzmann"})
 MEASURES = ("success", "return")
 DRIVE_MEASURES = ("collision", "spl")  # how the arms drive, beside success
 DRIVERS = {ORACLE: "oracle", "dwa": "DWA"}  # the reference drivers, as tables name them

@@ -31,6 +31,7 @@ from pathlib import Path
 import jax
 import numpy as np
 
+from jaxnav.agent.explored import BLOCK, coverage
 from jaxnav.agent.rollout import VALID_SALT, eval_keys, make_rollout
 from jaxnav.agent.sharding import RunSharding
 from jaxnav.agent.trainer import Trainer
@@ -39,8 +40,10 @@ from jaxnav.core.config import Config
 from jaxnav.core.settings import training_only_on
 from jaxnav.core.startup import process_age
 from jaxnav.env import NavEnv
+from jaxnav.planners.raster import ORACLE_CELL, free_blocks, raster_for
 from jaxnav.report.navigation import COLLISION, CUT, SUCCESS, TIMEOUT, run_attempts
 from jaxnav.run.checkpoint import leaf_names
+from jaxnav.world.maps import ROBOT_RADIUS
 
 # A swept run's eval.csv has one more column per swept key after "strategy", as
 # metrics.csv. return, goals and collided are means over the evaluation's episodes;
@@ -62,6 +65,17 @@ EVAL_COLUMNS = (
     "timeouts",
     "cut",
 )
+# With run.coverage, two more: the env steps by the run's first goal in training (empty
+# before one) and the share of the world's free cells its robot has visited
+# (jaxnav.agent.explored).
+COVERAGE_COLUMNS = ("first_goal", "coverage")
+
+
+def free_cells(maze) -> np.ndarray:
+    """bool[ny, nx]: run.coverage's free cells of a fixed maze (the oracle's raster
+    pooled as the trainer pools it, :func:`jaxnav.pqn.coverage_grid`)."""
+    raster = raster_for([maze], ORACLE_CELL)
+    return np.asarray(free_blocks(maze, raster, BLOCK, ROBOT_RADIUS))
 
 
 class BestPolicy:
@@ -153,7 +167,9 @@ class GreedyEval:
         self.fields = cfg.run_fields()
         self.chunk_length = trainer.chunk_length
         self.grain = math.lcm(trainer.step_size, block)
-        self.log = rundir.CsvLog(out / rundir.EVAL, sweep.with_swept(EVAL_COLUMNS, cfg.sweep))
+        columns = EVAL_COLUMNS + (COVERAGE_COLUMNS if cfg.run.coverage else ())
+        self.log = rundir.CsvLog(out / rundir.EVAL, sweep.with_swept(columns, cfg.sweep))
+        self.free = free_cells(trainer.env_params.maze) if cfg.run.coverage else None
         self.shard = shard
         rollout = make_rollout(
             evaluation_env(trainer.env),
@@ -251,6 +267,15 @@ class GreedyEval:
                     n[COLLISION],
                     n[TIMEOUT],
                     n[CUT],
+                    *(() if self.free is None else self._explored(ts, r)),
                 )
             )
         return out
+
+    def _explored(self, ts, r: int) -> tuple[str, str]:
+        """Run ``r``'s first goal and coverage so far (run.coverage)."""
+        if r == 0:
+            ex = self.shard.get(ts.explored)
+            self._now = (np.asarray(ex.first_goal), np.asarray(coverage(ex.visits, self.free)))
+        first, share = self._now
+        return ("" if first[r] < 0 else str(int(first[r])), f"{float(share[r]):.6g}")
