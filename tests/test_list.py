@@ -23,7 +23,8 @@ def test_the_top_level_holds_env_the_agents_and_the_main_command_only():
     """The package's top level is the task, the agents and ``python -m jaxnav.train``;
     every command is a module of ``jaxnav.commands`` and ``jaxnav`` lists each one."""
     modules = {p.stem for p in (ROOT / "jaxnav").glob("*.py")}
-    assert modules == {"__init__", "__main__", "env", "dqn", "pqn", "train"}
+    assert modules == {"__init__", "__main__", "dqn", "pqn", "train"}
+    assert (ROOT / "jaxnav" / "env" / "__init__.py").is_file()  # the task, a package
     commands = {p.stem for p in (ROOT / "jaxnav" / "commands").glob("*.py")}
     assert commands - {"__init__"} == set(COMMANDS)
 

@@ -4,8 +4,8 @@ own rule, and the bytes their runs' largest arrays take. No JAX."""
 
 from __future__ import annotations
 
+from jaxnav.core.agent_sections import PRIORITISED_ONLY, REPLAY_ONLY
 from jaxnav.core.config import SETTINGS, Config
-from jaxnav.core.sections import PRIORITISED_ONLY, REPLAY_ONLY
 from jaxnav.core.settings import PRESETS
 
 

@@ -27,6 +27,7 @@ import yaml
 from jaxnav.core import agents, robots
 from jaxnav.core import strategies as registry
 from jaxnav.core import sweep as sweeps
+from jaxnav.core.agent_sections import DQNConfig, PQNConfig, SACConfig
 from jaxnav.core.env_rules import (
     env_action_problem,
     env_bank_problem,
@@ -37,14 +38,7 @@ from jaxnav.core.env_rules import (
     env_waypoint_problem,
 )
 from jaxnav.core.errors import ConfigError
-from jaxnav.core.sections import (
-    DQNConfig,
-    EnvConfig,
-    ExplorationConfig,
-    PQNConfig,
-    RunConfig,
-    SACConfig,
-)
+from jaxnav.core.sections import EnvConfig, ExplorationConfig, RunConfig
 from jaxnav.core.settings import (
     AT_LEAST_1,
     CONTINUOUS,
