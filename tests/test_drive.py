@@ -96,3 +96,26 @@ def test_the_ros_nodes_take_a_shipped_policy_by_name(node, tmp_path, monkeypatch
     assert argv == ["node", "--ros-args", "-p", "goal_topic:=/g"]  # ROS keeps the rest
     assert module.policy_file("drive_anywhere") == str(tmp_path / "drive_anywhere.npz")
     assert module.policy_arg(["node"]) is None
+
+
+@pytest.mark.slow  # the mixed config read and the oracle driven: 20-30 s
+def test_the_shipped_policy_drives_only_the_world_named(tmp_path, capsys):
+    """``jaxnav drive square4``, no training: the shipped generalist, trained on a mix of
+    drawn worlds, is tested in square4 alone (not on its family's layouts too)."""
+    out = tmp_path / "drive"
+    assert main(["square4", "--episodes", "1", "--out", str(out), "--quiet"]) == 0
+    rows = list(csv.DictReader(io.StringIO((out / "eval" / "results.csv").read_text())))
+    assert {r["maze"] for r in rows} == {"square4"}
+    assert {r["strategy"] for r in rows} == {"epsilon_greedy", "oracle"}
+    assert (out / "plots" / "episode.gif").is_file()
+
+
+def test_every_shipped_policy_comes_with_its_page():
+    """Each shipped policy file has its page beside it (the config and the test that made
+    it) and loads as a policy."""
+    policies = shipped.shipped_policies()
+    assert "drive_anywhere" in policies
+    for name, path in policies.items():
+        page = path.with_suffix(".md").read_text()
+        assert f"jaxnav train {name}" in page and "| test maze |" in page
+        assert Policy.load(path).meta["strategy"]

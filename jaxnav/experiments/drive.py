@@ -84,6 +84,7 @@ def drive(
         references=references,
         say=say,
         overrides=overrides,
+        family_splits=False,  # the world named only, whatever the policy trained on
     )
     (out / PLOTS).mkdir(exist_ok=True)
     # The trajectories' figures read the run's own eval/ folder.

@@ -196,6 +196,7 @@ def evaluate(
     references: Sequence[str] = baselines.names(),
     say: Callable[[str], None] | None = None,
     overrides: Sequence[str] = (),
+    family_splits: bool = True,
 ) -> tuple[LoadedRun, list[str], str, Episodes, Failures]:
     """Test every run of ``run_dir`` in ``modes`` (both: greedy, then exploring).
 
@@ -205,6 +206,8 @@ def evaluate(
     take the greedy test beside the policies, once per seed on the same keys.
     ``say``: called with a line before each test starts (progress), if given.
     ``overrides``: environment settings to test in instead of the trained ones.
+    ``family_splits``: a run trained on drawn mazes is tested on its family's train and
+    test layouts too (False: on the mazes named only).
     Returns (run, maze names, results.csv text, the first greedy test episode of
     the config's seed per maze and strategy, where each arm's failed greedy attempts
     ended in each test maze, pooled over its seeds).
@@ -264,7 +267,7 @@ def evaluate(
         # layouts, which training never saw: their difference is the gap.
         drawn_tests = [
             (drawn_name(run.config, split), drawn_policies(run, split))
-            for split in (SPLITS if drawn_splits(run.config) else ())
+            for split in (SPLITS if family_splits and drawn_splits(run.config) else ())
         ]
         drawn_tests += [
             (name, drawn_policies(run, cfg.env.split, cfg))
@@ -329,12 +332,22 @@ def evaluate_to_dir(
     references: Sequence[str] = baselines.names(),
     say: Callable[[str], None] | None = None,
     overrides: Sequence[str] = (),
+    family_splits: bool = True,
 ) -> Path:
     """Evaluate; write results.csv, tables.md, trajectories.npz and, for fixed test
     mazes, failures.npz (each atomically) into ``out``. ``overrides``: environment
-    settings to test in instead of the trained ones (the tables' title names them)."""
+    settings to test in instead of the trained ones (the tables' title names them);
+    ``family_splits``: as :func:`evaluate`'s."""
     run, names, text, episodes, failures = evaluate(
-        run_dir, maze_names, n_episodes, modes, more_drawn, references, say, overrides
+        run_dir,
+        maze_names,
+        n_episodes,
+        modes,
+        more_drawn,
+        references,
+        say,
+        overrides,
+        family_splits,
     )
     title = f"Test results of {Path(run_dir).name}"
     if overrides:

@@ -121,6 +121,23 @@ def written_by(commands: dict[str, str], machines: dict[str, str] | str) -> str:
     return "Written by " + "; ".join(f"{p} on {k[1]}" for k, p in parts.items()) + "."
 
 
+def held_out(config: str, maze: str) -> bool:
+    """Whether the shipped ``config`` trained on a mix of worlds (``env.generator:
+    mix``) none of which is ``maze``: a kind of world its policies never saw. A config
+    of one world is tested on that world (or on its family's unseen layouts, which the
+    test maze's split names)."""
+    from jaxnav.core.config import load_config
+    from jaxnav.core.errors import JaxnavError
+
+    try:
+        env = load_config(config, []).env
+    except JaxnavError:  # not a shipped config any more: nothing to say
+        return False
+    if env.generator != "mix":
+        return False
+    return maze.split(":")[0] not in (*env.mix_worlds, "mix")
+
+
 def world_table(folder: Path, k: int = 0) -> list[dict]:
     """One entry per (config, test maze): each driver's per-seed metrics and the run,
     in each config's ``k``-th test (the configs that took one)."""
@@ -136,7 +153,8 @@ def world_table(folder: Path, k: int = 0) -> list[dict]:
                 seeds = sorted(k[2] for k in res if k[:2] == (maze, name))
                 if seeds:
                     drivers[name] = [seed_metrics(res[(maze, name, s)]) for s in seeds]
-            out.append({"run": run, "maze": maze, "drivers": drivers})
+            unseen = held_out(run["config"], maze)
+            out.append({"run": run, "maze": maze, "drivers": drivers, "held_out": unseen})
     return out
 
 
@@ -164,6 +182,8 @@ def sentences(folder: Path) -> list[str]:
             continue
         ms, mo = _mean(policy, "success"), _mean(oracle, "success")
         where = run["world"] + ("" if e["maze"] == run["world"] else f" ({e['maze']})")
+        if e["held_out"]:
+            where = f"{e['maze']}, a kind of world it never trained on"
         verdict = "solves it" if solved(ms, mo) else "does not solve it"
         out.append(
             f"`{run['config']}` on {where}: success {ms:.3f} against the oracle's {mo:.3f}, "
@@ -276,7 +296,7 @@ def driving_markdown(
             rows.append(
                 [
                     f"`{run['config']}`" if is_policy else "",
-                    e["maze"] if is_policy else "",
+                    (e["maze"] + (" (held out)" if e["held_out"] else "")) if is_policy else "",
                     label,
                     str(len(per_seed)),
                     *[_cell(per_seed, m) for m in SHOWN],
@@ -301,7 +321,9 @@ def driving_markdown(
         "([navigation metrics](reproducing.md#navigation-metrics)). *Solved*: the policies' "
         f"mean success is within {SOLVED_TOLERANCE} of the oracle's on the same test. "
         "*Command*: the whole `jaxnav train` command, compilation included (an empty "
-        "compilation cache), on the machine named below for its row.",
+        "compilation cache), on the machine named below for its row. *Held out*: a test "
+        "maze of a kind of world that a config trained across several (`env.generator: "
+        "mix`, `drive_anywhere`) never trained on.",
         "",
         written_by(commands, machines),
         "",
