@@ -180,3 +180,15 @@ def test_dwa_with_barns_parameters_samples_its_velocities_and_commands_them_exac
     assert list(np.asarray(allowed)) == [True, False, True]  # no turning back in place
     allowed, _ = planner._no_reversal(turned, jnp.asarray([0.06, 0.0]), *v)
     assert np.asarray(allowed).all()  # once it has moved 0.05 m
+
+
+def test_a_config_testing_on_barns_test_set_starts():
+    """run.test_mazes naming a set of worlds (barn:test) is checked world by world before
+    training starts, as the test reads it; a misspelt set is refused in one line."""
+    from jaxnav.core.config import load_config
+    from jaxnav.core.errors import ConfigError
+    from jaxnav.run.launch import check_test_mazes
+
+    check_test_mazes(load_config("drive_barn", []))
+    with pytest.raises(ConfigError, match="unknown maze 'barn:tset'"):
+        check_test_mazes(load_config("drive_barn", ["run.test_mazes=[barn:tset]"]))

@@ -14,7 +14,7 @@ from pathlib import Path
 from typing import Any
 
 from jaxnav.agent.sharding import is_writer
-from jaxnav.core import rundir, startup
+from jaxnav.core import rundir, startup, worlds
 from jaxnav.core.config import Config, dump_config, load_config
 from jaxnav.core.errors import ConfigError
 from jaxnav.run.training import Run
@@ -79,7 +79,7 @@ def check_test_mazes(cfg: Config) -> None:
     """Read every maze of ``run.test_mazes`` (a name or a maze file): one that does not
     exist or load is a ConfigError naming it, before anything is trained or written,
     not a failure at the test after training."""
-    for maze in cfg.run.test_mazes:
+    for maze in worlds.expand(cfg.run.test_mazes):  # a set (barn:test): each of its mazes
         try:
             make_maze(maze)
         except ValueError as e:
