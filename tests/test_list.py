@@ -165,3 +165,16 @@ def test_the_architecture_page_has_a_line_for_every_module():
         if path.stem != "__init__" and path.stem not in named.get(section, set()):
             missing.append(str(rel))
     assert not missing, f"modules without a line in docs/architecture.md: {missing}"
+
+
+def test_the_house_keeps_its_shape():
+    """No module of the package over 600 lines (split it along its seams), and scripts/
+    holds only the environments' installers: experiment programs are commands, study
+    kinds or package functions with tests, or benchmarks under bench/."""
+    long = {
+        str(p.relative_to(ROOT)): n
+        for p in (ROOT / "jaxnav").rglob("*.py")
+        if (n := len(p.read_text().splitlines())) > 600
+    }
+    assert not long, f"modules over 600 lines: {long}"
+    assert not list((ROOT / "scripts").rglob("*.py")), "Python programs in scripts/"
