@@ -109,6 +109,11 @@ def test_a_wheel_runs_the_quick_start_from_an_empty_folder(tmp_path):
     subprocess.run([*pip, "install", "--no-deps", "--target", site, wheel], check=True)
     assert (site / "jaxnav" / "configs" / "smoke.yaml").is_file()
     assert (site / "jaxnav" / "configs" / "studies" / "when_ebe_helps.yaml").is_file()
+    # what `jaxnav drive` plays without training, and the worlds it names
+    assert (site / "jaxnav" / "policies" / "drive_anywhere.npz").is_file()
+    assert (site / "jaxnav" / "policies" / "drive_anywhere.md").is_file()
+    assert (site / "jaxnav" / "configs" / "mazes" / "heldout" / "office.yaml").is_file()
+    assert (site / "jaxnav" / "configs" / "barn" / "barn.npz").is_file()
     env = {**os.environ, "PYTHONPATH": str(site)}
     for config in ("smoke", "configs/smoke.yaml"):
         out = empty / config.replace("/", "_")
