@@ -97,6 +97,7 @@ def select(names: tuple[str, ...]) -> list[Published]:
 LADDER = "docs/studies/when-ebe-helps"
 LADDER_40K = "docs/studies/when-ebe-helps-40k"  # the first ladder: 40,960 env steps per seed
 AGENTS_STUDY = "docs/studies/agents"
+HARD_EXPLORATION = "docs/studies/hard-exploration"  # EBE beside the field's exploration methods
 WORLDS_STUDY = "docs/studies/worlds"
 
 
@@ -215,6 +216,14 @@ PUBLISHED: tuple[Published, ...] = (
         "when-ebe-helps-40k-page",
         (f"{LADDER_40K}.md",),
         _study_page(LADDER_40K),
+        block=False,
+        slow=True,
+    ),
+    Published("hard-exploration", ("README.md",), _study_sentence(HARD_EXPLORATION), slow=True),
+    Published(
+        "hard-exploration-page",
+        (f"{HARD_EXPLORATION}.md",),
+        _study_page(HARD_EXPLORATION),
         block=False,
         slow=True,
     ),
