@@ -82,20 +82,24 @@ def test_an_unknown_family_is_refused_in_one_line_listing_the_registered_ones():
     with pytest.raises(ConfigError) as e:
         load_config(None, ["env.generator=empty"])
     assert str(e.value) == (
-        'config: env.generator must be "" (the fixed env.maze), grid, cylinders, rooms or mix'
+        'config: env.generator must be "" (the fixed env.maze), grid, cylinders, rooms, barn or mix'
     )
-    with pytest.raises(ValueError, match="^generator must be .*, grid, cylinders, rooms or mix$"):
+    with pytest.raises(
+        ValueError, match="^generator must be .*, grid, cylinders, rooms, barn or mix$"
+    ):
         jaxnav.make(generator="empty")
     with pytest.raises(ConfigError, match="'empty' is no maze family") as e:
         families.get("empty")
-    assert "\n" not in str(e.value) and "grid, cylinders, rooms or mix" in str(e.value)
+    assert "\n" not in str(e.value) and "grid, cylinders, rooms, barn or mix" in str(e.value)
 
 
 def test_a_registered_family_is_a_choice_and_its_refusals_run_when_a_config_loads(toy):
     assert "  empty      an empty 3 m room, a random goal" in catalog()
     cfg = load_config(None, ["env.generator=empty"])
     assert cfg.env.generator == toy and families.family_text(cfg.env) == "3 m empty rooms"
-    with pytest.raises(ConfigError, match="config: env.generator must be .*, rooms, mix or empty$"):
+    with pytest.raises(
+        ConfigError, match="config: env.generator must be .*, rooms, barn, mix or empty$"
+    ):
         load_config(None, ["env.generator=void"])
     with pytest.raises(ConfigError, match="^config: env.random_start: the empty room starts"):
         load_config(None, ["env.generator=empty", "env.random_start=true"])

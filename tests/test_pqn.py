@@ -174,7 +174,8 @@ def test_pqn_network_normalises_each_hidden_layer_before_its_relu():
     assert sorted(dqn_params["params"]) == ["Dense_0", "Dense_1", "Dense_2"]
 
 
-@pytest.mark.parametrize("strategy", STRATEGIES)
+# NoisyNets acts greedily on Q-values with its noise (tests/test_exploration_methods.py)
+@pytest.mark.parametrize("strategy", [s for s in STRATEGIES if s != "noisy"])
 def test_every_environment_explores_by_its_own_q_values(strategy):
     cfg = load_config(None, TINY)
     parts, tr = pqn.make_rollouts(cfg), pqn.make_trainer(cfg)
@@ -187,13 +188,17 @@ def test_every_environment_explores_by_its_own_q_values(strategy):
     x = cfg.exploration
     if strategy == "ebe":
         want = np.asarray(normalised_entropy(jnp.asarray(q), x.ebe_temperature))
-    elif strategy == "epsilon_greedy":
+    elif strategy in ("epsilon_greedy", "rnd", "count"):  # the bonuses act epsilon-greedy
         want = np.full(len(q), float(epsilon_schedule(jnp.int32(7), x.eps_start, x.eps_decay)))
     else:
         z = (q - q.max(-1, keepdims=True)) / x.boltzmann_temperature
         want = 1.0 - (np.exp(z) / np.exp(z).sum(-1, keepdims=True)).max(-1)
     np.testing.assert_allclose(ro.explore[0], want, rtol=1e-4, atol=1e-6)
-    assert len(set(np.asarray(ro.explore[0]).round(6))) > 1 or strategy == "epsilon_greedy"
+    assert len(set(np.asarray(ro.explore[0]).round(6))) > 1 or strategy in (
+        "epsilon_greedy",
+        "rnd",
+        "count",
+    )
 
 
 # -- Runs -------------------------------------------------------------------------
@@ -222,8 +227,15 @@ def test_a_tiny_pqn_run_is_deterministic_and_every_strategy_learns(tiny_pqn_run,
         init = tr.init(*jax.tree.map(lambda a, r=r: a[r], tuple(inputs))).params["params"]
         trained = rundir.load_params(out / rundir.PARAMS, strategy, seed)["params"]
         assert "LayerNorm_0" in trained
-        moved = [not np.array_equal(a, b) for a, b in zip(*map(jax.tree.leaves, (init, trained)))]
-        assert all(moved), f"{strategy} seed {seed} did not train"
+        # a program with NoisyNets carries the noise's scales in every run: they learn in
+        # the noisy runs only
+        names = [jax.tree_util.keystr(p) for p, _ in jax.tree_util.tree_flatten_with_path(init)[0]]
+        moved = [
+            not np.array_equal(a, b)
+            for name, a, b in zip(names, *map(jax.tree.leaves, (init, trained)), strict=True)
+            if strategy == "noisy" or "sigma" not in name
+        ]
+        assert moved and all(moved), f"{strategy} seed {seed} did not train"
     with open(out / rundir.METRICS) as f:
         rows = list(csv.DictReader(f))
     for strategy, seed in cfg.run_labels():

@@ -106,7 +106,10 @@ def test_each_strategy_reads_exactly_its_listed_settings(strategy):
     q = jnp.asarray([0.1, 0.5, 0.2, 0.0, 0.3])
     registry.get(strategy).function()(jax.random.PRNGKey(0), q, jnp.int32(3), reads)
     listed = {k.split(".", 1)[1] for k in registry.get(strategy).keys}
-    assert reads.read == listed
+    # the settings of an intrinsic reward or of a noisy network are read where those are
+    # made (tests/test_exploration_methods.py), not by the act
+    beside_the_act = {"rnd_scale", "count_scale", "count_cell", "noisy_sigma"}
+    assert reads.read == listed - beside_the_act
 
 
 def test_every_sweepable_key_is_one_field_of_the_run_settings():
