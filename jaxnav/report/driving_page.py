@@ -121,21 +121,18 @@ def written_by(commands: dict[str, str], machines: dict[str, str] | str) -> str:
     return "Written by " + "; ".join(f"{p} on {k[1]}" for k, p in parts.items()) + "."
 
 
-def held_out(config: str, maze: str) -> bool:
-    """Whether the shipped ``config`` trained on a mix of worlds (``env.generator:
-    mix``) none of which is ``maze``: a kind of world its policies never saw. A config
-    of one world is tested on that world (or on its family's unseen layouts, which the
-    test maze's split names)."""
+def trained_worlds(config: str) -> tuple[str, ...] | None:
+    """The worlds the shipped ``config`` trained across when it trained on a mix of
+    them (``env.generator: mix``); None for a config of one world, which is tested on
+    that world (or on its family's unseen layouts, which the test maze's split names)."""
     from jaxnav.core.config import load_config
     from jaxnav.core.errors import JaxnavError
 
     try:
         env = load_config(config, []).env
     except JaxnavError:  # not a shipped config any more: nothing to say
-        return False
-    if env.generator != "mix":
-        return False
-    return maze.split(":")[0] not in (*env.mix_worlds, "mix")
+        return None
+    return (*env.mix_worlds, "mix") if env.generator == "mix" else None
 
 
 def world_table(folder: Path, k: int = 0) -> list[dict]:
@@ -146,6 +143,7 @@ def world_table(folder: Path, k: int = 0) -> list[dict]:
         path = folder / data_name(run["config"], k)
         if not path.is_file():
             continue
+        trained = trained_worlds(run["config"])  # a maze of none of them: held out
         res = read_results(path.read_text())
         for maze in ordered_unique(k[0] for k in res):
             drivers = {}
@@ -153,7 +151,7 @@ def world_table(folder: Path, k: int = 0) -> list[dict]:
                 seeds = sorted(k[2] for k in res if k[:2] == (maze, name))
                 if seeds:
                     drivers[name] = [seed_metrics(res[(maze, name, s)]) for s in seeds]
-            unseen = held_out(run["config"], maze)
+            unseen = trained is not None and maze.split(":")[0] not in trained
             out.append({"run": run, "maze": maze, "drivers": drivers, "held_out": unseen})
     return out
 
