@@ -58,8 +58,8 @@ from sensor_msgs.msg import LaserScan
 
 def _load(name: str):
     """jaxnav.robot.NAME (deploy, controller), or NAME.py by path where jaxnav (or JAX)
-    is not installed: the robot side's files (deploy.py, scan.py, controller.py) copied
-    next to this node, or a checkout's."""
+    is not installed: the robot side's files (deploy.py, scan.py, controller.py and
+    shipped.py) copied next to this node, or a checkout's."""
     try:
         return importlib.import_module(f"jaxnav.robot.{name}")
     except ImportError:
@@ -72,36 +72,21 @@ def _load(name: str):
                 return module
         raise ImportError(
             f"cannot find jaxnav.robot.{name}: install jaxnav or copy the robot side's files "
-            "(jaxnav/robot/deploy.py, scan.py, controller.py) next to this file"
+            "(jaxnav/robot/deploy.py, scan.py, controller.py, shipped.py) next to this file"
         ) from None
-
-
-def policy_arg(argv: list[str]) -> str | None:
-    """``--policy NAME|FILE`` from the command line (taken out of ``argv``), or None."""
-    if "--policy" not in argv:
-        return None
-    i = argv.index("--policy")
-    value = argv[i + 1] if i + 1 < len(argv) else None
-    del argv[i : i + 2]
-    return value
-
-
-def policy_file(name_or_file: str) -> str:
-    """The policy file to drive with: a file by its path, else a policy that ships with
-    jaxnav by its name (``drive_anywhere``: jaxnav.robot.shipped), else ``NAME.npz``
-    beside this file (a robot without jaxnav)."""
-    if Path(name_or_file).is_file():
-        return name_or_file
-    beside = Path(__file__).resolve().parent / f"{name_or_file}.npz"
-    try:
-        from jaxnav.robot.shipped import policy_path
-    except ImportError:
-        return str(beside) if beside.is_file() else name_or_file
-    return str(beside) if beside.is_file() else str(policy_path(name_or_file))
 
 
 deploy, controller = _load("deploy"), _load("controller")
 scan = _load("scan")
+shipped = _load("shipped")  # --policy NAME|FILE: a file, one beside this node, or a shipped one
+policy_arg = shipped.policy_arg
+
+
+def policy_file(name_or_file: str) -> str:
+    """The policy file to drive with (jaxnav.robot.shipped.node_policy_file)."""
+    return shipped.node_policy_file(name_or_file, Path(__file__).resolve().parent)
+
+
 POLICY = ["policy.npz"]  # the policy parameter's default: --policy NAME|FILE sets it
 THROTTLE_S = 2.0  # at most one repeated warning per this many seconds
 

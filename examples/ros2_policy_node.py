@@ -27,8 +27,8 @@ On a robot:
 
     # on the training machine
     jaxnav export runs/paper_no_obstacles --strategy ebe --seed 0 --out policy.npz
-    # on the robot (ROS 2 sourced; needs NumPy, not JAX: jaxnav/robot's deploy.py, scan.py
-    # and controller.py next to this file, or jaxnav importable)
+    # on the robot (ROS 2 sourced; needs NumPy, not JAX: jaxnav/robot's deploy.py, scan.py,
+    # controller.py and shipped.py next to this file, or jaxnav importable)
     python3 ros2_policy_node.py --ros-args -p policy:=policy.npz
     python3 ros2_policy_node.py --policy drive_anywhere    # a policy that ships with jaxnav
     # a goal 1 m ahead and 0.5 m to the left of where odometry started
@@ -95,8 +95,8 @@ import numpy as np
 
 def _load(name: str):
     """jaxnav.robot.NAME (deploy, controller), or NAME.py by path where jaxnav (or JAX)
-    is not installed: the robot side's files (deploy.py, scan.py, controller.py) copied
-    next to this node, or a checkout's."""
+    is not installed: the robot side's files (deploy.py, scan.py, controller.py and
+    shipped.py) copied next to this node, or a checkout's."""
     try:
         return importlib.import_module(f"jaxnav.robot.{name}")
     except ImportError:
@@ -109,36 +109,21 @@ def _load(name: str):
                 return module
         raise ImportError(
             f"cannot find jaxnav.robot.{name}: install jaxnav or copy the robot side's files "
-            "(jaxnav/robot/deploy.py, scan.py, controller.py) next to this file"
+            "(jaxnav/robot/deploy.py, scan.py, controller.py, shipped.py) next to this file"
         ) from None
-
-
-def policy_arg(argv: list[str]) -> str | None:
-    """``--policy NAME|FILE`` from the command line (taken out of ``argv``), or None."""
-    if "--policy" not in argv:
-        return None
-    i = argv.index("--policy")
-    value = argv[i + 1] if i + 1 < len(argv) else None
-    del argv[i : i + 2]
-    return value
-
-
-def policy_file(name_or_file: str) -> str:
-    """The policy file to drive with: a file by its path, else a policy that ships with
-    jaxnav by its name (``drive_anywhere``: jaxnav.robot.shipped), else ``NAME.npz``
-    beside this file (a robot without jaxnav)."""
-    if Path(name_or_file).is_file():
-        return name_or_file
-    beside = Path(__file__).resolve().parent / f"{name_or_file}.npz"
-    try:
-        from jaxnav.robot.shipped import policy_path
-    except ImportError:
-        return str(beside) if beside.is_file() else name_or_file
-    return str(beside) if beside.is_file() else str(policy_path(name_or_file))
 
 
 deploy, controller = _load("deploy"), _load("controller")
 scan = _load("scan")
+shipped = _load("shipped")  # --policy NAME|FILE: a file, one beside this node, or a shipped one
+policy_arg = shipped.policy_arg
+
+
+def policy_file(name_or_file: str) -> str:
+    """The policy file to drive with (jaxnav.robot.shipped.node_policy_file)."""
+    return shipped.node_policy_file(name_or_file, Path(__file__).resolve().parent)
+
+
 POLICY = ["policy.npz"]  # the policy parameter's default: --policy NAME|FILE sets it
 
 # ----------------------------------------------------------------------------

@@ -96,6 +96,23 @@ def test_the_ros_nodes_take_a_shipped_policy_by_name(node, tmp_path, monkeypatch
     assert argv == ["node", "--ros-args", "-p", "goal_topic:=/g"]  # ROS keeps the rest
     assert module.policy_file("drive_anywhere") == str(tmp_path / "drive_anywhere.npz")
     assert module.policy_arg(["node"]) is None
+    assert module.policy_arg(["node", "--policy"]) is None  # no value: the default stays
+    with pytest.raises(PolicyError, match="did you mean 'drive_anywhere'"):
+        module.policy_file("drive_anywere")
+
+
+def test_a_node_finds_a_policy_beside_itself_before_a_shipped_one(tmp_path, monkeypatch):
+    node, policies = tmp_path / "node", tmp_path / "policies"
+    node.mkdir()
+    policies.mkdir()
+    (policies / "drive_anywhere.npz").write_bytes(b"")
+    monkeypatch.setattr(shipped, "POLICY_DIR", policies)
+    assert shipped.node_policy_file("drive_anywhere", node) == str(policies / "drive_anywhere.npz")
+    (node / "drive_anywhere.npz").write_bytes(b"")
+    assert shipped.node_policy_file("drive_anywhere", node) == str(node / "drive_anywhere.npz")
+    # a robot without jaxnav's policies: the name as given, for the node's load to refuse
+    monkeypatch.setattr(shipped, "POLICY_DIR", tmp_path / "none")
+    assert shipped.node_policy_file("mine", node) == "mine"
 
 
 @pytest.mark.slow  # the mixed config read and the oracle driven: 20-30 s

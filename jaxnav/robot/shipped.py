@@ -1,9 +1,11 @@
 """The pretrained policies that ship with jaxnav (``jaxnav/policies/NAME.npz``, each
 beside ``NAME.md``: the config and the test table that made it), found by name.
 
-NumPy and the standard library only, as :mod:`jaxnav.robot.deploy`: a robot's node
-finds a shipped policy by name (``--policy drive_anywhere``) with this module, or a
-policy file by its path.
+The standard library only, as :mod:`jaxnav.robot.deploy`: a robot's node (ROS 1 or 2)
+takes ``--policy NAME|FILE`` from its command line with :func:`policy_arg` and finds the
+file with :func:`node_policy_file`: a file by its path, a policy beside the node, or a
+shipped one by name. Copied beside a node on a robot without jaxnav, it still reads
+``--policy`` and finds files by path or beside the node.
 """
 
 from __future__ import annotations
@@ -44,4 +46,30 @@ def policy_path(name_or_file: str | os.PathLike) -> Path:
     )
 
 
-__all__ = ["POLICY_DIR", "policy_path", "shipped_policies"]
+def policy_arg(argv: list[str]) -> str | None:
+    """``--policy NAME|FILE`` from a node's command line (taken out of ``argv``, so that
+    ROS reads the rest), or None."""
+    if "--policy" not in argv:
+        return None
+    i = argv.index("--policy")
+    value = argv[i + 1] if i + 1 < len(argv) else None
+    del argv[i : i + 2]
+    return value
+
+
+def node_policy_file(name_or_file: str, beside: str | os.PathLike) -> str:
+    """The policy file a node at ``beside`` (its folder) drives with: a file by its path,
+    else ``NAME.npz`` in that folder, else the shipped policy of that name (PolicyError
+    where there is none); on a robot without jaxnav's policies, the name as given (the
+    node's load then says it cannot read it)."""
+    if Path(name_or_file).is_file():
+        return str(name_or_file)
+    near = Path(beside) / f"{name_or_file}.npz"
+    if near.is_file():
+        return str(near)
+    if not shipped_policies():
+        return str(name_or_file)
+    return str(policy_path(name_or_file))
+
+
+__all__ = ["POLICY_DIR", "node_policy_file", "policy_arg", "policy_path", "shipped_policies"]
