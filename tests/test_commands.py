@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import importlib
 import subprocess
 import sys
 
@@ -116,3 +117,31 @@ def test_reproduce_and_study_ask_the_same_memory_question_as_train(tmp_path, arg
     assert run.returncode == 2, run.stderr
     assert run.stderr.count("\n") == 1 and "GiB of replay memory" in run.stderr
     assert not out.exists()
+
+
+@pytest.mark.parametrize("command", ["reproduce", "ablation"])
+@pytest.mark.parametrize("flag", ["--seeds", "--episodes", "--max-steps", "--test-episodes"])
+def test_the_experiments_sizes_below_one_are_one_line_and_nothing_is_written(
+    command, flag, tmp_path, capsys
+):
+    module = importlib.import_module(f"jaxnav.commands.{command}")
+    out = tmp_path / "r"
+    assert module.main([flag, "0", "--out", str(out), "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert err == f"jaxnav {command}: error: {flag} must be at least 1\n"
+    assert not out.exists()
+
+
+def test_the_experiments_sizes_are_read_alike():
+    """--quick's sizes, an option given over them, and the default seeds."""
+    from jaxnav.core import cli
+    from jaxnav.experiments.reproduce import DEFAULT_SEEDS, QUICK
+
+    p = cli.Parser(prog="x")
+    cli.add_sizes(p, DEFAULT_SEEDS, QUICK)
+    seeds, sizes = cli.chosen_sizes(p.parse_args([]), DEFAULT_SEEDS, QUICK)
+    assert (seeds, sizes) == (DEFAULT_SEEDS, dict.fromkeys(sizes))
+    seeds, sizes = cli.chosen_sizes(p.parse_args(["--quick", "--max-steps", "7"]), 0, QUICK)
+    assert seeds == QUICK["seeds"] and sizes["max_steps"] == 7
+    assert sizes["episodes"] == QUICK["episodes"]
+    assert sizes["test_episodes"] == QUICK["test_episodes"]

@@ -29,9 +29,7 @@ def _parser() -> cli.Parser:
         description="Train and test both experiments under each ROBOTIS-faithful switch, "
         "alone and together, and write DIR/ablation.md.",
     )
-    p.add_argument(
-        "--seeds", type=int, metavar="N", help=f"seeds per strategy (default {DEFAULT_SEEDS})"
-    )
+    cli.add_sizes(p, DEFAULT_SEEDS, QUICK)
     p.add_argument("--out", metavar="DIR", help="output directory (default runs/ablation-<time>)")
     p.add_argument(
         "--variants",
@@ -43,15 +41,6 @@ def _parser() -> cli.Parser:
         metavar="A,B",
         help=f"comma-separated subset of {', '.join(n for n, _ in EXPERIMENTS)} (default both)",
     )
-    p.add_argument(
-        "--quick",
-        action="store_true",
-        help=f"{QUICK['seeds']} seeds, {QUICK['episodes']} episodes of at most "
-        f"{QUICK['max_steps']} steps: checks that everything runs",
-    )
-    p.add_argument("--episodes", type=int, metavar="N", help="training episodes per seed")
-    p.add_argument("--max-steps", type=int, metavar="N", help="steps per episode")
-    p.add_argument("--test-episodes", type=int, metavar="N", help="test episodes per maze")
     p.add_argument("--resume", action="store_true", help="reuse finished runs in --out")
     p.add_argument("--quiet", action="store_true", help="no progress output")
     p.add_argument(
@@ -74,15 +63,6 @@ def _parser() -> cli.Parser:
 def main(argv: list[str] | None = None) -> int:
     p = _parser()
     args = p.parse_args(argv)
-    q = QUICK if args.quick else {}
-    seeds = args.seeds if args.seeds is not None else q.get("seeds", DEFAULT_SEEDS)
-    sizes = {
-        "episodes": args.episodes if args.episodes is not None else q.get("episodes"),
-        "max_steps": args.max_steps if args.max_steps is not None else q.get("max_steps"),
-        "test_episodes": (
-            args.test_episodes if args.test_episodes is not None else q.get("test_episodes")
-        ),
-    }
     stamp = time.strftime("%Y%m%d-%H%M%S")
     out = Path(args.out) if args.out else Path("runs") / f"ablation-{stamp}"
 
@@ -93,13 +73,11 @@ def main(argv: list[str] | None = None) -> int:
             path = merge([Path(d) for d in args.merge], out)
             print(f"ablation: {path} (merged from {len(args.merge)})")
             return
+        seeds, sizes = cli.chosen_sizes(args, DEFAULT_SEEDS, QUICK)
         variants = args.variants.split(",") if args.variants else list(VARIANTS)
         unknown = [v for v in variants if v not in VARIANTS]
         if unknown:
             raise JaxnavError(f"unknown variant '{unknown[0]}' (choose from {', '.join(VARIANTS)})")
-        for flag, v in sizes.items():
-            if v is not None and v < 1:
-                raise JaxnavError(f"--{flag.replace('_', '-')} must be at least 1")
         known = [n for n, _ in EXPERIMENTS]
         experiments = args.experiments.split(",") if args.experiments else known
         unknown = [e for e in experiments if e not in known]

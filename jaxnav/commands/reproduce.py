@@ -35,38 +35,8 @@ def _parser() -> cli.Parser:
         description="Train, test and plot both of the paper's experiments (no obstacles and "
         "obstacles, EBE and epsilon-greedy) and write DIR/report.md.",
     )
-    p.add_argument(
-        "--seeds",
-        type=int,
-        metavar="N",
-        help=f"seeds per strategy (default {DEFAULT_SEEDS}; {QUICK['seeds']} with --quick)",
-    )
+    cli.add_sizes(p, DEFAULT_SEEDS, QUICK)
     p.add_argument("--out", metavar="DIR", help="output directory (default runs/reproduce-<time>)")
-    p.add_argument(
-        "--quick",
-        action="store_true",
-        help="small version in about a minute and a half: "
-        f"{QUICK['seeds']} seeds, {QUICK['episodes']} episodes "
-        f"of at most {QUICK['max_steps']} steps, {QUICK['test_episodes']} test episodes",
-    )
-    p.add_argument(
-        "--episodes",
-        type=int,
-        metavar="N",
-        help="training episodes per seed (overrides the config / --quick)",
-    )
-    p.add_argument(
-        "--max-steps",
-        type=int,
-        metavar="N",
-        help="steps per episode, training and test (overrides)",
-    )
-    p.add_argument(
-        "--test-episodes",
-        type=int,
-        metavar="N",
-        help="consecutive test episodes per seed and maze (overrides)",
-    )
     p.add_argument(
         "--resume",
         action="store_true",
@@ -106,11 +76,6 @@ def _parser() -> cli.Parser:
 def main(argv: list[str] | None = None) -> int:
     p = _parser()
     args = p.parse_args(argv)
-    q = QUICK if args.quick else {}
-    seeds = args.seeds if args.seeds is not None else q.get("seeds", DEFAULT_SEEDS)
-    episodes = args.episodes if args.episodes is not None else q.get("episodes")
-    max_steps = args.max_steps if args.max_steps is not None else q.get("max_steps")
-    test_episodes = args.test_episodes if args.test_episodes is not None else q.get("test_episodes")
     out = (
         Path(args.out) if args.out else Path("runs") / f"reproduce-{time.strftime('%Y%m%d-%H%M%S')}"
     )
@@ -125,7 +90,8 @@ def main(argv: list[str] | None = None) -> int:
             return
         if args.resume and not args.out:
             raise JaxnavError("--resume needs --out DIR")
-        sizes = (seeds, episodes, max_steps, test_episodes)
+        seeds, chosen = cli.chosen_sizes(args, DEFAULT_SEEDS, QUICK)
+        sizes = (seeds, chosen["episodes"], chosen["max_steps"], chosen["test_episodes"])
         # the experiments train one after the other: the larger one's memory is the need
         need = max(experiment_config(name, *sizes).memory_estimate() for name, _ in EXPERIMENTS)
         cli.confirm_memory(need, args.yes)

@@ -82,6 +82,56 @@ def add_overwrite(parser: argparse.ArgumentParser, what: str = "the output") -> 
     )
 
 
+def add_sizes(parser: argparse.ArgumentParser, default_seeds: int, quick: dict) -> None:
+    """The size options of the commands that run the paper's experiments (reproduce,
+    ablation): ``--seeds``, ``--quick`` (the sizes in ``quick``), and the overrides
+    ``--episodes``, ``--max-steps``, ``--test-episodes``; :func:`chosen_sizes` reads them."""
+    parser.add_argument(
+        "--seeds",
+        type=int,
+        metavar="N",
+        help=f"seeds per strategy (default {default_seeds}; {quick['seeds']} with --quick)",
+    )
+    parser.add_argument(
+        "--quick",
+        action="store_true",
+        help=f"a small version that checks everything runs: {quick['seeds']} seeds, "
+        f"{quick['episodes']} episodes of at most {quick['max_steps']} steps, "
+        f"{quick['test_episodes']} test episodes",
+    )
+    parser.add_argument(
+        "--episodes", type=int, metavar="N", help="training episodes per seed (overrides)"
+    )
+    parser.add_argument(
+        "--max-steps",
+        type=int,
+        metavar="N",
+        help="steps per episode, training and test (overrides)",
+    )
+    parser.add_argument(
+        "--test-episodes",
+        type=int,
+        metavar="N",
+        help="consecutive test episodes per seed and maze (overrides)",
+    )
+
+
+def chosen_sizes(args: argparse.Namespace, default_seeds: int, quick: dict) -> tuple[int, dict]:
+    """(seeds, {episodes, max_steps, test_episodes}) from :func:`add_sizes`' options: an
+    option given wins, then ``--quick``'s size, then the default (seeds) or None (the
+    config's). JaxnavError where one is below 1."""
+    q = quick if args.quick else {}
+    seeds = args.seeds if args.seeds is not None else q.get("seeds", default_seeds)
+    sizes = {}
+    for name in ("episodes", "max_steps", "test_episodes"):
+        given = getattr(args, name)
+        sizes[name] = given if given is not None else q.get(name)
+    for name, value in (("seeds", seeds), *sizes.items()):
+        if value is not None and value < 1:
+            raise JaxnavError(f"--{name.replace('_', '-')} must be at least 1")
+    return seeds, sizes
+
+
 def check_output(path: str | os.PathLike, overwrite: bool, *, is_dir: bool = False) -> Path:
     """Refuse, before any work starts, an output that cannot or may not be written.
 
