@@ -232,8 +232,12 @@ def test_the_bank_key_leaves_the_runs_other_keys_alone():
 
 
 @pytest.mark.slow
+@pytest.mark.parametrize("refresh", [100, 0], ids=["renewed", "drawn-once"])
 @pytest.mark.parametrize("agent", ["dqn", "pqn"])
-def test_a_run_with_a_bank_trains_the_same_twice_and_resumes_the_same(agent, tmp_path):
+def test_a_run_with_a_bank_trains_the_same_twice_and_resumes_the_same(agent, refresh, tmp_path):
+    """A bank renewed while training is stored in the checkpoint; one drawn once at the
+    start is left out and drawn again on resume: either way the resumed run ends as the
+    uninterrupted one."""
     from jaxnav.core import rundir
     from jaxnav.core.config import dump_config
     from jaxnav.run import launch
@@ -241,7 +245,7 @@ def test_a_run_with_a_bank_trains_the_same_twice_and_resumes_the_same(agent, tmp
     from jaxnav.run.training import Run
 
     items = ["env.generator=grid", "env.maze_bank=32", "seeds=2", "strategies=[ebe]"]
-    items += ["env.maze_bank_refresh=100"]  # the resumed run passes refreshes too
+    items += [f"env.maze_bank_refresh={refresh}"]  # the resumed run passes refreshes too
     items += ["env.broad_phase=lattice"]  # tested on a fixed maze too, which has none
     if agent == "pqn":
         items += ["pqn.num_envs=8", "pqn.rollout=8", "pqn.minibatches=2", "episodes=null"]
@@ -272,6 +276,8 @@ def test_a_run_with_a_bank_trains_the_same_twice_and_resumes_the_same(agent, tmp
         rows = chunk_slots(before, run.shard.get(ts.step), cfg.buffer_capacity)
     explore = run.explore_blocks(log.explore, before, ~run.active(ts))
     run.save(ts, run.new_episodes(ts), explore, rows)
+    stored = rundir.read_npz(c / rundir.CHECKPOINT, "checkpoint")
+    assert any(k.startswith("state.bank") for k in stored) == bool(refresh)
     again = Run(cfg, c, quiet=True).restored_state()
     for x, y in zip(jax.tree.leaves(ts.bank), jax.tree.leaves(again.bank), strict=True):
         np.testing.assert_array_equal(np.asarray(x), np.asarray(y))

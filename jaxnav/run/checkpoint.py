@@ -52,14 +52,25 @@ def leaf_names(tree) -> list[str]:
 _RING = ".metrics.ep_"
 
 
+# A run's bank of drawn layouts (the state's ``bank``): drawn once, at the start, from
+# the run's key (jaxnav.world.layouts.bank_key) where env.maze_bank_refresh is 0, so a
+# checkpoint leaves it out and a resumed run draws it again (the same layouts: the same
+# key, the same program). It was about 50 MB a seed of drive_anywhere's checkpoint. A
+# bank that is renewed while training (maze_bank_refresh > 0) is stored.
+_BANK = r"\.bank(\W|$)"  # its leaves' names
+
+
 def _is_buffer_rows(name: str) -> bool:
     return name == _RECORDS
 
 
-def without_rows(ts: Any) -> Any:
+def without_rows(ts: Any, keep_bank: bool = True) -> Any:
     """The training state a checkpoint stores: without the replay buffer's per-slot
-    arrays (a state without a replay buffer, PQN's, keeps them as none) and without the
-    ring of finished episodes."""
+    arrays (a state without a replay buffer, PQN's, keeps them as none), without the
+    ring of finished episodes, and without the bank of layouts unless ``keep_bank``
+    (one that is renewed while training)."""
+    if not keep_bank and getattr(ts, "bank", None) is not None:
+        ts = ts.replace(bank=None)
     metrics = getattr(ts, "metrics", None)
     if metrics is not None:
         ring = [
@@ -105,9 +116,13 @@ def state_from_checkpoint(
     segments: list[dict[str, np.ndarray]],
     template: Any,
     path: Path,
+    bank: Any = None,
 ) -> tuple[Any, dict[str, np.ndarray]]:
     """Inverse of :func:`checkpoint_arrays` and the row segments (each ``slots`` and
-    one array per per-slot field), against a template of the right shapes."""
+    one array per per-slot field), against a template of the right shapes. ``bank``: a
+    function that draws the runs' bank of layouts again (its leaves in the template's
+    order), for a checkpoint that left it out (:func:`without_rows`)."""
+    drawn = None
     leaves = []
     for name, leaf in zip(leaf_names(template), jax.tree.leaves(template)):
         if _is_buffer_rows(name):
@@ -117,6 +132,9 @@ def state_from_checkpoint(
             leaves.append(np.zeros(leaf.shape, leaf.dtype))
             continue
         a = arrays.get("state" + name)
+        if a is None and re.match(_BANK, name) and bank is not None:  # drawn again
+            drawn = iter(jax.tree.leaves(bank())) if drawn is None else drawn
+            a = np.asarray(next(drawn))
         if a is None:
             raise RunError(
                 f"checkpoint {path} does not match this run (no {name}: another config or "

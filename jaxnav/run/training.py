@@ -160,6 +160,12 @@ class Run:
             ts = warm_started(ts, self.shard.put(self.start_params))
         return ts
 
+    def drawn_bank(self) -> Any:
+        """Every run's bank of layouts as its start draws it (host copies): what a
+        checkpoint that left the bank out restores (jaxnav.run.checkpoint)."""
+        bank = jax.jit(jax.vmap(lambda *a: self.trainer.init(*a).bank))
+        return self.shard.get(bank(*self.shard.put(tuple(run_inputs(self.cfg)))))
+
     def restored_state(self) -> Any:
         """The last checkpoint's state, the logs cut back to what it covers."""
         cfg = self.cfg
@@ -174,7 +180,9 @@ class Run:
             rundir.read_npz(self.out / ROW_SEGMENT.format(k), f"checkpoint segment {k}")
             for k in range(self.segments)
         ]
-        ts, host = state_from_checkpoint(arrays, segments, template, self.checkpoint)
+        ts, host = state_from_checkpoint(
+            arrays, segments, template, self.checkpoint, bank=self.drawn_bank
+        )
         diverged_at = np.asarray(ts.diverged_at)
         self.diverged = {int(r): int(diverged_at[r]) for r in np.flatnonzero(diverged_at >= 0)}
         self.logged = host["logged"].astype(np.int64)
@@ -318,7 +326,8 @@ class Run:
         stays as it was (a segment it does not count is never read); the error goes on
         to the command's one-line report."""
         # every process: a gather across hosts is collective
-        state = self.shard.get(without_rows(ts)) if checkpoint else None
+        keep_bank = bool(self.cfg.env.maze_bank_refresh)  # else drawn again on resume
+        state = self.shard.get(without_rows(ts, keep_bank)) if checkpoint else None
         rows = self.shard.get(self.rows_at(ts, slots)) if checkpoint else None
         if not is_writer():
             return
