@@ -173,6 +173,24 @@ def test_iqm_interval_equals_the_one_with_rlibables_statistic():
     assert stats.iqm_ci(x)[1:] == (ci[0, 0], ci[1, 0])
 
 
+@pytest.mark.parametrize("shape", [(2,), (16,), (7, 3), (32, 5)])
+def test_the_intervals_are_archs_own_loop_bit_for_bit(shape):
+    """The mean's and P(X > Y)'s intervals gather arch's resamples at once: the same
+    numbers as arch's own loop over them, ties and one task included."""
+    from arch.bootstrap import IIDBootstrap, IndependentSamplesBootstrap
+
+    rng = np.random.default_rng(sum(shape))
+    for x in (rng.normal(size=shape), rng.integers(0, 3, size=shape).astype(float)):
+        bs = IIDBootstrap(stats._as_tasks(x), seed=stats.BOOTSTRAP_SEED)
+        ci = bs.conf_int(lambda s: np.mean(s), reps=stats.N_RESAMPLES, method="percentile")
+        assert stats.mean_ci(x)[1:] == (ci[0, 0], ci[1, 0])
+        y = rng.integers(0, 3, size=(shape[0] + 3, *shape[1:])).astype(float)
+        xt, yt = stats._as_tasks(x), stats._as_tasks(y)
+        bs = IndependentSamplesBootstrap(xt, yt, seed=stats.BOOTSTRAP_SEED)
+        ci = bs.conf_int(stats._p_greater, reps=stats.N_RESAMPLES, method="percentile")
+        assert stats.probability_of_improvement_ci(x, y)[1:] == (ci[0, 0], ci[1, 0])
+
+
 def test_pooled_interval_resamples_each_seed_jointly_over_mazes():
     """All mazes test the same networks: a resample draws seeds, not (seed, maze) cells.
 
