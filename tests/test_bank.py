@@ -34,6 +34,7 @@ def _rows(tree, i):
     return jax.tree.map(lambda x: np.asarray(x[i]), tree)
 
 
+@pytest.mark.slow  # 7 s on 2 cores
 def test_each_layout_of_a_bank_is_the_familys_draw_from_its_key():
     env, params = _banked(5)
     keys = jax.random.split(jax.random.PRNGKey(7), 5)
@@ -46,6 +47,7 @@ def test_each_layout_of_a_bank_is_the_familys_draw_from_its_key():
     assert plain.with_bank(p0, jax.random.PRNGKey(0)).bank is None
 
 
+@pytest.mark.slow  # 7 s on 2 cores
 def test_every_episode_plays_a_layout_of_the_bank_and_all_of_them_come_up():
     env, params = _banked(3, new_maze_every=1)
     bank = [np.asarray(s).tobytes() for s in params.bank[0].segments]
@@ -67,6 +69,7 @@ def test_every_episode_plays_a_layout_of_the_bank_and_all_of_them_come_up():
     assert counts.min() > 0.2 * len(seen)  # picked at random, each about a third
 
 
+@pytest.mark.slow  # 5 s on 2 cores
 def test_a_bank_of_one_layout_is_the_fixed_maze_case():
     env, params = _banked(1, new_maze_every=1)
     keys = jax.random.split(jax.random.PRNGKey(2), 8)
@@ -141,6 +144,7 @@ def test_a_drawn_step_restarts_as_computing_every_restart_would(bank):
     assert ended > n // 2  # many episodes ended on the way
 
 
+@pytest.mark.slow  # 4 s on 2 cores
 def test_draw_where_passes_shared_inputs_whole_and_equals_where():
     env, params = jaxnav.make(**GRID)
     n = 6
@@ -172,6 +176,7 @@ def test_a_train_bank_and_a_test_bank_share_no_layout():
     assert not walls["train"] & walls["test"]
 
 
+@pytest.mark.slow  # 4 s on 2 cores
 def test_a_bank_is_redrawn_exactly_where_a_runs_steps_pass_a_multiple_of_the_refresh():
     """Three runs, vmapped as the trainers run them: the two whose steps pass a
     multiple of 10 get the bank drawn from their key's refresh key, the third keeps its
@@ -191,6 +196,7 @@ def test_a_bank_is_redrawn_exactly_where_a_runs_steps_pass_a_multiple_of_the_ref
     assert plain.refreshed_bank(banks, keys, before, after) is banks
 
 
+@pytest.mark.slow  # 7 s on 2 cores
 def test_a_training_run_plays_a_new_bank_after_a_refresh():
     """A DQN run refreshing every 40 env steps: after one chunk of 80 steps its bank is
     another (and one with no refresh keeps the bank it began with)."""
@@ -292,6 +298,7 @@ def test_a_run_with_a_bank_trains_the_same_twice_and_resumes_the_same(agent, ref
         assert mazes == {"square4", "grid:train", "grid:test"}
 
 
+@pytest.mark.slow  # 3 s on 2 cores
 def test_train_says_the_banks_memory_and_refuses_one_larger_than_the_machine(tmp_path):
     import subprocess
     import sys

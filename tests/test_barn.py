@@ -109,6 +109,7 @@ def test_the_protocol_and_the_splits_are_the_challenges():
     assert cfg.env.max_steps * 0.2 == pytest.approx(barn.TIME_LIMIT)
 
 
+@pytest.mark.slow  # 6 s on 2 cores
 def test_a_barn_worlds_scan_equals_a_brute_force_caster_of_its_cylinders():
     maze = make_maze("barn:150")
     walls, circles = ref.maze_geometry(maze)

@@ -111,6 +111,7 @@ def _fake_train(cell, quiet, say):
     return 120.0, "trained"
 
 
+@pytest.mark.slow  # 3 s on 2 cores
 def test_a_campaign_tests_each_arm_in_its_own_process_and_resumes(tmp_path, monkeypatch):
     monkeypatch.setattr(campaign, "_check_mujoco", lambda: None)
     monkeypatch.setattr(campaign.runner, "train", _fake_train)

@@ -75,6 +75,7 @@ def _train(monkeypatch, out, items, sizes=None):
     return _files(out)
 
 
+@pytest.mark.slow  # 16 s on 2 cores
 @pytest.mark.parametrize(
     "items, sizes",
     [(DQN, (1, 37, 250, 3, 99)), (PQN, (1, 5, 2, 13))],
@@ -92,6 +93,7 @@ def test_where_the_chunks_end_changes_no_log_row_and_no_parameter(
     assert len(evals) > 2 * 2  # more than the final evaluation of each run
 
 
+@pytest.mark.slow  # 6 s on 2 cores
 def test_checkpoints_come_every_checkpoint_s_and_at_the_end(tmp_path, monkeypatch):
     items = [*DQN, "run.eval_every=0"]
     monkeypatch.setattr(Run, "timed_steps", lambda self, step: 100)  # chunks of 100 steps
@@ -107,6 +109,7 @@ def test_checkpoints_come_every_checkpoint_s_and_at_the_end(tmp_path, monkeypatc
     assert counts == {0.0: 10, 1e9: 1}
 
 
+@pytest.mark.slow  # 7 s on 2 cores
 def test_a_checkpoint_leaves_out_the_ring_of_finished_episodes(tmp_path):
     cfg = load_config("drive_square4", ["seeds=2", "total_steps=1024", "run.checkpoint_s=0"])
     out = tmp_path / "run"

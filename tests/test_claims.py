@@ -61,6 +61,7 @@ def test_training_measures_are_the_whole_curve_and_its_last_50_episodes():
     np.testing.assert_allclose(auc["epsilon_greedy"], 5.0 + np.arange(SEEDS))
 
 
+@pytest.mark.slow  # 4 s on 2 cores
 def test_every_claim_is_judged_by_name_in_both_test_modes():
     """EBE learns faster but ends lower in training; it wins every test in the greedy
     mode and loses every test while exploring; square2 is a tie."""
@@ -109,6 +110,7 @@ def test_every_claim_is_judged_by_name_in_both_test_modes():
     assert "not conclusive" in claims_markdown(got, quick=True)
 
 
+@pytest.mark.slow  # 4 s on 2 cores
 def test_the_pooled_claim_draws_each_seed_over_all_mazes():
     """The Table 3 average is P over f[seeds, mazes] rows, as jaxnav.report.stats resamples it."""
 

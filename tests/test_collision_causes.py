@@ -101,6 +101,7 @@ def test_an_attempt_begins_at_its_episode_or_after_a_goal():
     assert s["median steps into the attempt"] == 9
 
 
+@pytest.mark.slow  # 4 s on 2 cores
 def test_every_collision_of_the_test_is_counted_once(tmp_path_factory, capsys):
     """The paper's tiny run tested on stage 3, whose cylinders spin round its start:
     every collision the test's episodes end in is found, each with a moving cylinder

@@ -75,6 +75,7 @@ def test_train_ends_with_the_outcome_table(tmp_path, capsys):
     assert [line.split()[0] for line in table.splitlines()[1:]] == ["ebe", "epsilon_greedy"]
 
 
+@pytest.mark.slow  # 3 s on 2 cores
 def test_train_refuses_a_run_larger_than_the_machine_before_allocating(tmp_path):
     """seeds=100000 used to allocate for minutes with no progress."""
     run = subprocess.run(

@@ -43,6 +43,7 @@ def test_a_wait_at_the_end_of_an_episode_is_read_and_a_failed_episode_is_not(tmp
     assert lines[2] == "| results.csv | a | m | 4 | 3 | 1 of 2 | 70.0 | 13.6 | 1 |"
 
 
+@pytest.mark.slow  # 4 s on 2 cores
 def test_the_cut_time_is_the_cut_attempt_the_test_recorded(tmp_path):
     cfg = load_config(None, ["env.maze=square4", "env.max_steps=150"])
     world = evaluate_world("oracle", cfg, n_seeds=2, n_episodes=3)

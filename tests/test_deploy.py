@@ -263,6 +263,7 @@ def test_a_modern_policy_sees_on_the_robot_what_it_saw_in_training(tmp_path):
     assert control.decide(10.0).reason == "reached" and np.all(policy.last_command == 0.0)
 
 
+@pytest.mark.slow  # 4 s on 2 cores
 @pytest.mark.parametrize(
     "changes, turned, conv",
     [(False, False, False), (True, False, False), (True, True, False), (True, True, True)],

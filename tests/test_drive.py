@@ -32,6 +32,7 @@ def policy_file(tmp_path_factory):
     return tmp / "p.npz"
 
 
+@pytest.mark.slow  # 15 s on 2 cores
 def test_drive_plays_the_policy_beside_the_oracle_and_draws_an_episode(
     policy_file, tmp_path, capsys
 ):
@@ -54,6 +55,7 @@ def test_drive_plays_the_policy_beside_the_oracle_and_draws_an_episode(
             )
 
 
+@pytest.mark.slow  # its fixture is a slow test's
 @pytest.mark.parametrize(
     "argv, message",
     [

@@ -134,6 +134,7 @@ def test_a_collision_and_a_goal_pay_their_constants_under_the_progress_reward():
     assert bool(info["goal_reached"]) and float(r) == 10.0
 
 
+@pytest.mark.slow  # 3 s on 2 cores
 @pytest.mark.parametrize("collision", ["disc", "lidar"])
 @pytest.mark.parametrize("margin", [0.0, 0.03, 0.08])
 def test_a_collision_margin_ends_the_episode_within_the_padded_footprint(margin, collision):
@@ -196,6 +197,7 @@ def test_the_scan_history_holds_the_previous_scans_newest_first():
     np.testing.assert_array_equal(obs2[2 * n + 4 :], obs0[:n])
 
 
+@pytest.mark.slow  # 3 s on 2 cores
 def test_the_history_changes_are_each_beams_change_since_each_earlier_scan():
     """With env.history_changes the history part is (this scan - that scan) x 10 clipped
     to [-1, 1], computed here from the plain history of the same steps."""

@@ -260,6 +260,7 @@ def test_a_tiny_driving_study_end_to_end_and_its_resume(tmp_path):
     assert refused.returncode == 2 and "was trained with other settings" in refused.stderr
 
 
+@pytest.mark.slow  # 3 s on 2 cores
 def test_the_other_tests_table_comes_from_the_committed_data():
     """Each row of the smaller table (the same policies retested) against the committed
     file read with the csv module and the statistics library alone."""

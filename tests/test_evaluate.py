@@ -115,6 +115,7 @@ def test_tables_are_recomputed_from_results_csv(evaluated):
     assert any(line.startswith("| square2 | 2x2 Square | 4369.64 ± 935.56 |") for line in lines)
 
 
+@pytest.mark.slow  # 7 s on 2 cores
 def test_rollout_plays_consecutive_greedy_episodes_like_a_step_loop(run):
     """The scan against a plain loop over env.step: argmax Q, auto-reset keeps the goal."""
     cfg, out = run
@@ -224,6 +225,7 @@ def test_evaluation_on_two_mazes_by_name_and_file(run, tmp_path):
     assert not (out / "eval" / "cylinder").exists()
 
 
+@pytest.mark.slow  # 45 s on 2 cores
 def test_same_run_same_results(evaluated):
     _, out = evaluated
     assert evaluate(out)[2] == (out / "eval" / "results.csv").read_text()
@@ -428,6 +430,7 @@ def test_a_drawn_test_draws_a_new_layout_every_episode_whatever_training_kept():
     assert dataclasses.replace(drawn["env"], new_maze_every=10, split="train") == env
 
 
+@pytest.mark.slow  # its fixture is a slow test's
 def test_the_failure_map_holds_every_failed_greedy_attempt_of_results_csv(evaluated, tmp_path):
     """failures.npz's points, per maze and arm, are results.csv's greedy collisions and
     time-outs, one point each; a collision's point is within reach of a wall (the pose

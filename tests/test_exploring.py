@@ -101,6 +101,7 @@ def test_the_measures_of_exploring_by_hand(tmp_path):
     assert E.ranking("a", "recipe")[:3] == ["count", "rnd", "ebe"]
 
 
+@pytest.mark.slow  # 7 s on 2 cores
 def test_verdicts_are_rliables_probability_of_improvement(tmp_path):
     _synthetic(tmp_path / "d")
     E = exploring.Exploring(Data(tmp_path / "d"))
@@ -116,6 +117,7 @@ def test_verdicts_are_rliables_probability_of_improvement(tmp_path):
     assert E.compare_with("b", "recipe", "rnd", "auc")[1] == "no detectable difference"
 
 
+@pytest.mark.slow  # 52 s on 2 cores
 def test_the_page_and_its_sentence_come_from_the_data(tmp_path):
     folder = tmp_path / "d"
     _synthetic(folder)

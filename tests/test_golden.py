@@ -136,6 +136,7 @@ def golden_mismatch(name: str, run: Path) -> str | None:
     return "\n".join(lines)
 
 
+@pytest.mark.slow  # 11 s on 2 cores
 @pytest.mark.parametrize(
     "name",
     [n if n in QUICK else pytest.param(n, marks=pytest.mark.slow) for n in CASES],

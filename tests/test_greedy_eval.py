@@ -83,6 +83,7 @@ def test_training_is_the_same_with_and_without_evaluation(runs):
     _same_training(*runs)
 
 
+@pytest.mark.slow  # 12 s on 2 cores
 def test_eval_rows_come_at_the_first_chunk_end_past_each_multiple_and_at_the_end(runs):
     on, _ = runs
     cfg = load_config(str(on / rundir.CONFIG))

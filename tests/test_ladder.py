@@ -106,6 +106,7 @@ def test_larger_needs_a_drawn_family():
         _parse(bad)
 
 
+@pytest.mark.slow  # 3 s on 2 cores
 def test_the_cli_refuses_a_broken_study_with_exit_2(tmp_path):
     path = tmp_path / "s.yaml"
     path.write_text(STUDY.replace("seeds: 2", "seeds: -1"))
@@ -151,6 +152,7 @@ def test_a_wrong_override_is_one_line_naming_it(tmp_path, item, message):
     assert message in str(e.value) and "\n" not in str(e.value)
 
 
+@pytest.mark.slow  # 6 s on 2 cores
 def test_a_world_may_have_its_own_budget_and_the_page_says_it(tmp_path):
     text = STUDY.replace(
         "square4_dense: {config: paper_no_obstacles}",
@@ -178,6 +180,7 @@ def test_a_world_may_have_its_own_budget_and_the_page_says_it(tmp_path):
     assert "| b | `grid4` | `env.reward=geodesic` | 512 |" in md
 
 
+@pytest.mark.slow  # 6 s on 2 cores
 def test_the_page_says_how_each_arm_drives_beside_the_oracle(tmp_path):
     folder = tmp_path / "d"
     _synthetic(folder)
@@ -257,6 +260,7 @@ def _synthetic(folder: Path, n: int = 16, oracle: bool = True) -> None:
     (folder / "run.json").write_text(json.dumps({"command": "c", "machine": "m"}))
 
 
+@pytest.mark.slow  # 7 s on 2 cores
 def test_verdicts_are_rliables_probability_of_improvement_with_the_claims_rule(tmp_path):
     _synthetic(tmp_path / "d")
     data = page.Data(tmp_path / "d")
@@ -281,6 +285,7 @@ def test_verdicts_are_rliables_probability_of_improvement_with_the_claims_rule(t
     assert page.trajectory_cell(data) == ("a", "dqn")  # b draws its mazes: no fixed maze
 
 
+@pytest.mark.slow  # 6 s on 2 cores
 def test_data_counted_before_cut_attempts_were_told_apart_names_no_solved_world(tmp_path):
     _synthetic(tmp_path / "d", oracle=False)
     data = page.Data(tmp_path / "d")
@@ -289,6 +294,7 @@ def test_data_counted_before_cut_attempts_were_told_apart_names_no_solved_world(
     assert "It does not say which worlds are solved" in text and "is solved by" not in text
 
 
+@pytest.mark.slow  # 6 s on 2 cores
 def test_the_page_says_too_few_seeds_below_the_minimum(tmp_path):
     _synthetic(tmp_path / "d", n=stats.MIN_SEEDS - 1)
     text = page.ladder_markdown(tmp_path / "d", "x")

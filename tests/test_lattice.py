@@ -141,6 +141,7 @@ def _env(**kw):
     return jaxnav.make(generator="grid", min_path_cells=2, **kw)
 
 
+@pytest.mark.slow  # 11 s on 2 cores
 def test_auto_walks_the_lattice_of_drawn_grids_only():
     """Grids walk their lattice unless told not to, scaled or too large for its bit
     fields; other families and fixed mazes test every wall."""
@@ -153,6 +154,7 @@ def test_auto_walks_the_lattice_of_drawn_grids_only():
     assert not _env(grid_rows=8, grid_cols=8, maze_scale=(0.8, 1.2))[0].walks_lattice
 
 
+@pytest.mark.slow  # 5 s on 2 cores
 def test_an_episode_observes_the_same_scans_either_way():
     """Reset and 30 random steps of 16 environments on 8 x 8 grids: the observations
     with the lattice walked equal those with every wall tested (float32 rounding), the

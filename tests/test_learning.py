@@ -60,6 +60,7 @@ def test_steps_to_90_percent_of_the_oracle_and_the_area_by_hand(tmp_path):
     assert np.all(x == -page.Data(tmp_path / "d").per_seed("a", "dqn", "own", "ebe", "collision"))
 
 
+@pytest.mark.slow  # 4 s on 2 cores
 def test_verdicts_are_rliables_probability_of_improvement_on_each_measure(tmp_path):
     _with_evals(tmp_path / "d")
     L = learning.Learning(page.Data(tmp_path / "d"))

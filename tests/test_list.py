@@ -36,6 +36,7 @@ def test_help_lists_every_command_with_one_line(capsys):
         assert f"  {name}" in out and what in out
 
 
+@pytest.mark.slow  # 5 s on 2 cores
 @pytest.mark.parametrize("how", ["jaxnav", "python -m jaxnav", "python -m jaxnav.train"])
 def test_a_commands_help_and_errors_name_it_as_the_user_ran_it(how, tmp_path):
     """``python -m jaxnav train --help`` said ``usage: jaxnav train``."""

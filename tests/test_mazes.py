@@ -33,6 +33,7 @@ def drawn(n, seed, split="test"):
         yield state
 
 
+@pytest.mark.slow  # 4 s on 2 cores
 def test_kept_mazes_load_back_exactly(written, capsys):
     files = sorted(p.name for p in written.iterdir())
     assert files == [f"maze_{i:03d}.yaml" for i in range(N)]

@@ -39,6 +39,7 @@ def banked():
     return jaxnav.make(**MIX, maze_bank=64, key=jax.random.PRNGKey(3))
 
 
+@pytest.mark.slow  # 5 s on 2 cores
 def test_a_bank_holds_each_world_at_its_weight(banked):
     env, params = banked
     counts = np.bincount(_source(params.bank[0]), minlength=3)
@@ -47,6 +48,7 @@ def test_a_bank_holds_each_world_at_its_weight(banked):
     assert env.family.shares(3) == (1, 1, 1)  # every world has a place, however small
 
 
+@pytest.mark.slow  # its fixture is a slow test's
 def test_every_reset_draws_a_layout_of_the_bank_each_world_at_its_weight(banked):
     env, params = banked
     keys = jax.random.split(jax.random.PRNGKey(1), 800)
@@ -67,6 +69,7 @@ def test_one_draw_picks_a_world_at_its_weight():
     assert stats.chisquare(got, np.asarray([0.25, 0.25, 0.5]) * 600).pvalue > 1e-3, got
 
 
+@pytest.mark.slow  # its fixture is a slow test's
 def test_a_fixed_world_is_its_maze_with_a_goal_of_its_own_points(banked):
     env, params = banked
     mix = env.family

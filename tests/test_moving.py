@@ -158,6 +158,7 @@ def test_step_clearance_to_moving_cylinders_matches_dense_sampling(seed):
         assert got == pytest.approx(want, abs=2e-4)
 
 
+@pytest.mark.slow  # 3 s on 2 cores
 def test_a_robot_driven_into_a_spinning_cylinder_collides_at_the_right_step():
     """Straight ahead from the start of stage 3: the first step whose sampled relative
     motion comes within the robot's radius of a cylinder is the step that ends it."""

@@ -77,6 +77,7 @@ def found():
     return search.search("stage3", VW, cell=0.05, headings=16, horizon=40)
 
 
+@pytest.mark.slow  # 18 s on 2 cores
 def test_stage3_goals_beyond_the_ring_are_reachable_with_a_stop_capable_set(found):
     centres, radii, *_ = stage3_spinning()
     hi = float(np.max(np.hypot(*centres.T) + radii)) + ROBOT  # the ring's outer edge
@@ -88,6 +89,7 @@ def test_stage3_goals_beyond_the_ring_are_reachable_with_a_stop_capable_set(foun
     assert beyond, "a witness should reach past the cylinders' ring"
 
 
+@pytest.mark.slow  # its fixture is a slow test's
 def test_each_witness_stays_clear_in_an_independent_numpy_replay(found):
     for g in found.proven[::4]:
         clearance, distance = numpy_replay(found.reached[g], found.goals[g])
@@ -127,6 +129,7 @@ def test_bad_input_is_one_line_and_exit_2(argv, message, capsys):
     assert err.count("\n") == 1 and message in err, err
 
 
+@pytest.mark.slow  # its fixture is a slow test's
 def test_what_the_search_found_in_one_line(found, capsys):
     sec = np.asarray([len(found.reached[g]) for g in found.proven]) * 0.2
     assert search.found_line(found, 0.05, 16, 0) == (

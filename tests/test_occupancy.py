@@ -124,6 +124,7 @@ def _swept_to_cells(occ, origin, res, disc, pos, yaw, omega, v, dt, n=4001):
     return float(d.min(initial=np.inf))
 
 
+@pytest.mark.slow  # 3 s on 2 cores
 @pytest.mark.parametrize("disc", [0.0, 0.5])
 def test_swept_disc_against_every_cell_equals_a_numpy_check(disc):
     rng = np.random.default_rng(7 + int(disc * 10))

@@ -80,6 +80,7 @@ def grid_mazes(rows, cols, n):
         yield walls, np.asarray(maze.goal_points, np.float64), cells
 
 
+@pytest.mark.slow  # 3 s on 2 cores
 def test_grid_paths_lie_between_the_straight_line_and_the_cell_path():
     """From cell centre to cell centre the path through the centres of the cells on
     the way (breadth-first, one cell a step) is a real path: the shortest is no

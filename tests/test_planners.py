@@ -107,6 +107,7 @@ def _metrics(text: str, maze: str, name: str, seeds: int) -> list[dict[str, floa
     return [seed_metrics(res[(maze, name, k)]) for k in range(seeds)]
 
 
+@pytest.mark.slow  # 3 s on 2 cores
 @pytest.mark.parametrize("world", ["square4", "square4_obstacles"])
 def test_the_oracle_reaches_every_goal_it_has_time_for(world):
     """The yardstick: a driver that cannot fail where the world allows, through the
@@ -174,6 +175,7 @@ def test_a_world_is_a_config_or_a_maze_and_bad_names_are_one_line(capsys):
     assert planner_problem("dwa", env) is None  # DWA reads only the scan
 
 
+@pytest.mark.slow  # 4 s on 2 cores
 def test_evaluate_baseline_writes_its_results_and_tables(tmp_path, capsys):
     out = tmp_path / "oracle"
     args = ["--baseline", "dwa", "square2", "env.max_steps=60", "--seeds", "2"]

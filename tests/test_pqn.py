@@ -128,6 +128,7 @@ def test_rollout_targets_bootstrap_a_truncation_from_its_final_observation():
     assert not np.allclose(got[trunc], wrong[trunc], rtol=1e-4)
 
 
+@pytest.mark.slow  # 3 s on 2 cores
 def test_pqn_draws_restarted_episodes_paces_from_the_curriculum_at_its_progress():
     """env.pace_curriculum in training: at the start of the budget every restart draws
     from motion_pace's range; past the curriculum's share every restart runs the
@@ -245,6 +246,7 @@ def test_a_tiny_pqn_run_is_deterministic_and_every_strategy_learns(tiny_pqn_run,
         assert numbers == list(range(len(numbers))) and len(numbers) >= cfg.pqn.num_envs
 
 
+@pytest.mark.slow  # 4 s on 2 cores
 def test_the_episode_budget_counts_the_episodes_of_all_environments(tiny_pqn_run):
     cfg, out = tiny_pqn_run
     with open(out / rundir.METRICS) as f:
@@ -294,6 +296,7 @@ def test_a_step_budget_counts_the_steps_of_all_environments_in_whole_updates():
     np.testing.assert_array_equal(final.step, 128)  # 4 updates of 4 x 8 steps
 
 
+@pytest.mark.slow  # its fixture is a slow test's
 def test_a_pqn_policy_exports_with_its_layer_norms(tiny_pqn_run):
     cfg, out = tiny_pqn_run
     policy = Policy.from_arrays(export_policy(out, "ebe", 0))

@@ -21,6 +21,7 @@ def _layouts(segments) -> set[bytes]:
     return {np.asarray(s).tobytes() for s in segments}
 
 
+@pytest.mark.slow  # 3 s on 2 cores
 def test_from_config_draws_the_bank_and_every_reset_picks_its_layout_from_it():
     cfg = load_config("grid4", [f"env.maze_bank={BANK}"])
     env, params = from_config(cfg, jax.random.PRNGKey(3))
@@ -42,6 +43,7 @@ def test_from_config_draws_the_bank_and_every_reset_picks_its_layout_from_it():
     assert not _layouts(drawn.maze.segments) <= bank
 
 
+@pytest.mark.slow  # 3 s on 2 cores
 def test_make_draws_the_bank_from_a_default_key_and_the_same_key_gives_the_same_bank():
     kw = {"generator": "grid", "grid_rows": 3, "grid_cols": 3, "maze_bank": 4}
     _, a = jaxnav.make(**kw)

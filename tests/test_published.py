@@ -42,6 +42,7 @@ def test_the_ladder_pages_figures_are_beside_it():
             assert (page.parent / f"{page.stem}-{name}").is_file()
 
 
+@pytest.mark.slow  # 5 s on 2 cores
 def test_publish_rewrites_a_stale_block_and_check_finds_it(tmp_path, capsys):
     import shutil
 

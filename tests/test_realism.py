@@ -24,6 +24,7 @@ def _rollout(env, params, key, n=200):
     return obs, out
 
 
+@pytest.mark.slow  # 3 s on 2 cores
 def test_options_off_change_nothing():
     env0, p0 = jaxnav.make("square4_obstacles")
     env1, p1 = jaxnav.make(
@@ -39,6 +40,7 @@ def test_options_off_change_nothing():
         np.testing.assert_array_equal(x, y)
 
 
+@pytest.mark.slow  # 5 s on 2 cores
 def test_beam_dropout_reads_max_range_at_the_given_rate():
     env, params = jaxnav.make("square2", beam_dropout=0.3)  # every true range < 3.5 here
     keys = jax.random.split(jax.random.PRNGKey(0), 2000)

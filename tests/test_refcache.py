@@ -80,6 +80,7 @@ def test_the_cache_folder_is_the_users_unless_moved_or_off(monkeypatch, tmp_path
     assert reference_cache_dir() is None
 
 
+@pytest.mark.slow  # 3 s on 2 cores
 def test_with_the_cache_off_nothing_is_kept(run, tmp_path, monkeypatch):
     _, run_dir = run
     monkeypatch.setenv("JAXNAV_REFERENCE_CACHE", "off")

@@ -103,6 +103,7 @@ def test_bad_maze_file_is_one_line_on_stderr_with_exit_code_2(tmp_path, capsys):
     assert not (tmp_path / "x.png").exists()
 
 
+@pytest.mark.slow  # 3 s on 2 cores
 def test_unknown_maze_name_exits_2_without_a_traceback(tmp_path):
     env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
     proc = subprocess.run(
@@ -138,6 +139,7 @@ def test_render_draws_a_maze_of_a_generator_or_a_config(name, tmp_path, capsys):
     assert "wrote" in capsys.readouterr().out
 
 
+@pytest.mark.slow  # 3 s on 2 cores
 def test_render_draws_a_sheet_of_sampled_mazes_with_their_paths(tmp_path, capsys):
     out = tmp_path / "sheet.png"
     assert main(["grid", "--samples", "4", "--out", str(out), "--seed", "2"]) == 0

@@ -81,6 +81,7 @@ def test_the_geodesic_distance_between_cell_centres_is_the_bfs_path():
             assert float(along) == pytest.approx(grid.cell * want[cell], abs=1e-5)
 
 
+@pytest.mark.slow  # 4 s on 2 cores
 def test_a_geodesic_step_rewards_turning_towards_the_opening():
     """In cell 0 facing the closed wall to the goal's side, the dense reward pays for
     turning at the goal, the geodesic one for turning up towards the opening."""

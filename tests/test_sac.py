@@ -75,6 +75,7 @@ def test_temperature_rises_below_the_entropy_target_and_falls_above():
     assert float(grad(jnp.float32(0.0), jnp.asarray([0.0, 0.0]), target)) > 0.0
 
 
+@pytest.mark.slow  # 5 s on 2 cores
 @pytest.mark.parametrize("average", [0.0, 0.1])
 def test_one_gradient_step_moves_the_targets_by_polyak_averaging(average):
     cfg = load_config("smoke", TINY + ["sac.tau=0.25", f"sac.actor_average={average}"])
@@ -207,6 +208,7 @@ def test_beyond_limits_lets_faster_commands_through():
     assert cfg.env.speed_range == (0.0, 0.3)
 
 
+@pytest.mark.slow  # 3 s on 2 cores
 def test_a_tiny_run_is_deterministic_and_acts_within_the_limits():
     cfg = load_config("smoke", TINY)
     train = jax.jit(jax.vmap(make_train(cfg)))
@@ -227,6 +229,7 @@ def test_a_tiny_run_is_deterministic_and_acts_within_the_limits():
     assert int(a.memory.filled[0]) == 256 and np.asarray(a.memory.action).max() <= 1.0
 
 
+@pytest.mark.slow  # 5 s on 2 cores
 def test_the_tested_actor_is_the_actor_or_its_average():
     def run(extra):
         cfg = load_config("smoke", TINY + extra)
@@ -255,6 +258,7 @@ def tiny_sac_run(tmp_path_factory):
     return cfg, out
 
 
+@pytest.mark.slow  # 3 s on 2 cores
 def test_the_exported_policy_drives_the_trained_mean_command(tiny_sac_run):
     from jaxnav.core import rundir
     from jaxnav.robot.deploy import CONTINUOUS_VERSION, Policy
@@ -349,6 +353,7 @@ def test_resume_after_sigkill_gives_identical_results(tmp_path):
     assert a.files == b.files and all(np.array_equal(a[k], b[k]) for k in a.files)
 
 
+@pytest.mark.slow  # 3 s on 2 cores
 def test_a_sac_policy_with_scan_convolutions_trains_and_exports_its_mean_command(tmp_path):
     """sac.scan_conv: the actor and each critic start with their own circular
     convolutions over the scan and its history; a tiny run trains, and the exported
@@ -523,6 +528,7 @@ def test_a_critics_only_step_is_the_full_steps_critic_step_and_leaves_the_actor(
             np.testing.assert_array_equal(np.asarray(g), np.asarray(w))
 
 
+@pytest.mark.slow  # 3 s on 2 cores
 def test_the_actor_steps_once_per_actor_every_critic_steps_in_a_run():
     """Adam counts its steps: after a tiny run with sac.updates 2 and sac.actor_every 2
     the actor's optimiser has taken half the critics' steps, the temperature's as many
@@ -541,6 +547,7 @@ def test_the_actor_steps_once_per_actor_every_critic_steps_in_a_run():
     assert count(out.actor_opt) == critic_steps // 2 == count(out.alpha_opt)
 
 
+@pytest.mark.slow  # 3 s on 2 cores
 def test_the_learning_rates_fall_linearly_to_zero_at_the_runs_last_gradient_step():
     """sac.lr_decay: under a constant gradient Adam's direction is exactly 1, so step c
     moves a parameter by -lr (1 - c / N); N by hand is the run's gradient steps (49 env
@@ -612,6 +619,7 @@ def test_n_step_returns_match_a_walk_through_each_environments_stream():
     assert set(np.asarray(last).tolist()) != set(idx.tolist())  # some walks went on
 
 
+@pytest.mark.slow  # 5 s on 2 cores
 def test_a_tiny_n_step_run_learns_finite_and_one_step_is_unchanged():
     cfg = load_config("smoke", TINY + ["sac.n_step=3"])
     out = jax.jit(jax.vmap(make_train(cfg)))(*run_inputs(cfg))

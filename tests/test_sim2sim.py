@@ -399,6 +399,7 @@ def test_the_reproduction_says_at_once_when_mujoco_is_missing(monkeypatch, tmp_p
     assert not out.exists() or not any(out.iterdir())
 
 
+@pytest.mark.slow  # 3 s on 2 cores
 def test_a_continuous_policy_drives_the_burger_in_mujoco(tmp_path):
     """A SAC run's policies (continuous commands) through the same command."""
     from jaxnav.run.launch import train_new

@@ -59,6 +59,7 @@ def synthetic():
     return text, {"plain": (jx, plain_mj), "better": (better_jx, better_mj)}
 
 
+@pytest.mark.slow  # 3 s on 2 cores
 def test_the_realism_table_uses_rliables_probability_of_improvement(synthetic):
     text, data = synthetic
     table = _table(realism_markdown(text))

@@ -5,6 +5,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 from jaxnav.core.startup import cache_dir
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -32,6 +34,7 @@ def _cache_seen_by_jax(env: dict) -> str:
     return out.stdout.strip()
 
 
+@pytest.mark.slow  # 7 s on 2 cores
 def test_a_command_starts_jax_with_the_cache_unless_told_otherwise(tmp_path):
     env = {k: v for k, v in os.environ.items() if not k.startswith(("JAX_", "JAXNAV_"))}
     assert _cache_seen_by_jax({**env, "JAXNAV_CACHE": str(tmp_path)}) == str(tmp_path)
@@ -40,6 +43,7 @@ def test_a_command_starts_jax_with_the_cache_unless_told_otherwise(tmp_path):
     assert _cache_seen_by_jax(theirs) == "/elsewhere"
 
 
+@pytest.mark.slow  # 4 s on 2 cores
 def test_a_command_started_by_a_command_uses_its_own_cache(tmp_path):
     """A study times each training command with an empty cache of its own
     (JAXNAV_CACHE), though the study itself set JAX_COMPILATION_CACHE_DIR, which the
@@ -64,6 +68,7 @@ def test_a_command_started_by_a_command_uses_its_own_cache(tmp_path):
         assert got in want if isinstance(want, tuple) else got == want
 
 
+@pytest.mark.slow  # 3 s on 2 cores
 def test_the_commands_age_leaves_out_what_a_shell_ran_before_it():
     """``bash -c 'sleep 3 && python ...'``: the shell hands Python its own process, so
     /proc's start is the shell's; the age counts from Python's start-up instead (it

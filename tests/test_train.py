@@ -104,6 +104,7 @@ def test_smoke_run_writes_the_run_directory(smoke_run):
     assert 0 < summary["compile_s"] < summary["startup_s"]
 
 
+@pytest.mark.slow  # 8 s on 2 cores
 def test_smoke_run_beats_a_random_policy(smoke_run):
     cfg, out = smoke_run
     rows = _metrics(out)
@@ -202,6 +203,7 @@ def test_broken_maze_file_is_rejected_before_anything_is_written(tmp_path, capsy
     assert "not closed" in err and not (tmp_path / "run").exists()
 
 
+@pytest.mark.slow  # its fixture is a slow test's
 def test_existing_run_directory_is_not_overwritten(smoke_run, capsys):
     _, out = smoke_run
     before = (out / "metrics.csv").read_bytes()

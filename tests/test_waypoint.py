@@ -103,6 +103,7 @@ def _one(tree, i):
     return jax.tree.map(lambda x: np.asarray(x[i]), tree)
 
 
+@pytest.mark.slow  # 5 s on 2 cores
 def test_rooms_cell_distances_are_the_bfs_over_their_doors(rooms_states):
     env, _, _, state = rooms_states
     grid = env.family.grid
@@ -114,6 +115,7 @@ def test_rooms_cell_distances_are_the_bfs_over_their_doors(rooms_states):
         np.testing.assert_array_equal(np.asarray(state.cell_dist[i]), want)
 
 
+@pytest.mark.slow  # 3 s on 2 cores
 def test_the_rooms_path_heads_for_a_door_one_room_nearer_the_goal(rooms_states):
     env, _, _, state = rooms_states
     grid = env.family.grid
@@ -136,6 +138,7 @@ def test_the_rooms_path_heads_for_a_door_one_room_nearer_the_goal(rooms_states):
     assert checked_doors > 100
 
 
+@pytest.mark.slow  # its fixture is a slow test's
 def test_the_waypoint_observation_is_the_next_doors_heading_and_distance(rooms_states):
     env, params, obs, state = rooms_states
     step = jax.jit(jax.vmap(env.step_env, in_axes=(0, 0, None, None)))
@@ -158,6 +161,7 @@ def test_the_waypoint_observation_is_the_next_doors_heading_and_distance(rooms_s
             assert o[i, n] == pytest.approx(heading / math.pi, abs=2e-5)
 
 
+@pytest.mark.slow  # its fixture is a slow test's
 def test_the_carrot_walks_along_the_path_at_many_points(rooms_states):
     env, _, _, state = rooms_states
     grid = env.family.grid
@@ -181,6 +185,7 @@ def test_on_a_fixed_maze_the_waypoint_is_the_goal():
     np.testing.assert_allclose(obs[n + 4 : n + 6], obs[n : n + 2], atol=1e-6)
 
 
+@pytest.mark.slow  # 3 s on 2 cores
 def test_a_grid_maze_has_a_waypoint_too():
     grid = dict(generator="grid", grid_rows=3, grid_cols=3)
     env, params = jaxnav.make(**grid, **NORMALISED, waypoint=True)
@@ -225,6 +230,7 @@ def test_progress_along_the_shortest_path_works_in_rooms_now():
     assert env.uses_cell_distances and env.obs_size == env.n_beams + 6
 
 
+@pytest.mark.slow  # 3 s on 2 cores
 def test_dwa_heads_for_the_paths_carrot_where_the_policies_see_the_path(rooms_states):
     """Given the path, DWA's choice is its choice for a goal at the path's carrot."""
     env, params, obs, state = rooms_states
