@@ -72,6 +72,23 @@ def test_evaluate_levels_writes_every_driver_on_every_level(run, tmp_path, capsy
     assert len(rows) == 24 and {r["driver"] for r in rows} == {"policy", "oracle"}
     assert all(0 <= int(r["solved"]) <= int(r["policies"]) for r in rows)
     assert {int(r["policies"]) for r in rows if r["driver"] == "policy"} == {2}
+    assert {int(r["policies"]) for r in rows if r["driver"] == "oracle"} == {1}  # one seat
     printed = capsys.readouterr().out
     assert "12 levels: mean" in printed and "worst tenth" in printed
     assert evaluate_main([str(run), "--levels", "5", "--out", str(tmp_path / "e")]) == 2
+
+
+@pytest.mark.slow
+def test_the_oracle_drives_a_level_alike_from_every_seat(run):
+    """Why a reference driver plays each level in one seat: from the level's start to its
+    own goal the oracle's first attempt ends the same in every seat (each seed's)."""
+    from jaxnav.experiments.baselines import in_place_of
+
+    loaded = load_run(run)
+    mazes = levels.level_mazes(loaded, 6)
+    policies = levels._fixed(loaded.policies)
+    every = levels.solved(in_place_of("oracle", policies, mazes), mazes)
+    assert every.shape == (6, 2)
+    np.testing.assert_array_equal(every[:, 0], every[:, 1])
+    one = levels.solved(in_place_of("oracle", levels.one_seat(policies), mazes), mazes)
+    np.testing.assert_array_equal(one[:, 0], every[:, 0])

@@ -10,6 +10,12 @@ reaches the goal (within the attempt limit, without a collision). A level's succ
 is the share of the run's policies (its seeds) that solve it; the table gives the mean
 over levels and the mean of the worst tenth, each with a 95% bootstrap interval over
 levels, beside the oracle's on the same levels (what the levels allow).
+
+A reference driver plays each level once, in one seat: a level is one start and one
+goal, and a planner that sees the map drives it the same way from any seat, so 16 seats
+(one per seed, as in the other tests) would play it 16 times over. Its level success is
+0 or 1. The oracle's test costs about 65 times a policy's per step (docs/benchmarks.md):
+in one seat a test of 1,000 levels takes minutes instead of most of an hour.
 """
 
 from __future__ import annotations
@@ -56,6 +62,17 @@ def _fixed(policies: Policies) -> Policies:
         policies.env, generator="", maze_bank=0, maze_bank_refresh=0, broad_phase="none"
     )
     return policies._replace(env=env)
+
+
+def one_seat(policies: Policies) -> Policies:
+    """``policies`` cut to their first run (a reference driver's one seat)."""
+    return policies._replace(
+        labels=policies.labels[:1],
+        fields=policies.fields[:1],
+        params=jax.tree.map(lambda a: np.asarray(a)[:1], policies.params),
+        strategy=np.asarray(policies.strategy)[:1],
+        hyper=jax.tree.map(lambda a: np.asarray(a)[:1], policies.hyper),
+    )
 
 
 def solved(policies: Policies, mazes: Sequence, say: Callable[[str], None] | None = None):
@@ -108,8 +125,8 @@ def level_test(
     mazes = level_mazes(run, n)
     policies = _fixed(run.policies)
     drivers = {"policy": policies}
-    for name in references:
-        drivers[name] = in_place_of(name, policies, mazes[: min(len(mazes), BANK_BATCH)])
+    for name in references:  # one seat each (see the module's note)
+        drivers[name] = in_place_of(name, one_seat(policies), mazes[: min(len(mazes), BANK_BATCH)])
     rows = []
     for name, who in drivers.items():
         if say is not None:
@@ -170,6 +187,7 @@ __all__ = [
     "level_mazes",
     "level_test",
     "levels_text",
+    "one_seat",
     "levels_to_dir",
     "solved",
     "summary",
