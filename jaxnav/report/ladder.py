@@ -286,12 +286,13 @@ def _generalisation_verdicts(data: Data) -> list[str]:
             if t == "own":
                 continue
             for agent in (a for a in data.agents if data.has(rung, a)):
-                p, word = compare(data, rung, agent, t, EPS, "success")
-                cells = [data.rung_label[rung], TEST_NAMES.get(t, t), data.agent_label[agent]]
-                rows.append(cells + [interval(p, 2), word])
+                for other in (o for o in (EPS, BOLTZMANN) if o in data.strategies):
+                    p, word = compare(data, rung, agent, t, other, "success")
+                    cells = [data.rung_label[rung], TEST_NAMES.get(t, t), data.agent_label[agent]]
+                    rows.append(cells + [NAMES[other], interval(p, 2), word])
     if not rows:
         return ["No policy of this study was tested on a world it did not train on."]
-    head = ["trained on", "tested on", "agent", "P(EBE > epsilon-greedy), success", "verdict"]
+    head = ["trained on", "tested on", "agent", "EBE against", "P(EBE > it), success", "verdict"]
     return markdown_table(head, rows)
 
 
@@ -418,7 +419,7 @@ def results_sections(data: Data, solved_intro: str, gap_note: str = "") -> list[
         "",
         *_gap_table(data),
         "",
-        "EBE against epsilon-greedy on the worlds the policies never trained on:",
+        "EBE against each other strategy on the worlds the policies never trained on:",
         "",
         *_generalisation_verdicts(data),
         "",
