@@ -128,3 +128,29 @@ def test_a_resumed_cells_seconds_are_not_given(tmp_path):
     steps, secs = L.reached("a", "dqn", "ebe")
     assert np.all(steps == 200) and np.all(np.isnan(secs))
     assert "n/a (resumed)" in learning.learning_table(L)[2]
+
+
+def test_the_held_out_sentence_counts_the_verdicts_and_means_by_hand(tmp_path):
+    """Two tests on a kind of world no rung trained on: on rung a EBE reaches every goal
+    and the others about half (EBE better than both), on rung b all three succeed alike."""
+    folder = tmp_path / "d"
+    _with_evals(folder)
+    rng = np.random.default_rng(3)
+    rows, want = [], {"ebe": [], "epsilon_greedy": [], "boltzmann": []}
+    for rung in ("a", "b"):
+        for strategy in want:
+            x = np.ones(16) if rung == "a" and strategy == "ebe" else rng.uniform(0.3, 0.7, 16)
+            want[strategy].append(x.mean())
+            rows += [[rung, "dqn", strategy, seed, "office.yaml", 2, 4, 0, s, s, 0, 0, s]
+                     for seed, s in enumerate(x)]  # fmt: skip
+    with open(folder / "scores.csv", "a", newline="") as f:
+        csv.writer(f, lineterminator="\n").writerows(rows)
+    text = learning.held_out_sentence(page.Data(folder))
+    assert "(office.yaml; 2 tests, one per world and agent trained)" in text
+    assert "than epsilon-greedy's in 1, a lower one in 0 and no detectable difference in 1" in text
+    assert "than Boltzmann's in 1, a lower one in 0 and no detectable difference in 1" in text
+    means = ", ".join(f"{page.NAMES[s]} {np.mean(v):.2f}" for s, v in want.items())
+    assert text.endswith(f"mean success over those tests: {means}.")
+    # a study without such a test says so
+    _with_evals(tmp_path / "e")
+    assert learning.held_out_sentence(page.Data(tmp_path / "e")).startswith("No policy")

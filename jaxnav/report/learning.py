@@ -34,7 +34,9 @@ from jaxnav.report.ladder import (
     EPS,
     NAMES,
     NO_GOALS,
+    TEST_NAMES,
     Data,
+    compare,
     oracle_success,
     solved_by,
 )
@@ -198,6 +200,49 @@ def _sentence(L: Learning) -> str:
         f"detectable difference in {c['no detectable difference']}; on the area under the "
         f"success curve it is better in {a['EBE better']} and worse in {a['EBE worse']}; "
         f"on final success better in {s['EBE better']} and worse in {s['EBE worse']}."
+    )
+
+
+HELD_OUT_SKIP = ("own", "test", "larger")  # the tests of the worlds a rung trains on
+
+
+def _held_out(data: Data) -> bool:
+    return any(t not in HELD_OUT_SKIP for r in data.rungs for t in data.tests(r))
+
+
+def held_out_sentence(data: Data) -> str:
+    """EBE against each other strategy on the fixed worlds of kinds no rung trained on
+    (``generalise_to``), success by the claims' rule, and each strategy's mean success
+    over them: the paper's question of unseen mazes, in one sentence."""
+    parts, means = [], []
+    tests = [
+        (rung, agent, t)
+        for rung in data.rungs
+        for agent in data.agents
+        if data.has(rung, agent)
+        for t in data.tests(rung)
+        if t not in HELD_OUT_SKIP
+    ]
+    if not tests:
+        return "No policy of this study was tested on a kind of world it did not train on."
+    for other in (o for o in (EPS, BOLTZMANN) if o in data.strategies):
+        c = Counter(compare(data, r, a, t, other, "success")[1] for r, a, t in tests)
+        parts.append(
+            f"than {NAMES[other]}'s in {c['EBE better']}, a lower one in {c['EBE worse']} "
+            f"and no detectable difference in "
+            f"{len(tests) - c['EBE better'] - c['EBE worse']}"
+        )
+    for s in data.strategies:
+        x = np.mean([data.per_seed(r, a, t, s, "success").mean() for r, a, t in tests])
+        means.append(f"{NAMES[s]} {x:.2f}")
+    names = ", ".join(dict.fromkeys(TEST_NAMES.get(t, t) for _, _, t in tests))
+    cells = "test" if len(tests) == 1 else "tests"
+    return (
+        f"Tested on kinds of world they never trained on ({names}; {len(tests)} {cells}, "
+        f"one per world and agent trained), with {data.n_seeds()} seeds per strategy, "
+        "EBE's policies reach a detectably higher success "
+        + "; ".join(parts)
+        + f"; mean success over those tests: {', '.join(means)}."
     )
 
 
@@ -424,6 +469,7 @@ def learning_markdown(folder, prefix: str) -> str:
         "",
         _sentence(learned),
         "",
+        *([held_out_sentence(data), ""] if _held_out(data) else []),
         "## Setup",
         "",
         f"- Every arm trains its world's budget of env steps per seed (the table below), "
