@@ -141,12 +141,13 @@ def test_the_held_out_sentence_counts_the_verdicts_and_means_by_hand(tmp_path):
         for strategy in want:
             x = np.ones(16) if rung == "a" and strategy == "ebe" else rng.uniform(0.3, 0.7, 16)
             want[strategy].append(x.mean())
-            rows += [[rung, "dqn", strategy, seed, "office.yaml", 2, 4, 0, s, s, 0, 0, s]
+            office = "configs/mazes/office.yaml"
+            rows += [[rung, "dqn", strategy, seed, office, 2, 4, 0, s, s, 0, 0, s]
                      for seed, s in enumerate(x)]  # fmt: skip
     with open(folder / "scores.csv", "a", newline="") as f:
         csv.writer(f, lineterminator="\n").writerows(rows)
     text = learning.held_out_sentence(page.Data(folder))
-    assert "(office.yaml; 2 tests, one per world and agent trained)" in text
+    assert "(office; 2 tests, one per world and agent trained)" in text
     assert "than epsilon-greedy's in 1, a lower one in 0 and no detectable difference in 1" in text
     assert "than Boltzmann's in 1, a lower one in 0 and no detectable difference in 1" in text
     means = ", ".join(f"{page.NAMES[s]} {np.mean(v):.2f}" for s, v in want.items())

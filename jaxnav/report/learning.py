@@ -206,6 +206,13 @@ def _sentence(L: Learning) -> str:
 HELD_OUT_SKIP = ("own", "test", "larger")  # the tests of the worlds a rung trains on
 
 
+def _test_name(test: str) -> str:
+    """A test's short name: a maze file by its stem (``office`` for its path)."""
+    if test.endswith((".yaml", ".yml")):
+        return test.rsplit("/", 1)[-1].rsplit(".", 1)[0]
+    return TEST_NAMES.get(test, test)
+
+
 def _held_out(data: Data) -> bool:
     return any(t not in HELD_OUT_SKIP for r in data.rungs for t in data.tests(r))
 
@@ -235,7 +242,7 @@ def held_out_sentence(data: Data) -> str:
     for s in data.strategies:
         x = np.mean([data.per_seed(r, a, t, s, "success").mean() for r, a, t in tests])
         means.append(f"{NAMES[s]} {x:.2f}")
-    names = ", ".join(dict.fromkeys(TEST_NAMES.get(t, t) for _, _, t in tests))
+    names = ", ".join(dict.fromkeys(_test_name(t) for _, _, t in tests))
     cells = "test" if len(tests) == 1 else "tests"
     return (
         f"Tested on kinds of world they never trained on ({names}; {len(tests)} {cells}, "

@@ -99,6 +99,7 @@ LADDER_40K = "docs/studies/when-ebe-helps-40k"  # the first ladder: 40,960 env s
 AGENTS_STUDY = "docs/studies/agents"
 HARD_EXPLORATION = "docs/studies/hard-exploration"  # EBE beside the field's exploration methods
 WORLDS_STUDY = "docs/studies/worlds"
+EBE_ANYWHERE = "docs/studies/ebe-anywhere"  # EBE training the generalist, held-out worlds
 
 
 def _study_sentence(folder: str) -> Callable[[Path], str]:
@@ -108,6 +109,18 @@ def _study_sentence(folder: str) -> Callable[[Path], str]:
         from jaxnav.report import study_pages
 
         return study_pages.sentence(root / folder)
+
+    return render
+
+
+def _held_out_sentence(folder: str) -> Callable[[Path], str]:
+    """A committed study's sentence on the kinds of world its policies never saw."""
+
+    def render(root: Path) -> str:
+        from jaxnav.report.ladder import Data
+        from jaxnav.report.learning import held_out_sentence
+
+        return held_out_sentence(Data(root / folder))
 
     return render
 
@@ -224,6 +237,19 @@ PUBLISHED: tuple[Published, ...] = (
         "hard-exploration-page",
         (f"{HARD_EXPLORATION}.md",),
         _study_page(HARD_EXPLORATION),
+        block=False,
+        slow=True,
+    ),
+    Published(
+        "ebe-anywhere",
+        ("README.md", "docs/studies.md"),
+        _held_out_sentence(EBE_ANYWHERE),
+        slow=True,
+    ),
+    Published(
+        "ebe-anywhere-page",
+        (f"{EBE_ANYWHERE}.md",),
+        _study_page(EBE_ANYWHERE),
         block=False,
         slow=True,
     ),
