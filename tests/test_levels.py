@@ -92,3 +92,27 @@ def test_the_oracle_drives_a_level_alike_from_every_seat(run):
     np.testing.assert_array_equal(every[:, 0], every[:, 1])
     one = levels.solved(in_place_of("oracle", levels.one_seat(policies), mazes), mazes)
     np.testing.assert_array_equal(one[:, 0], every[:, 0])
+
+
+def test_the_shipped_policys_page_quotes_its_committed_levels():
+    """The 1,000-level figures on jaxnav/policies/drive_anywhere.md are those of
+    docs/levels/drive_anywhere.csv, the mean and the worst tenth computed by hand."""
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parent.parent
+    rows = list(csv.DictReader((root / "docs" / "levels" / "drive_anywhere.csv").open()))
+    page = (root / "jaxnav" / "policies" / "drive_anywhere.md").read_text()
+    page = " ".join(page.split())
+    for driver in ("policy", "oracle"):
+        per = np.asarray(
+            [int(r["solved"]) / int(r["policies"]) for r in rows if r["driver"] == driver]
+        )
+        assert len(per) == 1000
+        s = levels.summary(per, np.random.default_rng(0))
+        assert s["mean"] == pytest.approx(per.mean())
+        assert s["worst_tenth"] == pytest.approx(np.sort(per)[:100].mean())
+        if driver == "policy":
+            assert f"{s['mean']:.3f} [{s['mean_lo']:.3f}, {s['mean_hi']:.3f}]" in page
+            assert f"{s['worst_tenth']:.3f} [{s['worst_lo']:.3f}, {s['worst_hi']:.3f}]" in page
+        else:
+            assert s["mean"] == s["worst_tenth"] == 1.0
