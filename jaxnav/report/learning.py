@@ -191,6 +191,14 @@ def _sentence(L: Learning) -> str:
     c = _count(rows, EPS, "reach", solved)
     a = _count(rows, EPS, "auc", solved)
     s = _count(rows, EPS, "success", solved)
+    if not solved:
+        n = len(data.rungs)
+        which = "its world" if n == 1 else f"any of the {n} worlds"
+        return (
+            f"No arm drives {which} within {SOLVED_TOLERANCE} of the oracle with "
+            f"{data.n_seeds()} seeds per arm, so no verdict on reaching it sooner is "
+            "counted; the tables below give every measure as it is."
+        )
     return (
         f"On the {len(solved)} of {len(data.rungs)} worlds that an arm drives within "
         f"{SOLVED_TOLERANCE} of the oracle, with {data.n_seeds()} seeds per arm, "
