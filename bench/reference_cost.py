@@ -177,14 +177,20 @@ def profile(world: str, episodes: int, log) -> None:
         steps = int(drivers.env_params.max_steps)
         rollout = make_rollout(drivers.env, drivers.network, episodes, steps, False, None, True)
         batch = jax.vmap(rollout, in_axes=(0, 0, 0, 0, None))
-        fn = jax.jit(batch)
-        args = (
+
+        def per_run(runs, env_params, batch=batch):
+            return batch(*runs, env_params)
+
+        # compiled as the tests compile it (jaxnav.experiments.rollout._compiled_rollout):
+        # each device plays its own runs as one batch
+        fn = jax.jit(RunSharding(1).per_device(per_run, 2))
+        runs = (
             shard.put(jax.tree.map(np.asarray, drivers.params)),
             shard.put(np.asarray(eval_keys(drivers.labels))),
             shard.put(np.asarray(drivers.strategy, np.int32)),
             shard.put(jax.tree.map(np.asarray, drivers.hyper)),
-            drivers.env_params.replace(maze=mazes[0]),
         )
+        args = (runs, drivers.env_params.replace(maze=mazes[0]))
         t0 = time.perf_counter()
         compiled = fn.lower(*args).compile()
         compile_s = time.perf_counter() - t0

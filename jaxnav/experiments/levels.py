@@ -14,7 +14,7 @@ levels, beside the oracle's on the same levels (what the levels allow).
 A reference driver plays each level once, in one seat: a level is one start and one
 goal, and a planner that sees the map drives it the same way from any seat, so 16 seats
 (one per seed, as in the other tests) would play it 16 times over. Its level success is
-0 or 1. The oracle's test costs about 65 times a policy's per step (docs/benchmarks.md):
+0 or 1. The oracle's test costs about 50 times a policy's per step (docs/benchmarks.md):
 in one seat a test of 1,000 levels takes minutes instead of most of an hour.
 """
 
