@@ -116,3 +116,30 @@ def test_the_shipped_policys_page_quotes_its_committed_levels():
             assert f"{s['worst_tenth']:.3f} [{s['worst_lo']:.3f}, {s['worst_hi']:.3f}]" in page
         else:
             assert s["mean"] == s["worst_tenth"] == 1.0
+
+
+def test_the_policys_page_breaks_its_levels_down_by_kind_of_world():
+    """The levels lie in the mix's bank source by source, each its weight's share of the
+    1,000 (Mix.shares): the page's per-kind means and its count of levels that fewer
+    than half the seeds solve, recomputed."""
+    from pathlib import Path
+
+    from jaxnav.world.mix import Mix
+
+    root = Path(__file__).resolve().parent.parent
+    rows = list(csv.DictReader((root / "docs" / "levels" / "drive_anywhere.csv").open()))
+    page = " ".join((root / "jaxnav" / "policies" / "drive_anywhere.md").read_text().split())
+    per = np.asarray(
+        [int(r["solved"]) / int(r["policies"]) for r in rows if r["driver"] == "policy"]
+    )
+    weights = np.asarray([1, 1, 1, 0.5, 1]) / 4.5  # configs/drive_anywhere.yaml's mix
+    shares = Mix(sources=(), names=(), weights=tuple(weights)).shares(1000)
+    assert shares == (223, 222, 222, 111, 222)
+    parts = np.split(per, np.cumsum(shares)[:-1])
+    means = [f"{x.mean():.2f}" for x in parts]  # rooms, cylinders, grid, square4_obstacles, stage4
+    assert means == ["0.82", "0.99", "0.95", "1.00", "0.99"]
+    low = [int((x < 0.5).sum()) for x in parts]
+    assert sum(low) == 49 and low[0] == 38 and low[2] == 11
+    assert (
+        "of the 49 levels that fewer than half the seeds solve, 38 are 2 x 2 rooms and 11" in page
+    )
