@@ -22,6 +22,7 @@ from __future__ import annotations
 import functools
 import math
 from collections import Counter
+from pathlib import Path
 
 import numpy as np
 
@@ -217,20 +218,13 @@ HELD_OUT_SKIP = ("own", "test", "larger")  # the tests of the worlds a rung trai
 def _test_name(test: str) -> str:
     """A test's short name: a maze file by its stem (``office`` for its path)."""
     if test.endswith((".yaml", ".yml")):
-        return test.rsplit("/", 1)[-1].rsplit(".", 1)[0]
+        return Path(test).stem
     return TEST_NAMES.get(test, test)
 
 
-def _held_out(data: Data) -> bool:
-    return any(t not in HELD_OUT_SKIP for r in data.rungs for t in data.tests(r))
-
-
-def held_out_sentence(data: Data) -> str:
-    """EBE against each other strategy on the fixed worlds of kinds no rung trained on
-    (``generalise_to``), success by the claims' rule, and each strategy's mean success
-    over them: the paper's question of unseen mazes, in one sentence."""
-    parts, means = [], []
-    tests = [
+def held_out_tests(data: Data) -> list[tuple[str, str, str]]:
+    """(rung, agent, test) of every test on a kind of world no rung trained on."""
+    return [
         (rung, agent, t)
         for rung in data.rungs
         for agent in data.agents
@@ -238,6 +232,14 @@ def held_out_sentence(data: Data) -> str:
         for t in data.tests(rung)
         if t not in HELD_OUT_SKIP
     ]
+
+
+def held_out_sentence(data: Data) -> str:
+    """EBE against each other strategy on the fixed worlds of kinds no rung trained on
+    (``generalise_to``), success by the claims' rule, and each strategy's mean success
+    over them: the paper's question of unseen mazes, in one sentence."""
+    parts, means = [], []
+    tests = held_out_tests(data)
     if not tests:
         return "No policy of this study was tested on a kind of world it did not train on."
     for other in (o for o in (EPS, BOLTZMANN) if o in data.strategies):
@@ -484,7 +486,7 @@ def learning_markdown(folder, prefix: str) -> str:
         "",
         _sentence(learned),
         "",
-        *([held_out_sentence(data), ""] if _held_out(data) else []),
+        *([held_out_sentence(data), ""] if held_out_tests(data) else []),
         "## Setup",
         "",
         f"- Every arm trains its world's budget of env steps per seed (the table below), "

@@ -136,6 +136,11 @@ def _study_page(folder: str) -> Callable[[Path], str]:
     return render
 
 
+def _study_page_entry(name: str, folder: str) -> Published:
+    """The published part of a committed study's whole page (``folder``.md)."""
+    return Published(name, (f"{folder}.md",), _study_page(folder), block=False, slow=True)
+
+
 def _driving_readme(root: Path) -> str:
     from jaxnav.report.driving_page import readme_block
 
@@ -222,57 +227,25 @@ PUBLISHED: tuple[Published, ...] = (
     Published(
         "when-ebe-helps", ("README.md", "docs/studies.md"), _study_sentence(LADDER), slow=True
     ),
-    Published(
-        "when-ebe-helps-page", (f"{LADDER}.md",), _study_page(LADDER), block=False, slow=True
-    ),
-    Published(
-        "when-ebe-helps-40k-page",
-        (f"{LADDER_40K}.md",),
-        _study_page(LADDER_40K),
-        block=False,
-        slow=True,
-    ),
+    _study_page_entry("when-ebe-helps-page", LADDER),
+    _study_page_entry("when-ebe-helps-40k-page", LADDER_40K),
     Published("hard-exploration", ("README.md",), _study_sentence(HARD_EXPLORATION), slow=True),
-    Published(
-        "hard-exploration-page",
-        (f"{HARD_EXPLORATION}.md",),
-        _study_page(HARD_EXPLORATION),
-        block=False,
-        slow=True,
-    ),
+    _study_page_entry("hard-exploration-page", HARD_EXPLORATION),
     Published(
         "ebe-anywhere",
         ("README.md", "docs/studies.md"),
         _held_out_sentence(EBE_ANYWHERE),
         slow=True,
     ),
-    Published(
-        "ebe-anywhere-page",
-        (f"{EBE_ANYWHERE}.md",),
-        _study_page(EBE_ANYWHERE),
-        block=False,
-        slow=True,
-    ),
+    _study_page_entry("ebe-anywhere-page", EBE_ANYWHERE),
     Published("agents-study", ("docs/agents.md",), _study_sentence(AGENTS_STUDY), slow=True),
-    Published(
-        "agents-study-page",
-        (f"{AGENTS_STUDY}.md",),
-        _study_page(AGENTS_STUDY),
-        block=False,
-        slow=True,
-    ),
+    _study_page_entry("agents-study-page", AGENTS_STUDY),
     Published("driving", ("README.md",), _driving_readme, slow=True),
     Published("driving-page", ("docs/driving.md",), _driving_page, block=False, slow=True),
     Published("agents-sac", ("docs/agents.md",), _agents_sac, slow=True),
     Published("baselines-page", ("docs/baselines.md",), _baselines_page, block=False, slow=True),
     Published("worlds-study", ("docs/worlds.md",), _study_sentence(WORLDS_STUDY), slow=True),
-    Published(
-        "worlds-study-page",
-        (f"{WORLDS_STUDY}.md",),
-        _study_page(WORLDS_STUDY),
-        block=False,
-        slow=True,
-    ),
+    _study_page_entry("worlds-study-page", WORLDS_STUDY),
     Published("sim2sim-drive", ("docs/sim2sim.md",), _sim2sim_drive, slow=True),
     Published("barn", ("README.md",), _barn_readme),
     Published("barn-page", ("docs/barn.md",), _barn_page, block=False),
