@@ -35,6 +35,7 @@ from jaxnav.report.ladder import (
     EPS,
     NAMES,
     NO_GOALS,
+    ORACLE,
     TEST_NAMES,
     Data,
     compare,
@@ -234,6 +235,16 @@ def held_out_tests(data: Data) -> list[tuple[str, str, str]]:
     ]
 
 
+def _reference(data: Data, rung: str, test: str, who: str) -> np.ndarray | None:
+    """A reference driver's per-seed success on a rung's test: it drives a world's tests
+    once, beside the rung's first agent (jaxnav.experiments.ladder.run_cell)."""
+    for agent in data.agents:
+        x = data.per_seed(rung, agent, test, who, "success")
+        if len(x):
+            return x
+    return None
+
+
 def held_out_sentence(data: Data) -> str:
     """EBE against each other strategy on the fixed worlds of kinds no rung trained on
     (``generalise_to``), success by the claims' rule, and each strategy's mean success
@@ -252,6 +263,11 @@ def held_out_sentence(data: Data) -> str:
     for s in data.strategies:
         x = np.mean([data.per_seed(r, a, t, s, "success").mean() for r, a, t in tests])
         means.append(f"{NAMES[s]} {x:.2f}")
+    for who, label in DRIVERS.items():  # the reference drivers, where every test drove them
+        got = [_reference(data, r, t, who) for r, _, t in tests]
+        if all(x is not None for x in got):
+            the = "the " if who == ORACLE else ""
+            means.append(f"{the}{label} {np.mean([x.mean() for x in got]):.2f}")
     names = ", ".join(dict.fromkeys(_test_name(t) for _, _, t in tests))
     cells = "test" if len(tests) == 1 else "tests"
     return (
