@@ -12,8 +12,8 @@ import pytest
 from rliable import metrics
 
 from jaxnav.experiments import ladder
+from jaxnav.report import heldout, learning, study_pages
 from jaxnav.report import ladder as page
-from jaxnav.report import learning, study_pages
 from tests.test_ladder import STUDY, _synthetic
 
 STEPS = (100, 200, 300, 400)  # the evaluations along a budget of 400 env steps
@@ -151,7 +151,7 @@ def test_the_held_out_sentence_counts_the_verdicts_and_means_by_hand(tmp_path):
         ]
     with open(folder / "scores.csv", "a", newline="") as f:
         csv.writer(f, lineterminator="\n").writerows(rows)
-    text = learning.held_out_sentence(page.Data(folder))
+    text = heldout.held_out_sentence(page.Data(folder))
     assert "(office; 2 tests, one per world and agent trained)" in text
     assert "than epsilon-greedy's in 1, a lower one in 0 and no detectable difference in 1" in text
     assert "than Boltzmann's in 1, a lower one in 0 and no detectable difference in 1" in text
@@ -160,4 +160,4 @@ def test_the_held_out_sentence_counts_the_verdicts_and_means_by_hand(tmp_path):
     assert text.endswith(f"mean success over those tests: {means}, the oracle 0.95.")
     # a study without such a test says so
     _with_evals(tmp_path / "e")
-    assert learning.held_out_sentence(page.Data(tmp_path / "e")).startswith("No policy")
+    assert heldout.held_out_sentence(page.Data(tmp_path / "e")).startswith("No policy")

@@ -117,8 +117,8 @@ def _held_out_sentence(folder: str) -> Callable[[Path], str]:
     """A committed study's sentence on the kinds of world its policies never saw."""
 
     def render(root: Path) -> str:
+        from jaxnav.report.heldout import held_out_sentence
         from jaxnav.report.ladder import Data
-        from jaxnav.report.learning import held_out_sentence
 
         return held_out_sentence(Data(root / folder))
 
