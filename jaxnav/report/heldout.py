@@ -24,7 +24,7 @@ from jaxnav.report.ladder import (
 HELD_OUT_SKIP = ("own", "test", "larger")  # the tests of the worlds a rung trains on
 
 
-def _test_name(test: str) -> str:
+def test_name(test: str) -> str:
     """A test's short name: a maze file by its stem (``office`` for its path)."""
     if test.endswith((".yaml", ".yml")):
         return Path(test).stem
@@ -43,7 +43,7 @@ def held_out_tests(data: Data) -> list[tuple[str, str, str]]:
     ]
 
 
-def _reference(data: Data, rung: str, test: str, who: str) -> np.ndarray | None:
+def reference_success(data: Data, rung: str, test: str, who: str) -> np.ndarray | None:
     """A reference driver's per-seed success on a rung's test: it drives a world's tests
     once, beside the rung's first agent (jaxnav.experiments.ladder.run_cell)."""
     for agent in data.agents:
@@ -72,11 +72,11 @@ def held_out_sentence(data: Data) -> str:
         x = np.mean([data.per_seed(r, a, t, s, "success").mean() for r, a, t in tests])
         means.append(f"{NAMES[s]} {x:.2f}")
     for who, label in DRIVERS.items():  # the reference drivers, where every test drove them
-        got = [_reference(data, r, t, who) for r, _, t in tests]
+        got = [reference_success(data, r, t, who) for r, _, t in tests]
         if all(x is not None for x in got):
             the = "the " if who == ORACLE else ""
             means.append(f"{the}{label} {np.mean([x.mean() for x in got]):.2f}")
-    names = ", ".join(dict.fromkeys(_test_name(t) for _, _, t in tests))
+    names = ", ".join(dict.fromkeys(test_name(t) for _, _, t in tests))
     cells = "test" if len(tests) == 1 else "tests"
     return (
         f"Tested on kinds of world they never trained on ({names}; {len(tests)} {cells}, "

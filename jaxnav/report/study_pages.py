@@ -2,13 +2,14 @@
 runs recorded what they explored (``evals.csv`` with ``coverage``, ``run.coverage``) is a
 study of exploring (:mod:`jaxnav.report.exploring`), one with greedy evaluations while
 training (``evals.csv``, ``eval_points``) a study of learning
-(:mod:`jaxnav.report.learning`), any other a ladder (:mod:`jaxnav.report.ladder`)."""
+(:mod:`jaxnav.report.learning`), one of a single strategy and several agents a study of
+options (:mod:`jaxnav.report.options`), any other a ladder (:mod:`jaxnav.report.ladder`)."""
 
 from __future__ import annotations
 
 from pathlib import Path
 
-from jaxnav.report import exploring, ladder, learning
+from jaxnav.report import exploring, ladder, learning, options
 
 
 def of_learning(folder: Path) -> bool:
@@ -20,14 +21,22 @@ def of_exploring(folder: Path) -> bool:
     return path.is_file() and "coverage" in path.read_text().split("\n", 1)[0].split(",")
 
 
+def of_options(folder: Path) -> bool:
+    return not of_exploring(folder) and options.of_options(ladder.Data(folder))
+
+
 def figure_names(folder: Path) -> tuple[str, ...]:
     """The figures of a study's page, ``PREFIX-NAME`` beside it."""
+    if of_options(folder):
+        return options.FIGURES
     if of_exploring(folder):
         return exploring.FIGURES
     return learning.FIGURES if of_learning(folder) else ladder.FIGURES
 
 
 def page(folder: Path, prefix: str) -> str:
+    if of_options(folder):
+        return options.options_markdown(folder, prefix)
     if of_exploring(folder):
         return exploring.exploring_markdown(folder, prefix)
     if of_learning(folder):
@@ -36,6 +45,8 @@ def page(folder: Path, prefix: str) -> str:
 
 
 def sentence(folder: Path) -> str:
+    if of_options(folder):
+        return options.summary_sentence(ladder.Data(folder))
     if of_exploring(folder):
         return exploring.summary_sentence(ladder.Data(folder))
     data = ladder.Data(folder)
@@ -43,6 +54,8 @@ def sentence(folder: Path) -> str:
 
 
 def figures(folder: Path, out: Path, prefix: str) -> list[Path]:
+    if of_options(folder):
+        return options.figures(folder, out, prefix)
     if of_exploring(folder):
         return exploring.figures(exploring.Exploring(ladder.Data(folder)), out, prefix)
     if of_learning(folder):
