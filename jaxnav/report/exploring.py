@@ -444,13 +444,14 @@ def exploring_markdown(folder, prefix: str) -> str:
     left = doc.get("left_out", [])
     if left:
         L += ["## What this study leaves out", "", *[f"- {line}" for line in left], ""]
+    again = command if " --resume" in command else f"{command} --resume"
     L += [
         "## Time",
         "",
         *timing,
         "",
         f"Total: {total / 60:.0f} minutes (training includes compiling and the evaluations "
-        f"while training; testing includes the oracle and DWA). `{command} --resume` goes on "
+        f"while training; testing includes the oracle and DWA). `{again}` goes on "
         "from the last finished cell (and an unfinished cell's last checkpoint).",
         "",
     ]
