@@ -159,9 +159,10 @@ def options_markdown(folder: Path, prefix: str) -> str:
         f"{data.n_seeds()} seeds per arm, strategy {NAMES[data.strategies[0]]}, every seed "
         f"of an arm in one compiled program; settings over every arm: {settings_text(doc)}.",
         f"- Test: {doc.get('test_episodes', 10)} greedy episodes (argmax Q) per policy on "
-        "each test: the world it trained on (fresh layouts of the mix's train split), the "
-        "mix's test split (layouts training never draws) and each fixed world of a kind "
-        "none of the mix's generators draws; the oracle and DWA drive the same episodes.",
+        "each test: its own world (drawn mazes: fresh layouts of their train split), the "
+        "unseen layouts of their test split, which training never draws, and each fixed "
+        "world of the study's `generalise_to`, kinds of world no rung trains on; the "
+        "oracle and DWA drive the same episodes.",
         f"- P(arm > {first}) is rliable's probability of improvement on success with a "
         "95% percentile bootstrap interval over seeds; the verdict says `better` or "
         "`worse` when the interval excludes 0.5 and `-` otherwise (no detectable "

@@ -100,6 +100,7 @@ AGENTS_STUDY = "docs/studies/agents"
 HARD_EXPLORATION = "docs/studies/hard-exploration"  # EBE beside the field's exploration methods
 WORLDS_STUDY = "docs/studies/worlds"
 EBE_ANYWHERE = "docs/studies/ebe-anywhere"  # EBE training the generalist, held-out worlds
+OBSERVATION = "docs/studies/observation-anywhere"  # the generalist's observation options
 
 
 def _study_sentence(folder: str) -> Callable[[Path], str]:
@@ -238,6 +239,13 @@ PUBLISHED: tuple[Published, ...] = (
         slow=True,
     ),
     _study_page_entry("ebe-anywhere-page", EBE_ANYWHERE),
+    Published(
+        "observation-anywhere",
+        ("docs/studies.md", "jaxnav/policies/drive_anywhere.md"),
+        _study_sentence(OBSERVATION),
+        slow=True,
+    ),
+    _study_page_entry("observation-anywhere-page", OBSERVATION),
     Published("agents-study", ("docs/agents.md",), _study_sentence(AGENTS_STUDY), slow=True),
     _study_page_entry("agents-study-page", AGENTS_STUDY),
     Published("driving", ("README.md",), _driving_readme, slow=True),
