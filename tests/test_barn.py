@@ -158,6 +158,30 @@ def test_the_page_sets_the_published_rows_beside_jaxnavs():
     assert any(ln.startswith("| DRL-VO") and "0.2339" in ln for ln in lines)
 
 
+def test_the_burgers_rows_average_as_report_test_py_does_by_hand():
+    """The burger's policy row: per seed, each world's 10 runs averaged, then the 50
+    worlds; then the mean over seeds (pandas-free NumPy over the committed CSV)."""
+    import csv
+
+    from jaxnav.report.barn_page import burger_sentence, burger_table
+
+    path = ROOT / "docs" / "barn" / "burger" / "anywhere" / "results.csv"
+    rows = [r for r in csv.DictReader(path.open()) if r["maze"].startswith("barn:")]
+    seeds = sorted({int(r["seed"]) for r in rows})
+    per_seed = []
+    for s in seeds:
+        worlds = {}
+        for r in rows:
+            if int(r["seed"]) == s:
+                worlds.setdefault(r["maze"], []).append(float(r["successes"]) > 0)
+        assert len(worlds) == 50 and all(len(v) == 10 for v in worlds.values())
+        per_seed.append(np.mean([np.mean(v) for v in worlds.values()]))
+    want = f"{np.mean(per_seed):.3f}"
+    row = next(ln for ln in burger_table(ROOT) if "drive_anywhere" in ln)
+    assert row.split(" | ")[3].startswith(want) and "16 x 50 x 10" in row
+    assert f"reaches a success of {np.mean(per_seed):.2f} [" in burger_sentence(ROOT)
+
+
 def test_dwa_with_barns_parameters_samples_its_velocities_and_commands_them_exactly():
     import dataclasses
 

@@ -29,7 +29,24 @@ JAXNAV_ROWS = (
     ("dwa_map", "the same DWA under a global planner that knows the map (`barn_map`)", "jaxnav"),
     ("policy", "`drive_barn` policy (PQN)", "jaxnav"),
 )
+# the burger in the same worlds and protocol (docs/barn/burger/FOLDER)
+BURGER_ROWS = (
+    ("oracle", "oracle (privileged planner)", "jaxnav"),
+    ("dwa", "DWA (jaxnav's default parameters)", "jaxnav"),
+    ("anywhere", "`drive_anywhere` policy (PQN), never trained on BARN", "jaxnav"),
+)
 GAZEBO = "Gazebo (the challenge's)"
+HEADER = [
+    "driver",
+    "simulator",
+    "seeds x worlds x runs",
+    "success",
+    "collision",
+    "timeout",
+    "time (s)",
+    "score, clip 2-8 OT",
+    "score, clip 4-8 OT (before 2024)",
+]
 
 
 def _cell(values: list[float], digits: int) -> str:
@@ -55,16 +72,22 @@ def _row(label: str, simulator: str, seeds: dict[int, dict[str, float]]) -> list
     ]
 
 
-def table(root: Path) -> list[str]:
-    """The main table: jaxnav's rows, then the published ones."""
-    folder = root / "docs" / "barn"
-    rows = []
-    for sub, label, sim in JAXNAV_ROWS:
+def _seeds(folder: Path, specs) -> list[tuple[str, str, dict[int, dict[str, float]]]]:
+    """(label, simulator, {seed: metrics}) of each row's results.csv under ``folder``."""
+    out = []
+    for sub, label, sim in specs:
         path = folder / sub / "results.csv"
         if not path.is_file():
             continue
         for seeds in rb.driver_metrics(rb.runs_of(path.read_text())).values():
-            rows.append(_row(label, sim, seeds))
+            out.append((label, sim, seeds))
+    return out
+
+
+def table(root: Path) -> list[str]:
+    """The main table: jaxnav's rows, then the published ones."""
+    folder = root / "docs" / "barn"
+    rows = [_row(*r) for r in _seeds(folder, JAXNAV_ROWS)]
     r = rb.README_DWA
     rows.append(
         [
@@ -92,18 +115,41 @@ def table(root: Path) -> list[str]:
             f"{rb.DRL_VO['score_2022']:.4f}",
         ]
     )
-    header = [
-        "driver",
-        "simulator",
-        "seeds x worlds x runs",
-        "success",
-        "collision",
-        "timeout",
-        "time (s)",
-        "score, clip 2-8 OT",
-        "score, clip 4-8 OT (before 2024)",
+    return markdown_table(HEADER, rows)
+
+
+def burger_table(root: Path) -> list[str]:
+    """The burger's rows in the same worlds and protocol (none without their data)."""
+    rows = _seeds(root / "docs" / "barn" / "burger", BURGER_ROWS)
+    return markdown_table(HEADER, [_row(*r) for r in rows]) if rows else []
+
+
+def burger_sentence(root: Path) -> str:
+    """The burger's result in BARN's test worlds in one sentence, from its data."""
+    got = {
+        label: seeds for label, _, seeds in _seeds(root / "docs" / "barn" / "burger", BURGER_ROWS)
+    }
+    oracle, dwa, policy = (got.get(label) for _, label, _ in BURGER_ROWS)
+    if policy is None:
+        return "The burger has not been tested in BARN's worlds."
+
+    def mean(seeds, k) -> float:
+        return float(np.mean([m[k] for m in seeds.values()]))
+
+    refs = [
+        f"{name} {mean(s, 'success'):.2f}"
+        for name, s in (("the oracle", oracle), ("DWA", dwa))
+        if s
     ]
-    return markdown_table(header, rows)
+    ms = list(policy.values())
+    return (
+        f"With the burger in BARN's {max(int(m['worlds']) for m in ms)} test worlds (BARN's "
+        f"protocol, jaxnav's simulator), `drive_anywhere`, which never "
+        f"trained on BARN, reaches a success of {_cell([m['success'] for m in ms], 2)} with "
+        f"collisions {_cell([m['collision'] for m in ms], 2)} over its {len(ms)} seeds"
+        + (f", beside {' and '.join(refs)} in the same worlds" if refs else "")
+        + "."
+    )
 
 
 def footprint(root: Path) -> list[str]:
@@ -155,6 +201,18 @@ def barn_markdown(root: Path) -> str:
         "",
         *made["notes"],
     ]
+    burger = burger_table(root)
+    if burger:
+        lines += [
+            "",
+            "## The burger in BARN's worlds",
+            "",
+            *made.get("burger", []),
+            "",
+            burger_sentence(root),
+            "",
+            *burger,
+        ]
     fp = footprint(root)
     if fp:
         lines += ["", "## The Jackal's footprint as a disc", "", *made["footprint"], "", *fp]

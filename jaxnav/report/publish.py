@@ -186,6 +186,12 @@ def _barn_page(root: Path) -> str:
     return barn_markdown(root)
 
 
+def _barn_burger(root: Path) -> str:
+    from jaxnav.report.barn_page import burger_sentence
+
+    return burger_sentence(root)
+
+
 def _barn_readme(root: Path) -> str:
     from jaxnav.report.barn_page import readme_line
 
@@ -257,6 +263,7 @@ PUBLISHED: tuple[Published, ...] = (
     Published("sim2sim-drive", ("docs/sim2sim.md",), _sim2sim_drive, slow=True),
     Published("barn", ("README.md",), _barn_readme),
     Published("barn-page", ("docs/barn.md",), _barn_page, block=False),
+    Published("barn-burger", ("jaxnav/policies/drive_anywhere.md",), _barn_burger),
     Published(
         "sim2sim-realism-page",
         (f"{REALISM}.md",),
