@@ -246,6 +246,7 @@ def _copy_run(src: Path, dst: Path, params: bool = True) -> Path:
         ("no_params", "has no params.npz"),
         ("corrupt_params", "cannot be read"),
         ("unknown_maze", "unknown maze 'nowhere'"),
+        ("setting_after_mazes", "'env.goal_radius=1.0' is a setting, not a maze"),
         ("broken_maze", "not closed"),
         ("zero_episodes", "at least 1"),
         ("not_env_setting", "other environment settings only"),
@@ -267,6 +268,8 @@ def test_bad_input_is_one_line_and_exit_2(run, case, message, tmp_path, capsys):
         _copy_run(src, d)
         if case == "unknown_maze":
             argv += ["--mazes", "nowhere"]
+        elif case == "setting_after_mazes":  # --mazes takes every word after it
+            argv += ["--mazes", "square4", "env.goal_radius=1.0"]
         elif case == "not_env_setting":
             argv += ["dqn.lr=0.1"]
         elif case == "unreadable_setting":  # 12 beams: an observation the network never read

@@ -183,6 +183,12 @@ def main(argv: list[str] | None = None) -> int:
             raise JaxnavError(
                 f"{args.overrides[0]}: --robustness sets the perturbed settings itself"
             )
+        setting = next((m for m in args.mazes or () if "=" in m), None)
+        if setting is not None:  # --mazes takes every word after it
+            raise JaxnavError(
+                f"--mazes: {setting!r} is a setting, not a maze: put settings after the run "
+                "directory, before --mazes"
+            )
         run_dir = rundir.existing(args.run_dir, finished=True)
         out = Path(args.out) if args.out else run_dir / "eval"
 

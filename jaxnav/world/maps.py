@@ -518,8 +518,8 @@ def make_maze(name_or_path: str) -> Maze:
     if os.path.splitext(name_or_path)[1] in (".yaml", ".yml") or os.path.exists(name_or_path):
         return load_maze_file(shipped_path(name_or_path))
     raise MazeError(
-        f"unknown maze '{name_or_path}' (built-in: {', '.join(BUILTIN_MAZES)}; "
-        "or a path to a .yaml maze file)"
+        f"unknown maze '{name_or_path}': a built-in name ({', '.join(BUILTIN_MAZES)}), "
+        "barn:N (0-299), or a path to a maze file or a ROS map's .yaml"
     )
 
 
