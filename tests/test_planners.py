@@ -168,6 +168,10 @@ def test_a_world_is_a_config_or_a_maze_and_bad_names_are_one_line(capsys):
     assert len(err) == 1 and "unknown maze 'nosuch'" in err[0]
     assert evaluate_main(["--baseline", "oracle", "square4", "--robustness"]) == 2
     assert "do not apply" in capsys.readouterr().err
+    # a list of test mazes the world's test would not drive is refused, not ignored
+    assert evaluate_main(["--baseline", "oracle", "stage4", "run.test_mazes=[square4]"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--baseline drives its WORLD's own test" in err[0]
     assert evaluate_main(["--baseline", "oracle", "square4", "env.maze_scale=[0.8,1.2]"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "cannot plan with env.maze_scale" in err[0]

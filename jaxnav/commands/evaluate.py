@@ -24,7 +24,7 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
-from jaxnav.core import baselines, cli, rundir
+from jaxnav.core import baselines, cli, families, rundir
 from jaxnav.core.errors import JaxnavError
 from jaxnav.core.rundir import CsvLog
 from jaxnav.experiments.baselines import evaluate_world, world_config
@@ -80,6 +80,13 @@ def baseline(args) -> None:
     if args.seeds < 1:
         raise JaxnavError("--seeds must be at least 1")
     cfg = world_config(args.run_dir, args.overrides)
+    listed = any(o.split("=", 1)[0].strip() == "run.test_mazes" for o in args.overrides)
+    gen = cfg.env.generator
+    if listed and not (gen and families.get(gen).fixed_test):  # it would do nothing
+        raise JaxnavError(
+            "run.test_mazes: --baseline drives its WORLD's own test (its maze, or a drawn "
+            "family's train and test layouts); name a maze as the WORLD to drive it there"
+        )
     out = Path(args.out) if args.out else None
     if out is not None:
         check_outputs(out, ("results.csv", "tables.md"), args.overwrite)
