@@ -4,6 +4,9 @@
 * ``oracle/results.csv``, ``dwa/results.csv``: ``jaxnav evaluate --baseline oracle|dwa
   barn --seeds 1 --out ...``; ``policy/results.csv``: ``jaxnav evaluate RUN
   --no-baselines`` of a ``jaxnav train drive_barn`` run;
+* ``burger/{oracle,dwa,anywhere}/results.csv``: the same test with the burger
+  (``--baseline oracle|dwa barn robot=burger``; ``drive_anywhere``'s policies), BARN's
+  greedy rows kept;
 * ``footprint/rXXX/results.csv``: the oracle's on all 300 worlds with the Jackal as a
   disc of XXX mm (``env.robot_radius``);
 * ``dwa_out.txt``: the challenge's own DWA runs (``res/dwa_out.txt``, MIT licence);
