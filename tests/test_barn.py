@@ -180,6 +180,11 @@ def test_the_burgers_rows_average_as_report_test_py_does_by_hand():
     row = next(ln for ln in burger_table(ROOT) if "drive_anywhere" in ln)
     assert row.split(" | ")[3].startswith(want) and "16 x 50 x 10" in row
     assert f"reaches a success of {np.mean(per_seed):.2f} [" in burger_sentence(ROOT)
+    # the README's line on BARN quotes the same figures
+    from jaxnav.report.barn_page import readme_line
+
+    assert f"reaches {np.mean(per_seed):.2f} (the oracle 1.00, DWA 0.65)" in readme_line(ROOT)
+    assert "the oracle 1.00 and DWA 0.65" in burger_sentence(ROOT)
 
 
 def test_dwa_with_barns_parameters_samples_its_velocities_and_commands_them_exactly():
