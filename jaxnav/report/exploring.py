@@ -40,7 +40,7 @@ from jaxnav.report.ladder import (
     oracle_success,
 )
 from jaxnav.report.learning import REACH, Learning, _median
-from jaxnav.report.markdown import interval, markdown_table, settings_text
+from jaxnav.report.markdown import interval, markdown_table, page_head, settings_text
 
 # measure: (how a table names it, more is better)
 MEASURES = {
@@ -346,21 +346,14 @@ def exploring_markdown(folder, prefix: str) -> str:
     data = Data(folder)
     E = Exploring(data)
     doc = data.doc
-    command, machine = data.run["command"], data.run["machine"]
+    command = data.run["command"]
     timing, total = _timing(data)
     evals = flatten(doc.get("settings") or {}).get("run.eval_episodes", 5)
     agents = ", ".join(
         f"{data.agent_label[a]} ({settings_text(v)})" for a, v in doc["agents"].items()
     )
     L = [
-        f"# {doc['title']}",
-        "",
-        f"Produced by `{command}` in {total / 60:.0f} minutes on {machine}. Every table and "
-        "sentence below is computed from the data in the folder beside this page; "
-        "`tests/test_published.py` checks that the data gives this page byte for byte.",
-        "",
-        "## In one sentence",
-        "",
+        *page_head(data.doc, data.run, total),
         _sentence(E),
         "",
         "## Setup",

@@ -20,7 +20,7 @@ import yaml
 from jaxnav.core import strategies
 from jaxnav.report import stats
 from jaxnav.report.claims import verdict
-from jaxnav.report.markdown import interval, markdown_table, settings_text
+from jaxnav.report.markdown import interval, markdown_table, page_head, settings_text
 from jaxnav.report.navigation import SOLVED_TOLERANCE, solved
 
 ORACLE = "oracle"  # the reference driver whose success on the same test defines "solved"
@@ -430,7 +430,6 @@ def ladder_markdown(folder: Path, prefix: str) -> str:
     """The page from the data in ``folder``; ``prefix`` names its figures
     (``PREFIX-ladder.png``, beside the page)."""
     data = Data(folder)
-    command, machine = data.run["command"], data.run["machine"]
     doc = data.doc
     timing, total = _timing(data)
     n = data.n_seeds()
@@ -448,14 +447,7 @@ def ladder_markdown(folder: Path, prefix: str) -> str:
     agent_rows = [[data.agent_label[a], settings_text(v)] for a, v in doc["agents"].items()]
     traj = trajectory_cell(data)
     L = [
-        f"# {doc['title']}",
-        "",
-        f"Produced by `{command}` in {total / 60:.0f} minutes on {machine}. Every table and "
-        "sentence below is computed from the data in the folder beside this page; "
-        "`tests/test_published.py` checks that the data gives this page byte for byte.",
-        "",
-        "## In one sentence",
-        "",
+        *page_head(data.doc, data.run, total),
         summary_sentence(data),
         "",
         "## Setup",

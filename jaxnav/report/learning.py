@@ -39,7 +39,7 @@ from jaxnav.report.ladder import (
     oracle_success,
     solved_by,
 )
-from jaxnav.report.markdown import interval, markdown_table, settings_text
+from jaxnav.report.markdown import interval, markdown_table, page_head, settings_text
 from jaxnav.report.navigation import SOLVED_TOLERANCE
 
 REACH = 0.9  # the share of the oracle's success a seed must reach
@@ -412,7 +412,7 @@ def learning_markdown(folder, prefix: str) -> str:
     data = Data(folder)
     learned = Learning(data)  # its verdicts' bootstraps, once for the whole page
     doc = data.doc
-    command, machine = data.run["command"], data.run["machine"]
+    command = data.run["command"]
     timing, total = _timing(data)
     evals = flatten(doc.get("settings") or {}).get("run.eval_episodes", 5)
     agent_rows = [
@@ -421,16 +421,9 @@ def learning_markdown(folder, prefix: str) -> str:
     ]
     previous = doc.get("previous")
     traj = trajectory_cell(data)
+    earlier = f" An earlier version of this study is [{previous}]({previous})."
     L = [
-        f"# {doc['title']}",
-        "",
-        f"Produced by `{command}` in {total / 60:.0f} minutes on {machine}. Every table and "
-        "sentence below is computed from the data in the folder beside this page; "
-        "`tests/test_published.py` checks that the data gives this page byte for byte."
-        + (f" An earlier version of this study is [{previous}]({previous})." if previous else ""),
-        "",
-        "## In one sentence",
-        "",
+        *page_head(data.doc, data.run, total, earlier if previous else ""),
         _sentence(learned),
         "",
         *([held_out_sentence(data), ""] if held_out_tests(data) else []),

@@ -41,6 +41,23 @@ def aligned_table(table: Sequence[Sequence[str]]) -> str:
     )
 
 
+def page_head(doc: dict, run: dict, total_s: float, more: str = "") -> list[str]:
+    """A study page's opening: the study's title (``doc``, its study.yaml), the command
+    that produced it with its minutes and machine (``run``, its run.json; ``more`` ends
+    that paragraph), and the heading of its one sentence."""
+    return [
+        f"# {doc['title']}",
+        "",
+        f"Produced by `{run['command']}` in {total_s / 60:.0f} minutes on {run['machine']}. "
+        "Every table and sentence below is computed from the data in the folder beside this "
+        "page; `tests/test_published.py` checks that the data gives this page byte for "
+        "byte." + more,
+        "",
+        "## In one sentence",
+        "",
+    ]
+
+
 def settings_text(doc: dict) -> str:
     """A study entry's ``settings:`` as `` `key=value` `` items (``none`` without)."""
     s = doc.get("settings") or {}

@@ -17,7 +17,7 @@ from jaxnav.report import stats
 from jaxnav.report.claims import verdict
 from jaxnav.report.heldout import HELD_OUT_SKIP, test_name
 from jaxnav.report.ladder import DRIVERS, NAMES, ORACLE, Data, _timing
-from jaxnav.report.markdown import interval, markdown_table, settings_text
+from jaxnav.report.markdown import interval, markdown_table, page_head, settings_text
 
 FIGURES = ("options.png",)
 WORDS = {"supported": "better", "contradicted": "worse"}
@@ -142,15 +142,7 @@ def options_markdown(folder: Path, prefix: str) -> str:
         for r, v in doc["rungs"].items()
     ]
     L = [
-        f"# {doc['title']}",
-        "",
-        f"Produced by `{data.run['command']}` in {total / 60:.0f} minutes on "
-        f"{data.run['machine']}. Every table and sentence below is computed from the data in "
-        "the folder beside this page; `tests/test_published.py` checks that the data gives "
-        "this page byte for byte.",
-        "",
-        "## In one sentence",
-        "",
+        *page_head(data.doc, data.run, total),
         summary_sentence(data),
         "",
         "## Setup",
