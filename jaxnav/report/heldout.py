@@ -22,6 +22,7 @@ from jaxnav.report.ladder import (
 )
 
 HELD_OUT_SKIP = ("own", "test", "larger")  # the tests of the worlds a rung trains on
+NO_HELD_OUT = "No policy of this study was tested on a kind of world it did not train on."
 
 
 def test_name(test: str) -> str:
@@ -43,14 +44,27 @@ def held_out_tests(data: Data) -> list[tuple[str, str, str]]:
     ]
 
 
-def reference_success(data: Data, rung: str, test: str, who: str) -> np.ndarray | None:
-    """A reference driver's per-seed success on a rung's test: it drives a world's tests
-    once, beside the rung's first agent (jaxnav.experiments.ladder.run_cell)."""
+def reference(data: Data, rung: str, test: str, who: str, measure: str = "success"):
+    """A reference driver's per-seed ``measure`` (f[seeds]) on a rung's test, or None: it
+    drives a world's tests once, beside the rung's first agent
+    (jaxnav.experiments.ladder.run_cell)."""
     for agent in data.agents:
-        x = data.per_seed(rung, agent, test, who, "success")
+        x = data.per_seed(rung, agent, test, who, measure)
         if len(x):
             return x
     return None
+
+
+def reference_means(data: Data, tests: list[tuple[str, str]]) -> list[str]:
+    """Each reference driver's mean success over the (rung, test) pairs, as a sentence
+    names it (``the oracle 1.00``, ``DWA 0.77``), where every test drove it."""
+    out = []
+    for who, label in DRIVERS.items():
+        got = [reference(data, r, t, who) for r, t in tests]
+        if all(x is not None for x in got):
+            the = "the " if who == ORACLE else ""
+            out.append(f"{the}{label} {np.mean([x.mean() for x in got]):.2f}")
+    return out
 
 
 def held_out_sentence(data: Data) -> str:
@@ -60,7 +74,7 @@ def held_out_sentence(data: Data) -> str:
     parts, means = [], []
     tests = held_out_tests(data)
     if not tests:
-        return "No policy of this study was tested on a kind of world it did not train on."
+        return NO_HELD_OUT
     for other in (o for o in (EPS, BOLTZMANN) if o in data.strategies):
         c = Counter(compare(data, r, a, t, other, "success")[1] for r, a, t in tests)
         parts.append(
@@ -71,11 +85,7 @@ def held_out_sentence(data: Data) -> str:
     for s in data.strategies:
         x = np.mean([data.per_seed(r, a, t, s, "success").mean() for r, a, t in tests])
         means.append(f"{NAMES[s]} {x:.2f}")
-    for who, label in DRIVERS.items():  # the reference drivers, where every test drove them
-        got = [reference_success(data, r, t, who) for r, _, t in tests]
-        if all(x is not None for x in got):
-            the = "the " if who == ORACLE else ""
-            means.append(f"{the}{label} {np.mean([x.mean() for x in got]):.2f}")
+    means += reference_means(data, [(r, t) for r, _, t in tests])
     names = ", ".join(dict.fromkeys(test_name(t) for _, _, t in tests))
     cells = "test" if len(tests) == 1 else "tests"
     return (
@@ -87,4 +97,12 @@ def held_out_sentence(data: Data) -> str:
     )
 
 
-__all__ = ["HELD_OUT_SKIP", "held_out_sentence", "held_out_tests"]
+__all__ = [
+    "HELD_OUT_SKIP",
+    "NO_HELD_OUT",
+    "held_out_sentence",
+    "held_out_tests",
+    "reference",
+    "reference_means",
+    "test_name",
+]

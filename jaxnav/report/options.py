@@ -15,7 +15,14 @@ import numpy as np
 
 from jaxnav.report import stats
 from jaxnav.report.claims import verdict
-from jaxnav.report.heldout import HELD_OUT_SKIP, test_name
+from jaxnav.report.heldout import (
+    HELD_OUT_SKIP,
+    NO_HELD_OUT,
+    held_out_tests,
+    reference,
+    reference_means,
+    test_name,
+)
 from jaxnav.report.ladder import DRIVERS, NAMES, ORACLE, Data, _timing
 from jaxnav.report.markdown import interval, markdown_table, page_head, settings_text
 
@@ -46,20 +53,16 @@ def compare(data: Data, rung: str, test: str, agent: str, measure: str = "succes
     return p, WORDS.get(verdict(p), "-")
 
 
-def _held_out(data: Data, rung: str) -> list[str]:
-    return [t for t in data.tests(rung) if t not in HELD_OUT_SKIP]
-
-
 def summary_sentence(data: Data) -> str:
     """Each arm against the first on the kinds of world no rung trained on, success by
     the claims' rule, with every arm's mean success over them beside the reference
     drivers' on the same tests."""
     s = data.strategies[0]
     first = data.agents[0]
-    parts, means = [], []
-    tests = [(r, t) for r in data.rungs for t in _held_out(data, r)]
+    parts = []
+    tests = list(dict.fromkeys((r, t) for r, _, t in held_out_tests(data)))
     if not tests:
-        return "No policy of this study was tested on a kind of world it did not train on."
+        return NO_HELD_OUT
 
     def mean(agent: str) -> float:
         return float(np.mean([data.per_seed(r, agent, t, s, "success").mean() for r, t in tests]))
@@ -70,11 +73,7 @@ def summary_sentence(data: Data) -> str:
             f"{data.agent_label[agent]} {mean(agent):.2f} (detectably lower on "
             f"{words.count('worse')} of the {len(tests)}, higher on {words.count('better')})"
         )
-    for who, label in DRIVERS.items():
-        got = [reference(data, r, t, who, "success") for r, t in tests]
-        if all(x is not None for x in got):
-            the = "the " if who == ORACLE else ""
-            means.append(f"{the}{label} {np.mean([x.mean() for x in got]):.2f}")
+    means = reference_means(data, tests)
     names = ", ".join(dict.fromkeys(test_name(t) for _, t in tests))
     refs = f"; {', '.join(means)} on the same tests" if means else ""
     return (
@@ -83,15 +82,6 @@ def summary_sentence(data: Data) -> str:
         + ", ".join(parts)
         + f"{refs}."
     )
-
-
-def reference(data: Data, rung: str, test: str, who: str, measure: str) -> np.ndarray | None:
-    """A reference driver's per-seed ``measure`` on a rung's test, driven beside one agent."""
-    for agent in data.agents:
-        x = data.per_seed(rung, agent, test, who, measure)
-        if len(x):
-            return x
-    return None
 
 
 def _success_table(data: Data, measure: str) -> list[str]:
@@ -225,7 +215,7 @@ def figures(folder: Path, out: Path, prefix: str) -> list[Path]:
         err = np.array([[iv.value - iv.low, iv.high - iv.value] for iv in ivs]).T
         ax.bar(xs, mid, width, yerr=err, capsize=2, label=data.agent_label[agent])
     for j, (r, t) in enumerate(cols):
-        x = reference(data, r, t, ORACLE, "success")
+        x = reference(data, r, t, ORACLE)
         if x is not None:
             ax.plot([j - 0.42, j + 0.42], [x.mean()] * 2, color="black", lw=1.2)
     ax.set_xticks(np.arange(len(cols)), [test_name(t) for _, t in cols], rotation=20, fontsize=8)
