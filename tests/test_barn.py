@@ -163,7 +163,7 @@ def test_the_burgers_rows_average_as_report_test_py_does_by_hand():
     worlds; then the mean over seeds (pandas-free NumPy over the committed CSV)."""
     import csv
 
-    from jaxnav.report.barn_page import burger_sentence, burger_table
+    from jaxnav.report.barn_page import burger_rows, burger_sentence, burger_table
 
     path = ROOT / "docs" / "barn" / "burger" / "anywhere" / "results.csv"
     rows = [r for r in csv.DictReader(path.open()) if r["maze"].startswith("barn:")]
@@ -177,14 +177,14 @@ def test_the_burgers_rows_average_as_report_test_py_does_by_hand():
         assert len(worlds) == 50 and all(len(v) == 10 for v in worlds.values())
         per_seed.append(np.mean([np.mean(v) for v in worlds.values()]))
     want = f"{np.mean(per_seed):.3f}"
-    row = next(ln for ln in burger_table(ROOT) if "drive_anywhere" in ln)
+    row = next(ln for ln in burger_table(burger_rows(ROOT)) if "drive_anywhere" in ln)
     assert row.split(" | ")[3].startswith(want) and "16 x 50 x 10" in row
-    assert f"reaches a success of {np.mean(per_seed):.2f} [" in burger_sentence(ROOT)
+    assert f"reaches a success of {np.mean(per_seed):.2f} [" in burger_sentence(burger_rows(ROOT))
     # the README's line on BARN quotes the same figures
     from jaxnav.report.barn_page import readme_line
 
     assert f"reaches {np.mean(per_seed):.2f} (the oracle 1.00, DWA 0.65)" in readme_line(ROOT)
-    assert "the oracle 1.00 and DWA 0.65" in burger_sentence(ROOT)
+    assert "the oracle 1.00 and DWA 0.65" in burger_sentence(burger_rows(ROOT))
 
 
 def test_dwa_with_barns_parameters_samples_its_velocities_and_commands_them_exactly():

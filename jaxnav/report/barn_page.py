@@ -121,17 +121,21 @@ def table(root: Path) -> list[str]:
     return markdown_table(HEADER, rows)
 
 
-def burger_table(root: Path) -> list[str]:
-    """The burger's rows in the same worlds and protocol (none without their data)."""
-    rows = _seeds(root / "docs" / "barn" / "burger", BURGER_ROWS)
+def burger_rows(root: Path) -> list[tuple[str, str, dict[int, dict[str, float]]]]:
+    """The burger's rows in the same worlds and protocol, read once: (label, simulator,
+    {seed: metrics}) of each of :data:`BURGER_ROWS` with data."""
+    return _seeds(root / "docs" / "barn" / "burger", BURGER_ROWS)
+
+
+def burger_table(rows) -> list[str]:
+    """The table of :func:`burger_rows` (none without their data)."""
     return markdown_table(HEADER, [_row(*r) for r in rows]) if rows else []
 
 
-def burger_sentence(root: Path) -> str:
-    """The burger's result in BARN's test worlds in one sentence, from its data."""
-    got = {
-        label: seeds for label, _, seeds in _seeds(root / "docs" / "barn" / "burger", BURGER_ROWS)
-    }
+def burger_sentence(rows) -> str:
+    """The burger's result in BARN's test worlds in one sentence, from
+    :func:`burger_rows`."""
+    got = {label: seeds for label, _, seeds in rows}
     oracle, dwa, policy = (got.get(label) for _, label, _ in BURGER_ROWS)
     if policy is None:
         return "The burger has not been tested in BARN's worlds."
@@ -204,7 +208,8 @@ def barn_markdown(root: Path) -> str:
         "",
         *made["notes"],
     ]
-    burger = burger_table(root)
+    rows = burger_rows(root)
+    burger = burger_table(rows)
     if burger:
         lines += [
             "",
@@ -212,7 +217,7 @@ def barn_markdown(root: Path) -> str:
             "",
             *made.get("burger", []),
             "",
-            burger_sentence(root),
+            burger_sentence(rows),
             "",
             *burger,
         ]

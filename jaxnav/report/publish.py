@@ -187,9 +187,9 @@ def _barn_page(root: Path) -> str:
 
 
 def _barn_burger(root: Path) -> str:
-    from jaxnav.report.barn_page import burger_sentence
+    from jaxnav.report.barn_page import burger_rows, burger_sentence
 
-    return burger_sentence(root)
+    return burger_sentence(burger_rows(root))
 
 
 def _barn_readme(root: Path) -> str:

@@ -519,7 +519,7 @@ def make_maze(name_or_path: str) -> Maze:
         return load_maze_file(shipped_path(name_or_path))
     raise MazeError(
         f"unknown maze '{name_or_path}': a built-in name ({', '.join(BUILTIN_MAZES)}), "
-        "barn:N (0-299), or a path to a maze file or a ROS map's .yaml"
+        f"barn:N (0-{worlds.BARN_WORLDS - 1}), or a path to a maze file or a ROS map's .yaml"
     )
 
 
