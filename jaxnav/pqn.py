@@ -35,7 +35,7 @@ import numpy as np
 import optax
 from flax import struct
 
-from jaxnav.agent import bonus, noisy
+from jaxnav.agent import bonus, levels, noisy
 from jaxnav.agent.bonus import Steps
 from jaxnav.agent.episodes import Episodes
 from jaxnav.agent.exploration import explore_action
@@ -140,6 +140,7 @@ class PQNState:
     # strategies with one; None without any
     bonus: Any = None
     explored: Any = None  # jaxnav.agent.explored.Explored with run.coverage, else None
+    levels: Any = None  # jaxnav.agent.levels.Levels with pqn.level_replay, else None
 
 
 class Rollout(NamedTuple):
@@ -155,9 +156,12 @@ class Rollout(NamedTuple):
     max_q: chex.Array  # f32 max_a Q(s, a) at the acting state
     q_finite: chex.Array  # bool every Q-value at the acting state finite
     # where the robot stood after the step (before a reset) and whether it reached a
-    # goal: only where a count bonus or run.coverage reads them, else None
+    # goal: only where a count bonus or run.coverage (pos, reached) or level replay
+    # (reached) reads them, else None
     pos: chex.Array | None = None  # f32[..., 2]
     reached: chex.Array | None = None  # bool
+    # i32 the bank index of the layout the step was in: with level replay, else None
+    layout: chex.Array | None = None
 
 
 # ----------------------------------------------------------------------------
@@ -185,6 +189,7 @@ class Rollouts(NamedTuple):
 
 
 NOISE_SALT = 3  # a step's or learning key folded with this draws a noisy network's noise
+LEVELS_SALT = 11  # an update's learning key folded with this breaks level replay's ties
 
 
 def make_rollouts(config: Config) -> Rollouts:
@@ -200,6 +205,7 @@ def make_rollouts(config: Config) -> Rollouts:
     noisy_ones = registry.noisy_of(config.strategies)
     # where the robot stands after each step: for a count bonus, and run.coverage
     places = config.run.coverage or bool(registry.with_bonus(config.strategies))
+    replay = bool(p.level_replay)
 
     def noise(ts: PQNState) -> chex.Array | None:
         if not noisy_ones:
@@ -235,9 +241,10 @@ def make_rollouts(config: Config) -> Rollouts:
             jax.random.split(k_env, envs),
             env_state,
             action,
-            env.at_progress(h.env_params(base_params, ts.bank), ts.step / budget),
+            env.at_progress(run_env_params(h, base_params, ts), ts.step / budget),
         )
         done = terminated | truncated
+        layout = carry[1].layout  # where the step's attempt was (before any restart)
         metrics, episode = file_episodes(
             metrics, episode, run, reward, info["goal_reached"], info["collision"], done, explore,
             limit, slots, env.attempt_limit,
@@ -253,7 +260,8 @@ def make_rollouts(config: Config) -> Rollouts:
             jnp.max(q, -1),
             jnp.all(jnp.isfinite(q), -1),
             info["final_pos"] if places else None,
-            info["goal_reached"] if places else None,
+            info["goal_reached"] if places or replay else None,
+            layout if replay else None,
         )
         return (new_obs, env_state, metrics, episode), row
 
@@ -270,6 +278,15 @@ def make_rollouts(config: Config) -> Rollouts:
         return lambda_returns(ro.reward, ro.terminated, ro.truncated, next_v, gamma, p.td_lambda)
 
     return Rollouts(env, base_params, network, slots, play, targets, noise)
+
+
+def run_env_params(h: Hyper, base: EnvParams, ts: PQNState) -> EnvParams:
+    """The environment's params a run steps with: its swept settings, its bank and,
+    with level replay, the bank's weights."""
+    params = h.env_params(base, ts.bank)
+    if ts.levels is not None:
+        params = params.replace(bank_cdf=ts.levels.cdf)
+    return params
 
 
 def _updates(config: Config) -> int:
@@ -298,9 +315,17 @@ def make_trainer(config: Config) -> Trainer:
         for s in registry.with_bonus(config.strategies)
     ]
     places = coverage_grid(config, base_params) if config.run.coverage else None
+    replay = p.level_replay
+    if replay:
+        n_bank = config.env.maze_bank
+        top = max(1, round(p.level_top * n_bank))
+        fade = float(0.5 ** (per_update / p.level_halflife))  # the counts' decay per update
 
     def init(key: chex.PRNGKey, strategy: chex.Array, hyper: Hyper) -> PQNState:
         env_params = env.with_bank(hyper.env_params(base_params), bank_key(key))
+        start = levels.Levels.start(n_bank) if replay else None
+        if replay:  # the first layouts picked uniformly, by index, so the state keeps it
+            env_params = env_params.replace(bank_cdf=start.cdf)
         k_net, k_env, k_run = jax.random.split(key, 3)
         reset = jax.vmap(env.reset, in_axes=(0, None))
         obs, env_state = reset(jax.random.split(k_env, envs), env_params)
@@ -323,6 +348,7 @@ def make_trainer(config: Config) -> Trainer:
             bank=env_params.bank,
             bonus=states or None,
             explored=None if places is None else Explored.start(*places.shape),
+            levels=start,
         )
 
     def active(ts: PQNState) -> chex.Array:
@@ -360,6 +386,11 @@ def make_trainer(config: Config) -> Trainer:
         if places is not None:  # where the robot has been, and its first goal
             iy, ix = block_index(ro.pos, places.origin, places.raster, BLOCK)
             explored = visited(explored, iy, ix, ro.reached, ts.step, envs)
+        record = ts.levels
+        if replay:  # each attempt that ended, in the layout it was begun in
+            ended = ro.reached | ro.terminated | ro.truncated
+            k_top = jax.random.fold_in(k_learn, LEVELS_SALT)
+            record = levels.record(record, ro.layout, ended, ro.reached, fade, replay, top, k_top)
         n_steps = ts.step + per_update
         diverged = (ts.diverged_at < 0) & run & (broke | ~jnp.all(ro.q_finite))
         held = ts.replace(
@@ -375,6 +406,7 @@ def make_trainer(config: Config) -> Trainer:
             bank=env.refreshed_bank(ts.bank, ts.key, ts.step, jnp.where(run, n_steps, ts.step)),
             bonus=select(run, states, ts.bonus),
             explored=select(run, explored, ts.explored),
+            levels=select(run, record, ts.levels),
         )
         nan = jnp.float32(jnp.nan)
         log = StepLog(

@@ -136,6 +136,25 @@ class PQNConfig:
         4, "minibatches per pass (must divide num_envs x rollout)", rule=AT_LEAST_1
     )
     max_grad_norm: float = setting(10.0, "gradients clipped to this global norm", rule=POSITIVE)
+    level_replay: float = setting(
+        0.0,
+        "level replay over the bank of drawn layouts (env.maze_bank): the share of new "
+        "layouts picked from those the policy can just solve (the pqn.level_top share of "
+        "the bank with the highest p (1 - p), p each layout's recent success in training); "
+        "the rest uniformly. 0: every layout picked uniformly (jaxnav.agent.levels)",
+        rule=UNIT,
+    )
+    level_top: float = setting(
+        0.1,
+        "level replay: the share of the bank's layouts it picks from (of the highest p (1 - p))",
+        rule=(lambda v: 0.0 < v <= 1.0, "must be in (0, 1]"),
+    )
+    level_halflife: int = setting(
+        409_600,
+        "level replay: env steps (all the run's environments together) over which a "
+        "layout's record of attempts and successes decays by half",
+        rule=AT_LEAST_1,
+    )
 
 
 @dataclass(frozen=True)

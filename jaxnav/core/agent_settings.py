@@ -57,6 +57,29 @@ def pqn_problem(cfg: Config) -> str | None:
             f"pqn.minibatches ({p.minibatches}) must divide pqn.num_envs x pqn.rollout "
             f"({p.num_envs * p.rollout} transitions per update)"
         )
+    return level_replay_problem(cfg)
+
+
+def level_replay_problem(cfg: Config) -> str | None:
+    """Level replay picks from a bank that stays the run's own: it needs drawn mazes
+    with env.maze_bank and no env.maze_bank_refresh; its other settings need it on."""
+    p, e = cfg.pqn, cfg.env
+    if not p.level_replay:
+        for name in ("level_top", "level_halflife"):
+            if getattr(p, name) != SETTINGS[f"pqn.{name}"].default:
+                return f"pqn.{name} is a level replay setting: it needs pqn.level_replay above 0"
+        return None
+    if not (e.generator and e.maze_bank):
+        return (
+            "pqn.level_replay picks layouts from a bank: it needs drawn mazes "
+            "(env.generator) with env.maze_bank"
+        )
+    if e.maze_bank_refresh:
+        return "pqn.level_replay scores the layouts of one bank: it needs env.maze_bank_refresh 0"
+    if round(p.level_top * e.maze_bank) < 1:
+        return (
+            f"pqn.level_top ({p.level_top}) of env.maze_bank ({e.maze_bank}) is no layout: raise it"
+        )
     return None
 
 

@@ -327,9 +327,9 @@ class NavEnv(Commands, EpisodeMaze, GoalSampler, DrawnLayouts, Observer):
         """Robot at the start pose with a freshly drawn goal (and maze, if drawn)."""
         k_goal, k_obs = jax.random.split(key)
         scale = self._episode_scale(key)
-        maze = maze_episodes = cell_dist = None
+        maze = maze_episodes = cell_dist = index = None
         if self.generates:  # a new maze, its start and a goal min_path_cells away
-            maze, goal, cell_dist = self._layout(jax.random.fold_in(key, 5), params)
+            (maze, goal, cell_dist), index = self._layout(jax.random.fold_in(key, 5), params)
             params = params.replace(maze=maze)
             maze_episodes = jnp.zeros((), jnp.int32)
             goal = goal * scale if self.scales_maze else goal
@@ -339,7 +339,7 @@ class NavEnv(Commands, EpisodeMaze, GoalSampler, DrawnLayouts, Observer):
         scale = jnp.asarray(scale, jnp.float32)
         state = new_episode(pos, yaw, goal, scale, self.action_delay, maze, maze_episodes)
         state = self._with_world(
-            state.replace(pace=self._episode_pace(key, params)), params, cell_dist
+            state.replace(pace=self._episode_pace(key, params), layout=index), params, cell_dist
         )
         obs = self.observe(
             k_obs, pos, yaw, goal, params, scale, cell_dist=state.cell_dist, pace=state.pace

@@ -89,13 +89,21 @@ class DrawnLayouts:
         return draw_where(self.draw_bank, due, k, bank, chunk=1)
 
     def _layout(self, key: chex.PRNGKey, params: EnvParams):
-        """A new layout (maze, goal, cell distances or None): drawn from ``key``, or with
-        a bank in ``params`` one of its layouts picked at random with ``key``."""
+        """(A new layout (maze, goal, cell distances or None), its bank index i32[] or
+        None): drawn from ``key``, or with a bank in ``params`` one of its layouts picked
+        with ``key``: uniformly, or by the bank's cumulative weights
+        (``params.bank_cdf``), and then its index is returned."""
         if params.bank is None:
-            return self._draw(key)
+            return self._draw(key), None
         n = jax.tree.leaves(params.bank)[0].shape[0]
-        i = jax.random.randint(key, (), 0, n)
-        return jax.tree.map(lambda b: b[i], params.bank)
+        if params.bank_cdf is None:
+            i = jax.random.randint(key, (), 0, n)
+            index = None
+        else:
+            u = jax.random.uniform(key, (), jnp.float32)
+            i = jnp.minimum(jnp.searchsorted(params.bank_cdf, u, side="right"), n - 1)
+            index = i.astype(jnp.int32)
+        return jax.tree.map(lambda b: b[i], params.bank), index
 
     def _draw(self, key: chex.PRNGKey):
         """(maze, goal, its cell distances for the geodesic reward or None). The maze
@@ -124,9 +132,12 @@ class DrawnLayouts:
         k_maze = jax.random.fold_in(key, 5)
         if params.bank is None:
             maze, new_goal, cell_dist = draw_where(self._draw, fresh, k_maze, old)
+            index = None
         else:  # picking from the bank is a gather: no need to skip the unused ones
-            new = self._layout(k_maze, params)
+            new, index = self._layout(k_maze, params)
             maze, new_goal, cell_dist = jax.tree.map(lambda a, b: jnp.where(fresh, a, b), new, old)
+            if index is not None:
+                index = jnp.where(fresh, index, state.layout)
         episodes = jnp.where(fresh, 0, episodes)
         params = params.replace(maze=maze)
         scale = self._episode_scale(key)
@@ -137,7 +148,7 @@ class DrawnLayouts:
         pos, yaw = self._start_pose(key, params, goal, scale)
         scale = jnp.asarray(scale, jnp.float32)
         state = new_episode(pos, yaw, goal, scale, self.action_delay, maze, episodes)
-        state = self._with_world(state, params, cell_dist)
+        state = self._with_world(state.replace(layout=index), params, cell_dist)
         obs = self.observe(key, pos, yaw, goal, params, scale, cell_dist=state.cell_dist)
         return obs, self._first_scans(state, obs)
 

@@ -56,6 +56,10 @@ class EnvParams:
     # distances or None) with a leading axis of NavEnv.maze_bank; None: each new layout
     # is drawn when it is needed.
     bank: Any = None
+    # f32[N]: the bank's layouts' cumulative weights (the last 1), a new layout picked
+    # by them; None: uniformly. A training run's level replay sets them
+    # (jaxnav.agent.levels); the state then records each layout's index (layout).
+    bank_cdf: chex.Array | None = None
 
 
 @struct.dataclass
@@ -90,6 +94,9 @@ class EnvState:
     # f32[]: this episode's pace of the moving cylinders (NavEnv.motion_pace); None (no
     # leaf) when it is off, so the state is unchanged.
     pace: chex.Array | None = None
+    # i32[]: the bank index of the episode's layout, where EnvParams.bank_cdf picks
+    # them (a training run's level replay scores layouts by it); else None (no leaf).
+    layout: chex.Array | None = None
 
 
 def step_keys(key: chex.PRNGKey) -> tuple[chex.Array, chex.Array]:
