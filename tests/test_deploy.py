@@ -23,6 +23,7 @@ from jaxnav.agent.networks import QNetwork
 from jaxnav.commands import export as export_command
 from jaxnav.core import agents
 from jaxnav.core.config import dump_config, load_config
+from jaxnav.core.errors import ConfigError
 from jaxnav.core.rundir import atomic_write_bytes, atomic_write_text, load_params, npz_bytes
 from jaxnav.env import from_config
 from jaxnav.robot import controller, deploy, export, scan
@@ -215,12 +216,17 @@ MODERN = (
 )
 
 
-def test_a_modern_policy_sees_on_the_robot_what_it_saw_in_training(tmp_path):
+@pytest.mark.parametrize("observed", [True, False], ids=["command", "no_command"])
+def test_a_modern_policy_sees_on_the_robot_what_it_saw_in_training(tmp_path, observed):
     """The normalised observation, the pooled scan, the (v, omega) actions and the last
-    command: the adapter's observation from raw 360-ray scans equals the environment's."""
-    s = Setup(_fake_run(tmp_path, "square4_obstacles", MODERN, name="modern"))
+    command: the adapter's observation from raw 360-ray scans equals the environment's.
+    Trained without the command (env.observe_command false): zeros in its place on both
+    sides, format version 8."""
+    extra = (*MODERN, f"env.observe_command={str(observed).lower()}")
+    s = Setup(_fake_run(tmp_path, "square4_obstacles", extra, name="modern"))
     env, params, policy = s.env, s.params, s.policy
-    assert policy.meta["version"] == deploy.DRIVE_VERSION and policy.obs_size == env.obs_size
+    version = deploy.DRIVE_VERSION if observed else deploy.COMMAND_VERSION
+    assert policy.meta["version"] == version and policy.obs_size == env.obs_size
     n_actions = env.num_actions
     v, w = env.command(params, jnp.arange(n_actions))
     np.testing.assert_allclose(policy.driven, np.stack([v, w], -1), atol=1e-7)
@@ -246,6 +252,8 @@ def test_a_modern_policy_sees_on_the_robot_what_it_saw_in_training(tmp_path):
     assert heading_err.max() < 1e-5
     np.testing.assert_allclose(np.delete(got, nb, 1), np.delete(want, nb, 1), atol=1e-5)
     np.testing.assert_array_equal(policy.act(got), np.argmax(s.flax_q(want), axis=-1))
+    command = want[:, nb + 2 : nb + 4]
+    assert np.any(command != 0.0) if observed else np.all(command == 0.0)
     # A stop (the controller's, or an episode's start) makes the last command (0, 0).
     policy.rest()
     obs = policy.observe(scans[0], 0.0, increment, (pos[0][0], pos[0][1], yaw[0]), goal[0])
@@ -846,3 +854,8 @@ def test_a_policy_that_observes_the_moving_cylinders_is_refused_by_export(tmp_pa
     run = _fake_run(tmp_path, "stage4", overrides)
     with pytest.raises(deploy.PolicyError, match="env.observe_moving"):
         export.export_policy(run, "ebe", 0)
+
+
+def test_hiding_the_last_command_needs_the_observation_that_holds_it():
+    with pytest.raises(ConfigError, match="env.observe_command false hides"):
+        from_config(load_config(None, ["env.observe_command=false"]))

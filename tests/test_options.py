@@ -166,9 +166,32 @@ def test_the_observation_study_builds_each_arm_with_its_observation(path):
     )
     assert got["no_history"].env.scan_history == 0 and got["no_history"].dqn.scan_conv == (16, 16)
     assert got["no_conv"].dqn.scan_conv == () and got["no_conv"].env.scan_history == 3
+    blind = got["no_command"]
+    assert not blind.env.observe_command and blind.env.scan_history == 3
+    assert all(c.env.observe_command for k, c in got.items() if k != "no_command")
     plain = got["plain"]
     assert (plain.env.scan_history, plain.dqn.scan_conv, plain.env.scan_beams) == (0, (), 0)
     # every other setting is the shipped arm's
     for cfg in got.values():
         assert cfg.env.generator == "mix" and cfg.total_steps == shipped.total_steps
         assert cfg.strategies == ("epsilon_greedy",)
+
+
+def test_the_curriculum_study_changes_only_how_the_next_layout_is_picked():
+    import dataclasses
+
+    from jaxnav.core.config import load_config
+    from jaxnav.experiments.ladder import cell_config, load_study
+
+    study = load_study("jaxnav/configs/studies/curriculum_anywhere.yaml")
+    got = {a.name: cell_config(study, r, a) for r, a in study.cells()}
+    assert {k: c.pqn.level_replay for k, c in got.items()} == {
+        "shipped": 0.0,
+        "replay_half": 0.5,
+        "replay_most": 0.9,
+    }
+    shipped = got["shipped"]
+    for cfg in got.values():  # the rest is the shipped arm's, which is drive_anywhere's
+        same = dataclasses.replace(cfg, pqn=dataclasses.replace(cfg.pqn, level_replay=0.0))
+        assert same == shipped
+    assert shipped.env == load_config("drive_anywhere").env

@@ -110,6 +110,11 @@ def env_scan_problem(env: Any) -> str | None:
                 f"env.{part} is part of the normalised observation: it needs "
                 "env.observation normalised"
             )
+    if not env.observe_command and env.observation != "normalised":
+        return (
+            "env.observe_command false hides the normalised observation's last command: it "
+            "needs env.observation normalised"
+        )
     if env.history_changes and not env.scan_history:
         return "env.history_changes observes the scan history: it needs env.scan_history > 0"
     if env.history_turned and not env.history_changes:

@@ -292,6 +292,11 @@ class EnvConfig:
         "robot gives them: a diagnosis of what the scan leaves out; export refuses it)",
         rule=NON_NEGATIVE,
     )
+    observe_command: bool = setting(
+        True,
+        "normalised observation: it holds the last command driven (v, omega); false: two "
+        "zeros in its place, the layout kept (what the command is worth, measured)",
+    )
     waypoint: bool = setting(
         False,
         "normalised observation: also the heading and distance to where the shortest path "

@@ -200,6 +200,9 @@ class NavEnv(Commands, EpisodeMaze, GoalSampler, DrawnLayouts, Observer):
       observation: "robotis" (the ROBOTIS state) or "normalised" (ranges and the goal's
         distance over the sensor's range, its heading over pi, and the last command over
         the burger's limits: :func:`jaxnav.world.sensor.normalised_state`).
+      observe_command: with the normalised observation, whether it holds the last
+        command; False: two zeros in its place (the layout kept), so a policy learns
+        without it (what it is worth, measured).
       scan_history: with the normalised observation, the k scans before this one follow
         it (newest first; at an episode's start copies of its first scan), so the policy
         can see what moves; with history_changes, each beam's change since each of them
@@ -266,6 +269,7 @@ class NavEnv(Commands, EpisodeMaze, GoalSampler, DrawnLayouts, Observer):
     history_turned: bool = False
     observe_moving: int = 0
     waypoint: bool = False
+    observe_command: bool = True
     speed_range: tuple[float, float] = (0.0, BURGER_MAX_V)
     max_yaw_rate: float = BURGER_MAX_OMEGA
     beyond_limits: bool = False

@@ -58,6 +58,8 @@ How a raw LaserScan becomes the trained observation (:meth:`Policy.observe`):
   firmware's wheel limit where the run modelled it), and (0, 0) after a stop:
   :class:`Policy` keeps it (:meth:`Policy.command` sets it, :meth:`Policy.rest`
   clears it; :class:`Controller` clears it whenever it stops the robot).
+  A policy trained without it (``observe_command`` false, ``env.observe_command``,
+  format version 8) gets two zeros in its place.
 * Scan history (``scan_history`` k > 0, ``env.scan_history``, format version 5): the
   normalised ranges of the k scans the policy acted on before this one follow the
   observation, newest first. :class:`Policy` keeps them: a scan joins when an action
@@ -154,6 +156,10 @@ TURNED_VERSION = 6
 # A network that starts with circular convolutions over the scan (dqn.scan_conv) is
 # version 7: an older reader would feed its first dense layer the raw observation.
 CONV_VERSION = 7
+# A policy trained with two zeros where the normalised observation holds the last command
+# (env.observe_command false; "observe_command": false) is version 8: an older reader
+# would feed it the commands it never saw.
+COMMAND_VERSION = 8
 VERSIONS = (
     FORMAT_VERSION,
     NORMS_VERSION,
@@ -162,6 +168,7 @@ VERSIONS = (
     HISTORY_VERSION,
     TURNED_VERSION,
     CONV_VERSION,
+    COMMAND_VERSION,
 )
 OBSERVATIONS = ("robotis", "normalised")
 # The wheel limit's constants a continuous policy's metadata gives (its "wheel_limit").
@@ -221,6 +228,7 @@ class Policy:
             self.scan_history = int(meta.get("scan_history", 0))
             self.history_changes = bool(meta.get("history_changes", False))
             self.history_turned = bool(meta.get("history_turned", False))
+            self.observe_command = bool(meta.get("observe_command", True))
             self.history_change_gain = np.float32(meta.get("history_change_gain", 0.0))
             speeds = meta.get("speeds", [self.linear_velocity] * len(self.omegas))
             self.speeds = np.asarray(speeds, np.float64)
@@ -259,6 +267,10 @@ class Policy:
             )
         if self.history_turned and not self.history_changes:
             raise PolicyError("policy metadata's history_turned needs history_changes")
+        if not self.observe_command and self.observation != "normalised":
+            raise PolicyError(
+                "policy metadata's observe_command false needs the normalised observation"
+            )
         self.last_command = np.zeros(2, np.float64)
         self.history: np.ndarray | None = None
         self.history_yaws: np.ndarray | None = None
@@ -434,7 +446,9 @@ class Policy:
             parts = [
                 scan,
                 [heading / math.pi, min(distance, self.max_range) / self.max_range],
-                self.last_command / self.command_scale,
+                self.last_command / self.command_scale
+                if self.observe_command
+                else np.zeros(2),  # trained without it: its place held by zeros
             ]
             if self.scan_history:  # the scans acted on before (at a start: this one)
                 self._scan, self._yaw = scan, float(pose[2])

@@ -22,6 +22,7 @@ from jaxnav.core.errors import PolicyError
 from jaxnav.core.settings import BURGER_MAX_OMEGA, BURGER_MAX_V
 from jaxnav.env import from_config
 from jaxnav.robot.deploy import (
+    COMMAND_VERSION,
     CONTINUOUS_VERSION,
     CONV_VERSION,
     DRIVE_VERSION,
@@ -104,6 +105,8 @@ def export_policy(
             version=CONV_VERSION,
             scan_conv={"layers": layers, "kernel": 5, "stride": 2, "layout": list(env.scan_layout)},
         )
+    if not env.observe_command:  # zeros for the last command, which older readers feed
+        meta.update(version=COMMAND_VERSION, observe_command=False)
     arrays: dict[str, np.ndarray] = {"meta": np.asarray(json.dumps(meta, indent=1))}
     for n in convs:
         arrays[f"ScanTorso/{n}/kernel"] = np.asarray(torso[n]["kernel"], np.float32)

@@ -32,6 +32,7 @@ class Observer:
     history_turned: bool
     observe_moving: int
     waypoint: bool
+    observe_command: bool
     generates: bool
     beam_layout: str
     beam_dropout: float
@@ -108,6 +109,8 @@ class Observer:
             ranges = self.beam_ranges(maze, pos, yaw, self.n_beams, self.beam_layout == "gazebo")
         if self.normalised:
             last = jnp.zeros(2, jnp.float32) if last_command is None else last_command
+            if not self.observe_command:  # its place in the layout kept, as zeros
+                last = jnp.zeros(2, jnp.float32)
             waypoint = None
             if self.waypoint:
                 waypoint = goal
