@@ -6,9 +6,10 @@ goal attempts begun in it while training and of those that reached the goal; bot
 decay by half every ``pqn.level_halflife`` env steps, so ``p = wins / tries`` is the
 layout's recent success. Its learnability is ``p (1 - p)`` (0 for a layout without an
 attempt): largest where the policy succeeds half the time, 0 where it always or never
-does. This is SFL's score (Rutherford et al. 2024, "No Regrets", the curriculum of
-JaxNav), measured here from the training episodes themselves, as PLR (Jiang et al.
-2021) scores levels from the episodes it trains on, rather than from extra rollouts.
+does. This is the score of SFL, sampling for learnability (Rutherford et al. 2024, the
+curriculum of JaxNav), measured here from the training episodes themselves, as PLR
+(Jiang et al. 2021) scores levels from the episodes it trains on, rather than from
+extra rollouts.
 
 A new layout is then picked from the ``level_top`` share of the bank with the highest
 learnability (uniformly among them) with probability ``level_replay``, else uniformly

@@ -101,6 +101,7 @@ HARD_EXPLORATION = "docs/studies/hard-exploration"  # EBE beside the field's exp
 WORLDS_STUDY = "docs/studies/worlds"
 EBE_ANYWHERE = "docs/studies/ebe-anywhere"  # EBE training the generalist, held-out worlds
 OBSERVATION = "docs/studies/observation-anywhere"  # the generalist's observation options
+CURRICULUM = "docs/studies/curriculum-anywhere"  # level replay for the generalist
 
 
 def _study_sentence(folder: str) -> Callable[[Path], str]:
@@ -252,6 +253,13 @@ PUBLISHED: tuple[Published, ...] = (
         slow=True,
     ),
     _study_page_entry("observation-anywhere-page", OBSERVATION),
+    Published(
+        "curriculum-anywhere",
+        ("docs/studies.md", "jaxnav/policies/drive_anywhere.md"),
+        _study_sentence(CURRICULUM),
+        slow=True,
+    ),
+    _study_page_entry("curriculum-anywhere-page", CURRICULUM),
     Published("agents-study", ("docs/agents.md",), _study_sentence(AGENTS_STUDY), slow=True),
     _study_page_entry("agents-study-page", AGENTS_STUDY),
     Published("driving", ("README.md",), _driving_readme, slow=True),
