@@ -83,6 +83,10 @@ def test_a_narrower_lidar_spreads_its_beams_from_edge_to_edge():
             ],
             "jackal's limits",
         ),
+        # continuous commands' limits do nothing to a discrete action set
+        (["robot=jackal", "env.actions=vw", "env.speed_range=[0, 1]"], "action set's"),
+        (["env.actions=vw", "env.max_yaw_rate=1.0"], "action set's"),
+        (["env.beyond_limits=true"], "leave them unset"),
     ],
 )
 def test_what_a_robot_cannot_do_is_refused_in_one_line(override, says):

@@ -14,6 +14,8 @@ from typing import Any
 
 from jaxnav.core import families, robots
 from jaxnav.core.settings import (
+    BURGER_MAX_OMEGA,
+    BURGER_MAX_V,
     CONTINUOUS,
     MAX_LATTICE_CELLS,
     paces_motion,
@@ -132,8 +134,10 @@ def env_action_problem(env: Any) -> str | None:
     the geodesic reward score a discrete action's turn, a delayed action is held as a
     number, and the limits stay within the robot's unless overridden."""
     robot_problem = env_robot_problem(env)
-    if robot_problem or env.actions != CONTINUOUS:
+    if robot_problem:
         return robot_problem
+    if env.actions != CONTINUOUS:
+        return _continuous_only_problem(env)
     if env.reward not in ("progress", "sparse"):
         return (
             f"env.actions continuous needs env.reward progress or sparse (env.reward "
@@ -149,6 +153,23 @@ def env_action_problem(env: Any) -> str | None:
             f"env.speed_range and env.max_yaw_rate must stay within the {robot.name}'s limits "
             f"({robot.max_v} m/s, {robot.max_omega} rad/s); set env.beyond_limits true to "
             "go beyond them"
+        )
+    return None
+
+
+def _continuous_only_problem(env: Any) -> str | None:
+    """With discrete actions, the continuous commands' limits keep their defaults (the
+    burger's, or the robot's): the action sets' speeds are fixed, scaled by the robot's
+    top speed and yaw rate, so a range set here would change nothing."""
+    robot = robots.get(env.robot) if env.robot in robots.names() else robots.get("burger")
+    speeds = {(0.0, BURGER_MAX_V), tuple(robot.defaults.get("env.speed_range", ()))}
+    yaws = {BURGER_MAX_OMEGA, robot.defaults.get("env.max_yaw_rate")}
+    given = tuple(float(x) for x in env.speed_range)
+    if given not in speeds or float(env.max_yaw_rate) not in yaws or env.beyond_limits:
+        return (
+            "env.speed_range, env.max_yaw_rate and env.beyond_limits set continuous "
+            f"commands: with env.actions {env.actions} the speeds and yaw rates are the "
+            "action set's, scaled by the robot's limits (env.robot); leave them unset"
         )
     return None
 
