@@ -94,13 +94,17 @@ def test_the_oracle_drives_a_level_alike_from_every_seat(run):
     np.testing.assert_array_equal(one[:, 0], every[:, 0])
 
 
-def test_the_shipped_policys_page_quotes_its_committed_levels():
+@pytest.mark.parametrize(
+    "name", ["drive_anywhere", "curriculum_replay_half", "curriculum_replay_most"]
+)
+def test_the_shipped_policys_page_quotes_its_committed_levels(name):
     """The 1,000-level figures on jaxnav/policies/drive_anywhere.md are those of
-    docs/levels/drive_anywhere.csv, the mean and the worst tenth computed by hand."""
+    docs/levels/NAME.csv (the shipped policy's, and the level-replay arms' of the
+    curriculum study), the mean and the worst tenth computed by hand."""
     from pathlib import Path
 
     root = Path(__file__).resolve().parent.parent
-    rows = list(csv.DictReader((root / "docs" / "levels" / "drive_anywhere.csv").open()))
+    rows = list(csv.DictReader((root / "docs" / "levels" / f"{name}.csv").open()))
     page = (root / "jaxnav" / "policies" / "drive_anywhere.md").read_text()
     page = " ".join(page.split())
     for driver in ("policy", "oracle"):
@@ -143,3 +147,18 @@ def test_the_policys_page_breaks_its_levels_down_by_kind_of_world():
     assert (
         "of the 49 levels that fewer than half the seeds solve, 38 are 2 x 2 rooms and 11" in page
     )
+
+
+def test_the_policys_page_gives_the_level_replay_arms_rooms():
+    """The rooms' share of their levels (the bank's first 223) for the two level-replay
+    arms, as the policy's page quotes them."""
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parent.parent
+    page = " ".join((root / "jaxnav" / "policies" / "drive_anywhere.md").read_text().split())
+    rooms = []
+    for name in ("curriculum_replay_half", "curriculum_replay_most"):
+        rows = list(csv.DictReader((root / "docs" / "levels" / f"{name}.csv").open()))
+        per = [int(r["solved"]) / int(r["policies"]) for r in rows if r["driver"] == "policy"]
+        rooms.append(f"{np.mean(per[:223]):.2f}")
+    assert f"the rooms stay the failures ({rooms[0]} and {rooms[1]} of their levels)" in page
