@@ -222,3 +222,42 @@ def test_a_config_testing_on_barns_test_set_starts():
     check_test_mazes(load_config("drive_barn", []))
     with pytest.raises(ConfigError, match="unknown maze 'barn:tset'"):
         check_test_mazes(load_config("drive_barn", ["run.test_mazes=[barn:tset]"]))
+
+
+def test_the_readme_and_the_page_quote_drive_barns_committed_rows():
+    """drive_barn's success and collisions as the README's line and the page's note give
+    them: per seed, each world's 10 runs averaged, then the 50 worlds; then the mean over
+    seeds, and the seeds' range (NumPy over the committed CSV)."""
+    import csv
+    import json
+
+    from jaxnav.report.barn_page import readme_line
+
+    path = ROOT / "docs" / "barn" / "policy" / "results.csv"
+    rows = [
+        r
+        for r in csv.DictReader(path.open())
+        if r["maze"].startswith("barn:") and r["mode"] == "greedy"
+    ]
+    success, collided = {}, {}
+    for r in rows:
+        key = (int(r["seed"]), r["maze"])
+        success.setdefault(key, []).append(float(r["successes"]) > 0)
+        collided.setdefault(key, []).append(float(r["collisions"]) > 0)
+    seeds = sorted({s for s, _ in success})
+    assert len(seeds) == 16 and len(success) == 16 * 50
+
+    def per_seed(runs):
+        return np.asarray(
+            [np.mean([np.mean(v) for (s, _), v in runs.items() if s == n]) for n in seeds]
+        )
+
+    ok, hit = per_seed(success), per_seed(collided)
+    assert (
+        f"(`drive_barn`, 16 seeds) reaches {ok.mean():.2f}, with collisions {hit.mean():.2f};"
+        in (readme_line(ROOT))
+    )
+    notes = " ".join(
+        " ".join(json.loads((ROOT / "docs" / "barn" / "made.json").read_text())["notes"]).split()
+    )
+    assert f"Its seeds range from {ok.min():.2f} to {ok.max():.2f}" in notes
