@@ -159,7 +159,8 @@ def test_switches_off_leave_no_trace():
     }
     _, state = env.reset(jax.random.PRNGKey(0), params)
     # the fields of the switches, of drawn mazes, of the optional observation parts
-    # (the last command, the scan history) and of the cylinders' pace are absent, not zeros
+    # (the last command, the scan history), of the cylinders' pace and of level replay's
+    # layout index are absent, not zeros
     optional = (
         "pending_action",
         "maze",
@@ -169,6 +170,7 @@ def test_switches_off_leave_no_trace():
         "scans",
         "scan_yaws",
         "pace",
+        "layout",
     )
     assert all(getattr(state, k) is None for k in optional)
     assert len(jax.tree.leaves(state)) == len(EnvState.__dataclass_fields__) - len(optional)
