@@ -175,3 +175,41 @@ def test_level_replay_settings_are_refused_where_they_would_do_nothing(over, say
     with pytest.raises(ConfigError, match=None) as err:
         load_config(None, [*TINY, *over])
     assert says in str(err.value)
+
+
+@pytest.mark.slow  # 25 s on 2 cores
+def test_a_run_with_level_replay_trains_the_same_twice_and_resumes_the_same(tmp_path):
+    """The layouts' record is part of a checkpoint (the bank, drawn once, is not): a run
+    cut after its first chunk and resumed ends as the uninterrupted one, byte for byte."""
+    import numpy as np
+
+    from jaxnav.core import rundir
+    from jaxnav.core.config import dump_config
+    from jaxnav.run import launch
+    from jaxnav.run.launch import train_new
+    from jaxnav.run.training import Run
+
+    items = [*TINY, "seeds=2", "total_steps=1024", "run.chunk_steps=512", "pqn.level_replay=0.5"]
+    cfg = load_config(None, [*items, "pqn.level_top=0.25", "run.test_mazes=[]"])
+    a, b = tmp_path / "a", tmp_path / "b"
+    train_new(cfg, a, quiet=True)
+    train_new(cfg, b, quiet=True)
+    for name in (rundir.METRICS, rundir.PARAMS):
+        assert (a / name).read_bytes() == (b / name).read_bytes()
+    c = tmp_path / "c"
+    run = Run(cfg, c, quiet=True)
+    rundir.create(c)
+    rundir.atomic_write_text(c / rundir.CONFIG, dump_config(cfg))
+    ts = run.fresh_state()
+    before = run.shard.get(ts.step).copy()
+    ts, log = run.chunk(ts, np.int32(run.steps_needed(ts)))
+    log = run.shard.get(log)
+    explore = run.explore_blocks(log.explore, before, ~run.active(ts))
+    run.save(ts, run.new_episodes(ts), explore, np.zeros(0, int))
+    assert float(np.asarray(ts.levels.tries).sum()) > 0  # attempts were counted
+    again = Run(cfg, c, quiet=True).restored_state()
+    for x, y in zip(jax.tree.leaves(ts.levels), jax.tree.leaves(again.levels), strict=True):
+        np.testing.assert_array_equal(np.asarray(x), np.asarray(y))
+    launch.resume(c, quiet=True)
+    for name in (rundir.METRICS, rundir.PARAMS):
+        assert (c / name).read_bytes() == (a / name).read_bytes(), name
