@@ -244,10 +244,10 @@ def test_a_run_with_a_bank_trains_the_same_twice_and_resumes_the_same(agent, ref
     """A bank renewed while training is stored in the checkpoint; one drawn once at the
     start is left out and drawn again on resume: either way the resumed run ends as the
     uninterrupted one."""
+    from _cut_run import cut_after_one_chunk
+
     from jaxnav.core import rundir
-    from jaxnav.core.config import dump_config
     from jaxnav.run import launch
-    from jaxnav.run.checkpoint import chunk_slots
     from jaxnav.run.training import Run
 
     items = ["env.generator=grid", "env.maze_bank=32", "seeds=2", "strategies=[ebe]"]
@@ -269,19 +269,8 @@ def test_a_run_with_a_bank_trains_the_same_twice_and_resumes_the_same(agent, ref
     # One chunk, a checkpoint (the bank is part of the state), "killed", resumed: the
     # same numbers as the uninterrupted run.
     c = tmp_path / "c"
-    run = Run(cfg, c, quiet=True)
-    rundir.create(c)
-    rundir.atomic_write_text(c / rundir.CONFIG, dump_config(cfg))
-    ts = run.fresh_state()
+    _, ts = cut_after_one_chunk(cfg, c)
     assert jax.tree.leaves(ts.bank)[0].shape[:2] == (cfg.n_runs, 32)
-    before = run.shard.get(ts.step).copy()
-    ts, log = run.chunk(ts, np.int32(run.steps_needed(ts)))
-    log = run.shard.get(log)
-    rows = np.zeros(0, int)  # PQN keeps no replay
-    if agent == "dqn":
-        rows = chunk_slots(before, run.shard.get(ts.step), cfg.buffer_capacity)
-    explore = run.explore_blocks(log.explore, before, ~run.active(ts))
-    run.save(ts, run.new_episodes(ts), explore, rows)
     stored = rundir.read_npz(c / rundir.CHECKPOINT, "checkpoint")
     assert any(k.startswith("state.bank") for k in stored) == bool(refresh)
     again = Run(cfg, c, quiet=True).restored_state()

@@ -182,9 +182,9 @@ def test_a_run_with_level_replay_trains_the_same_twice_and_resumes_the_same(tmp_
     """The layouts' record is part of a checkpoint (the bank, drawn once, is not): a run
     cut after its first chunk and resumed ends as the uninterrupted one, byte for byte."""
     import numpy as np
+    from _cut_run import cut_after_one_chunk
 
     from jaxnav.core import rundir
-    from jaxnav.core.config import dump_config
     from jaxnav.run import launch
     from jaxnav.run.launch import train_new
     from jaxnav.run.training import Run
@@ -197,15 +197,7 @@ def test_a_run_with_level_replay_trains_the_same_twice_and_resumes_the_same(tmp_
     for name in (rundir.METRICS, rundir.PARAMS):
         assert (a / name).read_bytes() == (b / name).read_bytes()
     c = tmp_path / "c"
-    run = Run(cfg, c, quiet=True)
-    rundir.create(c)
-    rundir.atomic_write_text(c / rundir.CONFIG, dump_config(cfg))
-    ts = run.fresh_state()
-    before = run.shard.get(ts.step).copy()
-    ts, log = run.chunk(ts, np.int32(run.steps_needed(ts)))
-    log = run.shard.get(log)
-    explore = run.explore_blocks(log.explore, before, ~run.active(ts))
-    run.save(ts, run.new_episodes(ts), explore, np.zeros(0, int))
+    _, ts = cut_after_one_chunk(cfg, c)
     assert float(np.asarray(ts.levels.tries).sum()) > 0  # attempts were counted
     again = Run(cfg, c, quiet=True).restored_state()
     for x, y in zip(jax.tree.leaves(ts.levels), jax.tree.leaves(again.levels), strict=True):

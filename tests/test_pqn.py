@@ -7,6 +7,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from _cut_run import cut_after_one_chunk
 
 from jaxnav import dqn, pqn
 from jaxnav.agent.exploration import epsilon_schedule, normalised_entropy
@@ -15,12 +16,11 @@ from jaxnav.agent.trainer import make_train, run_inputs
 from jaxnav.commands.train import main
 from jaxnav.core import agents, rundir
 from jaxnav.core import strategies as registry
-from jaxnav.core.config import dump_config, load_config
+from jaxnav.core.config import load_config
 from jaxnav.robot.deploy import FORMAT_VERSION, NORMS_VERSION, Policy
 from jaxnav.robot.export import export_policy
 from jaxnav.run import launch
 from jaxnav.run.launch import train_new
-from jaxnav.run.training import Run
 
 STRATEGIES = registry.names("discrete")
 TINY = [
@@ -264,16 +264,7 @@ def test_the_episode_budget_counts_the_episodes_of_all_environments(tiny_pqn_run
 def test_a_resumed_pqn_run_ends_as_an_uninterrupted_one(tiny_pqn_run, tmp_path):
     cfg, ref = tiny_pqn_run
     out = tmp_path / "run"
-    run = Run(cfg, out, quiet=True)
-    rundir.create(out)
-    rundir.atomic_write_text(out / rundir.CONFIG, dump_config(cfg))
-    ts = run.fresh_state()
-    before = run.shard.get(ts.step).copy()
-    ts, log = run.chunk(ts, np.int32(run.steps_needed(ts)))  # one chunk, then "killed"
-    log = run.shard.get(log)
-    finished = ~run.active(ts)
-    rows = run.new_episodes(ts), run.explore_blocks(log.explore, before, finished)
-    run.save(ts, *rows, np.zeros(0, int))
+    cut_after_one_chunk(cfg, out)  # one chunk, then "killed"
     assert not list(out.glob("checkpoints/rows-*.npz"))  # no replay rows to save
     launch.resume(out, quiet=True)
     assert _files(out) == _files(ref)
