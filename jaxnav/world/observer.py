@@ -108,8 +108,8 @@ class Observer:
         else:
             ranges = self.beam_ranges(maze, pos, yaw, self.n_beams, self.beam_layout == "gazebo")
         if self.normalised:
-            last = jnp.zeros(2, jnp.float32) if last_command is None else last_command
-            if not self.observe_command:  # its place in the layout kept, as zeros
+            last = last_command  # zeros at rest, or in its place when it is not observed
+            if last_command is None or not self.observe_command:
                 last = jnp.zeros(2, jnp.float32)
             waypoint = None
             if self.waypoint:
