@@ -48,6 +48,25 @@ def test_a_robots_action_set_is_the_burgers_scaled_by_its_limits():
     np.testing.assert_allclose(jackal.omegas, [w * 4.0 / 2.84 for _, w in table], rtol=1e-6)
 
 
+def test_a_top_speed_scales_the_sets_speeds_and_leaves_its_turns_and_the_driven_arc_exact():
+    _, jackal = jaxnav.make("square4", actions="vw_reverse", robot="jackal")
+    env, capped = jaxnav.make("square4", actions="vw_reverse", robot="jackal", top_speed=0.5)
+    table = ACTION_SETS["vw_reverse"]
+    np.testing.assert_allclose(capped.speeds, [v * 0.5 / 0.22 for v, _ in table], rtol=1e-6)
+    np.testing.assert_array_equal(capped.omegas, jackal.omegas)
+    assert float(np.max(capped.speeds)) == pytest.approx(0.5)
+    # the step drives the capped command: straight ahead at the top speed for one period
+    _, state = env.reset(jax.random.PRNGKey(0), capped)
+    speeds, omegas = np.asarray(capped.speeds), np.asarray(capped.omegas)
+    ahead = int(np.flatnonzero((omegas == 0) & (speeds > 0.4))[0])
+    _, after, *_ = env.step_env(jax.random.PRNGKey(1), state, ahead, capped)
+    moved = float(np.hypot(*(np.asarray(after.pos) - np.asarray(state.pos))))
+    assert moved == pytest.approx(0.5 * float(capped.dt), rel=1e-5)
+    # the burger's set is unchanged without it, and a config's top speed reaches the env
+    _, cfg_params = from_config(load_config(None, ["env.actions=vw", "env.top_speed=0.11"]))
+    np.testing.assert_allclose(cfg_params.speeds, [v / 2 for v, _ in ACTION_SETS["vw"]], rtol=1e-6)
+
+
 def test_the_normalised_observation_scales_the_last_command_by_the_robots_limits():
     kw = {"actions": "vw", "observation": "normalised", "robot": "jackal"}
     env, params = jaxnav.make("square8", **kw)
@@ -87,6 +106,11 @@ def test_a_narrower_lidar_spreads_its_beams_from_edge_to_edge():
         (["robot=jackal", "env.actions=vw", "env.speed_range=[0, 1]"], "action set's"),
         (["env.actions=vw", "env.max_yaw_rate=1.0"], "action set's"),
         (["env.beyond_limits=true"], "leave them unset"),
+        # a top speed for a set that has none, or beyond the robot's
+        (["env.top_speed=0.1"], "env.actions paper has no set"),
+        (["env.actions=continuous", "env.reward=progress", "env.top_speed=0.1"], "no set"),
+        (["robot=jackal", "env.actions=vw", "env.top_speed=2.5"], "beyond the jackal's"),
+        (["env.actions=vw", "env.top_speed=0"], "above 0"),
     ],
 )
 def test_what_a_robot_cannot_do_is_refused_in_one_line(override, says):

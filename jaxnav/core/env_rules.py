@@ -14,6 +14,7 @@ from typing import Any
 
 from jaxnav.core import families, robots
 from jaxnav.core.settings import (
+    ACTION_SETS,
     BURGER_MAX_OMEGA,
     BURGER_MAX_V,
     CONTINUOUS,
@@ -136,6 +137,9 @@ def env_action_problem(env: Any) -> str | None:
     robot_problem = env_robot_problem(env)
     if robot_problem:
         return robot_problem
+    top_problem = _top_speed_problem(env)
+    if top_problem:
+        return top_problem
     if env.actions != CONTINUOUS:
         return _continuous_only_problem(env)
     if env.reward not in ("progress", "sparse"):
@@ -153,6 +157,27 @@ def env_action_problem(env: Any) -> str | None:
             f"env.speed_range and env.max_yaw_rate must stay within the {robot.name}'s limits "
             f"({robot.max_v} m/s, {robot.max_omega} rad/s); set env.beyond_limits true to "
             "go beyond them"
+        )
+    return None
+
+
+def _top_speed_problem(env: Any) -> str | None:
+    """``top_speed`` scales an action set's speeds: the paper's actions (one speed, the
+    preset's) and continuous ones (``speed_range``) have none, and it stays within the
+    robot's top speed."""
+    if env.top_speed is None:
+        return None
+    sets = [name for name, table in ACTION_SETS.items() if table is not None]
+    if env.actions not in sets:
+        return (
+            f"env.top_speed scales an action set's speeds: env.actions {env.actions} has no "
+            f"set ({', '.join(sets)} have one)"
+        )
+    robot = robots.get(env.robot) if env.robot in robots.names() else robots.get("burger")
+    if env.top_speed > robot.max_v:
+        return (
+            f"env.top_speed ({env.top_speed:g} m/s) is beyond the {robot.name}'s top speed "
+            f"({robot.max_v:g} m/s)"
         )
     return None
 

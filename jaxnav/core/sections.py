@@ -262,6 +262,13 @@ class EnvConfig:
         "continuous actions: allow env.speed_range and env.max_yaw_rate beyond the burger's "
         "0.22 m/s and 2.84 rad/s",
     )
+    top_speed: float | None = setting(
+        None,
+        "action sets (paper_stop, vw, vw_reverse): the set's top forward speed, m/s, its "
+        "other speeds scaled alike (null: the robot's, as the set scales with it); at most "
+        "the robot's",
+        rule=(lambda x: x is None or x > 0.0, "must be null or above 0"),
+    )
     scan_beams: int = setting(
         0,
         "0, or beams cast (a multiple of env.n_beams): each observed beam is the least "

@@ -81,7 +81,7 @@ def make(
     if "omegas" in values:
         values["omegas"] = jnp.asarray(values["omegas"], jnp.float32)
     env = NavEnv(**env_kwargs)
-    values.update(set_commands(env.actions, env.robot))  # a set's speeds, yaw rates
+    values.update(set_commands(env.actions, env.robot, env.top_speed))  # a set's speeds, yaw rates
     env, params = fitted(env, EnvParams(maze=maze_obj, **values), maze)
     if env.paces_motion and maze_obj.motion is None:
         raise ConfigError(f"env.motion_pace paces moving cylinders: maze {maze!r} has none")

@@ -273,6 +273,7 @@ class NavEnv(Commands, EpisodeMaze, GoalSampler, DrawnLayouts, Observer):
     speed_range: tuple[float, float] = (0.0, BURGER_MAX_V)
     max_yaw_rate: float = BURGER_MAX_OMEGA
     beyond_limits: bool = False
+    top_speed: float | None = None
     moving_proximity_penalty: float = 0.0
     moving_proximity_distance: float = 0.5
     # derived by make, not a setting: EpisodeMaze.fit_maze's (range, near), m

@@ -114,15 +114,18 @@ class Commands:
         return Discrete(self.num_actions)
 
 
-def set_commands(actions: str, robot: str) -> dict[str, Any]:
+def set_commands(actions: str, robot: str, top_speed: float | None = None) -> dict[str, Any]:
     """``EnvParams``' speeds and yaw rates (f32[A] each) of the action set ``actions``,
     the burger's commands scaled by ``robot``'s limits over the burger's
-    (:attr:`jaxnav.core.robots.Robot.command_scale`); {} for the paper's actions and
-    continuous ones, which hold no set."""
+    (:attr:`jaxnav.core.robots.Robot.command_scale`), the speeds instead by
+    ``top_speed`` over the burger's 0.22 m/s where it is given; {} for the paper's
+    actions and continuous ones, which hold no set."""
     table = ACTION_SETS.get(actions)
     if table is None:
         return {}
     sv, sw = robots.get(robot).command_scale if robot != "burger" else (1.0, 1.0)
+    if top_speed is not None:
+        sv = top_speed / BURGER_MAX_V
     return {
         "speeds": jnp.asarray([v * sv for v, _ in table], jnp.float32),
         "omegas": jnp.asarray([w * sw for _, w in table], jnp.float32),
