@@ -78,6 +78,35 @@ def test_grid_scan_equals_a_brute_force_caster_on_random_grids(disc):
         np.testing.assert_allclose(got[near], want[near], atol=1e-4)
 
 
+@pytest.mark.parametrize("disc", [0.0, 0.5])
+def test_grid_scan_is_exact_to_the_sensors_range_at_every_heading(disc):
+    # a sparse grid wider than the sensor's reach: the walk stops at the lines the range
+    # needs, so beams along an axis, along a diagonal and at random headings, from near
+    # cell corners, inside cells and anywhere, must all still find every cell they enter
+    # within range (clipped there, against the brute-force caster). Starts 1-2 mm off the lattice: a beam exactly along a lattice line only
+    # grazes the cells beside it, where the caster and the walk may differ by convention.
+    rng = np.random.default_rng(7)
+    res, sensor = 0.05, 2.0
+    occ = rng.random((120, 120)) < 0.01
+    origin = np.array([-3.0, -3.0])
+    grid = oc.fit(oc.make_occupancy(occ, origin, res, disc * res), sensor, 0.5)
+    walls, circles = cell_geometry(occ, origin, res, disc * res)
+    corners = origin + res * rng.integers(30, 90, (20, 2)).astype(float) + [1e-3, 2e-3]
+    on_lines = corners + np.array([0.5 * res, 0.3 * res])
+    anywhere = origin + rng.uniform(1.5, 4.5, (20, 2))
+    pts = np.concatenate([corners, on_lines, anywhere])
+    clear = ref.clearance(pts, walls, circles)
+    pts = pts[(clear > 1e-3) & ~(solid_at(occ, origin, res, pts) & (disc == 0))]
+    fixed = np.arange(8) * np.pi / 4  # along the axes and the diagonals
+    angles = np.concatenate(
+        [np.broadcast_to(fixed, (len(pts), 8)), rng.uniform(-np.pi, np.pi, (len(pts), 24))], 1
+    )
+    want = np.minimum(ref.ray_distances(pts, angles, walls, circles), sensor)
+    got = np.asarray(_ranges_fn()(grid, jnp.asarray(pts, jnp.float32), angles.astype(np.float32)))
+    assert (want < sensor).mean() > 0.3  # the beams meet cells within range, and miss
+    np.testing.assert_allclose(np.minimum(got, sensor), want, atol=1e-4)
+
+
 def test_grid_scan_on_a_map_computed_by_hand():
     # 4 x 5 cells of 0.5 m from (0, 0); occupied: (row 1, col 3) and the top row's col 0.
     occ = np.zeros((4, 5), bool)
