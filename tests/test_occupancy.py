@@ -83,8 +83,9 @@ def test_grid_scan_is_exact_to_the_sensors_range_at_every_heading(disc):
     # a sparse grid wider than the sensor's reach: the walk stops at the lines the range
     # needs, so beams along an axis, along a diagonal and at random headings, from near
     # cell corners, inside cells and anywhere, must all still find every cell they enter
-    # within range (clipped there, against the brute-force caster). Starts 1-2 mm off the lattice: a beam exactly along a lattice line only
-    # grazes the cells beside it, where the caster and the walk may differ by convention.
+    # within range (clipped there, against the brute-force caster). Starts 1-2 mm off
+    # the lattice: a beam exactly along a lattice line only grazes the cells beside it,
+    # where the caster and the walk may differ by convention.
     rng = np.random.default_rng(7)
     res, sensor = 0.05, 2.0
     occ = rng.random((120, 120)) < 0.01
