@@ -143,3 +143,50 @@ def test_malformed_yaml_names_the_line_the_mistake_is_on(tmp_path, text, line):
     path.write_text(text)
     with pytest.raises(ConfigError, match=rf"at line {line}\b"):
         load_config(str(path))
+
+
+@pytest.mark.parametrize(
+    "overrides, says",
+    [
+        # a maze family's settings without that family drawn
+        (["env.grid_rows=6"], "env.grid_rows is a setting of grid mazes"),
+        (["env.cyl_count=3"], "env.cyl_count is a setting of cylinders mazes"),
+        (["env.generator=grid", "env.rooms_door=0.9"], "env.rooms_door is a setting of rooms"),
+        (["env.min_path_cells=2"], "env.min_path_cells is a setting of grid or rooms mazes"),
+        (["env.mix_weights=[1]"], "env.mix_weights is a setting of mix mazes"),
+        # a drawn maze's settings with a fixed maze
+        (["env.new_maze_every=3"], "env.new_maze_every is a drawn mazes' setting"),
+        (["env.split=test"], "env.split is a drawn mazes' setting"),
+        # a progress reward's terms with another reward, a distance without its penalty
+        (["env.step_penalty=0.02"], "env.step_penalty is a term of the progress reward"),
+        (["preset=modern", "env.reward=sparse", "env.progress_scale=3"], "with env.reward sparse"),
+        (
+            ["preset=modern", "env.proximity_penalty=0", "env.proximity_distance=0.5"],
+            "it needs env.proximity_penalty > 0",
+        ),
+    ],
+)
+def test_a_setting_that_nothing_reads_is_refused_in_one_line(overrides, says):
+    with pytest.raises(ConfigError, match=says):
+        load_config(None, overrides)
+
+
+@pytest.mark.parametrize(
+    "overrides",
+    [
+        ["env.generator=rooms", "env.min_path_cells=2"],  # rooms read it too
+        ["env.generator=grid", "env.maze_bank=64", "env.split=test", "env.new_maze_every=2"],
+        [
+            "env.generator=mix",
+            "env.mix_worlds=[grid,cylinders]",
+            "env.maze_bank=64",
+            "env.grid_rows=3",
+            "env.cyl_count=4",
+        ],
+        ["preset=modern", "env.reward=dense"],  # the preset's own progress terms stay
+        ["preset=modern", "env.step_penalty=0.02", "env.proximity_distance=0.4"],
+        ["robot=jackal"],  # the robot's defaults are not the user's settings
+    ],
+)
+def test_settings_that_are_read_are_accepted(overrides):
+    load_config(None, overrides)

@@ -154,7 +154,9 @@ def test_bad_grid_settings_are_one_line_naming_the_setting(override, names):
 def test_bad_generator_is_refused():
     with pytest.raises(ConfigError, match="config: env.generator"):
         load_config("smoke", ["env.generator=caves"])
-    load_config("smoke", ["env.grid_rows=1", "env.grid_cols=1"])  # ignored without a generator
+    # without a generator a grid's settings would do nothing: refused, as nothing reads them
+    with pytest.raises(ConfigError, match="env.grid_rows is a setting of grid mazes"):
+        load_config("smoke", ["env.grid_rows=1", "env.grid_cols=1"])
 
 
 @pytest.mark.slow

@@ -10,6 +10,7 @@ code is held to the same rules. Each takes anything with the environment's field
 
 from __future__ import annotations
 
+import dataclasses
 from typing import Any
 
 from jaxnav.core import families, robots
@@ -214,4 +215,63 @@ def env_robot_problem(env: Any) -> str | None:
             )
         if env.n_beams < 2:
             return "env.lidar_fov below 360 needs at least 2 beams (one at each edge)"
+    return None
+
+
+# Settings that only a progress reward reads, and the one each waits on beside it
+_PROGRESS_ONLY = ("progress_scale", "step_penalty", "proximity_penalty", "proximity_distance")
+_NEEDS_BESIDE = {
+    "proximity_distance": "proximity_penalty",
+    "moving_proximity_distance": "moving_proximity_penalty",
+}
+# drawn mazes' own settings that a fixed maze never reads
+_DRAWN_ONLY = ("new_maze_every", "split")
+# a family's setting that another family reads too (rooms are a grid's cells)
+_ALSO_READ = {"min_path_cells": ("rooms",)}
+
+
+def _given(env: Any, name: str, defaults: dict[str, Any]) -> bool:
+    """Whether the setting ``env.NAME`` differs from its default (the preset's and the
+    robot's, in ``defaults``, dotted keys, else the setting's own)."""
+    value = getattr(env, name)
+    default = defaults.get(f"env.{name}")
+    if isinstance(value, list | tuple):
+        return default is None or tuple(value) != tuple(default)
+    return value != default
+
+
+def env_unused_problem(env: Any, defaults: dict[str, Any]) -> str | None:
+    """A setting given a value that nothing reads with the other settings (one line
+    naming it), or None: a maze family's settings without that family in use
+    (env.generator, or one of env.mix_worlds), a drawn maze's without env.generator, a
+    progress reward's without env.reward progress, a distance without its penalty.
+    ``defaults``: every env setting's default, dotted (``env.NAME``), the preset's and the
+    robot's applied."""
+    in_use = {env.generator} | (set(env.mix_worlds) if env.generator == "mix" else set())
+    for family in families.names():
+        settings = families.get(family).settings
+        if settings is None:
+            continue
+        for f in dataclasses.fields(settings):
+            readers = (family, *_ALSO_READ.get(f.name, ()))
+            if not in_use & set(readers) and _given(env, f.name, defaults):
+                where = " or ".join(readers)
+                return (
+                    f"env.{f.name} is a setting of {where} mazes, which this config does not "
+                    f"draw (env.generator {env.generator or 'empty'}): leave it unset"
+                )
+    if not env.generator:
+        for name in _DRAWN_ONLY:
+            if _given(env, name, defaults):
+                return f"env.{name} is a drawn mazes' setting: it needs env.generator"
+    if env.reward != "progress":
+        for name in _PROGRESS_ONLY:
+            if _given(env, name, defaults):
+                return (
+                    f"env.{name} is a term of the progress reward: with env.reward "
+                    f"{env.reward} it does nothing (set env.reward progress, or leave it unset)"
+                )
+    for name, penalty in _NEEDS_BESIDE.items():
+        if _given(env, name, defaults) and not getattr(env, penalty):
+            return f"env.{name} is where env.{penalty} applies: it needs env.{penalty} > 0"
     return None
