@@ -224,16 +224,12 @@ def test_a_config_testing_on_barns_test_set_starts():
         check_test_mazes(load_config("drive_barn", ["run.test_mazes=[barn:tset]"]))
 
 
-def test_the_readme_and_the_page_quote_drive_barns_committed_rows():
-    """drive_barn's success and collisions as the README's line and the page's note give
-    them: per seed, each world's 10 runs averaged, then the 50 worlds; then the mean over
-    seeds, and the seeds' range (NumPy over the committed CSV)."""
+def _policy_per_seed(folder: str) -> tuple[np.ndarray, np.ndarray]:
+    """Per seed of a drive_barn row's committed CSV: success and collision, each world's
+    10 runs averaged, then the 50 worlds (NumPy, beside the page's own reading)."""
     import csv
-    import json
 
-    from jaxnav.report.barn_page import readme_line
-
-    path = ROOT / "docs" / "barn" / "policy" / "results.csv"
+    path = ROOT / "docs" / "barn" / folder / "results.csv"
     rows = [
         r
         for r in csv.DictReader(path.open())
@@ -252,7 +248,17 @@ def test_the_readme_and_the_page_quote_drive_barns_committed_rows():
             [np.mean([np.mean(v) for (s, _), v in runs.items() if s == n]) for n in seeds]
         )
 
-    ok, hit = per_seed(success), per_seed(collided)
+    return per_seed(success), per_seed(collided)
+
+
+def test_the_readme_and_the_page_quote_drive_barns_committed_rows():
+    """drive_barn's success and collisions as the README's line and the page's note give
+    them, at its budget and at half of it: the mean over seeds, and the seeds' range."""
+    import json
+
+    from jaxnav.report.barn_page import readme_line
+
+    ok, hit = _policy_per_seed("policy")
     assert (
         f"(`drive_barn`, 16 seeds) reaches {ok.mean():.2f}, with collisions {hit.mean():.2f};"
         in (readme_line(ROOT))
@@ -261,3 +267,6 @@ def test_the_readme_and_the_page_quote_drive_barns_committed_rows():
         " ".join(json.loads((ROOT / "docs" / "barn" / "made.json").read_text())["notes"]).split()
     )
     assert f"Its seeds range from {ok.min():.2f} to {ok.max():.2f}" in notes
+    half, half_hit = _policy_per_seed("policy_half")
+    said = f"at half its budget it reached {half.mean():.2f} with collisions {half_hit.mean():.2f}"
+    assert said in notes

@@ -3,7 +3,8 @@
 
 * ``oracle/results.csv``, ``dwa/results.csv``: ``jaxnav evaluate --baseline oracle|dwa
   barn --seeds 1 --out ...``; ``policy/results.csv``: ``jaxnav evaluate RUN
-  --no-baselines`` of a ``jaxnav train drive_barn`` run;
+  --no-baselines`` of a ``jaxnav train drive_barn`` run (``policy_half``: of one with
+  ``total_steps=409600``);
 * ``burger/{oracle,dwa,anywhere}/results.csv``: the same test with the burger
   (``--baseline oracle|dwa barn robot=burger``; ``drive_anywhere``'s policies), BARN's
   greedy rows kept;
@@ -31,6 +32,7 @@ JAXNAV_ROWS = (
     ("dwa", "DWA with BARN's parameters (`run.dwa: barn`)", "jaxnav"),
     ("dwa_map", "the same DWA under a global planner that knows the map (`barn_map`)", "jaxnav"),
     ("policy", "`drive_barn` policy (PQN)", "jaxnav"),
+    ("policy_half", "the same at half its budget (409,600 env steps a seed)", "jaxnav"),
 )
 # the burger in the same worlds and protocol (docs/barn/burger/FOLDER)
 BURGER_ROWS = (
