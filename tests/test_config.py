@@ -149,11 +149,15 @@ def test_malformed_yaml_names_the_line_the_mistake_is_on(tmp_path, text, line):
     "overrides, says",
     [
         # a maze family's settings without that family drawn
-        (["env.grid_rows=6"], "env.grid_rows is a setting of grid mazes"),
-        (["env.cyl_count=3"], "env.cyl_count is a setting of cylinders mazes"),
-        (["env.generator=grid", "env.rooms_door=0.9"], "env.rooms_door is a setting of rooms"),
-        (["env.min_path_cells=2"], "env.min_path_cells is a setting of grid or rooms mazes"),
-        (["env.mix_weights=[1]"], "env.mix_weights is a setting of mix mazes"),
+        (["env.grid_rows=6"], r"env.grid_rows \(6\) is a setting of grid mazes, .* default \(4\)"),
+        (["env.cyl_count=3"], "env.cyl_count .* is a setting of cylinders mazes"),
+        (
+            ["drive_anywhere", "env.mix_worlds=[rooms, stage4]", "env.mix_weights=[]"],
+            r"env.grid_rows \(3\) .* \(env.generator mix of rooms, stage4\): .* \(4\)",
+        ),
+        (["env.generator=grid", "env.rooms_door=0.9"], "env.rooms_door .* of rooms mazes"),
+        (["env.min_path_cells=2"], "env.min_path_cells .* of grid or rooms mazes"),
+        (["env.mix_weights=[1]"], r"env.mix_weights \(\[1\]\) is a setting of mix mazes"),
         # a drawn maze's settings with a fixed maze
         (["env.new_maze_every=3"], "env.new_maze_every is a drawn mazes' setting"),
         (["env.split=test"], "env.split is a drawn mazes' setting"),
@@ -167,8 +171,9 @@ def test_malformed_yaml_names_the_line_the_mistake_is_on(tmp_path, text, line):
     ],
 )
 def test_a_setting_that_nothing_reads_is_refused_in_one_line(overrides, says):
+    config = overrides[0] if "=" not in overrides[0] else None
     with pytest.raises(ConfigError, match=says):
-        load_config(None, overrides)
+        load_config(config, overrides[1:] if config else overrides)
 
 
 @pytest.mark.parametrize(

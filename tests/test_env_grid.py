@@ -155,7 +155,7 @@ def test_bad_generator_is_refused():
     with pytest.raises(ConfigError, match="config: env.generator"):
         load_config("smoke", ["env.generator=caves"])
     # without a generator a grid's settings would do nothing: refused, as nothing reads them
-    with pytest.raises(ConfigError, match="env.grid_rows is a setting of grid mazes"):
+    with pytest.raises(ConfigError, match=r"env.grid_rows \(1\) is a setting of grid mazes"):
         load_config("smoke", ["env.grid_rows=1", "env.grid_cols=1"])
 
 

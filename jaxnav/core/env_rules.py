@@ -240,6 +240,13 @@ def _given(env: Any, name: str, defaults: dict[str, Any]) -> bool:
     return value != default
 
 
+def _shown(value: Any) -> str:
+    """A setting's value as a config writes it."""
+    if isinstance(value, list | tuple):
+        return "[" + ", ".join(_shown(v) for v in value) + "]"
+    return f"{value:g}" if isinstance(value, float) else str(value)
+
+
 def env_unused_problem(env: Any, defaults: dict[str, Any]) -> str | None:
     """A setting given a value that nothing reads with the other settings (one line
     naming it), or None: a maze family's settings without that family in use
@@ -256,9 +263,13 @@ def env_unused_problem(env: Any, defaults: dict[str, Any]) -> str | None:
             readers = (family, *_ALSO_READ.get(f.name, ()))
             if not in_use & set(readers) and _given(env, f.name, defaults):
                 where = " or ".join(readers)
+                drawn = env.generator or "empty"
+                if env.generator == "mix":
+                    drawn = f"mix of {', '.join(env.mix_worlds)}"
                 return (
-                    f"env.{f.name} is a setting of {where} mazes, which this config does not "
-                    f"draw (env.generator {env.generator or 'empty'}): leave it unset"
+                    f"env.{f.name} ({_shown(getattr(env, f.name))}) is a setting of {where} "
+                    f"mazes, which this config does not draw (env.generator {drawn}): leave "
+                    f"it at its default ({_shown(defaults.get(f'env.{f.name}'))})"
                 )
     if not env.generator:
         for name in _DRAWN_ONLY:
