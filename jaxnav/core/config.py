@@ -286,15 +286,6 @@ def _get(cfg: Config, name: str) -> Any:
     return value
 
 
-def _env_defaults(cfg) -> dict[str, Any]:
-    """Every setting's default as the config would take it unset: its own, the
-    preset's, then the robot's (dotted keys)."""
-    out = {name: s.default for name, s in SETTINGS.items()}
-    out.update(PRESETS[cfg.preset].defaults)
-    out.update(robots.defaults(cfg.env.robot))
-    return out
-
-
 def _check(cfg: Config) -> Config:
     """Value checks that types alone do not catch; the first failure is a ConfigError."""
 
@@ -321,7 +312,7 @@ def _check(cfg: Config) -> Config:
         or env_broad_phase_problem(cfg.env)
         or env_waypoint_problem(cfg.env)
         or env_action_problem(cfg.env)
-        or env_unused_problem(cfg.env, _env_defaults(cfg))
+        or env_unused_problem(cfg.env, {n: x.default for n, x in SETTINGS.items()}, cfg.preset)
     )
     if says:
         raise ConfigError(f"config: {says}")

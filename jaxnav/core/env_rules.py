@@ -20,6 +20,7 @@ from jaxnav.core.settings import (
     BURGER_MAX_V,
     CONTINUOUS,
     MAX_LATTICE_CELLS,
+    PRESETS,
     paces_motion,
 )
 
@@ -247,13 +248,14 @@ def _shown(value: Any) -> str:
     return f"{value:g}" if isinstance(value, float) else str(value)
 
 
-def env_unused_problem(env: Any, defaults: dict[str, Any]) -> str | None:
+def env_unused_problem(env: Any, own: dict[str, Any], preset: str) -> str | None:
     """A setting given a value that nothing reads with the other settings (one line
     naming it), or None: a maze family's settings without that family in use
     (env.generator, or one of env.mix_worlds), a drawn maze's without env.generator, a
     progress reward's without env.reward progress, a distance without its penalty.
-    ``defaults``: every env setting's default, dotted (``env.NAME``), the preset's and the
-    robot's applied."""
+    Given means other than its default as the config takes it unset: ``own`` (each
+    setting's own, dotted keys), then ``preset``'s, then the robot's."""
+    defaults = {**own, **PRESETS[preset].defaults, **robots.defaults(env.robot)}
     in_use = {env.generator} | (set(env.mix_worlds) if env.generator == "mix" else set())
     for family in families.names():
         settings = families.get(family).settings
