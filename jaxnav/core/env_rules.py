@@ -151,7 +151,7 @@ def env_action_problem(env: Any) -> str | None:
         )
     if env.action_delay:
         return "env.action_delay holds a discrete action: it needs discrete env.actions"
-    robot = robots.get(env.robot) if env.robot in robots.names() else robots.get("burger")
+    robot = _robot(env)
     if not env.beyond_limits and (
         env.speed_range[1] > robot.max_v or env.max_yaw_rate > robot.max_omega
     ):
@@ -161,6 +161,11 @@ def env_action_problem(env: Any) -> str | None:
             "go beyond them"
         )
     return None
+
+
+def _robot(env: Any) -> robots.Robot:
+    """``env``'s robot profile (the burger's for a name the config's own check refuses)."""
+    return robots.get(env.robot) if env.robot in robots.names() else robots.get("burger")
 
 
 def _top_speed_problem(env: Any) -> str | None:
@@ -175,7 +180,7 @@ def _top_speed_problem(env: Any) -> str | None:
             f"env.top_speed scales an action set's speeds: env.actions {env.actions} has no "
             f"set ({', '.join(sets)} have one)"
         )
-    robot = robots.get(env.robot) if env.robot in robots.names() else robots.get("burger")
+    robot = _robot(env)
     if env.top_speed > robot.max_v:
         return (
             f"env.top_speed ({env.top_speed:g} m/s) is beyond the {robot.name}'s top speed "
@@ -188,7 +193,7 @@ def _continuous_only_problem(env: Any) -> str | None:
     """With discrete actions, the continuous commands' limits keep their defaults (the
     burger's, or the robot's): the action sets' speeds are fixed, scaled by the robot's
     top speed and yaw rate, so a range set here would change nothing."""
-    robot = robots.get(env.robot) if env.robot in robots.names() else robots.get("burger")
+    robot = _robot(env)
     speeds = {(0.0, BURGER_MAX_V), tuple(robot.defaults.get("env.speed_range", ()))}
     yaws = {BURGER_MAX_OMEGA, robot.defaults.get("env.max_yaw_rate")}
     given = tuple(float(x) for x in env.speed_range)
