@@ -1,16 +1,18 @@
 """A run cut after its first chunk, as a kill just after a checkpoint leaves it: its
 directory and config written, one chunk trained, the checkpoint saved as the host loop
 saves it. Shared by the tests that resume such a run and compare it with one that was
-never cut."""
+never cut (:func:`restores_and_resumes`)."""
 
 from __future__ import annotations
 
 from pathlib import Path
 
+import jax
 import numpy as np
 
 from jaxnav.core import rundir
 from jaxnav.core.config import Config, dump_config
+from jaxnav.run import launch
 from jaxnav.run.checkpoint import chunk_slots
 from jaxnav.run.training import Run
 
@@ -30,3 +32,18 @@ def cut_after_one_chunk(cfg: Config, out: Path):
     explore = run.explore_blocks(log.explore, before, ~run.active(ts))
     run.save(ts, run.new_episodes(ts), explore, rows)
     return run, ts
+
+
+def restores_and_resumes(cfg: Config, out: Path, ts, part: str, reference: Path) -> None:
+    """Assert that the run cut in ``out`` (its state ``ts`` after the chunk) restores the
+    state's field ``part`` exactly from its checkpoint, and, resumed, ends as the
+    uninterrupted run in ``reference``: metrics and parameters byte for byte."""
+    again = Run(cfg, out, quiet=True).restored_state()
+    pairs = zip(
+        jax.tree.leaves(getattr(ts, part)), jax.tree.leaves(getattr(again, part)), strict=True
+    )
+    for x, y in pairs:
+        np.testing.assert_array_equal(np.asarray(x), np.asarray(y))
+    launch.resume(out, quiet=True)
+    for name in (rundir.METRICS, rundir.PARAMS):
+        assert (out / name).read_bytes() == (reference / name).read_bytes(), name

@@ -244,11 +244,9 @@ def test_a_run_with_a_bank_trains_the_same_twice_and_resumes_the_same(agent, ref
     """A bank renewed while training is stored in the checkpoint; one drawn once at the
     start is left out and drawn again on resume: either way the resumed run ends as the
     uninterrupted one."""
-    from _cut_run import cut_after_one_chunk
+    from _cut_run import cut_after_one_chunk, restores_and_resumes
 
     from jaxnav.core import rundir
-    from jaxnav.run import launch
-    from jaxnav.run.training import Run
 
     items = ["env.generator=grid", "env.maze_bank=32", "seeds=2", "strategies=[ebe]"]
     items += [f"env.maze_bank_refresh={refresh}"]  # the resumed run passes refreshes too
@@ -273,12 +271,7 @@ def test_a_run_with_a_bank_trains_the_same_twice_and_resumes_the_same(agent, ref
     assert jax.tree.leaves(ts.bank)[0].shape[:2] == (cfg.n_runs, 32)
     stored = rundir.read_npz(c / rundir.CHECKPOINT, "checkpoint")
     assert any(k.startswith("state.bank") for k in stored) == bool(refresh)
-    again = Run(cfg, c, quiet=True).restored_state()
-    for x, y in zip(jax.tree.leaves(ts.bank), jax.tree.leaves(again.bank), strict=True):
-        np.testing.assert_array_equal(np.asarray(x), np.asarray(y))
-    launch.resume(c, quiet=True)
-    for name in (rundir.METRICS, rundir.PARAMS):
-        assert (c / name).read_bytes() == (a / name).read_bytes(), name
+    restores_and_resumes(cfg, c, ts, "bank", a)
     if agent == "dqn":  # tested as any drawn-maze run: on a fixed maze and drawn layouts
         from jaxnav.experiments.evaluation import evaluate_to_dir
 

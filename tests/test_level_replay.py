@@ -182,12 +182,10 @@ def test_a_run_with_level_replay_trains_the_same_twice_and_resumes_the_same(tmp_
     """The layouts' record is part of a checkpoint (the bank, drawn once, is not): a run
     cut after its first chunk and resumed ends as the uninterrupted one, byte for byte."""
     import numpy as np
-    from _cut_run import cut_after_one_chunk
+    from _cut_run import cut_after_one_chunk, restores_and_resumes
 
     from jaxnav.core import rundir
-    from jaxnav.run import launch
     from jaxnav.run.launch import train_new
-    from jaxnav.run.training import Run
 
     items = [*TINY, "seeds=2", "total_steps=1024", "run.chunk_steps=512", "pqn.level_replay=0.5"]
     cfg = load_config(None, [*items, "pqn.level_top=0.25", "run.test_mazes=[]"])
@@ -199,9 +197,4 @@ def test_a_run_with_level_replay_trains_the_same_twice_and_resumes_the_same(tmp_
     c = tmp_path / "c"
     _, ts = cut_after_one_chunk(cfg, c)
     assert float(np.asarray(ts.levels.tries).sum()) > 0  # attempts were counted
-    again = Run(cfg, c, quiet=True).restored_state()
-    for x, y in zip(jax.tree.leaves(ts.levels), jax.tree.leaves(again.levels), strict=True):
-        np.testing.assert_array_equal(np.asarray(x), np.asarray(y))
-    launch.resume(c, quiet=True)
-    for name in (rundir.METRICS, rundir.PARAMS):
-        assert (c / name).read_bytes() == (a / name).read_bytes(), name
+    restores_and_resumes(cfg, c, ts, "levels", a)
